@@ -1,0 +1,63 @@
+#pragma once
+/// Errors. Bad input is normal: the library throws a formfactor::Error (or a subclass) that
+/// carries where the problem is; the CLI prints `what()` as one line and exits non-zero.
+
+#include <stdexcept>
+#include <string>
+
+namespace formfactor {
+
+/// Base of every error the library reports on purpose.
+class Error : public std::runtime_error {
+public:
+    explicit Error(const std::string& message) : std::runtime_error(message) {}
+};
+
+/// Bad input in a file: `what()` is "FILE:LINE: message" (or "FILE: message" when line is 0).
+class InputError : public Error {
+public:
+    InputError(std::string file, int line, const std::string& message)
+        : Error(format(file, line, message)),
+          file_(std::move(file)),
+          line_(line),
+          message_(message) {}
+    const std::string& file() const { return file_; }
+    int line() const { return line_; }
+    /// The message without the location.
+    const std::string& message() const { return message_; }
+
+private:
+    static std::string format(const std::string& file, int line, const std::string& message) {
+        if (line > 0) return file + ":" + std::to_string(line) + ": " + message;
+        return file + ": " + message;
+    }
+    std::string file_;
+    int line_ = 0;
+    std::string message_;
+};
+
+/// A bad option value or combination: `what()` is "--option: message".
+class OptionError : public Error {
+public:
+    OptionError(std::string option, const std::string& message)
+        : Error(option + ": " + message), option_(std::move(option)) {}
+    const std::string& option() const { return option_; }
+
+private:
+    std::string option_;
+};
+
+/// Geometry the library cannot handle (degenerate, non-planar, ...), found outside a file
+/// (built-in scenes, API callers).
+class GeometryError : public Error {
+public:
+    using Error::Error;
+};
+
+[[noreturn]] void assertion_failed(const char* expr, const char* file, int line);
+
+}  // namespace formfactor
+
+/// Always-on invariant check: a failure is a bug in formfactor, not bad input.
+#define FF_ASSERT(expr) \
+    ((expr) ? static_cast<void>(0) : ::formfactor::assertion_failed(#expr, __FILE__, __LINE__))

@@ -1,0 +1,21 @@
+#pragma once
+/// Row-parallel loops over TBB. The thread count never changes a result: bodies must write only
+/// their own rows and draw random numbers from streams seeded by (seed, i, j).
+
+#include <cstddef>
+#include <exception>
+#include <functional>
+#include <mutex>
+
+namespace formfactor {
+
+/// Runs body(i) for i in [0, n) on up to `threads` threads (0 = all cores). Iterations are
+/// handed out in small chunks (dynamic load balance: rows differ in cost). The first exception
+/// thrown by a body stops the remaining work and is rethrown on the calling thread, so none
+/// escapes a worker.
+void parallel_for(std::size_t n, int threads, const std::function<void(std::size_t)>& body);
+
+/// Number of threads `threads` means on this machine (0 → hardware concurrency).
+int effective_threads(int threads);
+
+}  // namespace formfactor
