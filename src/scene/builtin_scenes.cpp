@@ -2,6 +2,7 @@
 // configurations. Each is validated like a file.
 
 #include <algorithm>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -110,7 +111,7 @@ Scene cornell(bool with_blocks) {
     cam.eye = V(278, 273, -800);
     cam.target = V(278, 273, -799);
     cam.up = V(0, 1, 0);
-    cam.fov_degrees = 39.307740316978916;  // 2·atan(12.5/35) in degrees
+    cam.fov_degrees = 2.0 * std::atan(12.5 / 35.0) * 180.0 / kPi;  // 39.3077°
     b.scene.camera = cam;
     return b.finish();
 }

@@ -55,6 +55,14 @@ void validate_polygon(const Polygon& p, const SourceLocation& where, const std::
                  std::to_string(m + 1) + " coincide)");
     }
     const double a = area(p);
+    if (!(a >= 1e-12 * d * d)) {
+        // Zero net area but not all on one line: the polygon folds over itself (a bow tie).
+        double spread = 0.0;
+        for (std::size_t j = 1; j < n; ++j)
+            for (std::size_t k = j + 1; k < n; ++k)
+                spread = std::max(spread, (p[j] - p[0]).cross(p[k] - p[0]).norm());
+        if (spread > 1e-9 * d * d) fail(what + " is not simple (its edges cross or touch)");
+    }
     if (!(a >= 1e-12 * d * d))
         fail(what + " is degenerate (zero area: area " +
              detail::short_number(d > 0 ? a / (d * d) : 0) + " of its size squared)");

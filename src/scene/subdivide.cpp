@@ -44,10 +44,12 @@ Plan plan_for(const Polygon& p, const SubdivisionOptions& o) {
     } else if (p.size() == 3) {
         plan.pieces.push_back(p);
     } else {
+        const double d = diameter(p);
         for (const auto& t : triangulate(p)) {
             Polygon tri;
             for (int k : t) tri.vertices.push_back(p[static_cast<std::size_t>(k)]);
-            plan.pieces.push_back(std::move(tri));
+            // A zero-area sliver (a vertex on another triangle's edge) is no patch.
+            if (area(tri) > 1e-14 * d * d) plan.pieces.push_back(std::move(tri));
         }
     }
     for (const Polygon& q : plan.pieces) {

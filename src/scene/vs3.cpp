@@ -581,10 +581,11 @@ void save_vs3(const Scene& scene, const std::string& path) {
                                 "' to VS3: it has " + std::to_string(p.size()) +
                                 " vertices (or is a non-convex quad) and is the base of a "
                                 "subsurface");
+        const double d = diameter(p);
         for (const auto& t : triangulate(p)) {
             Polygon tri;
             for (int k : t) tri.vertices.push_back(p[static_cast<std::size_t>(k)]);
-            pieces.push_back({s, std::move(tri)});
+            if (area(tri) > 1e-14 * d * d) pieces.push_back({s, std::move(tri)});
         }
     }
     // Distinct vertices, numbered in order of first use.
