@@ -17,6 +17,8 @@ struct GaussRule {
     std::vector<double> x, w;
 };
 const GaussRule& gauss_legendre01(int n);
+/// Gauss–Jacobi nodes and weights on [0, 1] for the weight ξ (weights sum to 1/2).
+const GaussRule& gauss_jacobi01(int n);
 
 /// A polygon rule as flat arrays (structure of arrays), borrowed.
 struct RuleView {
@@ -48,8 +50,15 @@ struct RuleSoA {
 double far_field_kernel_sum(const RuleView& ra, const Vec3& na, const RuleView& rb, const Vec3& nb,
                             const Vec3& origin);
 
+/// polygon_to_polygon; with allow_far_field false always by the double contour integral (for
+/// tests and calibration).
+double polygon_to_polygon_contour(const Polygon& a, const Polygon& b, bool allow_far_field);
+
 /// Relative error factor of an order-n Gauss rule over a polygon of circumradius R seen from a
 /// point at distance D ≥ R from its centroid, q = R/D < 1 (see docs/analytic.md).
 double gauss_factor(int n, double q);
+
+/// Smallest order n ≤ max_order with pref · gauss_factor(n, q) ≤ target, 0 when there is none.
+int gauss_order_for(double pref, double q, double target, int max_order);
 
 }  // namespace formfactor::detail

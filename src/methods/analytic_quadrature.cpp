@@ -1,6 +1,7 @@
 // Far-field path of the analytic method: tensor Gauss rules on both polygons applied to the
 // smooth kernel cosθ_a cosθ_b/(π r²), and the a-priori error bound that chooses their order.
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -17,39 +18,32 @@ namespace detail {
 namespace {
 
 // Calibrated constant of the error model (docs/analytic.md).
-constexpr double kGaussConstant = 1.0;
+constexpr double kGaussConstant = 3.0;
 
-// Gauss–Legendre nodes and weights on [0, 1] by Newton's method on P_n.
-GaussRule compute_gauss(int n) {
+// Gauss–Jacobi nodes and weights for the weight (1 − x)^α (1 + x)^β on [−1, 1], mapped to [0, 1]
+// (Golub–Welsch: eigenvalues of the Jacobi matrix). Weights sum to ∫_0^1 of the mapped weight.
+GaussRule compute_gauss_jacobi(int n, double alpha, double beta) {
+    Eigen::MatrixXd J = Eigen::MatrixXd::Zero(n, n);
+    const double ab = alpha + beta;
+    for (int k = 0; k < n; ++k) {
+        const double t = 2.0 * k + ab;
+        J(k, k) = (k == 0 && ab == 0.0) ? (beta - alpha) / (ab + 2.0)
+                                        : (beta * beta - alpha * alpha) / (t * (t + 2.0));
+        if (k + 1 < n) {
+            const double m = k + 1.0, tm = 2.0 * m + ab;
+            const double b2 =
+                4.0 * m * (m + alpha) * (m + beta) * (m + ab) / (tm * tm * (tm + 1.0) * (tm - 1.0));
+            J(k, k + 1) = J(k + 1, k) = std::sqrt(b2);
+        }
+    }
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(J);
+    const double mu0 = std::pow(2.0, ab + 1.0) * std::tgamma(alpha + 1.0) *
+                       std::tgamma(beta + 1.0) / std::tgamma(ab + 2.0);
     GaussRule r;
-    r.x.resize(static_cast<std::size_t>(n));
-    r.w.resize(static_cast<std::size_t>(n));
-    for (int i = 0; i < n; ++i) {
-        double z = std::cos(kPi * (i + 0.75) / (n + 0.5));
-        double dp = 0.0;
-        for (int it = 0; it < 100; ++it) {
-            double p0 = 1.0, p1 = 0.0;
-            for (int k = 1; k <= n; ++k) {
-                const double p2 = p1;
-                p1 = p0;
-                p0 = ((2.0 * k - 1.0) * z * p1 - (k - 1.0) * p2) / k;
-            }
-            dp = n * (z * p0 - p1) / (z * z - 1.0);
-            const double dz = p0 / dp;
-            z -= dz;
-            if (std::abs(dz) < 1e-16) break;
-        }
-        // Recompute the derivative at the converged node.
-        double p0 = 1.0, p1 = 0.0;
-        for (int k = 1; k <= n; ++k) {
-            const double p2 = p1;
-            p1 = p0;
-            p0 = ((2.0 * k - 1.0) * z * p1 - (k - 1.0) * p2) / k;
-        }
-        dp = n * (z * p0 - p1) / (z * z - 1.0);
-        const double w = 2.0 / ((1.0 - z * z) * dp * dp);
-        r.x[static_cast<std::size_t>(i)] = 0.5 * (1.0 - z);
-        r.w[static_cast<std::size_t>(i)] = 0.5 * w;
+    for (int k = 0; k < n; ++k) {
+        const double v0 = es.eigenvectors()(0, k);
+        r.x.push_back(0.5 * (es.eigenvalues()(k) + 1.0));
+        r.w.push_back(mu0 * v0 * v0 * std::pow(0.5, ab + 1.0));
     }
     return r;
 }
@@ -60,7 +54,18 @@ const GaussRule& gauss_legendre01(int n) {
     static const std::array<GaussRule, kMaxGaussOrder + 1> rules = [] {
         std::array<GaussRule, kMaxGaussOrder + 1> r;
         for (int n1 = 1; n1 <= kMaxGaussOrder; ++n1)
-            r[static_cast<std::size_t>(n1)] = compute_gauss(n1);
+            r[static_cast<std::size_t>(n1)] = compute_gauss_jacobi(n1, 0.0, 0.0);
+        return r;
+    }();
+    FF_ASSERT(n >= 1 && n <= kMaxGaussOrder);
+    return rules[static_cast<std::size_t>(n)];
+}
+
+const GaussRule& gauss_jacobi01(int n) {
+    static const std::array<GaussRule, kMaxGaussOrder + 1> rules = [] {
+        std::array<GaussRule, kMaxGaussOrder + 1> r;
+        for (int m = 1; m <= kMaxGaussOrder; ++m)
+            r[static_cast<std::size_t>(m)] = compute_gauss_jacobi(m, 0.0, 1.0);
         return r;
     }();
     FF_ASSERT(n >= 1 && n <= kMaxGaussOrder);
@@ -70,15 +75,17 @@ const GaussRule& gauss_legendre01(int n) {
 namespace {
 
 void triangle_rule(const Vec3& A, const Vec3& B, const Vec3& C, int n, PolygonRule& out) {
-    // Collapsed (Duffy) square: x = A + ξ(B − A) + ξη(C − B), dA = 2|T| ξ dξ dη.
+    // Collapsed (Duffy) square: x = A + ξ(B − A) + ξη(C − B), dA = 2|T| ξ dξ dη; Gauss–Jacobi
+    // with weight ξ in ξ keeps the rule exact for polynomials of degree 2n − 1.
+    const GaussRule& gj = gauss_jacobi01(n);
     const GaussRule& g = gauss_legendre01(n);
     const double two_area = (B - A).cross(C - B).norm();
     for (int i = 0; i < n; ++i) {
-        const double xi = g.x[static_cast<std::size_t>(i)];
+        const double xi = gj.x[static_cast<std::size_t>(i)];
         for (int j = 0; j < n; ++j) {
             const double eta = g.x[static_cast<std::size_t>(j)];
             out.points.push_back(A + xi * (B - A) + xi * eta * (C - B));
-            out.weights.push_back(two_area * xi * g.w[static_cast<std::size_t>(i)] *
+            out.weights.push_back(two_area * gj.w[static_cast<std::size_t>(i)] *
                                   g.w[static_cast<std::size_t>(j)]);
         }
     }
@@ -106,8 +113,11 @@ PolygonRule polygon_rule(const Polygon& p, int order) {
         return out;
     }
     const Vec3 nrm = normal(p);
-    if (p.size() == 4 && convex_quad(p, nrm)) {
-        // Bilinear map of the unit square; its Jacobian is linear for a planar quad.
+    if (p.size() == 4 && convex_quad(p, nrm) &&
+        (p[0] + p[2] - p[1] - p[3]).norm() <= 1e-12 * diameter(p)) {
+        // A parallelogram: affine map of the unit square, constant Jacobian, so the tensor rule
+        // is exact for degree 2n − 1 (other quads are split into triangles, whose bilinear
+        // Jacobian would cost a degree).
         const GaussRule& g = gauss_legendre01(n);
         for (int i = 0; i < n; ++i) {
             const double s = g.x[static_cast<std::size_t>(i)];
@@ -132,6 +142,21 @@ PolygonRule polygon_rule(const Polygon& p, int order) {
 
 namespace detail {
 
+// The kernel sum is the hot loop of the method. Reductions use kLanes independent partial sums
+// combined in a fixed order, so the compiler may vectorise them without reassociating (no
+// -ffast-math) and the result is the same on every code path and thread count. target_clones
+// builds AVX-512 and AVX2 variants chosen at load time (x86-64 with GCC only).
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(FF_NO_CLONES)
+#define FF_KERNEL_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
+#else
+#define FF_KERNEL_CLONES
+#endif
+
+namespace {
+constexpr int kLanes = 8;
+}  // namespace
+
+FF_KERNEL_CLONES
 double far_field_kernel_sum(const RuleView& ra, const Vec3& na, const RuleView& rb, const Vec3& nb,
                             const Vec3& origin) {
     // cosθ_a cosθ_b / (π r²) = (n_a·(y − x)) (n_b·(x − y)) / (π r⁴); for planar polygons
@@ -139,32 +164,39 @@ double far_field_kernel_sum(const RuleView& ra, const Vec3& na, const RuleView& 
     // β_i = n_b·x_i − n_b·y: only r² is computed per point pair.
     const double da = na.dot(Vec3(ra.x[0], ra.y[0], ra.z[0]) - origin);
     const double db = nb.dot(Vec3(rb.x[0], rb.y[0], rb.z[0]) - origin);
+    const int nb_pad = (rb.count + kLanes - 1) / kLanes * kLanes;
     thread_local std::vector<double> buffer;
-    if (buffer.size() < 4 * static_cast<std::size_t>(rb.count))
-        buffer.resize(4 * static_cast<std::size_t>(rb.count));
+    if (buffer.size() < 4 * static_cast<std::size_t>(nb_pad))
+        buffer.resize(4 * static_cast<std::size_t>(nb_pad));
     double* __restrict bx = buffer.data();
-    double* __restrict by = bx + rb.count;
-    double* __restrict bz = by + rb.count;
-    double* __restrict bw = bz + rb.count;
+    double* __restrict by = bx + nb_pad;
+    double* __restrict bz = by + nb_pad;
+    double* __restrict bw = bz + nb_pad;
     const double ox = origin.x(), oy = origin.y(), oz = origin.z();
-    for (int j = 0; j < rb.count; ++j) {
-        bx[j] = rb.x[j] - ox;
-        by[j] = rb.y[j] - oy;
-        bz[j] = rb.z[j] - oz;
+    for (int j = 0; j < nb_pad; ++j) {
+        // Padding repeats the first point with weight 0 (r > 0, so it adds exactly 0).
+        const int src = j < rb.count ? j : 0;
+        bx[j] = rb.x[src] - ox;
+        by[j] = rb.y[src] - oy;
+        bz[j] = rb.z[src] - oz;
         const double alpha = na.x() * bx[j] + na.y() * by[j] + na.z() * bz[j] - da;
-        bw[j] = rb.w[j] * alpha;
+        bw[j] = j < rb.count ? rb.w[src] * alpha : 0.0;
     }
     double total = 0.0;
     for (int i = 0; i < ra.count; ++i) {
         const double xx = ra.x[i] - ox, xy = ra.y[i] - oy, xz = ra.z[i] - oz;
         const double beta = nb.x() * xx + nb.y() * xy + nb.z() * xz - db;
-        double acc = 0.0;
-        for (int j = 0; j < rb.count; ++j) {
-            const double dx = xx - bx[j], dy = xy - by[j], dz = xz - bz[j];
-            const double r2 = dx * dx + dy * dy + dz * dz;
-            acc += bw[j] / (r2 * r2);
+        double acc[kLanes] = {};
+        for (int j = 0; j < nb_pad; j += kLanes) {
+            for (int l = 0; l < kLanes; ++l) {
+                const double dx = xx - bx[j + l], dy = xy - by[j + l], dz = xz - bz[j + l];
+                const double r2 = dx * dx + dy * dy + dz * dz;
+                acc[l] += bw[j + l] / (r2 * r2);
+            }
         }
-        total += ra.w[i] * beta * acc;
+        const double sum =
+            ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]));
+        total += ra.w[i] * beta * sum;
     }
     return total * kInvPi;
 }
@@ -188,6 +220,16 @@ double gauss_factor(int n, double q) {
     // units of the half-width): ϱ = 1/q + sqrt(1/q² − 1); the Gauss error decays as ϱ^(−2n).
     const double rho = (1.0 + std::sqrt(1.0 - q * q)) / q;
     return kGaussConstant * std::pow(rho, -2.0 * n);
+}
+
+int gauss_order_for(double pref, double q, double target, int max_order) {
+    if (!(q < 1.0) || !(q > 0.0)) return q == 0.0 ? 1 : 0;
+    const double need = std::log(kGaussConstant * pref / target);
+    if (need <= 0.0) return 1;
+    const double ln_rho = std::log((1.0 + std::sqrt(1.0 - q * q)) / q);
+    const double n = std::ceil(need / (2.0 * ln_rho));
+    if (!(n <= max_order)) return 0;
+    return std::max(1, static_cast<int>(n));
 }
 
 }  // namespace detail
