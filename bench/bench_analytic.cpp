@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <memory>
 #include <random>
 
 #include "formfactor/methods/analytic.h"
@@ -54,12 +55,13 @@ void BM_CubeFullMatrix(benchmark::State& state) {
     opt.threads = static_cast<int>(state.range(1));
     opt.progress = false;
     nlohmann::json details;
-    FormFactors ff;
+    std::unique_ptr<FormFactors> result;
     for (auto _ : state) {
         details = nlohmann::json::object();
-        ff = method->compute(scene, opt, details);
-        benchmark::DoNotOptimize(ff.F.data());
+        result = std::make_unique<FormFactors>(method->compute(scene, opt, details));
+        benchmark::DoNotOptimize(result->F.data());
     }
+    const FormFactors& ff = *result;
     const double n = static_cast<double>(scene.patches.size());
     state.counters["patches"] = n;
     state.counters["pairs/s"] =

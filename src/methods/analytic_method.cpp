@@ -178,10 +178,13 @@ FormFactors AnalyticMethod::compute(const Scene& scene, const MethodOptions& opt
     std::vector<RowStats> stats(n);
     Progress progress("analytic", n, options.progress);
     double* F = out.F.data();
+    // Upper triangle: row i computes F_ij for j > i (each entry written by one task).
     parallel_for(n, options.threads, [&](std::size_t i) {
         RowStats& st = stats[i];
         const Vec3& ni = t.normal[i];
         const Vec3& ci = t.centroid[i];
+        thread_local detail::FarFieldBatch batch;
+        batch.reset();
         for (std::size_t j = i + 1; j < n; ++j) {
             const Vec3& nj = t.normal[j];
             const Vec3& cj = t.centroid[j];
@@ -195,40 +198,44 @@ FormFactors AnalyticMethod::compute(const Scene& scene, const MethodOptions& opt
                 ++st.zero;
                 continue;
             }
-            double fij = -1.0;
             if (sj == Side::kFront && si == Side::kFront) {
-                FarFieldPair pr{t.radius[i], t.radius[j], t.area[i], t.area[j], (cj - ci).norm()};
-                const double dmin = pr.distance - pr.radius_a - pr.radius_b;
+                const double d = (cj - ci).norm();
+                const double ri = t.radius[i], rj = t.radius[j];
+                const double dmin = d - ri - rj;
                 if (dmin > 0.0) {
-                    const double pref = std::max(pr.area_a, pr.area_b) * kInvPi / (dmin * dmin);
-                    const int oi =
-                        detail::gauss_order_for(pref, pr.radius_a / (pr.distance - pr.radius_b),
-                                                0.5 * tol, kMaxFarFieldOrder);
+                    const double pref = std::max(t.area[i], t.area[j]) * kInvPi / (dmin * dmin);
+                    const int oi = detail::gauss_order_for_fast(pref, ri / (d - rj), 0.5 * tol,
+                                                                kMaxFarFieldOrder);
                     const int oj = oi == 0 ? 0
-                                           : detail::gauss_order_for(
-                                                 pref, pr.radius_b / (pr.distance - pr.radius_a),
-                                                 0.5 * tol, kMaxFarFieldOrder);
+                                           : detail::gauss_order_for_fast(
+                                                 pref, rj / (d - ri), 0.5 * tol, kMaxFarFieldOrder);
                     if (oi > 0 && oj > 0) {
-                        const detail::RuleView ri = t.rule(i, oi), rj = t.rule(j, oj);
-                        fij = detail::far_field_kernel_sum(ri, ni, rj, nj, ci) / t.area[i];
+                        batch.add(oi, j, t.rule(j, oj), nj, cj);
                         ++st.far;
-                        st.points +=
-                            static_cast<std::size_t>(ri.count) * static_cast<std::size_t>(rj.count);
+                        st.points += static_cast<std::size_t>(t.rule(i, oi).count) *
+                                     static_cast<std::size_t>(t.rule(j, oj).count);
                         ++st.order_hist[static_cast<std::size_t>(std::max(oi, oj))];
+                        continue;
                     }
                 }
             }
-            if (fij < 0.0) {
-                fij = polygon_to_polygon(*polys[i], *polys[j]);
-                ++st.exact;
-            }
-            fij = std::max(fij, 0.0);
-            F[i * n + j] = fij;
-            F[j * n + i] = t.area[j] > 0.0 ? fij * t.area[i] / t.area[j] : 0.0;
+            F[i * n + j] = std::max(0.0, polygon_to_polygon(*polys[i], *polys[j]));
+            ++st.exact;
         }
+        batch.run([&](int order) { return t.rule(i, order); }, ni, ci, 1.0 / t.area[i],
+                  [&](std::size_t j, double fij) { F[i * n + j] = std::max(0.0, fij); });
         progress.advance();
     });
     progress.finish();
+    // Lower triangle by reciprocity, A_j F_ji = A_i F_ij, in cache-friendly tiles.
+    constexpr std::size_t kTile = 64;
+    const std::size_t tiles = (n + kTile - 1) / kTile;
+    parallel_for(tiles, options.threads, [&](std::size_t bj) {
+        for (std::size_t bi = 0; bi <= bj; ++bi)
+            for (std::size_t j = bj * kTile; j < std::min(n, (bj + 1) * kTile); ++j)
+                for (std::size_t i = bi * kTile; i < std::min(j, (bi + 1) * kTile); ++i)
+                    F[j * n + i] = t.area[j] > 0.0 ? F[i * n + j] * t.area[i] / t.area[j] : 0.0;
+    });
 
     RowStats total;
     for (const RowStats& s : stats) {

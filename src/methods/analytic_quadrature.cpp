@@ -18,7 +18,7 @@ namespace detail {
 namespace {
 
 // Calibrated constant of the error model (docs/analytic.md).
-constexpr double kGaussConstant = 3.0;
+constexpr double kGaussConstant = kGaussConstantPublic;
 
 // Gauss–Jacobi nodes and weights for the weight (1 − x)^α (1 + x)^β on [−1, 1], mapped to [0, 1]
 // (Golub–Welsch: eigenvalues of the Jacobi matrix). Weights sum to ∫_0^1 of the mapped weight.
@@ -199,6 +199,98 @@ double far_field_kernel_sum(const RuleView& ra, const Vec3& na, const RuleView& 
         total += ra.w[i] * beta * sum;
     }
     return total * kInvPi;
+}
+
+FF_KERNEL_CLONES
+void far_field_accumulate(const RuleView& ri, const double* __restrict x,
+                          const double* __restrict y, const double* __restrict z,
+                          const double* __restrict nx, const double* __restrict ny,
+                          const double* __restrict nz, double* __restrict acc, int count) {
+    // Points of the row rule are relative to the row patch's centroid like the flat points.
+    // Two row points per pass share one division: a/b + c/d = (a d + c b)/(b d).
+    int i = 0;
+    for (; i + 1 < ri.count; i += 2) {
+        const double x0 = ri.x[i], y0 = ri.y[i], z0 = ri.z[i], w0 = ri.w[i];
+        const double x1 = ri.x[i + 1], y1 = ri.y[i + 1], z1 = ri.z[i + 1], w1 = ri.w[i + 1];
+        for (int p = 0; p < count; ++p) {
+            const double dx0 = x0 - x[p], dy0 = y0 - y[p], dz0 = z0 - z[p];
+            const double dx1 = x1 - x[p], dy1 = y1 - y[p], dz1 = z1 - z[p];
+            const double r0 = dx0 * dx0 + dy0 * dy0 + dz0 * dz0;
+            const double r1 = dx1 * dx1 + dy1 * dy1 + dz1 * dz1;
+            const double q0 = r0 * r0, q1 = r1 * r1;
+            const double b0 = w0 * (nx[p] * dx0 + ny[p] * dy0 + nz[p] * dz0);
+            const double b1 = w1 * (nx[p] * dx1 + ny[p] * dy1 + nz[p] * dz1);
+            acc[p] += (b0 * q1 + b1 * q0) / (q0 * q1);
+        }
+    }
+    for (; i < ri.count; ++i) {
+        const double x0 = ri.x[i], y0 = ri.y[i], z0 = ri.z[i], w0 = ri.w[i];
+        for (int p = 0; p < count; ++p) {
+            const double dx0 = x0 - x[p], dy0 = y0 - y[p], dz0 = z0 - z[p];
+            const double r0 = dx0 * dx0 + dy0 * dy0 + dz0 * dz0;
+            const double b0 = w0 * (nx[p] * dx0 + ny[p] * dy0 + nz[p] * dz0);
+            acc[p] += b0 / (r0 * r0);
+        }
+    }
+}
+
+void FarFieldBatch::reset() {
+    for (auto& q : queued_) q.clear();
+}
+
+void FarFieldBatch::add(int order, std::size_t j, const RuleView& rj, const Vec3& nj,
+                        const Vec3& cj) {
+    queued_[order].push_back({j, rj, nj, cj});
+}
+
+void FarFieldBatch::flush(const RuleView& ri_abs, const Vec3& ni, double inv_area,
+                          std::size_t first, std::size_t last, const std::vector<Item>& items,
+                          std::vector<double>& results) {
+    // The row rule relative to its own centroid... the caller passes absolute points; we shift
+    // everything to the first row point's frame instead (any origin on the row's plane works).
+    const double ox = ri_abs.x[0], oy = ri_abs.y[0], oz = ri_abs.z[0];
+    thread_local std::vector<double> rel;
+    rel.resize(4 * static_cast<std::size_t>(ri_abs.count));
+    double* rx = rel.data();
+    double* ry = rx + ri_abs.count;
+    double* rz = ry + ri_abs.count;
+    double* rw = rz + ri_abs.count;
+    for (int k = 0; k < ri_abs.count; ++k) {
+        rx[k] = ri_abs.x[k] - ox;
+        ry[k] = ri_abs.y[k] - oy;
+        rz[k] = ri_abs.z[k] - oz;
+        rw[k] = ri_abs.w[k];
+    }
+    const RuleView ri{rx, ry, rz, rw, ri_abs.count};
+    int total = 0;
+    for (std::size_t k = first; k < last; ++k) total += items[k].rule.count;
+    const auto sz = static_cast<std::size_t>(total);
+    for (auto* v : {&x_, &y_, &z_, &nx_, &ny_, &nz_, &aw_, &acc_})
+        if (v->size() < sz) v->resize(sz);
+    int p = 0;
+    for (std::size_t k = first; k < last; ++k) {
+        const Item& it = items[k];
+        // β = n_j·(x − y) in the kernel; α = n_i·(y − o) here (o on the row's plane).
+        for (int m = 0; m < it.rule.count; ++m, ++p) {
+            const double yx = it.rule.x[m] - ox, yy = it.rule.y[m] - oy, yz = it.rule.z[m] - oz;
+            x_[p] = yx;
+            y_[p] = yy;
+            z_[p] = yz;
+            nx_[p] = it.n.x();
+            ny_[p] = it.n.y();
+            nz_[p] = it.n.z();
+            aw_[p] = it.rule.w[m] * (ni.x() * yx + ni.y() * yy + ni.z() * yz);
+            acc_[p] = 0.0;
+        }
+    }
+    far_field_accumulate(ri, x_.data(), y_.data(), z_.data(), nx_.data(), ny_.data(), nz_.data(),
+                         acc_.data(), total);
+    p = 0;
+    for (std::size_t k = first; k < last; ++k) {
+        double sum = 0.0;
+        for (int m = 0; m < items[k].rule.count; ++m, ++p) sum += aw_[p] * acc_[p];
+        results[k] = sum * kInvPi * inv_area;
+    }
 }
 
 }  // namespace detail
