@@ -29,14 +29,16 @@ inline Scene scene_of(const std::vector<Polygon>& patches,
     s.materials.push_back(Material{});
     for (const Polygon& p : patches) {
         Surface sf;
-        sf.name = "s" + std::to_string(s.surfaces.size());
+        sf.name = "s";
+        sf.name += std::to_string(s.surfaces.size());
         sf.polygon = p;
         s.patches.push_back(patch_of(p, static_cast<int>(s.surfaces.size())));
         s.surfaces.push_back(sf);
     }
     for (const Polygon& p : blockers) {
         Surface sf;
-        sf.name = "o" + std::to_string(s.surfaces.size());
+        sf.name = "o";
+        sf.name += std::to_string(s.surfaces.size());
         sf.polygon = p;
         sf.obstruction = true;
         s.surfaces.push_back(sf);
@@ -69,21 +71,24 @@ inline Scene perpendicular_squares() {
 /// The inside of the unit cube, each face split into n×n patches, normals inwards.
 inline Scene unit_cube(int n) {
     std::vector<Polygon> polys;
-    // Each face: origin o, edge vectors u, v with u × v pointing inwards.
+    // Each face: origin o and edge vectors u, v.
     const Vec3 faces[6][3] = {
-        {Vec3(0, 0, 0), Vec3(0, 1, 0), Vec3(1, 0, 0)},  // z = 0, normal +z
-        {Vec3(0, 0, 1), Vec3(1, 0, 0), Vec3(0, 1, 0)},  // z = 1, normal −z
-        {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 0, 1)},  // y = 0, normal +y
-        {Vec3(0, 1, 0), Vec3(0, 0, 1), Vec3(1, 0, 0)},  // y = 1, normal −y
-        {Vec3(0, 0, 0), Vec3(0, 0, 1), Vec3(0, 1, 0)},  // x = 0, normal +x
-        {Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)},  // x = 1, normal −x
+        {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0)},  // z = 0
+        {Vec3(0, 0, 1), Vec3(1, 0, 0), Vec3(0, 1, 0)},  // z = 1
+        {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 0, 1)},  // y = 0
+        {Vec3(0, 1, 0), Vec3(1, 0, 0), Vec3(0, 0, 1)},  // y = 1
+        {Vec3(0, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)},  // x = 0
+        {Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)},  // x = 1
     };
     for (const auto& f : faces)
         for (int r = 0; r < n; ++r)
             for (int c = 0; c < n; ++c) {
                 const Vec3 o = f[0] + (double(c) / n) * f[1] + (double(r) / n) * f[2];
                 const Vec3 du = f[1] / n, dv = f[2] / n;
-                polys.push_back(quad(o, o + du, o + du + dv, o + dv));
+                Polygon q = quad(o, o + du, o + du + dv, o + dv);
+                if (normal(q).dot(Vec3(0.5, 0.5, 0.5) - centroid(q)) < 0)
+                    q = quad(o, o + dv, o + du + dv, o + du);  // face inwards
+                polys.push_back(q);
             }
     Scene s = scene_of(polys);
     s.enclosure = true;
