@@ -31,10 +31,14 @@ struct SobolMatrices {
 };
 const SobolMatrices kSobol;
 
+std::uint32_t reverse_bits(std::uint32_t x);
+
+// Branch-free (the index bits are unpredictable); dimension 0 is the bit reversal.
 std::uint32_t sobol(std::uint32_t index, int dim) {
+    if (dim == 0) return reverse_bits(index);
     std::uint32_t x = 0;
-    for (int b = 0; index; ++b, index >>= 1)
-        if (index & 1u) x ^= kSobol.v[dim][b];
+    const std::uint32_t* v = kSobol.v[dim];
+    for (int b = 0; index; ++b, index >>= 1) x ^= v[b] & (0u - (index & 1u));
     return x;
 }
 
@@ -162,12 +166,10 @@ std::array<double, 4> PointSet4::operator()(std::uint32_t index) const {
     std::array<double, 4> u{};
     switch (kind_) {
         case SamplerKind::sobol:
-            for (int d = 0; d < 4; ++d) {
-                // 32 scrambled bits plus 21 random low bits, so that u is never rounded to 1.
-                const std::uint32_t bits = owen_scramble(sobol(index, d), scramble_[d]);
-                const double low = uniform(key_, 4ULL * index + d) * 0x1.0p-32;
-                u[static_cast<std::size_t>(d)] = std::min(bits * 0x1.0p-32 + low, kOneMinus);
-            }
+            // 32 scrambled bits: u on the 2^-32 grid (never 1), uniform up to 2^-33.
+            for (int d = 0; d < 4; ++d)
+                u[static_cast<std::size_t>(d)] =
+                    owen_scramble(sobol(index, d), scramble_[d]) * 0x1.0p-32;
             break;
         case SamplerKind::halton:
             for (int d = 0; d < 4; ++d) {
