@@ -49,40 +49,43 @@ class McAreaMethod final : public Method {
         for (const Patch& p : scene.patches) ff.areas.push_back(p.area);
         std::atomic<std::uint64_t> rays{0};
         Progress progress("mc-area", n, options.progress);
+        constexpr std::size_t kBatch = 256;
 
         parallel_for(n, options.threads, [&](std::size_t i) {
             const Patch& pi = scene.patches[i];
+            // Rays of all pairs and replicates of the row share batches; each remembers where
+            // its kernel value goes: c[j·R + r] (replicate sums) and s2[j] (i.i.d. moments).
+            std::vector<double> c(n * R, 0.0), s2(n, 0.0);
+            std::vector<char> active(n, 0);
             std::vector<SegmentQuery> queries;
             std::vector<double> kernel;
-            std::vector<std::uint8_t> blocked;
-            queries.reserve(256);
-            kernel.reserve(256);
-            blocked.reserve(256);
+            std::vector<std::uint32_t> slot;
+            std::vector<std::uint8_t> blocked(kBatch);
+            queries.reserve(kBatch);
+            kernel.reserve(kBatch);
+            slot.reserve(kBatch);
             std::uint64_t row_rays = 0;
+            auto flush = [&] {
+                vis->occluded(queries, std::span<std::uint8_t>(blocked.data(), queries.size()));
+                row_rays += queries.size();
+                for (std::size_t k = 0; k < queries.size(); ++k)
+                    if (!blocked[k]) {
+                        c[slot[k]] += kernel[k];
+                        s2[slot[k] / R] += kernel[k] * kernel[k];
+                    }
+                queries.clear();
+                kernel.clear();
+                slot.clear();
+            };
             for (std::size_t j = 0; j < n; ++j) {
                 if (j == i) continue;
                 const Patch& pj = scene.patches[j];
                 if (behind(pi, pj) || behind(pj, pi)) continue;
-                mc::ReplicateMean acc;
-                double sum = 0.0, sum2 = 0.0;  // i.i.d. moments (R = 1)
-                const double n_bar = double(N) / R;
+                active[j] = 1;
                 for (std::uint32_t r = 0; r < R; ++r) {
                     const std::uint64_t nr = replicate_size(N, R, r);
                     const PointSet4 set(kind, stream_key(options.seed, i, j, r),
                                         static_cast<std::uint32_t>(nr));
-                    double c = 0.0;
-                    auto flush = [&] {
-                        blocked.resize(queries.size());
-                        vis->occluded(queries, blocked);
-                        row_rays += queries.size();
-                        for (std::size_t k = 0; k < queries.size(); ++k)
-                            if (!blocked[k]) {
-                                c += kernel[k];
-                                sum2 += kernel[k] * kernel[k];
-                            }
-                        queries.clear();
-                        kernel.clear();
-                    };
                     for (std::uint32_t s = 0; s < nr; ++s) {
                         const auto u = set(s);
                         const Vec3 x = samplers[i](u[0], u[1]);
@@ -93,23 +96,30 @@ class McAreaMethod final : public Method {
                         if (!(ci > 0 && cj > 0 && r2 > 0)) continue;
                         queries.push_back({x, y, static_cast<int>(i), static_cast<int>(j)});
                         kernel.push_back(ci * cj * kInvPi / (r2 * r2));
-                        if (queries.size() == 256) flush();
+                        slot.push_back(static_cast<std::uint32_t>(j * R + r));
+                        if (queries.size() == kBatch) flush();
                     }
-                    if (!queries.empty()) flush();
-                    acc.add(c, double(nr), n_bar);
-                    sum += c;
                 }
-                const auto ii = static_cast<Eigen::Index>(i), jj = static_cast<Eigen::Index>(j);
-                const double mean = sum / N;
-                ff.F(ii, jj) = pj.area * mean;
+            }
+            if (!queries.empty()) flush();
+            const double n_bar = double(N) / R;
+            for (std::size_t j = 0; j < n; ++j) {
+                if (!active[j]) continue;
+                mc::ReplicateMean acc;
+                for (std::uint32_t r = 0; r < R; ++r)
+                    acc.add(c[j * R + r], double(replicate_size(N, R, r)), n_bar);
+                const double mean = acc.total / double(N);
                 double se;
                 if (R > 1) {
                     se = mc::replicate_standard_error(acc, double(N), R);
                 } else {
-                    const double var = N > 1 ? (sum2 - N * mean * mean) / (N - 1) : 0.0;
-                    se = std::sqrt(std::max(0.0, var) / N);
+                    const double var = N > 1 ? (s2[j] - N * mean * mean) / double(N - 1) : 0.0;
+                    se = std::sqrt(std::max(0.0, var) / double(N));
                 }
-                (*ff.standard_error)(ii, jj) = pj.area * se;
+                const double Aj = scene.patches[j].area;
+                const auto ii = static_cast<Eigen::Index>(i), jj = static_cast<Eigen::Index>(j);
+                ff.F(ii, jj) = Aj * mean;
+                (*ff.standard_error)(ii, jj) = Aj * se;
             }
             rays += row_rays;
             progress.advance();
