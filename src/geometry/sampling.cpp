@@ -8,18 +8,12 @@
 namespace formfactor {
 namespace {
 
-double angle_between(const Vec3& a, const Vec3& b) {
-    return std::atan2(a.cross(b).norm(), a.dot(b));
-}
-
-// The point of the great circle with unit normal m whose horizontal direction has polar angle
-// phi (in the local frame, z up): the circle meets the meridian half-plane at phi there.
-Vec3 point_on_circle(const Vec3& m, double phi) {
-    const double c = std::cos(phi), s = std::sin(phi);
-    Vec3 v = m.cross(Vec3(-s, c, 0.0));
-    if (v.x() * c + v.y() * s < 0) v = -v;
-    const double len = v.norm();
-    return len > 0 ? Vec3(v / len) : Vec3(c, s, 0.0);
+// Difference of two E values of one arc, unwrapped: a wedge spans less than π, and so does
+// E across it.
+double unwrap(double d) {
+    if (d > kPi) return d - 2 * kPi;
+    if (d < -kPi) return d + 2 * kPi;
+    return d;
 }
 
 // Index of the cell whose cumulative range holds s (cdf ascending, last = total).
@@ -34,6 +28,29 @@ std::size_t find_cell(const std::vector<double>& cdf, double s) {
 }
 
 }  // namespace
+
+void ProjectedPolygonSampler::Arc::set(const Vec3& m) {
+    a = std::abs(m.z());
+    rho = std::hypot(m.x(), m.y());
+    if (rho > 0) {
+        cb = m.x() / rho;
+        sb = m.y() / rho;
+    } else {
+        cb = 1;
+        sb = 0;
+    }
+}
+
+double ProjectedPolygonSampler::Arc::E(double c, double s) const {
+    const double ct = c * cb + s * sb, st = s * cb - c * sb;  // cos θ, sin θ
+    return std::atan2(a * st, ct);
+}
+
+double ProjectedPolygonSampler::Arc::r2(double c, double s) const {
+    const double ct = c * cb + s * sb;
+    const double den = a * a + rho * rho * ct * ct;
+    return den > 0 ? a * a / den : 0.0;
+}
 
 bool is_convex(const Polygon& p) {
     const Vec3 n = normal(p);
@@ -181,24 +198,14 @@ double ProjectedPolygonSampler::set_origin(const Vec3& x, const Vec3& n) {
     return form_factor();
 }
 
-void ProjectedPolygonSampler::add_piece(const std::vector<Vec3>& l0) {
-    std::vector<Vec3> l = l0;
+void ProjectedPolygonSampler::add_piece(std::vector<Vec3>& l) {
     const std::size_t k = l.size();
-    auto signed_area = [&] {
-        double s = 0.0;
-        for (std::size_t a = 0; a < k; ++a) {
-            const Vec3 c = l[a].cross(l[(a + 1) % k]);
-            const double len = c.norm();
-            if (len > 0) s += 0.5 * std::atan2(len, l[a].dot(l[(a + 1) % k])) * c.z() / len;
-        }
-        return s;
-    };
-    double area = signed_area();
-    if (area < 0) {
-        std::reverse(l.begin(), l.end());
-        area = -area;
-    }
-    if (!(area > 1e-300)) return;
+    // Orientation: a convex spherical polygon in the upper hemisphere is counter-clockwise seen
+    // from above (positive projected area) when its fan's triple products are positive.
+    double orient = 0.0;
+    for (std::size_t a = 1; a + 1 < k; ++a) orient += l[0].dot(l[a].cross(l[a + 1]));
+    if (orient < 0) std::reverse(l.begin(), l.end());
+    if (orient == 0) return;
 
     bool zenith_inside = true;
     for (std::size_t a = 0; a < k && zenith_inside; ++a)
@@ -234,7 +241,8 @@ void ProjectedPolygonSampler::add_piece(const std::vector<Vec3>& l0) {
     }
     if (!(ref.norm() > 0)) return;
     ref.normalize();
-    std::vector<double> psi(k);
+    std::vector<double>& psi = psi_;
+    psi.resize(k);
     for (std::size_t a = 0; a < k; ++a) {
         const double x = ref.x() * l[a].x() + ref.y() * l[a].y();
         const double y = ref.x() * l[a].y() - ref.y() * l[a].x();
@@ -248,7 +256,10 @@ void ProjectedPolygonSampler::add_piece(const std::vector<Vec3>& l0) {
     }
     // Far chain: kmin → kmax forwards (polar angle increasing on the CCW boundary); near chain:
     // kmin → kmax backwards.
-    std::vector<std::size_t> far{kmin}, near{kmin};
+    std::vector<std::size_t>& far = far_;
+    std::vector<std::size_t>& near = near_;
+    far.assign(1, kmin);
+    near.assign(1, kmin);
     for (std::size_t a = kmin; a != kmax;) {
         a = (a + 1) % k;
         far.push_back(a);
@@ -271,16 +282,14 @@ void ProjectedPolygonSampler::add_piece(const std::vector<Vec3>& l0) {
                 cell.fan = false;
                 cell.phi0 = cur;
                 cell.phi1 = next;
-                cell.m_far = cf.normalized();
-                cell.m_near = cn.normalized();
-                cell.k_far = 0.5 * std::abs(cell.m_far.z());
-                cell.k_near = 0.5 * std::abs(cell.m_near.z());
-                cell.far0 = point_on_circle(cell.m_far, cur);
-                cell.near0 = point_on_circle(cell.m_near, cur);
-                const Vec3 far1 = point_on_circle(cell.m_far, next);
-                const Vec3 near1 = point_on_circle(cell.m_near, next);
-                cell.area = cell.k_far * angle_between(cell.far0, far1) -
-                            cell.k_near * angle_between(cell.near0, near1);
+                cell.far.set(cf.normalized());
+                cell.near.set(cn.normalized());
+                const double c0 = std::cos(cur), s0 = std::sin(cur);
+                const double c1 = std::cos(next), s1 = std::sin(next);
+                cell.far.e0 = cell.far.E(c0, s0);
+                cell.near.e0 = cell.near.E(c0, s0);
+                cell.area = 0.5 * cell.far.a * unwrap(cell.far.E(c1, s1) - cell.far.e0) -
+                            0.5 * cell.near.a * unwrap(cell.near.E(c1, s1) - cell.near.e0);
                 // The rotation back to the (t, b) frame rides in a and b.
                 cell.a = Vec3(ref.x(), ref.y(), 0.0);
                 cell.b = Vec3(-ref.y(), ref.x(), 0.0);
@@ -294,21 +303,44 @@ void ProjectedPolygonSampler::add_piece(const std::vector<Vec3>& l0) {
 }
 
 double ProjectedPolygonSampler::sample_wedge_angle(const Cell& c, double s) const {
+    // Invert A(φ) = ½a_f ΔE_f(φ) − ½a_n ΔE_n(φ) = s on [φ0, φ1]: Newton from a quadratic model
+    // built from the end slopes A'(φ) = ½(r_f² − r_n²), with a bisection safeguard. Wedges are
+    // narrow, so two or three steps reach the tolerance (1e-12 of the wedge's width).
     double lo = c.phi0, hi = c.phi1;
-    double phi = lo + (hi - lo) * std::clamp(s / c.area, 0.0, 1.0);
+    const double width = hi - lo;
+    const double t_lin = std::clamp(s / c.area, 0.0, 1.0);
+    double phi = lo + width * t_lin;
+    {
+        const double c0 = std::cos(lo), s0 = std::sin(lo), c1 = std::cos(hi), s1 = std::sin(hi);
+        const double d0 = 0.5 * (c.far.r2(c0, s0) - c.near.r2(c0, s0)) * width;
+        const double d1 = 0.5 * (c.far.r2(c1, s1) - c.near.r2(c1, s1)) * width;
+        // A(t) ≈ d0 t + (d1 − d0) t²/2, rescaled so that A(1) = area.
+        const double sum = 0.5 * (d0 + d1);
+        if (sum > 0 && d0 >= 0 && d1 >= 0) {
+            const double qa = 0.5 * (d1 - d0) / sum, qb = d0 / sum;  // qa t² + qb t = t_lin
+            double t = t_lin;
+            if (std::abs(qa) > 1e-12) {
+                const double disc = qb * qb + 4 * qa * t_lin;
+                if (disc >= 0) t = 2 * t_lin / (qb + std::sqrt(disc));
+            } else if (qb > 0) {
+                t = t_lin / qb;
+            }
+            if (t >= 0 && t <= 1) phi = lo + width * t;
+        }
+    }
+    const double tol = 1e-12 * width + 1e-15;
     for (int it = 0; it < 64; ++it) {
-        const Vec3 vf = point_on_circle(c.m_far, phi);
-        const Vec3 vn = point_on_circle(c.m_near, phi);
-        const double g =
-            c.k_far * angle_between(c.far0, vf) - c.k_near * angle_between(c.near0, vn) - s;
+        const double cp = std::cos(phi), sp = std::sin(phi);
+        const double g = 0.5 * c.far.a * unwrap(c.far.E(cp, sp) - c.far.e0) -
+                         0.5 * c.near.a * unwrap(c.near.E(cp, sp) - c.near.e0) - s;
         if (g > 0)
             hi = phi;
         else
             lo = phi;
-        const double dg = 0.5 * ((1 - vf.z() * vf.z()) - (1 - vn.z() * vn.z()));
+        const double dg = 0.5 * (c.far.r2(cp, sp) - c.near.r2(cp, sp));
         double next = dg > 0 ? phi - g / dg : 0.5 * (lo + hi);
         if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
-        if (std::abs(next - phi) <= 1e-14 * (1.0 + std::abs(phi)) || hi - lo <= 1e-15) return next;
+        if (std::abs(next - phi) <= tol || hi - lo <= tol) return next;
         phi = next;
     }
     return phi;
@@ -329,12 +361,11 @@ Vec3 ProjectedPolygonSampler::sample(double u, double v) const {
         d = Vec3(x, y, std::sqrt(std::max(0.0, 1.0 - x * x - y * y)));
     } else {
         const double phi = sample_wedge_angle(c, s_in);
-        const Vec3 vf = point_on_circle(c.m_far, phi);
-        const Vec3 vn = point_on_circle(c.m_near, phi);
-        const double rf2 = 1.0 - vf.z() * vf.z(), rn2 = 1.0 - vn.z() * vn.z();
+        const double cp = std::cos(phi), sp = std::sin(phi);
+        const double rf2 = c.far.r2(cp, sp), rn2 = c.near.r2(cp, sp);
         const double r2 = std::clamp(rn2 + v * (rf2 - rn2), 0.0, 1.0);
         const double r = std::sqrt(r2);
-        const double x = r * std::cos(phi), y = r * std::sin(phi);
+        const double x = r * cp, y = r * sp;
         // Undo the wedge frame's rotation.
         d = Vec3(c.a.x() * x + c.b.x() * y, c.a.y() * x + c.b.y() * y, std::sqrt(1.0 - r2));
     }

@@ -71,18 +71,27 @@ class ProjectedPolygonSampler {
     double form_factor() const { return total_ * kInvPi; }
 
   private:
+    /// An edge's ellipse in polar form about the disk centre: with θ = φ − β,
+    /// r²(φ) = a²/(a² + ρ² cos²θ) and sector area S(φ) = ½ a · atan2(a sin θ, cos θ) + const,
+    /// where a = |m_z|, ρ = |m_xy| and β = atan2(m_y, m_x) for the great circle's normal m.
+    struct Arc {
+        double a = 0, rho = 0, cb = 1, sb = 0;
+        double e0 = 0;  // E(φ0) = atan2(a sin θ0, cos θ0) at the wedge's start
+        void set(const Vec3& m);
+        double E(double c, double s) const;   // at direction (cos φ, sin φ) = (c, s)
+        double r2(double c, double s) const;  // r² there
+    };
     struct Cell {
         double area = 0;   // projected area on the base disk
         bool fan = false;  // true: elliptic sector of a great-circle arc (zenith inside)
         // fan: arc start a, in-plane unit b ⟂ a, angle gamma. wedge: polar angles [phi0, phi1],
-        // far / near great-circle normals and start points; a, b rotate the wedge frame back.
+        // far and near arcs; a, b rotate the wedge frame back.
         Vec3 a = Vec3::Zero(), b = Vec3::Zero();
         double gamma = 0;
         double phi0 = 0, phi1 = 0;
-        Vec3 m_far = Vec3::Zero(), m_near = Vec3::Zero(), far0 = Vec3::Zero(), near0 = Vec3::Zero();
-        double k_far = 0, k_near = 0;  // ½|m_z|
+        Arc far, near;
     };
-    void add_piece(const std::vector<Vec3>& local);
+    void add_piece(std::vector<Vec3>& local);
     double sample_wedge_angle(const Cell& c, double s) const;
 
     std::vector<std::vector<Vec3>> pieces_;  // convex pieces of the target, world coordinates
@@ -93,6 +102,8 @@ class ProjectedPolygonSampler {
     std::vector<Cell> cells_;
     std::vector<double> cdf_;
     std::vector<Vec3> scratch_, local_;
+    std::vector<double> psi_;
+    std::vector<std::size_t> far_, near_;
 };
 
 /// True when the planar polygon is convex (no reflex vertex about its normal).
