@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "formfactor/core/error.h"
-#include "formfactor/geometry/sampling.h"
+#include "formfactor/methods/analytic.h"
 #include "formfactor/methods/method.h"
 #include "mc_test_scenes.h"
 
@@ -45,10 +45,9 @@ std::vector<CatalogCase> catalog() {
             {"C-11 0.2x0.2x1", mc_test::parallel_rects(0.2, 0.2, 1), 0.01240397731324307}};
 }
 
-// F(dA → polygon), Lambert's formula (checked against catalog B-3/B-4 in test_sampling.cpp).
+// F(dA → polygon), exact (Lambert's contour formula, methods/analytic.h).
 double point_ff(const Vec3& x, const Vec3& n, const Polygon& p) {
-    ProjectedPolygonSampler s(p);
-    return s.set_origin(x, n);
+    return point_to_polygon(x, n, p);
 }
 
 // Tolerance in standard errors. With `random` the error is normal with a well-estimated σ: 4σ.
