@@ -72,7 +72,8 @@ TEST_CASE("visibility: occlusion through a gap, and first hits") {
     }
 }
 
-TEST_CASE("visibility: a patch never shadows itself, nor do coplanar neighbours at grazing angles") {
+TEST_CASE(
+    "visibility: a patch never shadows itself, nor do coplanar neighbours at grazing angles") {
     // A floor of two coplanar patches and a wall standing on the floor's far edge.
     const Scene s = scene_of({quad(Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0)),
                               quad(Vec3(1, 0, 0), Vec3(2, 0, 0), Vec3(2, 1, 0), Vec3(1, 1, 0)),
