@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "formfactor/geometry/polygon.h"
+#include "formfactor/geometry/sampling.h"  // is_convex
 
 using namespace formfactor;
 
@@ -73,7 +74,7 @@ int check_tiling(const Polygon& p, const std::vector<Polygon>& holes,
 
 }  // namespace
 
-TEST_CASE("polygon: is_convex and convex_partition (Hertel–Mehlhorn)") {
+TEST_CASE("polygon: convex_partition (Hertel–Mehlhorn)") {
     CHECK(is_convex(rect(0, 0, 2, 1)));
     CHECK_FALSE(is_convex(ell()));
     // Collinear corners are allowed.

@@ -296,14 +296,6 @@ Polygon clean_piece(Polygon p, double eps) {
 
 }  // namespace
 
-bool is_convex(const Polygon& p) {
-    if (p.size() < 3) return false;
-    const std::vector<Vec2> q = to_plane(p);
-    std::vector<int> c(p.size());
-    for (std::size_t k = 0; k < p.size(); ++k) c[k] = static_cast<int>(k);
-    return convex_cycle(q, c);
-}
-
 std::vector<std::vector<int>> convex_partition(const Polygon& p) {
     std::vector<std::vector<int>> parts;
     const std::size_t n = p.size();

@@ -62,10 +62,6 @@ Polygon clip_to_front(const Polygon& p, const Plane& plane, double eps = 0.0);
 /// counter-clockwise about the polygon's normal.
 std::vector<std::array<int, 3>> triangulate(const Polygon& p);
 
-/// True when p is convex about its own front normal (collinear corners allowed, within
-/// rounding: a corner turns right by at most 1e-12 of its edge lengths' product).
-bool is_convex(const Polygon& p);
-
 /// A partition of a simple polygon into convex polygons: p itself when convex, else the
 /// ear-clipping triangles (triangulate()) merged greedily across shared diagonals while the
 /// union stays convex (Hertel–Mehlhorn; at most 4× the minimum number of pieces). Each piece is
