@@ -249,6 +249,7 @@ TEST_CASE("cli: bad options give one line naming the option, exit 2, no output")
                          {"compute plates -o F.csv --subdivide 2 --max-edge 0.5", 2,
                           "--subdivide: cannot be combined with --max-edge"},
                          {"compute plates -o F.csv --threads -1", 2, "--threads"},
+                         {"compute plates -o F.csv --threads 100000", 2, "--threads"},
                          {"compute plates -o F.csv --tolerance 0", 2, "--tolerance"},
                          {"compute plates -o F.csv --tolerance -1", 2, "--tolerance"},
                          {"compute plates -o F.csv --method nosuch", 2, "--method"},
@@ -306,5 +307,7 @@ TEST_CASE("cli: bad input files give FILE:LINE on one line, exit 1, no output") 
             {"point index.obj --at 0 0 1 --normal 0 0 -1 -o F.csv", 1, "index.obj:5:"},
             {"run record.vs3", 1, "record.vs3:7:"},
             {"compute plates -o no/such/dir/F.csv", 1, "no/such/dir/F.csv"},
+            {"compute plates -o F.csv --report no/r.json", 1, "no/r.json"},
+            {"point plates --at 0 0 0 --normal 0 0 1 -o no/F.csv", 1, "no/F.csv"},
         });
 }

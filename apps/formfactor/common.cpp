@@ -109,6 +109,10 @@ void MethodArgs::validate() const {
         throw OptionError("--threads",
                           fmt::format("must be ≥ 0 (0 = all cores), got {}", options.threads));
     }
+    if (options.threads > 4096) {
+        throw OptionError("--threads",
+                          fmt::format("{} is too many (at most 4096)", options.threads));
+    }
     if (!(std::isfinite(options.tolerance) && options.tolerance > 0.0)) {
         throw OptionError("--tolerance",
                           fmt::format("must be a finite number > 0, got {}", options.tolerance));
