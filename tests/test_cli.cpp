@@ -29,7 +29,7 @@ std::string describe(const CliResult& r) {
 }
 
 // The two plates of C-11 as an OBJ file (bottom faces +z, top faces -z).
-[[maybe_unused]] const char* kPlatesObj =
+const char* kPlatesObj =
     "# two parallel unit squares\n"
     "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n"
     "v 0 0 1\nv 0 1 1\nv 1 1 1\nv 1 0 1\n"
@@ -55,9 +55,6 @@ TEST_CASE("cli: --version and --help on every subcommand") {
     CHECK(r.out.find("--report") != std::string::npos);
     CHECK(cli.dir().entries() == 0);
 }
-
-// Until the analytic method is merged, only the tests that fail before any computation run.
-#if __has_include("formfactor/methods/analytic.h")
 
 TEST_CASE("cli: compute on plates gives Howell C-11, with a report") {
     Cli cli;
@@ -159,8 +156,6 @@ TEST_CASE("cli: point gives Howell B-3 for a square with the normal through a co
     CHECK(std::stod(r.out.substr(std::string("patch,F\n0,").size())) == 0.0);
 }
 
-#endif  // analytic
-
 TEST_CASE("cli: info describes a scene, as text and as JSON") {
     Cli cli;
     CliResult r = cli.run("info plates");
@@ -183,40 +178,72 @@ TEST_CASE("cli: info describes a scene, as text and as JSON") {
     CHECK(cli.dir().entries() == 0);
 }
 
-#if __has_include("formfactor/methods/analytic.h")
-TEST_CASE("cli: run writes the main job into out/") {
+TEST_CASE("cli: run writes the main job into out/" * doctest::test_suite("slow")) {
     Cli cli;
     const CliResult r = cli.run("run");
     INFO(describe(r));
     REQUIRE(r.code == 0);
-    for (const char* f :
-         {"out/formfactors.npy", "out/formfactors.csv", "out/patches.csv", "out/report.json"}) {
+    for (const char* f : {"out/formfactors.npy", "out/formfactors.csv", "out/patches.csv",
+                          "out/report.json", "out/standard_errors.npy"}) {
         CHECK(std::filesystem::exists(cli.file(f)));
         CHECK(r.out.find(f) != std::string::npos);
     }
     const auto report = nlohmann::json::parse(read_text(cli.file("out/report.json")));
     CHECK(report["command"] == "run");
-    CHECK(report["scene"]["name"] == "cornell-empty");
+    CHECK(report["scene"]["name"] == "cornell");
+    CHECK(report["method"] == "mc-target");  // the default for a scene with occlusion
     const std::size_t n = report["N"].get<std::size_t>();
-    CHECK(n > 100);
+    CHECK(n >= 100);
     const DenseMatrix F = read_matrix(cli.file("out/formfactors.npy"));
     CHECK(static_cast<std::size_t>(F.rows()) == n);
+    CHECK(read_matrix(cli.file("out/standard_errors.npy")).rows() == F.rows());
     CHECK(report["diagnostics"]["negative_entries"] == 0);
-    CHECK(report["diagnostics"]["row_sum"]["max"].get<double>() <= 1.0 + 1e-9);
+    CHECK(report["diagnostics"]["standard_error"]["max"].get<double>() > 0.0);
     CHECK(r.out.find("compute") != std::string::npos);  // per-step timings are printed
-    CHECK(std::filesystem::directory_iterator(cli.file("out")) !=
-          std::filesystem::directory_iterator());
     std::size_t files = 0;
     for ([[maybe_unused]] const auto& e : std::filesystem::directory_iterator(cli.file("out")))
         ++files;
-    CHECK(files == 4);  // no temporaries left
-
-    const CliResult small = cli.run("run plates --out-dir res");
-    CHECK(small.code == 0);
-    CHECK(std::filesystem::exists(cli.file("res/report.json")));
+    CHECK(files == 5);  // no temporaries left
 }
 
-#endif  // analytic
+TEST_CASE("cli: run on an unoccluded scene, into another directory") {
+    Cli cli;
+    const CliResult r = cli.run("run plates --out-dir res");
+    INFO(describe(r));
+    REQUIRE(r.code == 0);
+    const auto report = nlohmann::json::parse(read_text(cli.file("res/report.json")));
+    CHECK(report["method"] == "analytic");
+    CHECK(report["N"] == 18);  // run's default subdivision, 3x3 per surface
+    CHECK(report["diagnostics"]["standard_error"].is_null());
+    CHECK_FALSE(std::filesystem::exists(cli.file("res/standard_errors.npy")));
+    CHECK(std::abs(read_matrix(cli.file("res/formfactors.npy")).topRightCorner(9, 9).sum() / 9.0 -
+                   kC11PlatesF12) < kExactTol);
+}
+
+TEST_CASE("cli: the default method handles occlusion; standard errors of Monte-Carlo methods") {
+    Cli cli;
+    CliResult r = cli.run("compute cornell -o F.npy --report r.json --standard-error se.csv");
+    INFO(describe(r));
+    REQUIRE(r.code == 0);
+    CHECK(r.out.find("std error") != std::string::npos);
+    const auto report = nlohmann::json::parse(read_text(cli.file("r.json")));
+    CHECK(report["method"] == "mc-target");
+    CHECK(report["options"]["method_given"] == false);
+    CHECK(report["outputs"]["standard_error"] == "se.csv");
+    CHECK(read_matrix(cli.file("se.csv")).rows() == 20);
+
+    r = cli.run("compute cornell --method analytic -o G.npy");
+    CHECK(r.code == 1);  // analytic refuses occlusion, with one line saying why
+    CHECK(r.one_error_line());
+    CHECK_FALSE(std::filesystem::exists(cli.file("G.npy")));
+
+    r = cli.run("compute plates -o G.npy --standard-error se2.npy");
+    CHECK(r.code == 2);
+    CHECK(r.one_error_line());
+    CHECK(r.err.find("--standard-error") != std::string::npos);
+    CHECK_FALSE(std::filesystem::exists(cli.file("G.npy")));
+    CHECK_FALSE(std::filesystem::exists(cli.file("se2.npy")));
+}
 
 // ---- errors: one line on stderr, an exit code, no output ------------------------------------
 
@@ -262,6 +289,8 @@ TEST_CASE("cli: bad options give one line naming the option, exit 2, no output")
                          {"compute plates -o F.csv --tolerance -1", 2, "--tolerance"},
                          {"compute plates -o F.csv --method nosuch", 2, "--method"},
                          {"compute plates -o F.csv --samples -5", 2, "--samples"},
+                         {"compute plates -o F.csv --sampler bogus", 2, "--sampler"},
+                         {"compute plates -o F.csv --standard-error se.txt", 2, "--standard-error"},
                          {"compute plates", 2, "-o: an output file is required"},
                          {"compute plates -o F.xyz", 2,
                           "-o: unknown output extension '.xyz' (use .csv, .npy or .txt)"},

@@ -418,8 +418,15 @@ TEST_CASE("output: the JSON report carries the run, the scene and the diagnostic
     CHECK(d["entries_above_one"] == 0);
     CHECK(d["nonfinite_entries"] == 0);
     CHECK(d["max_abs_diagonal"].get<double>() == doctest::Approx(0.01));
+    CHECK(d["standard_error"].is_null());  // an exact method gives none
     CHECK(r["details"]["pairs"] == 4);
     CHECK(r["outputs"]["matrix"] == "F.npy");
+
+    ff.standard_error = DenseMatrix::Constant(2, 2, 0.5);
+    (*ff.standard_error)(0, 1) = 2.5;
+    const nlohmann::json se = make_report(s, ff, ctx)["diagnostics"]["standard_error"];
+    CHECK(se["max"] == 2.5);
+    CHECK(se["mean"] == 1.0);
 
     TempDir dir;
     write_json_file(dir.file("r.json"), r);

@@ -23,6 +23,7 @@ struct ComputeArgs {
     std::string output;
     std::string report;
     std::string patches;
+    std::string standard_error;
 };
 
 void run_compute(const ComputeArgs& args) {
@@ -47,6 +48,19 @@ void run_compute(const ComputeArgs& args) {
         if (same_file(args.patches, args.output) ||
             (!args.report.empty() && same_file(args.patches, args.report))) {
             throw OptionError("--patches", "is the same file as another output");
+        }
+    }
+
+    if (!args.standard_error.empty()) {
+        if (matrix_format_for(args.standard_error, "--standard-error") ==
+            MatrixFormat::View3dText) {
+            throw OptionError("--standard-error", "use .csv or .npy (View3D's .txt holds F only)");
+        }
+        check_output_directory(args.standard_error);
+        for (const std::string* other : {&args.output, &args.report, &args.patches}) {
+            if (!other->empty() && same_file(args.standard_error, *other)) {
+                throw OptionError("--standard-error", "is the same file as another output");
+            }
         }
     }
 
@@ -79,6 +93,19 @@ void run_compute(const ComputeArgs& args) {
                 break;
         }
     });
+    if (!args.standard_error.empty()) {
+        if (!ff.standard_error) {
+            throw OptionError("--standard-error", "method '" + method->name() +
+                                                      "' gives no standard errors (it is exact; "
+                                                      "the Monte-Carlo methods give them)");
+        }
+        tx.stage(args.standard_error, [&](std::ostream& out) {
+            if (matrix_format_for(args.standard_error) == MatrixFormat::Npy)
+                write_npy_matrix(out, *ff.standard_error);
+            else
+                write_csv_matrix(out, *ff.standard_error);
+        });
+    }
     if (!args.patches.empty()) {
         tx.stage(args.patches, [&](std::ostream& out) { write_patch_table(out, scene); });
     }
@@ -102,6 +129,10 @@ void run_compute(const ComputeArgs& args) {
         ctx.details = details;
         ctx.outputs["matrix"] = args.output;
         if (!args.patches.empty()) ctx.outputs["patches"] = args.patches;
+        if (!args.standard_error.empty()) ctx.outputs["standard_error"] = args.standard_error;
+        ctx.options["standard_error"] = args.standard_error.empty()
+                                            ? nlohmann::json(nullptr)
+                                            : nlohmann::json(args.standard_error);
         ctx.outputs["report"] = args.report;
         const nlohmann::json report = make_report(scene, ff, ctx);
         const std::string text = json_text(report);
@@ -111,8 +142,9 @@ void run_compute(const ComputeArgs& args) {
     }
     tx.commit();
 
-    print_matrix_summary(scene, method->name(), threads, d, times, total.seconds());
+    print_matrix_summary(scene, method->name(), threads, ff, d, times, total.seconds());
     std::string wrote = fmt::format("{} ({}×{})", args.output, ff.F.rows(), ff.F.cols());
+    if (!args.standard_error.empty()) wrote += ", " + args.standard_error;
     if (!args.patches.empty()) wrote += ", " + args.patches;
     if (!args.report.empty()) wrote += ", " + args.report;
     fmt::print("wrote      {}\n", wrote);
@@ -137,6 +169,10 @@ void add_compute_command(CLI::App& app) {
     cmd->add_option("--patches", args->patches,
                     "Also write the patch table (index, surface, area, centroid, normal) as CSV")
         ->type_name("PATCHES.csv");
+    cmd->add_option("--standard-error", args->standard_error,
+                    "Also write the standard error of each entry (.csv or .npy; Monte-Carlo "
+                    "methods only)")
+        ->type_name("SE");
     cmd->callback([args] { run_compute(*args); });
 }
 

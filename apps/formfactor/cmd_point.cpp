@@ -10,10 +10,7 @@
 #include "commands.h"
 #include "common.h"
 #include "formfactor/core/error.h"
-#if __has_include("formfactor/methods/analytic.h")
 #include "formfactor/methods/analytic.h"
-#define FF_HAVE_ANALYTIC 1
-#endif
 #include "formfactor/output/atomic_file.h"
 
 namespace formfactor::cli {
@@ -53,14 +50,10 @@ void run_point(const PointArgs& args) {
     Stopwatch sw;
     std::vector<double> F(scene.patches.size());
     double sum = 0.0;
-#ifdef FF_HAVE_ANALYTIC
     for (std::size_t j = 0; j < F.size(); ++j) {
         F[j] = point_to_polygon(x, n, scene.patches[j].polygon);
         sum += F[j];
     }
-#else
-    throw Error("point: this build has no analytic module");
-#endif
     times.add("compute", sw.lap());
 
     if (args.output.empty()) {

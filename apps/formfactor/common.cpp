@@ -9,6 +9,7 @@
 
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
+#include "formfactor/core/random.h"
 
 namespace formfactor::cli {
 
@@ -96,6 +97,10 @@ void MethodArgs::add_to(CLI::App* cmd) {
         ->capture_default_str();
     cmd->add_option("--seed", seed, "Seed of the random streams (Monte-Carlo methods)")
         ->capture_default_str();
+    cmd->add_option("--sampler", options.sampler,
+                    "Monte-Carlo point set: sobol, halton, stratified or random")
+        ->type_name("NAME")
+        ->capture_default_str();
     cmd->add_option("--resolution", options.resolution, "Hemicube / hemiplane cells per side")
         ->type_name("R")
         ->capture_default_str();
@@ -125,6 +130,7 @@ void MethodArgs::validate() const {
     if (options.points < 1) {
         throw OptionError("--points", fmt::format("must be ≥ 1, got {}", options.points));
     }
+    parse_sampler(options.sampler);            // OptionError("--sampler", ...) when unknown
     if (!method.empty()) make_method(method);  // OptionError("--method", ...) when unknown
 }
 
@@ -144,10 +150,11 @@ std::unique_ptr<Method> MethodArgs::resolve(const Scene& scene) const {
 
 nlohmann::json MethodArgs::to_json(const std::string& resolved_method) const {
     return nlohmann::json{
-        {"method", resolved_method},        {"method_given", !method.empty()},
-        {"threads", options.threads},       {"tolerance", options.tolerance},
-        {"samples", options.samples},       {"seed", options.seed},
-        {"resolution", options.resolution}, {"points", options.points},
+        {"method", resolved_method},  {"method_given", !method.empty()},
+        {"threads", options.threads}, {"tolerance", options.tolerance},
+        {"samples", options.samples}, {"seed", options.seed},
+        {"sampler", options.sampler}, {"resolution", options.resolution},
+        {"points", options.points},
     };
 }
 
@@ -194,7 +201,8 @@ std::string format_timings(const StepTimes& times, double total) {
 }
 
 void print_matrix_summary(const Scene& scene, const std::string& method, int threads,
-                          const Diagnostics& d, const StepTimes& times, double total) {
+                          const FormFactors& ff, const Diagnostics& d, const StepTimes& times,
+                          double total) {
     std::size_t obstructions = 0;
     for (const auto& s : scene.surfaces) obstructions += s.obstruction ? 1 : 0;
     fmt::print("scene      {}: {} surfaces, {} obstructions, N = {} patches\n", scene.name,
@@ -208,6 +216,10 @@ void print_matrix_summary(const Scene& scene, const std::string& method, int thr
         fmt::print(" (patches {}, {})", d.reciprocity_i, d.reciprocity_j);
     }
     fmt::print("\n");
+    if (ff.standard_error && ff.standard_error->size() > 0) {
+        fmt::print("std error  max {:.3g}, mean {:.3g} (per entry)\n",
+                   ff.standard_error->maxCoeff(), ff.standard_error->mean());
+    }
     if (d.negative_entries || d.entries_above_one || d.nonfinite_entries) {
         fmt::print("warning    {} entries < 0, {} entries > 1, {} non-finite entries\n",
                    d.negative_entries, d.entries_above_one, d.nonfinite_entries);

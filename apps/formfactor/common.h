@@ -84,7 +84,8 @@ std::string format_timings(const StepTimes& times, double total);
 
 /// Prints the compute summary (N, method, row sums, reciprocity, timings) to stdout.
 void print_matrix_summary(const Scene& scene, const std::string& method, int threads,
-                          const Diagnostics& d, const StepTimes& times, double total);
+                          const FormFactors& ff, const Diagnostics& d, const StepTimes& times,
+                          double total);
 
 /// True when the two paths name the same file (after normalisation; they need not exist).
 bool same_file(const std::string& a, const std::string& b);

@@ -92,7 +92,15 @@ std::string utc_timestamp() {
     return buf;
 }
 
+json standard_error_json(const FormFactors& ff) {
+    if (!ff.standard_error || ff.standard_error->size() == 0) return nullptr;
+    const DenseMatrix& se = *ff.standard_error;
+    return json{{"max", se.maxCoeff()}, {"mean", se.mean()}};
+}
+
 json make_report(const Scene& scene, const FormFactors& ff, const ReportContext& ctx) {
+    json diagnostics = diagnostics_json(diagnose(ff.F, ff.areas));
+    diagnostics["standard_error"] = standard_error_json(ff);
     json timings = json::object();
     for (const auto& [name, seconds] : ctx.timings.steps) timings[name] = seconds;
     timings["total"] = std::max(ctx.total_seconds, ctx.timings.sum());
@@ -106,7 +114,7 @@ json make_report(const Scene& scene, const FormFactors& ff, const ReportContext&
         {"options", ctx.options},
         {"threads", ctx.threads},
         {"timings", timings},
-        {"diagnostics", diagnostics_json(diagnose(ff.F, ff.areas))},
+        {"diagnostics", diagnostics},
         {"details", ctx.details},
         {"outputs", ctx.outputs},
     };

@@ -47,12 +47,17 @@ struct ReportContext {
 /// 0-based patch indices.
 nlohmann::json diagnostics_json(const Diagnostics& d);
 
+/// The per-entry standard errors of a Monte-Carlo estimate: {"max", "mean"} over the matrix, or
+/// null when the method gives none (exact methods).
+nlohmann::json standard_error_json(const FormFactors& ff);
+
 /// A summary of a scene: {"name", "title", "surfaces" (those with rows: not obstructions),
 /// "obstructions", "patches", "materials", "enclosure", "total_area", "patch_area": {"min",
 /// "max"}, "bounds": {"min": [x,y,z], "max": [x,y,z]}, "warnings": [...]}.
 nlohmann::json scene_summary_json(const Scene& scene);
 
-/// The full report for F computed on `scene` (diagnose() is run here).
+/// The full report for F computed on `scene` (diagnose() is run here; "diagnostics" also gets
+/// "standard_error": standard_error_json(ff)).
 nlohmann::json make_report(const Scene& scene, const FormFactors& ff, const ReportContext& ctx);
 
 /// The current UTC time as ISO 8601, e.g. "2024-01-31T12:00:00Z".
