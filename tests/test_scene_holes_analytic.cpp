@@ -4,8 +4,6 @@
 
 #include <doctest/doctest.h>
 
-#if __has_include("formfactor/methods/analytic.h")
-
 #include <cmath>
 #include <string>
 #include <vector>
@@ -43,7 +41,8 @@ void check_cube(const FormFactors& f, double tol) {
         CHECK(std::abs(f.areas[static_cast<std::size_t>(i)] - 1.0) <= 1e-13);
         for (Eigen::Index j = 0; j < 6; ++j) {
             const double expected = i == j ? 0.0 : (i / 2 == j / 2 ? kOpposite : kAdjacent);
-            CHECK_MESSAGE(std::abs(f.F(i, j) - expected) <= tol, "F(", i, ",", j, ") = ", f.F(i, j));
+            CHECK_MESSAGE(std::abs(f.F(i, j) - expected) <= tol, "F(", i, ",", j,
+                          ") = ", f.F(i, j));
         }
     }
 }
@@ -133,7 +132,7 @@ TEST_CASE("scene: combined surfaces (cmb) merge rows and columns as View3D's Com
     // Face z = 1 drawn as two rectangles, the second combined with the first.
     const std::string text = kCubeHead +
                              "V 9 0.4 0 1\nV 10 0.4 1 1\n"
-                             "S 6 5 8 10 9 0 0 0.9 z1\n"      // x in [0, 0.4]
+                             "S 6 5 8 10 9 0 0 0.9 z1\n"       // x in [0, 0.4]
                              "S 7 9 10 7 6 0 6 0.9 z1-rest\n"  // x in [0.4, 1], cmb 6
                              "End\n";
     Scene s = load_scene(write_file("cube-cmb.vs3", text));
@@ -150,5 +149,3 @@ TEST_CASE("scene: combined surfaces (cmb) merge rows and columns as View3D's Com
     subdivide(s, {3, 0.0});
     check_cube(aggregate_per_surface(s, analytic(s)), 1e-10);
 }
-
-#endif  // analytic method available
