@@ -198,6 +198,8 @@ std::vector<std::array<int, 3>> triangulate(const Polygon& p) {
     if (n < 3) return tris;
     if (n == 3) return {{0, 1, 2}};
     const std::vector<Vec2> q = to_plane(p);
+    const double d = diameter(p);
+    const double flat = 1e-12 * d * d;
     std::vector<int> idx(static_cast<std::size_t>(n));
     for (int k = 0; k < n; ++k) idx[static_cast<std::size_t>(k)] = k;
     auto convex = [&](int a, int b, int c) {
@@ -209,8 +211,10 @@ std::vector<std::array<int, 3>> triangulate(const Polygon& p) {
         const Vec2& B = q[static_cast<std::size_t>(b)];
         const Vec2& C = q[static_cast<std::size_t>(c)];
         const Vec2& X = q[static_cast<std::size_t>(x)];
-        return cross2(B - A, X - A) >= 0.0 && cross2(C - B, X - B) >= 0.0 &&
-               cross2(A - C, X - C) >= 0.0;
+        // A vertex on the ear's boundary (within rounding) blocks it: clipping that ear would
+        // leave a zero-area remainder.
+        return cross2(B - A, X - A) >= -flat && cross2(C - B, X - B) >= -flat &&
+               cross2(A - C, X - C) >= -flat;
     };
     std::size_t guard = 0;
     while (idx.size() > 3 && guard < 4 * static_cast<std::size_t>(n) * static_cast<std::size_t>(n)) {
