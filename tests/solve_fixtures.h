@@ -117,4 +117,55 @@ inline Scene cube_scene() {
     return s;
 }
 
+// n×n sub-quads of the parallelogram (o, o + e1, o + e1 + e2, o + e2), row-major.
+inline std::vector<Polygon> grid(const Vec3& o, const Vec3& e1, const Vec3& e2, int n) {
+    std::vector<Polygon> out;
+    for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i)
+            out.push_back(quad(o + (double(i) / n) * e1 + (double(j) / n) * e2, e1 / n, e2 / n));
+    return out;
+}
+
+// A Cornell-like box, open at z = 1 (front), unit size: surfaces left (x = 0, red), right
+// (x = 1, green), floor, ceiling, back (white), each split into n×n patches. The camera looks in
+// through the opening. Radiances: fixed per surface (no solve needed to test the renderer).
+inline Scene open_box_scene(int n, std::vector<Rgb>& radiance) {
+    Scene s;
+    s.name = "test-open-box";
+    const Vec3 X = Vec3::UnitX(), Y = Vec3::UnitY(), Z = Vec3::UnitZ(), O = Vec3::Zero();
+    struct Wall {
+        const char* name;
+        Vec3 o, e1, e2;
+        Rgb value;
+    };
+    const Wall walls[5] = {
+        {"left", O, Y, Z, Rgb(0.6, 0.05, 0.05)},   // normal +x
+        {"right", X, Z, Y, Rgb(0.05, 0.5, 0.05)},  // normal −x
+        {"floor", O, Z, X, Rgb(0.5, 0.5, 0.5)},    // normal +y
+        {"ceiling", Y, X, Z, Rgb(0.4, 0.4, 0.4)},  // normal −y
+        {"back", O, X, Y, Rgb(0.45, 0.45, 0.45)},  // normal +z
+    };
+    for (int w = 0; w < 5; ++w) {
+        Material m;
+        m.name = walls[w].name;
+        s.materials.push_back(m);
+        Surface sf;
+        sf.name = walls[w].name;
+        sf.polygon = quad(walls[w].o, walls[w].e1, walls[w].e2);
+        sf.material = w;
+        s.surfaces.push_back(sf);
+        for (Polygon& p : grid(walls[w].o, walls[w].e1, walls[w].e2, n)) {
+            s.patches.push_back(patch_of(std::move(p), w));
+            radiance.push_back(walls[w].value);
+        }
+    }
+    Camera c;
+    c.eye = Vec3(0.5, 0.5, 2.5);
+    c.target = Vec3(0.5, 0.5, 0.0);
+    c.up = Y;
+    c.fov_degrees = 40.0;
+    s.camera = c;
+    return s;
+}
+
 }  // namespace ff_test

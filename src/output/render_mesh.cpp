@@ -1,0 +1,156 @@
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <unordered_map>
+
+#include "formfactor/core/error.h"
+#include "output/render_internal.h"
+
+namespace formfactor::detail {
+
+namespace {
+
+struct VertexKey {
+    std::array<long long, 7> k;
+    bool operator==(const VertexKey& o) const { return k == o.k; }
+};
+
+struct VertexKeyHash {
+    std::size_t operator()(const VertexKey& v) const {
+        std::size_t h = 1469598103934665603ULL;
+        for (long long x : v.k) {
+            h ^= static_cast<std::size_t>(x) + 0x9e3779b97f4a7c15ULL + (h << 6) + (h >> 2);
+        }
+        return h;
+    }
+};
+
+double scene_diameter(const Scene& scene) {
+    Bounds3 b;
+    for (const Patch& p : scene.patches)
+        for (const Vec3& v : p.polygon.vertices) b.extend(v);
+    return b.empty() ? 1.0 : std::max(b.diagonal().norm(), 1e-300);
+}
+
+}  // namespace
+
+ShadedMesh shaded_mesh(const Scene& scene, const std::vector<Rgb>& values, bool flat) {
+    ShadedMesh mesh;
+    const std::size_t n = scene.patches.size();
+    FF_ASSERT(values.size() == n);
+    // Positions closer than 1e-7 of the scene's size are the same vertex; planes are the same
+    // when normals agree to ~1e-5 and offsets to 1e-7 of the size.
+    const double cell = 1e-7 * scene_diameter(scene);
+    const double ncell = 1e-5;
+    std::unordered_map<VertexKey, int, VertexKeyHash> index;
+    std::vector<Rgb> sum;
+    std::vector<double> weight;
+    std::vector<std::vector<int>> corner(n);
+    for (std::size_t p = 0; p < n; ++p) {
+        const Patch& patch = scene.patches[p];
+        const Polygon& poly = patch.polygon;
+        const Vec3 nrm = patch.normal.squaredNorm() > 0 ? patch.normal : normal(poly);
+        const double d = poly.size() ? nrm.dot(poly[0]) : 0.0;
+        const bool valid = values[p].allFinite();
+        corner[p].resize(poly.size());
+        for (std::size_t k = 0; k < poly.size(); ++k) {
+            const Vec3& x = poly[k];
+            int id;
+            if (flat) {
+                id = static_cast<int>(mesh.positions.size());
+                mesh.positions.push_back(x);
+                sum.push_back(Rgb::Zero());
+                weight.push_back(0.0);
+            } else {
+                VertexKey key{{std::llround(nrm.x() / ncell), std::llround(nrm.y() / ncell),
+                               std::llround(nrm.z() / ncell), std::llround(d / cell),
+                               std::llround(x.x() / cell), std::llround(x.y() / cell),
+                               std::llround(x.z() / cell)}};
+                auto [it, inserted] =
+                    index.try_emplace(key, static_cast<int>(mesh.positions.size()));
+                id = it->second;
+                if (inserted) {
+                    mesh.positions.push_back(x);
+                    sum.push_back(Rgb::Zero());
+                    weight.push_back(0.0);
+                }
+            }
+            corner[p][k] = id;
+            if (valid) {
+                const double w = flat ? 1.0 : std::max(patch.area, 0.0) + 1e-300;
+                sum[static_cast<std::size_t>(id)] += w * values[p];
+                weight[static_cast<std::size_t>(id)] += w;
+            }
+        }
+        for (const auto& t : triangulate(poly)) {
+            mesh.triangles.push_back({corner[p][static_cast<std::size_t>(t[0])],
+                                      corner[p][static_cast<std::size_t>(t[1])],
+                                      corner[p][static_cast<std::size_t>(t[2])]});
+            mesh.triangle_patch.push_back(static_cast<int>(p));
+        }
+    }
+    mesh.values.resize(mesh.positions.size());
+    for (std::size_t v = 0; v < mesh.positions.size(); ++v)
+        mesh.values[v] = weight[v] > 0.0 ? Rgb(sum[v] / weight[v])
+                                         : Rgb::Constant(std::numeric_limits<double>::quiet_NaN());
+    return mesh;
+}
+
+double linear_to_srgb(double v) {
+    if (!(v > 0.0)) return 0.0;
+    if (v >= 1.0) return 1.0;
+    return v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055;
+}
+
+std::uint8_t linear_to_srgb8(double v) {
+    return static_cast<std::uint8_t>(std::lround(255.0 * linear_to_srgb(v)));
+}
+
+double patch_luminance_quantile(const Scene& scene, const std::vector<Rgb>& values,
+                                const std::vector<bool>& emitters, double q) {
+    std::vector<std::pair<double, double>> lw;  // (luminance, area)
+    double total = 0.0;
+    for (std::size_t i = 0; i < values.size(); ++i) {
+        if (i < emitters.size() && emitters[i]) continue;
+        const double y = luminance(values[i]);
+        if (!std::isfinite(y)) continue;
+        const double a = i < scene.patches.size() ? scene.patches[i].area : 1.0;
+        lw.emplace_back(y, a);
+        total += a;
+    }
+    if (lw.empty() || total <= 0.0) return 0.0;
+    std::sort(lw.begin(), lw.end());
+    double acc = 0.0;
+    for (const auto& [y, a] : lw) {
+        acc += a;
+        if (acc >= q * total) return y;
+    }
+    return lw.back().first;
+}
+
+void write_bytes_atomically(const std::string& path, const std::string& bytes) {
+    const std::string tmp = path + ".tmp." + std::to_string(::getpid());
+    {
+        std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+        if (!out) throw InputError(path, 0, "cannot write (does the directory exist?)");
+        out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+        out.flush();
+        if (!out) {
+            out.close();
+            std::remove(tmp.c_str());
+            throw InputError(path, 0, "write failed (disk full?)");
+        }
+    }
+    std::error_code ec;
+    std::filesystem::rename(tmp, path, ec);
+    if (ec) {
+        std::remove(tmp.c_str());
+        throw InputError(path, 0, "cannot rename the temporary file: " + ec.message());
+    }
+}
+
+}  // namespace formfactor::detail
