@@ -198,23 +198,24 @@ std::vector<std::array<int, 3>> triangulate(const Polygon& p) {
     if (n < 3) return tris;
     if (n == 3) return {{0, 1, 2}};
     const std::vector<Vec2> q = to_plane(p);
-    const double d = diameter(p);
-    const double flat = 1e-12 * d * d;
     std::vector<int> idx(static_cast<std::size_t>(n));
     for (int k = 0; k < n; ++k) idx[static_cast<std::size_t>(k)] = k;
     auto convex = [&](int a, int b, int c) {
         return cross2(q[static_cast<std::size_t>(b)] - q[static_cast<std::size_t>(a)],
                       q[static_cast<std::size_t>(c)] - q[static_cast<std::size_t>(b)]) > 0.0;
     };
+    // Points on an ear's edge (within rounding) count as inside, so that an ear never passes
+    // through another vertex (which would leave a zero-area sliver behind).
+    double scale2 = 0.0;
+    for (const Vec2& v : q) scale2 = std::max(scale2, v.squaredNorm());
+    const double tol = -1e-12 * scale2;
     auto inside = [&](int a, int b, int c, int x) {
         const Vec2& A = q[static_cast<std::size_t>(a)];
         const Vec2& B = q[static_cast<std::size_t>(b)];
         const Vec2& C = q[static_cast<std::size_t>(c)];
         const Vec2& X = q[static_cast<std::size_t>(x)];
-        // A vertex on the ear's boundary (within rounding) blocks it: clipping that ear would
-        // leave a zero-area remainder.
-        return cross2(B - A, X - A) >= -flat && cross2(C - B, X - B) >= -flat &&
-               cross2(A - C, X - C) >= -flat;
+        return cross2(B - A, X - A) >= tol && cross2(C - B, X - B) >= tol &&
+               cross2(A - C, X - C) >= tol;
     };
     std::size_t guard = 0;
     while (idx.size() > 3 && guard < 4 * static_cast<std::size_t>(n) * static_cast<std::size_t>(n)) {
