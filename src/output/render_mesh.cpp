@@ -42,57 +42,76 @@ ShadedMesh shaded_mesh(const Scene& scene, const std::vector<Rgb>& values, bool 
     ShadedMesh mesh;
     const std::size_t n = scene.patches.size();
     FF_ASSERT(values.size() == n);
-    // Positions closer than 1e-7 of the scene's size are the same vertex; planes are the same
-    // when normals agree to ~1e-5 and offsets to 1e-7 of the size.
+    // Corners closer than 1e-7 of the scene's size are at the same position. Among the patches
+    // meeting at a position, those whose normals differ by less than the crease angle share one
+    // vertex (so a surface split into near-coplanar pieces shades smoothly), the others get
+    // their own (so a wall's colour never bleeds round the corner onto the next wall).
     const double cell = 1e-7 * scene_diameter(scene);
-    const double ncell = 1e-5;
-    std::unordered_map<VertexKey, int, VertexKeyHash> index;
-    std::vector<Rgb> sum;
-    std::vector<double> weight;
+    const double cos_crease = std::cos(20.0 * kPi / 180.0);
+    struct Corner {
+        int patch;
+        int k;
+    };
+    std::unordered_map<VertexKey, int, VertexKeyHash> group_of;
+    std::vector<std::vector<Corner>> groups;
     std::vector<std::vector<int>> corner(n);
+    std::vector<Vec3> normals(n);
     for (std::size_t p = 0; p < n; ++p) {
         const Patch& patch = scene.patches[p];
         const Polygon& poly = patch.polygon;
-        const Vec3 nrm = patch.normal.squaredNorm() > 0 ? patch.normal : normal(poly);
-        const double d = poly.size() ? nrm.dot(poly[0]) : 0.0;
-        const bool valid = values[p].allFinite();
-        corner[p].resize(poly.size());
+        normals[p] = patch.normal.squaredNorm() > 0 ? patch.normal : normal(poly);
+        corner[p].assign(poly.size(), -1);
         for (std::size_t k = 0; k < poly.size(); ++k) {
             const Vec3& x = poly[k];
-            int id;
-            if (flat) {
-                id = static_cast<int>(mesh.positions.size());
-                mesh.positions.push_back(x);
-                sum.push_back(Rgb::Zero());
-                weight.push_back(0.0);
-            } else {
-                VertexKey key{{std::llround(nrm.x() / ncell), std::llround(nrm.y() / ncell),
-                               std::llround(nrm.z() / ncell), std::llround(d / cell),
-                               std::llround(x.x() / cell), std::llround(x.y() / cell),
-                               std::llround(x.z() / cell)}};
-                auto [it, inserted] =
-                    index.try_emplace(key, static_cast<int>(mesh.positions.size()));
-                id = it->second;
-                if (inserted) {
-                    mesh.positions.push_back(x);
-                    sum.push_back(Rgb::Zero());
-                    weight.push_back(0.0);
-                }
-            }
-            corner[p][k] = id;
-            if (valid) {
-                const double w = flat ? 1.0 : std::max(patch.area, 0.0) + 1e-300;
-                sum[static_cast<std::size_t>(id)] += w * values[p];
-                weight[static_cast<std::size_t>(id)] += w;
-            }
+            const VertexKey key{{std::llround(x.x() / cell), std::llround(x.y() / cell),
+                                 std::llround(x.z() / cell), 0, 0, 0, 0}};
+            auto [it, inserted] = group_of.try_emplace(key, static_cast<int>(groups.size()));
+            if (inserted) groups.emplace_back();
+            groups[static_cast<std::size_t>(it->second)].push_back(
+                {static_cast<int>(p), static_cast<int>(k)});
         }
-        for (const auto& t : triangulate(poly)) {
+    }
+    std::vector<Rgb> sum;
+    std::vector<double> weight;
+    auto add = [&](std::size_t p, int id) {
+        if (!values[p].allFinite()) return;
+        const double w = flat ? 1.0 : std::max(scene.patches[p].area, 0.0) + 1e-300;
+        sum[static_cast<std::size_t>(id)] += w * values[p];
+        weight[static_cast<std::size_t>(id)] += w;
+    };
+    auto new_vertex = [&](const Vec3& x) {
+        mesh.positions.push_back(x);
+        sum.push_back(Rgb::Zero());
+        weight.push_back(0.0);
+        return static_cast<int>(mesh.positions.size()) - 1;
+    };
+    for (const auto& g : groups) {
+        std::vector<std::pair<Vec3, int>> clusters;  // (normal of the first member, vertex)
+        for (const Corner& c : g) {
+            const auto p = static_cast<std::size_t>(c.patch);
+            const Vec3& x = scene.patches[p].polygon[static_cast<std::size_t>(c.k)];
+            int id = -1;
+            if (!flat)
+                for (const auto& [nrm, v] : clusters)
+                    if (nrm.dot(normals[p]) >= cos_crease) {
+                        id = v;
+                        break;
+                    }
+            if (id < 0) {
+                id = new_vertex(x);
+                clusters.emplace_back(normals[p], id);
+            }
+            corner[p][static_cast<std::size_t>(c.k)] = id;
+            add(p, id);
+        }
+    }
+    for (std::size_t p = 0; p < n; ++p)
+        for (const auto& t : triangulate(scene.patches[p].polygon)) {
             mesh.triangles.push_back({corner[p][static_cast<std::size_t>(t[0])],
                                       corner[p][static_cast<std::size_t>(t[1])],
                                       corner[p][static_cast<std::size_t>(t[2])]});
             mesh.triangle_patch.push_back(static_cast<int>(p));
         }
-    }
     mesh.values.resize(mesh.positions.size());
     for (std::size_t v = 0; v < mesh.positions.size(); ++v)
         mesh.values[v] = weight[v] > 0.0 ? Rgb(sum[v] / weight[v])
