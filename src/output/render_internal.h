@@ -20,10 +20,10 @@ struct ShadedMesh {
 };
 
 /// Triangulates every patch. Flat: each patch has its own vertices carrying its value.
-/// Smooth (Gouraud): the patches that have a corner at the same position and whose normals
-/// differ by less than 20° share a vertex, which carries their area-weighted mean value;
-/// patches across a crease (the two walls at a corner) never share a vertex, so values are not
-/// smeared round corners. NaN patch values are left out of the means.
+/// Smooth (Gouraud): the patches that have a corner at the same position, the same material
+/// and normals that differ by less than 20° share a vertex, which carries their area-weighted mean
+/// value; patches across a crease (the two walls at a corner) never share a vertex, so values are
+/// not smeared round corners. NaN patch values are left out of the means.
 ShadedMesh shaded_mesh(const Scene& scene, const std::vector<Rgb>& patch_values, bool flat);
 
 /// Rec. 709 luminance of linear RGB.

@@ -44,8 +44,9 @@ ShadedMesh shaded_mesh(const Scene& scene, const std::vector<Rgb>& values, bool 
     FF_ASSERT(values.size() == n);
     // Corners closer than 1e-7 of the scene's size are at the same position. Among the patches
     // meeting at a position, those whose normals differ by less than the crease angle share one
-    // vertex (so a surface split into near-coplanar pieces shades smoothly), the others get
-    // their own (so a wall's colour never bleeds round the corner onto the next wall).
+    // vertex if they also share the material (so a surface split into near-coplanar pieces
+    // shades smoothly), the others get their own (so a wall's colour never bleeds round the
+    // corner onto the next wall, nor a light's into the ceiling around it).
     const double cell = 1e-7 * scene_diameter(scene);
     const double cos_crease = std::cos(20.0 * kPi / 180.0);
     struct Corner {
@@ -56,8 +57,11 @@ ShadedMesh shaded_mesh(const Scene& scene, const std::vector<Rgb>& values, bool 
     std::vector<std::vector<Corner>> groups;
     std::vector<std::vector<int>> corner(n);
     std::vector<Vec3> normals(n);
+    std::vector<int> material(n, -1);
     for (std::size_t p = 0; p < n; ++p) {
         const Patch& patch = scene.patches[p];
+        if (patch.surface >= 0 && static_cast<std::size_t>(patch.surface) < scene.surfaces.size())
+            material[p] = scene.surfaces[static_cast<std::size_t>(patch.surface)].material;
         const Polygon& poly = patch.polygon;
         normals[p] = patch.normal.squaredNorm() > 0 ? patch.normal : normal(poly);
         corner[p].assign(poly.size(), -1);
@@ -86,20 +90,25 @@ ShadedMesh shaded_mesh(const Scene& scene, const std::vector<Rgb>& values, bool 
         return static_cast<int>(mesh.positions.size()) - 1;
     };
     for (const auto& g : groups) {
-        std::vector<std::pair<Vec3, int>> clusters;  // (normal of the first member, vertex)
+        struct Cluster {
+            Vec3 normal;  // of the first member
+            int material;
+            int vertex;
+        };
+        std::vector<Cluster> clusters;
         for (const Corner& c : g) {
             const auto p = static_cast<std::size_t>(c.patch);
             const Vec3& x = scene.patches[p].polygon[static_cast<std::size_t>(c.k)];
             int id = -1;
             if (!flat)
-                for (const auto& [nrm, v] : clusters)
-                    if (nrm.dot(normals[p]) >= cos_crease) {
-                        id = v;
+                for (const Cluster& cl : clusters)
+                    if (cl.material == material[p] && cl.normal.dot(normals[p]) >= cos_crease) {
+                        id = cl.vertex;
                         break;
                     }
             if (id < 0) {
                 id = new_vertex(x);
-                clusters.emplace_back(normals[p], id);
+                clusters.push_back({normals[p], material[p], id});
             }
             corner[p][static_cast<std::size_t>(c.k)] = id;
             add(p, id);

@@ -1,9 +1,9 @@
 #pragma once
 /// Pictures of a solution: a software rasteriser for a pinhole camera (z-buffer, perspective-
 /// correct interpolation, supersampled), radiosity shading (Gouraud from patch values smoothed
-/// to the vertices — area-weighted over the patches meeting at a vertex within a 20° crease
-/// angle — or flat), false-colour heat maps with a colour bar, and 3D export with
-/// per-vertex colours (PLY, glTF 2.0).
+/// to the vertices — area-weighted over the patches of one material meeting at a vertex
+/// within a 20° crease angle — or flat), false-colour heat maps with a colour bar, and 3D export
+/// with per-vertex colours (PLY, glTF 2.0).
 
 #include <cstdint>
 #include <optional>
