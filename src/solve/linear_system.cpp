@@ -40,6 +40,7 @@ namespace detail {
 namespace {
 
 constexpr Eigen::Index kRowBlock = 32;  // rows per parallel task: amortises the dispatch
+constexpr Eigen::Index kShootingTransposeMax = 8192;
 
 double max_abs(const Columns& x) { return x.size() ? x.cwiseAbs().maxCoeff() : 0.0; }
 
@@ -145,6 +146,11 @@ long long run_shooting(const DenseMatrix& F, const std::vector<double>& areas, c
     x.setZero();
     r = c;
     long long it = 0;
+    // Columns of a row-major F are strided: a transposed copy makes each shot one contiguous
+    // pass, at the cost of N² doubles (skipped above kShootingTransposeMax patches).
+    const bool transposed = n <= kShootingTransposeMax;
+    DenseMatrix Ft;
+    if (transposed) Ft = F.transpose();
     auto recompute_residual = [&] {
         multiply(F, x, y, o.threads);
         r = c + (d.array() * y.array()).matrix() - x;
@@ -182,8 +188,14 @@ long long run_shooting(const DenseMatrix& F, const std::vector<double>& areas, c
             x(i, k) += delta;
             r(i, k) = 0.0;
             if (delta == 0.0) continue;
-            for (Eigen::Index j = 0; j < n; ++j)
-                if (j != i) r(j, k) += d(j, k) * F(j, i) * delta;
+            if (transposed) {
+                const double* col = Ft.data() + i * n;  // row i of Fᵀ = column i of F
+                for (Eigen::Index j = 0; j < n; ++j)
+                    if (j != i) r(j, k) += d(j, k) * col[j] * delta;
+            } else {
+                for (Eigen::Index j = 0; j < n; ++j)
+                    if (j != i) r(j, k) += d(j, k) * F(j, i) * delta;
+            }
         }
         ++it;
     }

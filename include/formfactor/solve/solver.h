@@ -22,7 +22,8 @@ enum class SolverKind {
     jacobi,        ///< x ← c + D F x, rows in parallel (a dense matrix-vector product per sweep)
     gauss_seidel,  ///< in-place sweeps in patch order (sequential, usually ~2× fewer sweeps)
     shooting,      ///< progressive refinement (Cohen, Chen, Wallace & Greenberg 1988): shoot
-                   ///< the patch with the most unshot power A_i·|Δx_i| (Southwell order)
+                   ///< the patch with the most unshot power A_i·|Δx_i| (Southwell order);
+                   ///< reads columns of F (a transposed copy, N² doubles, up to 8192 patches)
     direct,        ///< LU with partial pivoting of I − D F (Eigen), O(N³): the reference
 };
 
