@@ -167,10 +167,20 @@ std::string gltf(const detail::ShadedMesh& m, const std::vector<Rgb>& colour, bo
 
 }  // namespace
 
+bool is_mesh_path(const std::string& path) {
+    const std::string ext = extension_of(path);
+    return ext == ".ply" || ext == ".gltf" || ext == ".glb";
+}
+
 void write_mesh(const std::string& path, const Scene& scene, const std::vector<Rgb>& radiance,
                 const ExportOptions& options) {
+    detail::write_bytes_atomically(path, encode_mesh(path, scene, radiance, options));
+}
+
+std::string encode_mesh(const std::string& path, const Scene& scene,
+                        const std::vector<Rgb>& radiance, const ExportOptions& options) {
     const std::string ext = extension_of(path);
-    if (ext != ".ply" && ext != ".gltf" && ext != ".glb")
+    if (!is_mesh_path(path))
         throw OptionError("-o",
                           "unknown 3D export extension '" + ext + "' (use .ply, .gltf or .glb)");
     if (radiance.size() != scene.patches.size())

@@ -394,7 +394,7 @@ Image render_false_colour(const Scene& scene, const FalseColourField& field,
     return img;
 }
 
-void write_png(const std::string& path, const Image& image) {
+std::string encode_png(const Image& image) {
     if (image.width < 1 || image.height < 1 ||
         image.rgb.size() !=
             static_cast<std::size_t>(image.width) * static_cast<std::size_t>(image.height) * 3)
@@ -406,8 +406,12 @@ void write_png(const std::string& path, const Image& image) {
     };
     if (!stbi_write_png_to_func(sink, &bytes, image.width, image.height, 3, image.rgb.data(),
                                 image.width * 3))
-        throw InputError(path, 0, "PNG encoding failed");
-    detail::write_bytes_atomically(path, bytes);
+        throw Error("PNG encoding failed");
+    return bytes;
+}
+
+void write_png(const std::string& path, const Image& image) {
+    detail::write_bytes_atomically(path, encode_png(image));
 }
 
 }  // namespace formfactor

@@ -51,21 +51,29 @@ const std::vector<std::string> kThermalHeader = {
 
 }  // namespace
 
-void write_radiosity_csv(const std::string& path, const std::vector<Rgb>& radiosity) {
+std::string radiosity_csv_text(const std::vector<Rgb>& radiosity) {
     std::string out = "patch,radiosity_r,radiosity_g,radiosity_b\n";
     for (std::size_t i = 0; i < radiosity.size(); ++i)
         out += fmt::format("{},{},{},{}\n", i, num(radiosity[i][0]), num(radiosity[i][1]),
                            num(radiosity[i][2]));
-    detail::write_bytes_atomically(path, out);
+    return out;
 }
 
-void write_thermal_csv(const std::string& path, const ThermalResult& r) {
+std::string thermal_csv_text(const ThermalResult& r) {
     std::string out = "patch,area,emissivity,temperature,radiosity,net_flux,net_power\n";
     for (std::size_t i = 0; i < r.radiosity.size(); ++i)
         out += fmt::format("{},{},{},{},{},{},{}\n", i, num(r.area[i]), num(r.emissivity[i]),
                            num(r.temperature[i]), num(r.radiosity[i]), num(r.net_flux[i]),
                            num(r.net_power[i]));
-    detail::write_bytes_atomically(path, out);
+    return out;
+}
+
+void write_radiosity_csv(const std::string& path, const std::vector<Rgb>& radiosity) {
+    detail::write_bytes_atomically(path, radiosity_csv_text(radiosity));
+}
+
+void write_thermal_csv(const std::string& path, const ThermalResult& result) {
+    detail::write_bytes_atomically(path, thermal_csv_text(result));
 }
 
 SolutionTable read_solution_csv(const std::string& path,

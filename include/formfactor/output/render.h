@@ -94,6 +94,9 @@ Image render_false_colour(const Scene& scene, const FalseColourField& field,
 /// The inferno colour map at t ∈ [0, 1] (clamped), as linear-light-free display sRGB in [0, 1].
 Rgb colormap_inferno(double t);
 
+/// The PNG file's bytes (stb_image_write).
+std::string encode_png(const Image& image);
+
 /// Writes a PNG (atomically: a temporary, renamed on success). Throws InputError(path, 0, ...)
 /// when it cannot be written.
 void write_png(const std::string& path, const Image& image);
@@ -114,5 +117,12 @@ struct ExportOptions {
 /// glTF). `radiance` as for render_radiosity. Throws OptionError("-o") for another extension.
 void write_mesh(const std::string& path, const Scene& scene, const std::vector<Rgb>& radiance,
                 const ExportOptions& options = {});
+
+/// The bytes write_mesh() would write to a file named `path` (its extension picks the format).
+std::string encode_mesh(const std::string& path, const Scene& scene,
+                        const std::vector<Rgb>& radiance, const ExportOptions& options = {});
+
+/// True when `path` ends in .ply, .gltf or .glb (case-insensitive).
+bool is_mesh_path(const std::string& path);
 
 }  // namespace formfactor

@@ -22,6 +22,9 @@ namespace formfactor {
 void write_radiosity_csv(const std::string& path, const std::vector<Rgb>& radiosity);
 /// Writes the thermal table atomically.
 void write_thermal_csv(const std::string& path, const ThermalResult& result);
+/// The same tables as text (for a caller that writes them itself, e.g. in a transaction).
+std::string radiosity_csv_text(const std::vector<Rgb>& radiosity);
+std::string thermal_csv_text(const ThermalResult& result);
 
 /// A solution table read back: radiosity tables fill `radiosity`; thermal tables fill every
 /// field (radiosity = J in all three channels).
