@@ -197,9 +197,7 @@ std::string encode_mesh(const std::string& path, const Scene& scene,
         colour[v] = mesh.values[v].allFinite()
                         ? Rgb((exposure * mesh.values[v]).cwiseMax(0.0).cwiseMin(1.0))
                         : Rgb(Rgb::Constant(0.5));
-    const std::string bytes =
-        ext == ".ply" ? ply(mesh, colour, options.binary) : gltf(mesh, colour, ext == ".glb");
-    detail::write_bytes_atomically(path, bytes);
+    return ext == ".ply" ? ply(mesh, colour, options.binary) : gltf(mesh, colour, ext == ".glb");
 }
 
 }  // namespace formfactor
