@@ -351,7 +351,7 @@ Image render_false_colour(const Scene& scene, const FalseColourField& field,
         [&](int x, int y) -> Rgb {
             const std::size_t k = static_cast<std::size_t>(y) * static_cast<std::size_t>(fb.w) +
                                   static_cast<std::size_t>(x);
-            if (fb.patch[k] < 0) return Rgb::Zero();
+            if (fb.patch[k] < 0) return Rgb::Constant(0.25);  // grey: inferno starts at black
             if (fb.back[k]) return Rgb::Constant(0.3);
             const double v = fb.value[k][0];
             if (!std::isfinite(v)) return Rgb::Constant(0.5);
@@ -361,7 +361,7 @@ Image render_false_colour(const Scene& scene, const FalseColourField& field,
     Image img;
     img.width = W;
     img.height = H;
-    img.rgb.assign(static_cast<std::size_t>(W) * static_cast<std::size_t>(H) * 3, 0);
+    img.rgb.assign(static_cast<std::size_t>(W) * static_cast<std::size_t>(H) * 3, 64);
     for (int y = 0; y < H; ++y) std::copy_n(view.pixel(0, y), 3 * view_w, img.pixel(0, y));
     // Panel: title, bar (max at the top), three labels.
     if (W - view_w >= 1) {
