@@ -127,7 +127,7 @@ TEST_CASE("render: false colour with a colour bar") {
     bool bar = false;
     for (int x = 200; x < 320 && !bar; ++x) {
         const unsigned char* top = png.at(x, 40);
-        const unsigned char* bottom = png.at(x, 230);
+        const unsigned char* bottom = png.at(x, 225);
         if (top[0] > 200 && top[1] > 200 && top[2] < 180 && bottom[0] < 40 && bottom[1] < 40)
             bar = true;
     }
