@@ -206,3 +206,42 @@ TEST_CASE("render: bad sizes, cameras and value counts are errors") {
     CHECK(info.triangles == 10);
     CHECK_THROWS_AS(write_png("/nonexistent-dir/x.png", render_radiosity(t, r2, o)), InputError);
 }
+
+#include "formfactor/methods/method.h"
+#include "formfactor/solve/radiosity.h"
+
+TEST_CASE("render: the empty Cornell box solved and seen through its published camera") {
+    Scene s = load_scene("cornell-empty");
+    subdivide(s, SubdivisionOptions{4, 0.0});
+    MethodOptions mo;
+    mo.progress = false;
+    nlohmann::json details;
+    const FormFactors ff = make_method("analytic")->compute(s, mo, details);
+    const RadiosityResult r = solve_radiosity(ff, properties_from_scene(s));
+    RenderOptions o;
+    o.width = 120;
+    o.height = 90;
+    for (std::size_t i = 0; i < s.patches.size(); ++i)
+        o.emitters.push_back(
+            s.materials[std::size_t(s.surfaces[std::size_t(s.patches[i].surface)].material)]
+                .emission.maxCoeff() > 0.0);
+    const std::string path = temp_path("cornell.png");
+    write_png(path, render_radiosity(s, r.radiosity, o));
+    const Png png = read_png(path);
+    CHECK(png.w == 120);
+    CHECK(png.h == 90);
+    // The camera looks along +z with +y up: the red wall (x ≈ 556) is on the left, the green
+    // one (x = 0) on the right; colour bleeding keeps them clearly red and green.
+    for (int y : {30, 45, 60}) {
+        const unsigned char* l = png.at(18, y);
+        const unsigned char* rr = png.at(101, y);
+        CHECK(l[0] > l[1] + 60);
+        CHECK(l[0] > l[2] + 60);
+        CHECK(rr[1] > rr[0] + 20);
+        CHECK(rr[1] > rr[2] + 40);
+    }
+    // Colour bleeding: the white back wall near the red wall is redder than near the green one.
+    const unsigned char* bl = png.at(34, 45);
+    const unsigned char* br = png.at(86, 45);
+    CHECK(int(bl[0]) - int(bl[1]) > int(br[0]) - int(br[1]));
+}
