@@ -12,6 +12,7 @@
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/patch_table.h"
 #include "formfactor/output/report.h"
+#include "solve_common.h"
 
 namespace formfactor::cli {
 
@@ -24,6 +25,7 @@ struct ComputeArgs {
     std::string report;
     std::string patches;
     std::string standard_error;
+    RepairArgs repair;
 };
 
 void run_compute(const ComputeArgs& args) {
@@ -31,6 +33,7 @@ void run_compute(const ComputeArgs& args) {
     // Every option and output path is checked before any work.
     args.scene.validate();
     args.method.validate();
+    parse_repair_mode(args.repair.mode);
     if (args.output.empty()) {
         throw OptionError("-o", "an output file is required (.csv, .npy or .txt)");
     }
@@ -72,8 +75,10 @@ void run_compute(const ComputeArgs& args) {
     MethodOptions options = args.method.method_options();
     options.progress = true;
     nlohmann::json details = nlohmann::json::object();
-    const FormFactors ff = method->compute(scene, options, details);
+    FormFactors ff = method->compute(scene, options, details);
     times.add("compute", sw.lap());
+    const std::optional<RepairReport> repaired = args.repair.apply(ff, scene);
+    if (repaired) times.add("repair", sw.lap());
 
     OutputTransaction tx;
     MatrixFileInfo info;
@@ -134,7 +139,9 @@ void run_compute(const ComputeArgs& args) {
                                             ? nlohmann::json(nullptr)
                                             : nlohmann::json(args.standard_error);
         ctx.outputs["report"] = args.report;
-        const nlohmann::json report = make_report(scene, ff, ctx);
+        ctx.options["repair"] = args.repair.mode;
+        nlohmann::json report = make_report(scene, ff, ctx);
+        if (repaired) report["repair"] = to_json(*repaired);
         const std::string text = json_text(report);
         tx.stage(args.report, [&](std::ostream& out) {
             out.write(text.data(), static_cast<std::streamsize>(text.size()));
@@ -160,6 +167,7 @@ void add_compute_command(CLI::App& app) {
         "patch i) and write it to a .csv, .npy or .txt (View3D 3.2) file");
     args->scene.add_to(cmd);
     args->method.add_to(cmd);
+    args->repair.add_to(cmd);
     cmd->add_option("-o,--output", args->output,
                     "Matrix file: .csv (N×N, %.17g), .npy (float64) or .txt (View3D 3.2 text)")
         ->type_name("OUT");
