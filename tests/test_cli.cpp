@@ -230,7 +230,7 @@ TEST_CASE("cli: run on an unoccluded scene, into another directory") {
 
 TEST_CASE("cli: the default method handles occlusion; standard errors of Monte-Carlo methods") {
     Cli cli;
-    CliResult r = cli.run("compute cornell -o F.npy --report r.json --standard-error se.csv");
+    CliResult r = cli.run("compute cornell -o F.npy --report r.json --stderr se.csv");
     INFO(describe(r));
     REQUIRE(r.code == 0);
     CHECK(r.out.find("std error") != std::string::npos);
@@ -239,6 +239,12 @@ TEST_CASE("cli: the default method handles occlusion; standard errors of Monte-C
     CHECK(report["options"]["method_given"] == false);
     CHECK(report["outputs"]["standard_error"] == "se.csv");
     CHECK(read_matrix(cli.file("se.csv")).rows() == 20);
+    // Same formats as -o, View3D's text layout included; the old spelling still works.
+    r = cli.run("compute plates --method mc-area --samples 256 -o F2.npy --stderr se2.txt");
+    REQUIRE(r.code == 0);
+    CHECK(read_matrix(cli.file("se2.txt")).rows() == 2);
+    r = cli.run("compute plates --method mc-area --samples 256 -o F3.npy --standard-error se3.npy");
+    CHECK(r.code == 0);
 
     r = cli.run("compute cornell --method analytic -o G.npy");
     CHECK(r.code == 1);  // analytic refuses occlusion, with one line saying why
@@ -248,7 +254,7 @@ TEST_CASE("cli: the default method handles occlusion; standard errors of Monte-C
     r = cli.run("compute plates -o G.npy --standard-error se2.npy");
     CHECK(r.code == 2);
     CHECK(r.one_error_line());
-    CHECK(r.err.find("--standard-error") != std::string::npos);
+    CHECK(r.err.find("--stderr") != std::string::npos);
     CHECK_FALSE(std::filesystem::exists(cli.file("G.npy")));
     CHECK_FALSE(std::filesystem::exists(cli.file("se2.npy")));
 }
@@ -298,7 +304,7 @@ TEST_CASE("cli: bad options give one line naming the option, exit 2, no output")
                          {"compute plates -o F.csv --method nosuch", 2, "--method"},
                          {"compute plates -o F.csv --samples -5", 2, "--samples"},
                          {"compute plates -o F.csv --sampler bogus", 2, "--sampler"},
-                         {"compute plates -o F.csv --standard-error se.txt", 2, "--standard-error"},
+                         {"compute plates -o F.csv --stderr se.tsv", 2, "--stderr"},
                          {"compute plates", 2, "-o: an output file is required"},
                          {"compute plates -o F.xyz", 2,
                           "-o: unknown output extension '.xyz' (use .csv, .npy or .txt)"},

@@ -55,14 +55,11 @@ void run_compute(const ComputeArgs& args) {
     }
 
     if (!args.standard_error.empty()) {
-        if (matrix_format_for(args.standard_error, "--standard-error") ==
-            MatrixFormat::View3dText) {
-            throw OptionError("--standard-error", "use .csv or .npy (View3D's .txt holds F only)");
-        }
+        matrix_format_for(args.standard_error, "--stderr");
         check_output_directory(args.standard_error);
         for (const std::string* other : {&args.output, &args.report, &args.patches}) {
             if (!other->empty() && same_file(args.standard_error, *other)) {
-                throw OptionError("--standard-error", "is the same file as another output");
+                throw OptionError("--stderr", "is the same file as another output");
             }
         }
     }
@@ -85,31 +82,30 @@ void run_compute(const ComputeArgs& args) {
     info.areas = ff.areas;
     info.emissivities = patch_emissivities(scene);
     info.enclosure = scene.enclosure;
-    tx.stage(args.output, [&](std::ostream& out) {
-        switch (matrix_format_for(args.output)) {
-            case MatrixFormat::Csv:
-                write_csv_matrix(out, ff.F);
-                break;
-            case MatrixFormat::Npy:
-                write_npy_matrix(out, ff.F);
-                break;
-            case MatrixFormat::View3dText:
-                write_view3d_text(out, ff.F, info);
-                break;
-        }
-    });
+    // F and its standard errors go out in the same formats (-o and --stderr).
+    auto stage_matrix = [&](const std::string& path, const DenseMatrix& m) {
+        tx.stage(path, [&](std::ostream& out) {
+            switch (matrix_format_for(path)) {
+                case MatrixFormat::Csv:
+                    write_csv_matrix(out, m);
+                    break;
+                case MatrixFormat::Npy:
+                    write_npy_matrix(out, m);
+                    break;
+                case MatrixFormat::View3dText:
+                    write_view3d_text(out, m, info);
+                    break;
+            }
+        });
+    };
+    stage_matrix(args.output, ff.F);
     if (!args.standard_error.empty()) {
         if (!ff.standard_error) {
-            throw OptionError("--standard-error", "method '" + method->name() +
-                                                      "' gives no standard errors (it is exact; "
-                                                      "the Monte-Carlo methods give them)");
+            throw OptionError("--stderr", "method '" + method->name() +
+                                              "' gives no standard errors (it is exact; "
+                                              "the Monte-Carlo methods give them)");
         }
-        tx.stage(args.standard_error, [&](std::ostream& out) {
-            if (matrix_format_for(args.standard_error) == MatrixFormat::Npy)
-                write_npy_matrix(out, *ff.standard_error);
-            else
-                write_csv_matrix(out, *ff.standard_error);
-        });
+        stage_matrix(args.standard_error, *ff.standard_error);
     }
     if (!args.patches.empty()) {
         tx.stage(args.patches, [&](std::ostream& out) { write_patch_table(out, scene); });
@@ -177,9 +173,9 @@ void add_compute_command(CLI::App& app) {
     cmd->add_option("--patches", args->patches,
                     "Also write the patch table (index, surface, area, centroid, normal) as CSV")
         ->type_name("PATCHES.csv");
-    cmd->add_option("--standard-error", args->standard_error,
-                    "Also write the standard error of each entry (.csv or .npy; Monte-Carlo "
-                    "methods only)")
+    cmd->add_option("--stderr,--standard-error", args->standard_error,
+                    "Also write the standard error of each entry (same formats as -o; "
+                    "Monte-Carlo methods only)")
         ->type_name("SE");
     cmd->callback([args] { run_compute(*args); });
 }
