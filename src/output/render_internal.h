@@ -47,7 +47,7 @@ int text_width(const std::string& text, int scale);
 /// Height in pixels of one line at `scale`.
 int text_height(int scale);
 
-/// Writes bytes to `path` through a temporary in the same directory and a rename.
+/// Writes bytes to `path` atomically (write_file_atomically: a temporary, then a rename).
 void write_bytes_atomically(const std::string& path, const std::string& bytes);
 
 }  // namespace formfactor::detail

@@ -8,6 +8,7 @@
 #include <unordered_map>
 
 #include "formfactor/core/error.h"
+#include "formfactor/output/atomic_file.h"
 #include "output/render_internal.h"
 
 namespace formfactor::detail {
@@ -161,24 +162,9 @@ double patch_luminance_quantile(const Scene& scene, const std::vector<Rgb>& valu
 }
 
 void write_bytes_atomically(const std::string& path, const std::string& bytes) {
-    const std::string tmp = path + ".tmp." + std::to_string(::getpid());
-    {
-        std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-        if (!out) throw InputError(path, 0, "cannot write (does the directory exist?)");
+    write_file_atomically(path, [&](std::ostream& out) {
         out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-        out.flush();
-        if (!out) {
-            out.close();
-            std::remove(tmp.c_str());
-            throw InputError(path, 0, "write failed (disk full?)");
-        }
-    }
-    std::error_code ec;
-    std::filesystem::rename(tmp, path, ec);
-    if (ec) {
-        std::remove(tmp.c_str());
-        throw InputError(path, 0, "cannot rename the temporary file: " + ec.message());
-    }
+    });
 }
 
 }  // namespace formfactor::detail
