@@ -1,10 +1,6 @@
-#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
-#include <filesystem>
-#include <fstream>
 #include <unordered_map>
 
 #include "formfactor/core/error.h"
