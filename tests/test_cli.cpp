@@ -43,7 +43,7 @@ TEST_CASE("cli: --version and --help on every subcommand") {
     CliResult r = cli.run("--version");
     CHECK(r.code == 0);
     CHECK(r.out == "formfactor " FF_VERSION "\n");
-    for (const char* sub : {"", "compute ", "point ", "info ", "run "}) {
+    for (const char* sub : {"", "compute ", "point ", "info ", "run ", "solve ", "render "}) {
         r = cli.run(std::string(sub) + "--help");
         INFO(sub, describe(r));
         CHECK(r.code == 0);
@@ -183,15 +183,21 @@ TEST_CASE("cli: run writes the main job into out/" * doctest::test_suite("slow")
     const CliResult r = cli.run("run");
     INFO(describe(r));
     REQUIRE(r.code == 0);
-    for (const char* f : {"out/formfactors.npy", "out/formfactors.csv", "out/patches.csv",
-                          "out/report.json", "out/standard_errors.npy"}) {
+    for (const char* f :
+         {"out/formfactors.npy", "out/formfactors.csv", "out/patches.csv", "out/report.json",
+          "out/standard_errors.npy", "out/radiosity.csv", "out/cornell.png", "out/cornell.ply"}) {
         CHECK(std::filesystem::exists(cli.file(f)));
         CHECK(r.out.find(f) != std::string::npos);
     }
     const auto report = nlohmann::json::parse(read_text(cli.file("out/report.json")));
     CHECK(report["command"] == "run");
     CHECK(report["scene"]["name"] == "cornell");
-    CHECK(report["method"] == "mc-target");  // the default for a scene with occlusion
+    // default_method picks mc-target for a scene with occlusion; run prefers mc-hemisphere
+    // (a whole row per set of rays) for its fine subdivision, and says so.
+    CHECK(report["method"] == "mc-hemisphere");
+    CHECK(r.out.find("note: cornell occludes") != std::string::npos);
+    CHECK(report["solve"]["solver"]["converged"] == true);
+    CHECK(report["render"]["width"] == 512);
     const std::size_t n = report["N"].get<std::size_t>();
     CHECK(n >= 100);
     const DenseMatrix F = read_matrix(cli.file("out/formfactors.npy"));
@@ -203,7 +209,7 @@ TEST_CASE("cli: run writes the main job into out/" * doctest::test_suite("slow")
     std::size_t files = 0;
     for ([[maybe_unused]] const auto& e : std::filesystem::directory_iterator(cli.file("out")))
         ++files;
-    CHECK(files == 5);  // no temporaries left
+    CHECK(files == 8);  // no temporaries left
 }
 
 TEST_CASE("cli: run on an unoccluded scene, into another directory") {
@@ -213,11 +219,13 @@ TEST_CASE("cli: run on an unoccluded scene, into another directory") {
     REQUIRE(r.code == 0);
     const auto report = nlohmann::json::parse(read_text(cli.file("res/report.json")));
     CHECK(report["method"] == "analytic");
-    CHECK(report["N"] == 18);  // run's default subdivision, 3x3 per surface
+    CHECK(report["N"] == 288);  // run's default subdivision, 12x12 per surface
     CHECK(report["diagnostics"]["standard_error"].is_null());
     CHECK_FALSE(std::filesystem::exists(cli.file("res/standard_errors.npy")));
-    CHECK(std::abs(read_matrix(cli.file("res/formfactors.npy")).topRightCorner(9, 9).sum() / 9.0 -
+    CHECK(std::abs(read_matrix(cli.file("res/formfactors.npy")).topRightCorner(144, 144).sum() /
+                       144.0 -
                    kC11PlatesF12) < kExactTol);
+    CHECK(std::filesystem::exists(cli.file("res/plates.png")));
 }
 
 TEST_CASE("cli: the default method handles occlusion; standard errors of Monte-Carlo methods") {

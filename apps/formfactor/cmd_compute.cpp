@@ -16,6 +16,7 @@
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/patch_table.h"
 #include "formfactor/output/report.h"
+#include "solve_common.h"
 
 namespace formfactor::cli {
 
@@ -30,6 +31,7 @@ struct ComputeArgs {
     std::string standard_error;
     bool per_surface = false;  ///< --per-surface
     bool per_patch = false;    ///< --per-patch
+    RepairArgs repair;
 };
 
 // Rows of -o (and --stderr): per surface when asked, or by default for View3D (.vs3) input,
@@ -48,6 +50,7 @@ void run_compute(const ComputeArgs& args) {
     // Every option and output path is checked before any work.
     args.scene.validate();
     args.method.validate();
+    parse_repair_mode(args.repair.mode);
     if (args.output.empty()) {
         throw OptionError("-o", "an output file is required (.csv, .npy or .txt)");
     }
@@ -86,8 +89,10 @@ void run_compute(const ComputeArgs& args) {
     MethodOptions options = args.method.method_options();
     options.progress = true;
     nlohmann::json details = nlohmann::json::object();
-    const FormFactors ff = method->compute(scene, options, details);
+    FormFactors ff = method->compute(scene, options, details);
     times.add("compute", sw.lap());
+    const std::optional<RepairReport> repaired = args.repair.apply(ff, scene);
+    if (repaired) times.add("repair", sw.lap());
 
     // What -o and --stderr hold: the patch matrix, or the per-surface one (rows = surfaces).
     const bool per_surface = rows_per_surface(args);
@@ -168,7 +173,9 @@ void run_compute(const ComputeArgs& args) {
                                             : nlohmann::json(args.standard_error);
         ctx.options["per_surface"] = per_surface;
         ctx.outputs["report"] = args.report;
+        ctx.options["repair"] = args.repair.mode;
         nlohmann::json report = make_report(scene, ff, ctx);
+        if (repaired) report["repair"] = to_json(*repaired);
         if (per_surface) {
             // The report describes the patch computation; this block the matrix in -o.
             nlohmann::json rows = nlohmann::json::array();
@@ -217,6 +224,7 @@ void add_compute_command(CLI::App& app) {
         "patch i) and write it to a .csv, .npy or .txt (View3D 3.2) file");
     args->scene.add_to(cmd);
     args->method.add_to(cmd);
+    args->repair.add_to(cmd);
     cmd->add_option("-o,--output", args->output,
                     "Matrix file: .csv (N×N, %.17g), .npy (float64) or .txt (View3D 3.2 text)")
         ->type_name("OUT");

@@ -16,5 +16,9 @@ void add_point_command(CLI::App& app);
 void add_info_command(CLI::App& app);
 /// `formfactor run [SCENE]`: the main job, everything into out/.
 void add_run_command(CLI::App& app);
+/// `formfactor solve SCENE -o RESULT.csv [...]`: radiosity or thermal solution.
+void add_solve_command(CLI::App& app);
+/// `formfactor render SCENE --radiosity RESULT.csv -o image.png [...]`: pictures and meshes.
+void add_render_command(CLI::App& app);
 
 }  // namespace formfactor::cli
