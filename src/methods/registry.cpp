@@ -1,11 +1,15 @@
 #include "formfactor/core/error.h"
+#include "formfactor/methods/hemicube.h"
+#include "formfactor/methods/hemiplane.h"
 #include "formfactor/methods/method.h"
 
 namespace formfactor {
 
-std::vector<std::string> method_names() { return {}; }
+std::vector<std::string> method_names() { return {"hemicube", "hemiplane"}; }
 
 std::unique_ptr<Method> make_method(const std::string& name) {
+    if (name == "hemicube") return std::make_unique<HemicubeMethod>();
+    if (name == "hemiplane") return std::make_unique<HemiplaneMethod>();
     throw OptionError("--method", "unknown method '" + name + "'");
 }
 
