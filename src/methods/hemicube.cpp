@@ -73,7 +73,7 @@ std::vector<double> hemicube_point_row(const Scene& scene, const Vec3& point, co
     raster.render(occ, point_frame(point, normal, rotation), exclude_patch,
                   projection::kRelativeNear * occ.scale, projection::kRelativeEdgeOn * occ.scale);
     std::vector<double> row(scene.patches.size(), 0.0);
-    raster.accumulate(delta, 1.0, row.data());
+    raster.accumulate(projection::HemicubeDelta(delta, resolution), 1.0, row.data(), row.size());
     return row;
 }
 
@@ -161,7 +161,7 @@ FormFactors HemicubeMethod::compute(const Scene& scene, const MethodOptions& opt
         out.areas[i] = p.area > 0.0 ? p.area : area(p.polygon);
     }
     const int R = options.resolution;
-    const std::vector<double> delta = hemicube_delta_form_factors(R);
+    const projection::HemicubeDelta delta(hemicube_delta_form_factors(R), R);
     const projection::Occluders occ = projection::build_occluders(scene);
     const double near = projection::kRelativeNear * occ.scale;
     const double edge_on = projection::kRelativeEdgeOn * occ.scale;
@@ -179,7 +179,7 @@ FormFactors HemicubeMethod::compute(const Scene& scene, const MethodOptions& opt
             const double rotation = 2.0 * kPi * projection::stream_uniform(options.seed, i, k);
             raster->render(occ, projection::make_frame(points[k].x, nrm, rotation),
                            static_cast<int>(i), near, edge_on);
-            raster->accumulate(delta, points[k].weight, row);
+            raster->accumulate(delta, points[k].weight, row, n);
         }
         row[i] = 0.0;
         hemicubes.fetch_add(points.size(), std::memory_order_relaxed);
@@ -189,7 +189,7 @@ FormFactors HemicubeMethod::compute(const Scene& scene, const MethodOptions& opt
     details["resolution"] = R;
     details["points"] = options.points;
     details["hemicubes"] = hemicubes.load();
-    details["cells_per_hemicube"] = delta.size();
+    details["cells_per_hemicube"] = 3 * R * R;
     details["seed"] = options.seed;
     return out;
 }

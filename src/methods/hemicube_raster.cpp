@@ -4,11 +4,32 @@
 #include <cmath>
 #include <limits>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 namespace formfactor::projection {
 
 namespace {
 
-inline double coord(const P3& p, int k) { return k == 0 ? p.a : (k == 1 ? p.b : p.c); }
+inline double coord(const P3& p, int k) { return p.v[k]; }
+
+// The face whose axis is the largest coordinate of p: 0 top (c), 1 +a, 2 −a, 3 +b, 4 −b.
+inline int face_of(const P3& p) {
+    const double a = p.v[0], b = p.v[1], c = p.v[2];
+    const double aa = std::abs(a), ab = std::abs(b);
+    if (c >= aa && c >= ab) return 0;
+    if (aa >= ab) return a > 0 ? 1 : 2;
+    return b > 0 ? 3 : 4;
+}
+
+// ceil(x) clamped to [lo, hi]; cheaper than std::ceil on plain SSE2.
+inline int ceil_clamped(double x, int lo, int hi) {
+    if (!(x > lo)) return lo;  // also catches NaN
+    if (x >= hi) return hi;
+    const int t = static_cast<int>(x);
+    return t + (static_cast<double>(t) < x ? 1 : 0);
+}
 
 // The five clip planes of a face (bit k of an outcode = outside plane k).
 ClipPlane face_plane(const HemicubeFace& f, int k, double near) {
@@ -44,8 +65,9 @@ ClipPlane face_plane(const HemicubeFace& f, int k, double near) {
 HemicubeRaster::HemicubeRaster(int resolution)
     : R_(resolution),
       H_(resolution / 2),
-      depth_(static_cast<std::size_t>(resolution) * resolution * 3),
-      items_(depth_.size()) {}
+      cells_(static_cast<std::size_t>(resolution) * resolution * 3),
+      depth_(cells_ + 4),
+      items_(cells_ + 4) {}
 
 std::size_t HemicubeRaster::face_offset(int f) const {
     const std::size_t top = static_cast<std::size_t>(R_) * R_;
@@ -75,9 +97,9 @@ void HemicubeRaster::render(const Occluders& occ, const Frame& frame, int exclud
         double cmax = -std::numeric_limits<double>::infinity();
         for (int k = 0; k < n; ++k) {
             const double dx = occ.x[f0 + k] - ox, dy = occ.y[f0 + k] - oy, dz = occ.z[f0 + k] - oz;
-            loc[k] = {ux * dx + uy * dy + uz * dz, vx * dx + vy * dy + vz * dz,
-                      wx * dx + wy * dy + wz * dz};
-            cmax = std::max(cmax, loc[k].c);
+            loc[k] = {{ux * dx + uy * dy + uz * dz, vx * dx + vy * dy + vz * dz,
+                       wx * dx + wy * dy + wz * dz}};
+            cmax = std::max(cmax, loc[k].v[2]);
         }
         if (cmax <= 0.0) continue;
         if (item >= 0 && s < 0.0) item = kViewBackFace;
@@ -85,13 +107,28 @@ void HemicubeRaster::render(const Occluders& occ, const Frame& frame, int exclud
                               vx * occ.nx[p] + vy * occ.ny[p] + vz * occ.nz[p],
                               wx * occ.nx[p] + wy * occ.ny[p] + wz * occ.nz[p]};
         const double dl = -s;  // n·(vertex − origin)
+        // Fast path: every vertex in one face's frustum (its largest coordinate along that
+        // face's axis, above the base and the near plane) → the whole primitive is there.
+        {
+            int f0 = face_of(loc[0]);
+            bool single = true;
+            for (int k = 0; k < n && single; ++k) {
+                const HemicubeFace& fc = kHemicubeFaces[f0];
+                single = (k == 0 || face_of(loc[k]) == f0) && loc[k].v[2] >= 0.0 &&
+                         fc.sd * loc[k].v[fc.id] >= near;
+            }
+            if (single) {
+                draw(f0, loc, n, nl, dl, item);
+                continue;
+            }
+        }
         for (int f = 0; f < 5; ++f) {
             const HemicubeFace& fc = kHemicubeFaces[f];
             unsigned and_code = 31u, or_code = 0u;
             for (int k = 0; k < n; ++k) {
-                const double U = fc.su * coord(loc[k], fc.iu);
-                const double V = fc.sv * coord(loc[k], fc.iv);
-                const double D = fc.sd * coord(loc[k], fc.id);
+                const double U = fc.su * loc[k].v[fc.iu];
+                const double V = fc.sv * loc[k].v[fc.iv];
+                const double D = fc.sd * loc[k].v[fc.id];
                 unsigned code = 0u;
                 if (D - U < 0.0) code |= 1u;
                 if (D + U < 0.0) code |= 2u;
@@ -137,62 +174,90 @@ void HemicubeRaster::draw(int face, const P3* poly, int n, const double nl[3], d
 }
 
 // Scan conversion of a convex polygon in pixel coordinates. A cell is covered when its centre
-// is: rows with ymin ≤ y_c < ymax, and in a row xl ≤ x_c < xr, where xl is the largest crossing
-// of a left edge and xr the smallest of a right edge. Each edge's crossing is computed from its
-// lower end, so two polygons sharing an edge compute the same crossing: the cell goes to exactly
-// one of them (a top-left rule), no gaps, no double counting.
-void HemicubeRaster::raster(int face, const double* X, const double* Y, int n, double wx, double wy,
-                            double w0, int item) {
+// is: rows with ymin ≤ y_c < ymax, and in a row xl ≤ x_c < xr, xl on the left chain and xr on
+// the right chain of edges, both walked from the lowest vertex up. An edge's crossing is always
+// computed from its lower end, so two polygons sharing an edge compute the same crossing and the
+// cell goes to exactly one of them (a top-left rule): no gaps, no double counting.
+void HemicubeRaster::raster(int face, const double* X, const double* Y, int n, double wx,
+                            double wy, double w0, int item) {
     const int W = R_;
     const int H = face == 0 ? R_ : H_;
     double area2 = 0.0;
-    double ymin = Y[0], ymax = Y[0];
+    int kmin = 0, kmax = 0;
+    double xmin = X[0], xmax = X[0];
     for (int k = 0; k < n; ++k) {
         const int k1 = k + 1 == n ? 0 : k + 1;
         area2 += X[k] * Y[k1] - X[k1] * Y[k];
-        ymin = std::min(ymin, Y[k]);
-        ymax = std::max(ymax, Y[k]);
+        if (Y[k] < Y[kmin]) kmin = k;
+        if (Y[k] > Y[kmax]) kmax = k;
+        xmin = std::min(xmin, X[k]);
+        xmax = std::max(xmax, X[k]);
     }
-    if (area2 == 0.0 || !std::isfinite(area2)) return;
-    const int j0 = std::max(0, static_cast<int>(std::ceil(ymin - 0.5)));
-    const int j1 = std::min(H, static_cast<int>(std::ceil(ymax - 0.5)));
+    const int j0 = ceil_clamped(Y[kmin] - 0.5, 0, H);
+    const int j1 = ceil_clamped(Y[kmax] - 0.5, 0, H);
     if (j0 >= j1) return;
-    const bool ccw = area2 > 0.0;
-    double lx[kMaxClippedVertices], ly[kMaxClippedVertices], ls[kMaxClippedVertices];
-    double rx[kMaxClippedVertices], ry[kMaxClippedVertices], rs[kMaxClippedVertices];
-    int nl = 0, nr = 0;
-    for (int k = 0; k < n; ++k) {
-        const int k1 = k + 1 == n ? 0 : k + 1;
-        if (Y[k] == Y[k1]) continue;
-        const bool up = Y[k1] > Y[k];
-        const int lo = up ? k : k1, hi = up ? k1 : k;
-        const double slope = (X[hi] - X[lo]) / (Y[hi] - Y[lo]);
-        if (up == ccw) {
-            rx[nr] = X[lo];
-            ry[nr] = Y[lo];
-            rs[nr++] = slope;
-        } else {
-            lx[nl] = X[lo];
-            ly[nl] = Y[lo];
-            ls[nl++] = slope;
-        }
-    }
+    if (ceil_clamped(xmin - 0.5, 0, W) >= ceil_clamped(xmax - 0.5, 0, W)) return;
+    if (area2 == 0.0 || !std::isfinite(area2)) return;
+    // Counter-clockwise (X right, Y up): forward from the lowest vertex is the right chain.
+    const int step_right = area2 > 0.0 ? 1 : n - 1;
+    const int step_left = n - step_right;
+    int r0 = kmin, r1 = (kmin + step_right) % n;  // current right edge r0 → r1
+    int l0 = kmin, l1 = (kmin + step_left) % n;   // current left edge l0 → l1
     const std::size_t off = face_offset(face);
     float* depth = depth_.data() + off;
     int* items = items_.data() + off;
     const float fwx = static_cast<float>(wx);
+    double rslope = 0.0, lslope = 0.0;
+    bool rnew = true, lnew = true;
     for (int j = j0; j < j1; ++j) {
         const double yc = j + 0.5;
-        double xl = -std::numeric_limits<double>::infinity();
-        double xr = std::numeric_limits<double>::infinity();
-        for (int e = 0; e < nl; ++e) xl = std::max(xl, lx[e] + (yc - ly[e]) * ls[e]);
-        for (int e = 0; e < nr; ++e) xr = std::min(xr, rx[e] + (yc - ry[e]) * rs[e]);
-        const int i0 = std::max(0, static_cast<int>(std::ceil(xl - 0.5)));
-        const int i1 = std::min(W, static_cast<int>(std::ceil(xr - 0.5)));
+        while (Y[r1] < yc && r1 != kmax) {
+            r0 = r1;
+            r1 = (r1 + step_right) % n;
+            rnew = true;
+        }
+        while (Y[l1] < yc && l1 != kmax) {
+            l0 = l1;
+            l1 = (l1 + step_left) % n;
+            lnew = true;
+        }
+        if (rnew) {
+            rslope = Y[r1] > Y[r0] ? (X[r1] - X[r0]) / (Y[r1] - Y[r0]) : 0.0;
+            rnew = false;
+        }
+        if (lnew) {
+            lslope = Y[l1] > Y[l0] ? (X[l1] - X[l0]) / (Y[l1] - Y[l0]) : 0.0;
+            lnew = false;
+        }
+        const double xl = X[l0] + (yc - Y[l0]) * lslope;
+        const double xr = X[r0] + (yc - Y[r0]) * rslope;
+        const int i0 = ceil_clamped(xl - 0.5, 0, W);
+        const int i1 = ceil_clamped(xr - 0.5, 0, W);
         if (i0 >= i1) continue;
         const float wrow = static_cast<float>(w0 + wy * yc + wx * 0.5);
         float* drow = depth + static_cast<std::size_t>(j) * W;
         int* irow = items + static_cast<std::size_t>(j) * W;
+#if defined(__SSE2__)
+        // Aligned blocks of four cells with a lane mask for the span's ends: short spans (the
+        // common case with many small triangles) take one or two blocks and no scalar tail.
+        // Masked lanes store back what they loaded; the buffers have 4 cells of padding.
+        const __m128 vw = _mm_set1_ps(wrow), vdx = _mm_set1_ps(fwx);
+        const __m128i vitem = _mm_set1_epi32(item);
+        const __m128i vi0 = _mm_set1_epi32(i0 - 1), vi1 = _mm_set1_epi32(i1);
+        for (int b = i0 & ~3; b < i1; b += 4) {
+            const __m128i lane = _mm_add_epi32(_mm_set1_epi32(b), _mm_setr_epi32(0, 1, 2, 3));
+            const __m128i in_span =
+                _mm_and_si128(_mm_cmpgt_epi32(lane, vi0), _mm_cmplt_epi32(lane, vi1));
+            const __m128 w = _mm_add_ps(vw, _mm_mul_ps(vdx, _mm_cvtepi32_ps(lane)));
+            const __m128 d = _mm_loadu_ps(drow + b);
+            const __m128 m = _mm_and_ps(_mm_cmpgt_ps(w, d), _mm_castsi128_ps(in_span));
+            _mm_storeu_ps(drow + b, _mm_or_ps(_mm_and_ps(m, w), _mm_andnot_ps(m, d)));
+            const __m128i mi = _mm_castps_si128(m);
+            const __m128i old = _mm_loadu_si128(reinterpret_cast<const __m128i*>(irow + b));
+            _mm_storeu_si128(reinterpret_cast<__m128i*>(irow + b),
+                             _mm_or_si128(_mm_and_si128(mi, vitem), _mm_andnot_si128(mi, old)));
+        }
+#else
         for (int i = i0; i < i1; ++i) {
             const float w = wrow + fwx * static_cast<float>(i);
             if (w > drow[i]) {
@@ -200,25 +265,46 @@ void HemicubeRaster::raster(int face, const double* X, const double* Y, int n, d
                 irow[i] = item;
             }
         }
+#endif
     }
 }
 
-void HemicubeRaster::accumulate(const std::vector<double>& delta, double weight,
-                                double* row) const {
-    // Runs of one item are summed first: no store-to-load chain through row[] per cell.
-    const std::size_t n = items_.size();
-    int cur = items_[0];
-    double acc = 0.0;
-    for (std::size_t k = 0; k < n; ++k) {
-        const int it = items_[k];
-        if (it != cur) {
-            if (cur >= 0) row[cur] += weight * acc;
-            cur = it;
-            acc = 0.0;
+HemicubeDelta::HemicubeDelta(const std::vector<double>& delta, int resolution) {
+    const std::size_t top = static_cast<std::size_t>(resolution) * resolution;
+    const std::size_t side = top / 2;
+    top_.assign(delta.begin(), delta.begin() + static_cast<std::ptrdiff_t>(top));
+    side_.assign(delta.begin() + static_cast<std::ptrdiff_t>(top),
+                 delta.begin() + static_cast<std::ptrdiff_t>(top + side));
+}
+
+void HemicubeRaster::accumulate(const HemicubeDelta& delta, double weight, double* row,
+                                std::size_t patches) {
+    // Four interleaved partial sums, indexed by item + 4 (negative items land in slots 0-3 and
+    // are dropped): no branches, and four independent add chains instead of one per item.
+    const std::size_t stride = patches + 4;
+    partial_.assign(4 * stride, 0.0);
+    double* p0 = partial_.data() + 4;
+    double* p1 = p0 + stride;
+    double* p2 = p1 + stride;
+    double* p3 = p2 + stride;
+    auto add = [&](const int* ids, const float* d, std::size_t n) {
+        std::size_t k = 0;
+        for (; k + 4 <= n; k += 4) {
+            p0[ids[k]] += d[k];
+            p1[ids[k + 1]] += d[k + 1];
+            p2[ids[k + 2]] += d[k + 2];
+            p3[ids[k + 3]] += d[k + 3];
         }
-        acc += delta[k];
+        for (; k < n; ++k) p0[ids[k]] += d[k];
+    };
+    add(items_.data(), delta.top(), static_cast<std::size_t>(R_) * R_);
+    for (int f = 1; f < 5; ++f) {
+        add(items_.data() + face_offset(f), delta.side(), static_cast<std::size_t>(R_) * H_);
     }
-    if (cur >= 0) row[cur] += weight * acc;
+    for (std::size_t j = 0; j < patches; ++j) {
+        const double sum = (p0[j] + p1[j]) + (p2[j] + p3[j]);
+        if (sum != 0.0) row[j] += weight * sum;
+    }
 }
 
 }  // namespace formfactor::projection

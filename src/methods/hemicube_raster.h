@@ -8,6 +8,19 @@
 
 namespace formfactor::projection {
 
+/// The delta form factors in single precision, the four identical side faces stored once
+/// (the working set of a hemicube then fits in a core's cache at R = 256).
+class HemicubeDelta {
+public:
+    /// From hemicube_delta_form_factors(resolution).
+    HemicubeDelta(const std::vector<double>& delta, int resolution);
+    const float* top() const { return top_.data(); }
+    const float* side() const { return side_.data(); }
+
+private:
+    std::vector<float> top_, side_;
+};
+
 /// Z-buffer and item buffer of the five faces of a hemicube of resolution R, in the layout of
 /// hemicube_delta_form_factors(): top R × R, then +u, −u, +v, −v, each (R/2) × R.
 class HemicubeRaster {
@@ -19,12 +32,14 @@ class HemicubeRaster {
     /// occluders whose plane passes within `edge_on` of the origin are skipped.
     void render(const Occluders& occ, const Frame& frame, int exclude, double near, double edge_on);
 
-    /// row[item] += weight · Σ delta[cell] over the cells each patch owns.
-    void accumulate(const std::vector<double>& delta, double weight, double* row) const;
+    /// row[item] += weight · Σ delta[cell] over the cells each patch owns; row has `patches`
+    /// entries and every item drawn is below that.
+    void accumulate(const HemicubeDelta& delta, double weight, double* row, std::size_t patches);
 
+    /// The item of every cell (and 4 cells of padding at the end).
     const std::vector<int>& items() const { return items_; }
     int resolution() const { return R_; }
-    std::size_t cells() const { return items_.size(); }
+    std::size_t cells() const { return cells_; }
     /// Offset of face f (0 top, 1 +u, 2 −u, 3 +v, 4 −v) in the buffers.
     std::size_t face_offset(int f) const;
 
@@ -35,8 +50,10 @@ class HemicubeRaster {
 
     int R_;
     int H_;
+    std::size_t cells_;
     std::vector<float> depth_;  // inverse depth along the face axis; 0 = nothing
     std::vector<int> items_;
+    std::vector<double> partial_;  // scratch of accumulate()
 };
 
 /// One face of the hemicube in local coordinates p = (a, b, c): face coordinates

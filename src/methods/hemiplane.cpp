@@ -119,7 +119,7 @@ void HemiplaneSolver::project(const Occluders& occ, const projection::Frame& fra
         unsigned and_code = 31u, or_code = 0u;
         for (int k = 0; k < m; ++k) {
             const Vec3 d = Vec3(occ.x[f0 + k], occ.y[f0 + k], occ.z[f0 + k]) - o;
-            loc[k] = {frame.u.dot(d), frame.v.dot(d), frame.w.dot(d)};
+            loc[k] = {{frame.u.dot(d), frame.v.dot(d), frame.w.dot(d)}};
             unsigned code = 0u;
             for (int q = 0; q < 5; ++q) {
                 if (planes[q].distance(loc[k]) < 0.0) code |= 1u << q;
@@ -152,8 +152,8 @@ void HemiplaneSolver::add_polygon(const P3* poly, int n, const double nl[3], dou
     pp.xmin = pp.ymin = std::numeric_limits<double>::infinity();
     pp.xmax = pp.ymax = -std::numeric_limits<double>::infinity();
     for (int i = 0; i < n; ++i) {
-        X[i] = (poly[i].a / poly[i].c + W_) * k;
-        Y[i] = (poly[i].b / poly[i].c + W_) * k;
+        X[i] = (poly[i].v[0] / poly[i].v[2] + W_) * k;
+        Y[i] = (poly[i].v[1] / poly[i].v[2] + W_) * k;
         pp.xmin = std::min(pp.xmin, X[i]);
         pp.xmax = std::max(pp.xmax, X[i]);
         pp.ymin = std::min(pp.ymin, Y[i]);

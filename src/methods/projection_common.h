@@ -76,13 +76,13 @@ Frame make_frame(const Vec3& point, const Vec3& normal, double rotation);
 
 /// A point in local coordinates (a along u, b along v, c along w: the height above the base).
 struct P3 {
-    double a, b, c;
+    double v[3];
 };
 
 /// A clipping plane in local coordinates: inside where na·a + nb·b + nc·c − off ≥ 0.
 struct ClipPlane {
     double na, nb, nc, off;
-    double distance(const P3& p) const { return na * p.a + nb * p.b + nc * p.c - off; }
+    double distance(const P3& p) const { return na * p.v[0] + nb * p.v[1] + nc * p.v[2] - off; }
 };
 
 /// Sutherland–Hodgman clip of the convex polygon in[0..n) by one plane into out; returns the
