@@ -204,13 +204,18 @@ std::vector<std::array<int, 3>> triangulate(const Polygon& p) {
         return cross2(q[static_cast<std::size_t>(b)] - q[static_cast<std::size_t>(a)],
                       q[static_cast<std::size_t>(c)] - q[static_cast<std::size_t>(b)]) > 0.0;
     };
+    // Points on an ear's edge (within rounding) count as inside, so that an ear never passes
+    // through another vertex (which would leave a zero-area sliver behind).
+    double scale2 = 0.0;
+    for (const Vec2& v : q) scale2 = std::max(scale2, v.squaredNorm());
+    const double tol = -1e-12 * scale2;
     auto inside = [&](int a, int b, int c, int x) {
         const Vec2& A = q[static_cast<std::size_t>(a)];
         const Vec2& B = q[static_cast<std::size_t>(b)];
         const Vec2& C = q[static_cast<std::size_t>(c)];
         const Vec2& X = q[static_cast<std::size_t>(x)];
-        return cross2(B - A, X - A) >= 0.0 && cross2(C - B, X - B) >= 0.0 &&
-               cross2(A - C, X - C) >= 0.0;
+        return cross2(B - A, X - A) >= tol && cross2(C - B, X - B) >= tol &&
+               cross2(A - C, X - C) >= tol;
     };
     std::size_t guard = 0;
     while (idx.size() > 3 && guard < 4 * static_cast<std::size_t>(n) * static_cast<std::size_t>(n)) {

@@ -59,9 +59,10 @@ struct Camera {
 };
 
 /// View3D's control record (`C`), kept so that outputs can echo it.
+/// Defaults as in View3D 3.2's source (maxU 12, maxO 8).
 struct Vs3Control {
     double eps = 1e-4;
-    int maxU = 8, maxO = 8, minO = 0;
+    int maxU = 12, maxO = 8, minO = 0;
     int encl = 0, emit = 0, row = 0, col = 0, out = 0, list = 0;
 };
 
@@ -74,8 +75,8 @@ struct SubdivisionOptions {
 /// A validated scene. Patch order: surfaces in file order (obstructions skipped), the children
 /// of a surface consecutive, row-major.
 struct Scene {
-    std::string name;    ///< file path or built-in name
-    std::string title;   ///< VS3 T record or a description
+    std::string name;   ///< file path or built-in name
+    std::string title;  ///< VS3 T record or a description
     std::vector<Material> materials;
     std::vector<Surface> surfaces;
     std::vector<Patch> patches;
@@ -98,8 +99,46 @@ struct Scene {
 /// call subdivide() for more. Throws InputError naming file and line on bad input.
 Scene load_scene(const std::string& name_or_path);
 
-/// Rebuilds scene.patches from the non-obstruction surfaces. Throws OptionError on a bad value.
+/// Loads a Wavefront OBJ file (+ its MTL libraries): every face is a surface (CCW = front),
+/// faces in a group or object whose name begins with `obstruction` (any case) are
+/// obstruction-only; MTL `Kd` is the reflectance, `Ke` the emission, and the non-standard keys
+/// `emissivity` and `temperature` (kelvin) set the thermal properties. Surfaces are named
+/// `GROUP` (a group of one face) or `GROUP.K` (K-th face of the group, from 1). Patches are the
+/// surfaces, unsplit. Throws InputError("FILE", LINE, ...) on bad input.
+Scene load_obj(const std::string& path);
+
+/// Loads a View3D 3.2 input file (`.vs3`, formats `F 3` and `F 3a`). Vertex and surface numbers
+/// are 1-based in the file, 0-based in the Scene. `S` records are surfaces, `O` records
+/// obstruction-only surfaces; the emit column becomes the emissivity of a material per surface
+/// (reflectance 1 − ε, grey). `C` is kept in Scene::vs3_control (encl=1 sets
+/// Scene::enclosure). Masking (`M`) and null (`N`) surfaces are rejected (not supported).
+/// Subsurfaces (base ≠ 0) and combined surfaces (cmb ≠ 0) are loaded with Surface::base /
+/// Surface::combine set and a warning: their view-factor algebra (View3D's Separate/Combine
+/// steps) is not applied here. Throws InputError("FILE", LINE, ...) on bad input.
+Scene load_vs3(const std::string& path);
+
+/// A built-in scene by name (see builtin_scene_names()). Throws InputError for an unknown name.
+Scene builtin_scene(const std::string& name);
+
+/// Rebuilds scene.patches from the non-obstruction surfaces, in surface order.
+/// - n ≥ 1: a convex quad → n×n bilinear children, row-major: row r runs along v0→v3, column c
+///   along v0→v1, child index r·n + c, child vertices P(c,r), P(c+1,r), P(c+1,r+1), P(c,r+1).
+///   A triangle → n² congruent triangles on the barycentric grid P(i,j) = v0 + i/n (v1−v0) +
+///   j/n (v2−v0): row j = 0..n−1, in each row for i = 0..n−1−j the "upright" triangle
+///   (P(i,j), P(i+1,j), P(i,j+1)) followed, when i < n−1−j, by the "inverted" one
+///   (P(i+1,j), P(i+1,j+1), P(i,j+1)). Any other polygon (and a non-convex quad) is triangulated
+///   (triangulate()) and each triangle split as above, triangles in triangulation order.
+/// - max_edge L > 0: a convex quad → n_u × n_v with n_u = ⌈max(|v0v1|, |v3v2|)/L⌉,
+///   n_v = ⌈max(|v0v3|, |v1v2|)/L⌉ (row-major as above, n_v rows); a triangle → n² with
+///   n = ⌈longest edge/L⌉; others triangulated, then each triangle so. Every child edge ≤ L.
+/// A surface stays whole (one patch, whatever its shape) when n = 1 without max_edge, or when
+/// all its edges are ≤ L. Children keep the surface's orientation. Throws OptionError("--subdivide"
+/// / "--max-edge") for n < 1, L < 0 or not finite, both set (n > 1 and L > 0), or more than
+/// kMaxPatches patches.
 void subdivide(Scene& scene, const SubdivisionOptions& options);
+
+/// Upper limit on the number of patches subdivide() makes.
+inline constexpr double kMaxPatches = 50e6;
 
 /// Names of the built-in scenes.
 std::vector<std::string> builtin_scene_names();
@@ -109,10 +148,12 @@ bool is_builtin_scene(const std::string& name);
 /// Makes a Patch (area, normal, centroid) from a polygon.
 Patch make_patch(Polygon polygon, int surface);
 
-/// Validates one polygon as a surface: ≥ 3 vertices, finite coordinates, non-zero area, no
-/// degenerate edges, planar within kPlanarityTolerance (relative to its diameter), simple.
-/// Throws InputError at `where` with the reason.
-void validate_polygon(const Polygon& p, const SourceLocation& where);
+/// Validates one polygon as a surface: ≥ 3 vertices, finite coordinates, no zero-length edge,
+/// non-zero area (area ≥ 1e-12 · diameter²), planar within kPlanarityTolerance (relative to its
+/// diameter), simple. Collinear vertices along an edge are allowed. Throws InputError at
+/// `where` with the reason, naming the polygon as `what` ("face", "surface 3", ...).
+void validate_polygon(const Polygon& p, const SourceLocation& where,
+                      const std::string& what = "polygon");
 
 /// Largest allowed distance of a vertex from the polygon's plane, relative to its diameter.
 inline constexpr double kPlanarityTolerance = 1e-6;
