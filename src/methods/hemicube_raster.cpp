@@ -178,8 +178,8 @@ void HemicubeRaster::draw(int face, const P3* poly, int n, const double nl[3], d
 // the right chain of edges, both walked from the lowest vertex up. An edge's crossing is always
 // computed from its lower end, so two polygons sharing an edge compute the same crossing and the
 // cell goes to exactly one of them (a top-left rule): no gaps, no double counting.
-void HemicubeRaster::raster(int face, const double* X, const double* Y, int n, double wx,
-                            double wy, double w0, int item) {
+void HemicubeRaster::raster(int face, const double* X, const double* Y, int n, double wx, double wy,
+                            double w0, int item) {
     const int W = R_;
     const int H = face == 0 ? R_ : H_;
     double area2 = 0.0;

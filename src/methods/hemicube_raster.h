@@ -11,13 +11,13 @@ namespace formfactor::projection {
 /// The delta form factors in single precision, the four identical side faces stored once
 /// (the working set of a hemicube then fits in a core's cache at R = 256).
 class HemicubeDelta {
-public:
+  public:
     /// From hemicube_delta_form_factors(resolution).
     HemicubeDelta(const std::vector<double>& delta, int resolution);
     const float* top() const { return top_.data(); }
     const float* side() const { return side_.data(); }
 
-private:
+  private:
     std::vector<float> top_, side_;
 };
 

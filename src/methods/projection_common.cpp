@@ -201,7 +201,7 @@ int clip_convex(const P3* in, int n, const ClipPlane& plane, P3* out) {
             const double dout = pin ? dq : dp;
             const double t = di / (di - dout);
             out[m++] = {{i.v[0] + t * (o.v[0] - i.v[0]), i.v[1] + t * (o.v[1] - i.v[1]),
-                          i.v[2] + t * (o.v[2] - i.v[2])}};
+                         i.v[2] + t * (o.v[2] - i.v[2])}};
         }
     }
     return m;
