@@ -66,8 +66,8 @@ HemicubeRaster::HemicubeRaster(int resolution)
     : R_(resolution),
       H_(resolution / 2),
       cells_(static_cast<std::size_t>(resolution) * resolution * 3),
-      depth_(cells_ + 4),
-      items_(cells_ + 4) {}
+      depth_(cells_ + kPadding),
+      items_(cells_ + kPadding) {}
 
 std::size_t HemicubeRaster::face_offset(int f) const {
     const std::size_t top = static_cast<std::size_t>(R_) * R_;
@@ -240,11 +240,11 @@ void HemicubeRaster::raster(int face, const double* X, const double* Y, int n, d
 #if defined(__SSE2__)
         // Aligned blocks of four cells with a lane mask for the span's ends: short spans (the
         // common case with many small triangles) take one or two blocks and no scalar tail.
-        // Masked lanes store back what they loaded; the buffers have 4 cells of padding.
+        // Masked lanes store back what they loaded; the buffers have kPadding cells of padding.
         const __m128 vw = _mm_set1_ps(wrow), vdx = _mm_set1_ps(fwx);
         const __m128i vitem = _mm_set1_epi32(item);
         const __m128i vi0 = _mm_set1_epi32(i0 - 1), vi1 = _mm_set1_epi32(i1);
-        for (int b = i0 & ~3; b < i1; b += 4) {
+        auto block = [&](int b) {
             const __m128i lane = _mm_add_epi32(_mm_set1_epi32(b), _mm_setr_epi32(0, 1, 2, 3));
             const __m128i in_span =
                 _mm_and_si128(_mm_cmpgt_epi32(lane, vi0), _mm_cmplt_epi32(lane, vi1));
@@ -256,6 +256,15 @@ void HemicubeRaster::raster(int face, const double* X, const double* Y, int n, d
             const __m128i old = _mm_loadu_si128(reinterpret_cast<const __m128i*>(irow + b));
             _mm_storeu_si128(reinterpret_cast<__m128i*>(irow + b),
                              _mm_or_si128(_mm_and_si128(mi, vitem), _mm_andnot_si128(mi, old)));
+        };
+        const int b0 = i0 & ~3;
+        if (i1 - b0 <= 8) {
+            // Short spans (most, with small triangles): always two blocks, no data-dependent
+            // branch to mispredict.
+            block(b0);
+            block(b0 + 4);
+        } else {
+            for (int b = b0; b < i1; b += 4) block(b);
         }
 #else
         for (int i = i0; i < i1; ++i) {

@@ -36,7 +36,9 @@ class HemicubeRaster {
     /// entries and every item drawn is below that.
     void accumulate(const HemicubeDelta& delta, double weight, double* row, std::size_t patches);
 
-    /// The item of every cell (and 4 cells of padding at the end).
+    /// Cells of padding after the last face (the SIMD span fill may touch them).
+    static constexpr std::size_t kPadding = 8;
+    /// The item of every cell (and kPadding cells of padding at the end).
     const std::vector<int>& items() const { return items_; }
     int resolution() const { return R_; }
     std::size_t cells() const { return cells_; }
