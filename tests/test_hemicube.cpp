@@ -258,3 +258,33 @@ TEST_CASE("hemicube: options are checked") {
     CHECK(d["resolution"] == 64);
     CHECK(make_method("hemicube")->name() == "hemicube");
 }
+
+TEST_CASE("hemicube: non-convex and many-sided patches") {
+    // An L-shaped ceiling (6 vertices, non-convex: triangulated) and a 12-gon (convex but more
+    // than 8 vertices: triangulated), both facing down at height 1; exact by Lambert's formula
+    // (the L as two rectangles).
+    const Polygon ell{{Vec3(-0.5, -0.5, 1), Vec3(-0.5, 1, 1), Vec3(0, 1, 1), Vec3(0, 0, 1),
+                       Vec3(1, 0, 1), Vec3(1, -0.5, 1)}};
+    const double f_ell =
+        lambert(Vec3::Zero(), Vec3::UnitZ(),
+                Polygon{{Vec3(-0.5, -0.5, 1), Vec3(0, -0.5, 1), Vec3(0, 1, 1), Vec3(-0.5, 1, 1)}}) +
+        lambert(Vec3::Zero(), Vec3::UnitZ(),
+                Polygon{{Vec3(0, -0.5, 1), Vec3(1, -0.5, 1), Vec3(1, 0, 1), Vec3(0, 0, 1)}});
+    Polygon gon;
+    for (int k = 0; k < 12; ++k) {
+        const double a = -2.0 * kPi * k / 12.0;  // clockwise seen from above: faces down
+        gon.vertices.push_back(Vec3(0.3 + 0.6 * std::cos(a), 0.6 * std::sin(a), 1.5));
+    }
+    const Scene s = make_scene({ell});
+    const Scene g = make_scene({gon});
+    for (double rot : {0.0, 0.5}) {
+        CHECK(std::abs(hemicube_point_row(s, Vec3::Zero(), Vec3::UnitZ(), 256, rot)[0] - f_ell) <
+              2e-4);
+        CHECK(std::abs(hemicube_point_row(g, Vec3::Zero(), Vec3::UnitZ(), 256, rot)[0] -
+                       lambert(Vec3::Zero(), Vec3::UnitZ(), gon)) < 1e-4);
+    }
+    // Several points on the L: the row is still a weighted mean (reciprocity with a floor).
+    Scene box = make_scene({plates()[0], ell});
+    const auto F = run(box, 128, 9).F;
+    CHECK(F(0, 1) * 1.0 == doctest::Approx(F(1, 0) * area(ell)).epsilon(0.01));
+}
