@@ -5,6 +5,7 @@
 //   build/bench/bench_hemicube --benchmark_filter=Accuracy  (error counters vs Howell's values)
 
 #include <benchmark/benchmark.h>
+#include <sys/resource.h>
 
 #include <cmath>
 #include <nlohmann/json.hpp>
@@ -130,6 +131,14 @@ Scene cube_scene(int n) {
     return s;
 }
 
+// CPU seconds used by the whole process, all threads (robust to a shared, loaded machine).
+double process_cpu_seconds() {
+    rusage u{};
+    getrusage(RUSAGE_SELF, &u);
+    return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
+           1e-6 * static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
+
 std::unique_ptr<Method> method_for(int which) {
     if (which == 0) return std::make_unique<HemicubeMethod>();
     return std::make_unique<HemiplaneMethod>();
@@ -144,6 +153,7 @@ void Speed(benchmark::State& state) {
     o.threads = static_cast<int>(state.range(2));
     o.progress = false;
     std::size_t projections = 0;
+    const double cpu0 = process_cpu_seconds();
     for (auto _ : state) {
         nlohmann::json details;
         FormFactors F = method->compute(s, o, details);
@@ -152,6 +162,10 @@ void Speed(benchmark::State& state) {
     }
     state.counters["projections_per_s"] =
         benchmark::Counter(static_cast<double>(projections), benchmark::Counter::kIsRate);
+    // Per core: projections per CPU second over all threads. On an idle machine the
+    // wall-clock rate with T threads approaches T times this.
+    state.counters["per_core_per_cpu_s"] =
+        static_cast<double>(projections) / (process_cpu_seconds() - cpu0);
     state.counters["triangles"] = 9728;
     state.SetLabel(method->name());
 }

@@ -201,8 +201,13 @@ void HemicubeRaster::raster(int face, const double* X, const double* Y, int n, d
     // Counter-clockwise (X right, Y up): forward from the lowest vertex is the right chain.
     const int step_right = area2 > 0.0 ? 1 : n - 1;
     const int step_left = n - step_right;
-    int r0 = kmin, r1 = (kmin + step_right) % n;  // current right edge r0 → r1
-    int l0 = kmin, l1 = (kmin + step_left) % n;   // current left edge l0 → l1
+    // Step along a chain without an integer division (step is 1 or n − 1).
+    auto advance = [n](int k, int step) {
+        k += step;
+        return k >= n ? k - n : k;
+    };
+    int r0 = kmin, r1 = advance(kmin, step_right);  // current right edge r0 → r1
+    int l0 = kmin, l1 = advance(kmin, step_left);   // current left edge l0 → l1
     const std::size_t off = face_offset(face);
     float* depth = depth_.data() + off;
     int* items = items_.data() + off;
@@ -213,12 +218,12 @@ void HemicubeRaster::raster(int face, const double* X, const double* Y, int n, d
         const double yc = j + 0.5;
         while (Y[r1] < yc && r1 != kmax) {
             r0 = r1;
-            r1 = (r1 + step_right) % n;
+            r1 = advance(r1, step_right);
             rnew = true;
         }
         while (Y[l1] < yc && l1 != kmax) {
             l0 = l1;
-            l1 = (l1 + step_left) % n;
+            l1 = advance(l1, step_left);
             lnew = true;
         }
         if (rnew) {
@@ -257,15 +262,7 @@ void HemicubeRaster::raster(int face, const double* X, const double* Y, int n, d
             _mm_storeu_si128(reinterpret_cast<__m128i*>(irow + b),
                              _mm_or_si128(_mm_and_si128(mi, vitem), _mm_andnot_si128(mi, old)));
         };
-        const int b0 = i0 & ~3;
-        if (i1 - b0 <= 8) {
-            // Short spans (most, with small triangles): always two blocks, no data-dependent
-            // branch to mispredict.
-            block(b0);
-            block(b0 + 4);
-        } else {
-            for (int b = b0; b < i1; b += 4) block(b);
-        }
+        for (int b = i0 & ~3; b < i1; b += 4) block(b);
 #else
         for (int i = i0; i < i1; ++i) {
             const float w = wrow + fwx * static_cast<float>(i);
