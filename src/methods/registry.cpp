@@ -2,12 +2,14 @@
 #include "formfactor/methods/hemicube.h"
 #include "formfactor/methods/hemiplane.h"
 #include "formfactor/methods/method.h"
+#include "methods/analytic_method.h"
 
 namespace formfactor {
 
-std::vector<std::string> method_names() { return {"hemicube", "hemiplane"}; }
+std::vector<std::string> method_names() { return {"analytic", "hemicube", "hemiplane"}; }
 
 std::unique_ptr<Method> make_method(const std::string& name) {
+    if (name == "analytic") return std::make_unique<AnalyticMethod>();
     if (name == "hemicube") return std::make_unique<HemicubeMethod>();
     if (name == "hemiplane") return std::make_unique<HemiplaneMethod>();
     throw OptionError("--method", "unknown method '" + name + "'");
