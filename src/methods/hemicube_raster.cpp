@@ -206,36 +206,41 @@ void HemicubeRaster::raster(int face, const double* X, const double* Y, int n, d
         k += step;
         return k >= n ? k - n : k;
     };
-    int r0 = kmin, r1 = advance(kmin, step_right);  // current right edge r0 → r1
-    int l0 = kmin, l1 = advance(kmin, step_left);   // current left edge l0 → l1
+    // The chains as edge lists, lowest first; an edge serves the rows up to (excluding) `end`,
+    // the first row whose centre lies above its upper end.
+    struct ChainEdge {
+        double x, y, slope;
+        int end;
+    };
+    ChainEdge left[kMaxClippedVertices], right[kMaxClippedVertices];
+    auto build = [&](int step, ChainEdge* out) {
+        int count = 0;
+        for (int k = kmin; k != kmax;) {
+            const int k1 = advance(k, step);
+            if (Y[k1] > Y[k]) {
+                out[count++] = {X[k], Y[k], (X[k1] - X[k]) / (Y[k1] - Y[k]),
+                                static_cast<int>(std::floor(Y[k1] - 0.5)) + 1};
+            }
+            k = k1;
+        }
+        return count;
+    };
+    const int nr = build(step_right, right);
+    const int nl = build(step_left, left);
+    if (nr == 0 || nl == 0) return;
     const std::size_t off = face_offset(face);
     float* depth = depth_.data() + off;
     int* items = items_.data() + off;
     const float fwx = static_cast<float>(wx);
-    double rslope = 0.0, lslope = 0.0;
-    bool rnew = true, lnew = true;
+    int ri = 0, li = 0;
     for (int j = j0; j < j1; ++j) {
         const double yc = j + 0.5;
-        while (Y[r1] < yc && r1 != kmax) {
-            r0 = r1;
-            r1 = advance(r1, step_right);
-            rnew = true;
-        }
-        while (Y[l1] < yc && l1 != kmax) {
-            l0 = l1;
-            l1 = advance(l1, step_left);
-            lnew = true;
-        }
-        if (rnew) {
-            rslope = Y[r1] > Y[r0] ? (X[r1] - X[r0]) / (Y[r1] - Y[r0]) : 0.0;
-            rnew = false;
-        }
-        if (lnew) {
-            lslope = Y[l1] > Y[l0] ? (X[l1] - X[l0]) / (Y[l1] - Y[l0]) : 0.0;
-            lnew = false;
-        }
-        const double xl = X[l0] + (yc - Y[l0]) * lslope;
-        const double xr = X[r0] + (yc - Y[r0]) * rslope;
+        while (j >= right[ri].end && ri + 1 < nr) ++ri;
+        while (j >= left[li].end && li + 1 < nl) ++li;
+        const ChainEdge& er = right[ri];
+        const ChainEdge& el = left[li];
+        const double xl = el.x + (yc - el.y) * el.slope;
+        const double xr = er.x + (yc - er.y) * er.slope;
         const int i0 = ceil_clamped(xl - 0.5, 0, W);
         const int i1 = ceil_clamped(xr - 0.5, 0, W);
         if (i0 >= i1) continue;
