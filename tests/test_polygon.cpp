@@ -16,8 +16,8 @@ TEST_CASE("polygon: area, normal and centroid of a unit square") {
 TEST_CASE("polygon: a bow tie is not simple; an L shape is") {
     Polygon bow{{Vec3(0, 0, 0), Vec3(1, 1, 0), Vec3(1, 0, 0), Vec3(0, 1, 0)}};
     CHECK_FALSE(is_simple(bow));
-    Polygon ell{{Vec3(0, 0, 0), Vec3(2, 0, 0), Vec3(2, 1, 0), Vec3(1, 1, 0), Vec3(1, 2, 0),
-                 Vec3(0, 2, 0)}};
+    Polygon ell{
+        {Vec3(0, 0, 0), Vec3(2, 0, 0), Vec3(2, 1, 0), Vec3(1, 1, 0), Vec3(1, 2, 0), Vec3(0, 2, 0)}};
     CHECK(is_simple(ell));
     CHECK(area(ell) == doctest::Approx(3.0).epsilon(1e-15));
     const auto tris = triangulate(ell);

@@ -24,11 +24,15 @@ struct MethodOptions {
     int resolution = 256;       ///< hemicube / hemiplane cells per side
     int points = 1;             ///< hemicube / hemiplane: points per patch
     bool progress = true;       ///< show a progress bar on a terminal
+    /// Monte Carlo: the point set, "sobol" (Owen-scrambled, default) | "halton" | "stratified"
+    /// | "random" (core/random.h). Standard errors: i.i.d. formulas for "random", else the spread
+    /// of 16 independent randomisations (replicates) of the point set.
+    std::string sampler = "sobol";
 };
 
 /// An estimator of the form-factor matrix.
 class Method {
-public:
+  public:
     virtual ~Method() = default;
     /// The name used by --method.
     virtual std::string name() const = 0;

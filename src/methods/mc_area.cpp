@@ -1,0 +1,138 @@
+// mc-area: Monte-Carlo area sampling (DESIGN.md, method 5).
+//
+// For each pair (i, j): N point pairs (x uniform on A_i, y uniform on A_j) from one 4-D point
+// set per replicate, kernel K = cosθ_i cosθ_j/(π r²) · V(x, y), F_ij = A_j · mean K. Unbiased.
+// The variance grows without bound as patches get close (with a shared edge the kernel's second
+// moment diverges: the standard error is then only indicative). --samples = pairs per (i, j).
+#include <atomic>
+
+#include "formfactor/core/parallel.h"
+#include "formfactor/core/progress.h"
+#include "formfactor/geometry/sampling.h"
+#include "formfactor/visibility/visibility.h"
+#include "mc_common.h"
+
+namespace formfactor {
+namespace {
+
+// True when no point of q is strictly in front of the plane of p (F_pq = 0 exactly).
+bool behind(const Patch& p, const Patch& q) {
+    const double tol = 1e-12 * diameter(p.polygon);
+    for (const Vec3& v : q.polygon.vertices)
+        if (p.normal.dot(v - p.centroid) > tol) return false;
+    return true;
+}
+
+class McAreaMethod final : public Method {
+  public:
+    std::string name() const override { return "mc-area"; }
+    void check(const Scene& scene) const override {
+        if (scene.patches.empty()) throw GeometryError("mc-area: the scene has no patches");
+    }
+
+    FormFactors compute(const Scene& scene, const MethodOptions& options,
+                        nlohmann::json& details) const override {
+        check(scene);
+        const auto t0 = mc::Clock::now();
+        const SamplerKind kind = parse_sampler(options.sampler);
+        const std::uint64_t N = mc::sample_count(options, 256);
+        const std::uint32_t R = replicate_count(kind, N);
+        const std::size_t n = scene.patches.size();
+        auto vis = make_visibility(scene);
+        std::vector<PolygonSampler> samplers;
+        samplers.reserve(n);
+        for (const Patch& p : scene.patches) samplers.emplace_back(p.polygon);
+
+        FormFactors ff;
+        ff.F = DenseMatrix::Zero(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
+        ff.standard_error = DenseMatrix::Zero(ff.F.rows(), ff.F.cols());
+        for (const Patch& p : scene.patches) ff.areas.push_back(p.area);
+        std::atomic<std::uint64_t> rays{0};
+        Progress progress("mc-area", n, options.progress);
+        constexpr std::size_t kBatch = 256;
+
+        parallel_for(n, options.threads, [&](std::size_t i) {
+            const Patch& pi = scene.patches[i];
+            // Rays of all pairs and replicates of the row share batches; each remembers where
+            // its kernel value goes: c[j·R + r] (replicate sums) and s2[j] (i.i.d. moments).
+            std::vector<double> c(n * R, 0.0), s2(n, 0.0);
+            std::vector<char> active(n, 0);
+            std::vector<SegmentQuery> queries;
+            std::vector<double> kernel;
+            std::vector<std::uint32_t> slot;
+            std::vector<std::uint8_t> blocked(kBatch);
+            queries.reserve(kBatch);
+            kernel.reserve(kBatch);
+            slot.reserve(kBatch);
+            std::uint64_t row_rays = 0;
+            auto flush = [&] {
+                vis->occluded(queries, std::span<std::uint8_t>(blocked.data(), queries.size()));
+                row_rays += queries.size();
+                for (std::size_t k = 0; k < queries.size(); ++k)
+                    if (!blocked[k]) {
+                        c[slot[k]] += kernel[k];
+                        s2[slot[k] / R] += kernel[k] * kernel[k];
+                    }
+                queries.clear();
+                kernel.clear();
+                slot.clear();
+            };
+            for (std::size_t j = 0; j < n; ++j) {
+                if (j == i) continue;
+                const Patch& pj = scene.patches[j];
+                if (behind(pi, pj) || behind(pj, pi)) continue;
+                active[j] = 1;
+                for (std::uint32_t r = 0; r < R; ++r) {
+                    const std::uint64_t nr = replicate_size(N, R, r);
+                    const PointSet4 set(kind, stream_key(options.seed, i, j, r),
+                                        static_cast<std::uint32_t>(nr));
+                    for (std::uint32_t s = 0; s < nr; ++s) {
+                        const auto u = set(s);
+                        const Vec3 x = samplers[i](u[0], u[1]);
+                        const Vec3 y = samplers[j](u[2], u[3]);
+                        const Vec3 d = y - x;
+                        const double r2 = d.squaredNorm();
+                        const double ci = pi.normal.dot(d), cj = -pj.normal.dot(d);
+                        if (!(ci > 0 && cj > 0 && r2 > 0)) continue;
+                        queries.push_back({x, y, static_cast<int>(i), static_cast<int>(j)});
+                        kernel.push_back(ci * cj * kInvPi / (r2 * r2));
+                        slot.push_back(static_cast<std::uint32_t>(j * R + r));
+                        if (queries.size() == kBatch) flush();
+                    }
+                }
+            }
+            if (!queries.empty()) flush();
+            const double n_bar = double(N) / R;
+            for (std::size_t j = 0; j < n; ++j) {
+                if (!active[j]) continue;
+                mc::ReplicateMean acc;
+                for (std::uint32_t r = 0; r < R; ++r)
+                    acc.add(c[j * R + r], double(replicate_size(N, R, r)), n_bar);
+                const double mean = acc.total / double(N);
+                double se;
+                if (R > 1) {
+                    se = mc::replicate_standard_error(acc, double(N), R);
+                } else {
+                    const double var = N > 1 ? (s2[j] - N * mean * mean) / double(N - 1) : 0.0;
+                    se = std::sqrt(std::max(0.0, var) / double(N));
+                }
+                const double Aj = scene.patches[j].area;
+                const auto ii = static_cast<Eigen::Index>(i), jj = static_cast<Eigen::Index>(j);
+                ff.F(ii, jj) = Aj * mean;
+                (*ff.standard_error)(ii, jj) = Aj * se;
+            }
+            rays += row_rays;
+            progress.advance();
+        });
+        progress.finish();
+        mc::report(details, ff, kind, N, R, rays.load(), mc::seconds_since(t0), vis->description(),
+                   "point pairs per patch pair");
+        return ff;
+    }
+};
+
+}  // namespace
+
+std::unique_ptr<Method> make_mc_area_method() { return std::make_unique<McAreaMethod>(); }
+
+}  // namespace formfactor

@@ -1,0 +1,90 @@
+#pragma once
+// Shared pieces of the Monte-Carlo methods (mc_area.cpp, mc_hemisphere.cpp, mc_target.cpp).
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "formfactor/core/error.h"
+#include "formfactor/core/random.h"
+#include "formfactor/matrix/form_factors.h"
+#include "formfactor/methods/method.h"
+
+namespace formfactor {
+
+std::unique_ptr<Method> make_mc_area_method();
+std::unique_ptr<Method> make_mc_hemisphere_method();
+std::unique_ptr<Method> make_mc_target_method();
+
+namespace mc {
+
+/// Sample count from the options (0 → the method's default), checked.
+inline std::uint64_t sample_count(const MethodOptions& o, std::uint64_t fallback) {
+    const std::uint64_t n = o.samples == 0 ? fallback : o.samples;
+    if (n > 0xFFFFFFFFull) throw OptionError("--samples", "at most 4294967295 per stream");
+    return n;
+}
+
+/// The row-stream index used for methods that draw whole rows at once (no j).
+inline constexpr std::uint64_t kRowStream = 0xFFFFFFFFFFFFFFFFull;
+
+/// Mean and standard error from R replicates (independent randomisations of the point set).
+/// Replicate r has n_r samples whose values sum to c_r; N = Σ n_r, n̄ = N/R, est = Σ c_r / N.
+/// With replicate means m_r = c_r/n_r and weights w_r = n_r/n̄:
+/// s² = Σ w_r (m_r − est)² / (R − 1) = (Q − R est²)/(R − 1) where Q = Σ c_r²/(n_r n̄), and
+/// SE² = s²/R — the usual unbiased estimate when the n_r are equal. Accumulate Q and Σ c_r.
+struct ReplicateMean {
+    double total = 0.0;  // Σ c_r
+    double q = 0.0;      // Q
+    void add(double c, double n_r, double n_bar) {
+        total += c;
+        q += c * c / (n_r * n_bar);
+    }
+};
+inline double replicate_mean(const ReplicateMean& a, double n) { return a.total / n; }
+inline double replicate_standard_error(const ReplicateMean& a, double n, std::uint32_t r) {
+    if (r < 2) return 0.0;
+    const double est = a.total / n;
+    const double s2 = (a.q - r * est * est) / (r - 1);
+    return s2 > 0 ? std::sqrt(s2 / r) : 0.0;
+}
+
+/// Fills the details every Monte-Carlo method reports.
+inline void report(nlohmann::json& details, const FormFactors& ff, SamplerKind kind,
+                   std::uint64_t samples, std::uint32_t replicates, std::uint64_t rays,
+                   double seconds, const std::string& visibility,
+                   const std::string& samples_meaning) {
+    details["samples"] = samples;
+    details["samples_meaning"] = samples_meaning;
+    details["sampler"] = sampler_name(kind);
+    details["replicates"] = replicates;
+    details["standard_error_model"] =
+        replicates > 1 ? "spread of independent randomisations (replicates) of the point set"
+                       : "i.i.d. sample variance";
+    details["rays_cast"] = rays;
+    details["seconds"] = seconds;
+    details["rays_per_second"] = seconds > 0 ? rays / seconds : 0.0;
+    details["visibility"] = visibility;
+    if (ff.standard_error) {
+        const DenseMatrix& se = *ff.standard_error;
+        details["standard_error_max"] = se.size() ? se.maxCoeff() : 0.0;
+        details["standard_error_mean"] = se.size() ? se.mean() : 0.0;
+        double rms_row = 0;
+        for (Eigen::Index i = 0; i < se.rows(); ++i)
+            rms_row = std::max(rms_row, std::sqrt(se.row(i).squaredNorm()));
+        details["row_sum_standard_error_max"] = rms_row;  // rows' entries are near-independent
+    }
+}
+
+using Clock = std::chrono::steady_clock;
+inline double seconds_since(Clock::time_point t0) {
+    return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+}  // namespace mc
+}  // namespace formfactor

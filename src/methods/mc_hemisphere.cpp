@@ -1,0 +1,125 @@
+// mc-hemisphere: Monte-Carlo hemisphere (solid-angle) sampling (DESIGN.md, method 6).
+//
+// Row i at once: N rays from uniform points on patch i in cosine-distributed directions (both
+// from one 4-D point set per replicate); the first surface hit takes the ray, and F_ij = (rays
+// arriving on the front of patch j)/N. Rays that escape, hit an obstruction or the back of a
+// patch count for no patch, so row sums are exactly (front hits)/N. --samples = rays per row.
+// Standard error: sqrt(F(1−F)/N) for the random sampler (binomial), else the replicate spread.
+#include <atomic>
+
+#include "formfactor/core/parallel.h"
+#include "formfactor/core/progress.h"
+#include "formfactor/geometry/sampling.h"
+#include "formfactor/visibility/visibility.h"
+#include "mc_common.h"
+
+namespace formfactor {
+namespace {
+
+class McHemisphereMethod final : public Method {
+  public:
+    std::string name() const override { return "mc-hemisphere"; }
+    void check(const Scene& scene) const override {
+        if (scene.patches.empty()) throw GeometryError("mc-hemisphere: the scene has no patches");
+    }
+
+    FormFactors compute(const Scene& scene, const MethodOptions& options,
+                        nlohmann::json& details) const override {
+        check(scene);
+        const auto t0 = mc::Clock::now();
+        const SamplerKind kind = parse_sampler(options.sampler);
+        const std::uint64_t N = mc::sample_count(options, 10000);
+        const std::uint32_t R = replicate_count(kind, N);
+        const std::size_t n = scene.patches.size();
+        auto vis = make_visibility(scene);
+
+        FormFactors ff;
+        ff.F = DenseMatrix::Zero(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
+        ff.standard_error = DenseMatrix::Zero(ff.F.rows(), ff.F.cols());
+        for (const Patch& p : scene.patches) ff.areas.push_back(p.area);
+        std::atomic<std::uint64_t> rays{0}, escaped{0}, back_hits{0}, obstruction_hits{0};
+        Progress progress("mc-hemisphere", n, options.progress);
+        constexpr std::size_t kBatch = 256;
+
+        parallel_for(n, options.threads, [&](std::size_t i) {
+            const Patch& pi = scene.patches[i];
+            const PolygonSampler sampler(pi.polygon);
+            Vec3 t, b;
+            orthonormal_basis(pi.normal, t, b);
+            // F row holds the running totals; Q (replicate second moments) lives in the SE row.
+            auto F = ff.F.row(static_cast<Eigen::Index>(i));
+            auto Q = ff.standard_error->row(static_cast<Eigen::Index>(i));
+            std::vector<std::uint32_t> count(n, 0);
+            std::vector<std::uint32_t> touched;
+            std::vector<RayQuery> queries(kBatch);
+            std::vector<RayHit> hits(kBatch);
+            std::uint64_t esc = 0, back = 0, obst = 0;
+            const double n_bar = double(N) / R;
+            for (std::uint32_t r = 0; r < R; ++r) {
+                const std::uint64_t nr = replicate_size(N, R, r);
+                const PointSet4 set(kind, stream_key(options.seed, i, mc::kRowStream, r),
+                                    static_cast<std::uint32_t>(nr));
+                for (std::uint64_t s0 = 0; s0 < nr; s0 += kBatch) {
+                    const std::size_t m =
+                        static_cast<std::size_t>(std::min<std::uint64_t>(kBatch, nr - s0));
+                    for (std::size_t k = 0; k < m; ++k) {
+                        const auto u = set(static_cast<std::uint32_t>(s0 + k));
+                        const Vec3 d = cosine_direction(u[2], u[3]);
+                        queries[k] = {sampler(u[0], u[1]),
+                                      d.x() * t + d.y() * b + d.z() * pi.normal,
+                                      static_cast<int>(i)};
+                    }
+                    vis->first_hit(std::span<const RayQuery>(queries.data(), m),
+                                   std::span<RayHit>(hits.data(), m));
+                    for (std::size_t k = 0; k < m; ++k) {
+                        const RayHit& h = hits[k];
+                        if (h.patch < 0) {
+                            (h.patch == RayHit::kMiss ? esc : obst)++;
+                        } else if (!h.front || h.patch == static_cast<int>(i)) {
+                            ++back;
+                        } else {
+                            const auto j = static_cast<std::uint32_t>(h.patch);
+                            if (count[j]++ == 0) touched.push_back(j);
+                        }
+                    }
+                }
+                for (std::uint32_t j : touched) {
+                    const double c = count[j];
+                    F[j] += c;
+                    Q[j] += c * c / (double(nr) * n_bar);
+                    count[j] = 0;
+                }
+                touched.clear();
+            }
+            for (Eigen::Index j = 0; j < F.size(); ++j) {
+                if (F[j] == 0.0) continue;
+                mc::ReplicateMean acc{F[j], Q[j]};
+                const double f = F[j] / double(N);
+                Q[j] = R > 1 ? mc::replicate_standard_error(acc, double(N), R)
+                             : std::sqrt(f * (1 - f) / double(N));
+                F[j] = f;
+            }
+            rays += N;
+            escaped += esc;
+            back_hits += back;
+            obstruction_hits += obst;
+            progress.advance();
+        });
+        progress.finish();
+        mc::report(details, ff, kind, N, R, rays.load(), mc::seconds_since(t0), vis->description(),
+                   "rays per patch (row)");
+        const double total = double(rays.load());
+        details["escaped_fraction"] = total > 0 ? escaped.load() / total : 0.0;
+        details["back_hit_fraction"] = total > 0 ? back_hits.load() / total : 0.0;
+        details["obstruction_hit_fraction"] = total > 0 ? obstruction_hits.load() / total : 0.0;
+        return ff;
+    }
+};
+
+}  // namespace
+
+std::unique_ptr<Method> make_mc_hemisphere_method() {
+    return std::make_unique<McHemisphereMethod>();
+}
+
+}  // namespace formfactor

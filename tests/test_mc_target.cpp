@@ -1,0 +1,130 @@
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "formfactor/methods/analytic.h"
+#include "formfactor/methods/method.h"
+#include "mc_test_scenes.h"
+
+using namespace formfactor;
+using mc_test::quad;
+using mc_test::scene_of;
+
+namespace {
+
+FormFactors run_target(const Scene& s, std::uint64_t samples, std::uint64_t seed = 1,
+                       const std::string& sampler = "sobol", int threads = 0) {
+    MethodOptions o;
+    o.samples = samples;
+    o.seed = seed;
+    o.sampler = sampler;
+    o.threads = threads;
+    o.progress = false;
+    nlohmann::json details;
+    return make_method("mc-target")->compute(s, o, details);
+}
+
+double k_sigma(const std::string& sampler) { return sampler == "random" ? 4.0 : 5.0; }
+
+// A tiny sender at the origin facing +z, a 2×2 receiver at z = 2 and an obstruction at z = 1
+// whose shadow falls inside the receiver: F = F(dA→receiver) − F(dA→blocker's underside).
+struct ShadowCase {
+    Scene scene;
+    double exact;
+};
+ShadowCase shadow_case() {
+    const double h = 5e-4;
+    const Polygon sender = quad(Vec3(-h, -h, 0), Vec3(h, -h, 0), Vec3(h, h, 0), Vec3(-h, h, 0));
+    const Polygon receiver = quad(Vec3(-1, 1, 2), Vec3(1, 1, 2), Vec3(1, -1, 2), Vec3(-1, -1, 2));
+    const Polygon blocker =
+        quad(Vec3(-0.3, -0.2, 1), Vec3(0.3, -0.2, 1), Vec3(0.3, 0.4, 1), Vec3(-0.3, 0.4, 1));
+    Polygon underside = blocker;
+    std::reverse(underside.vertices.begin(), underside.vertices.end());
+    const Vec3 o(0, 0, 0), n(0, 0, 1);
+    return {scene_of({sender, receiver}, {blocker}),
+            point_to_polygon(o, n, receiver) - point_to_polygon(o, n, underside)};
+}
+
+}  // namespace
+
+TEST_CASE("mc-target: exact when nothing blocks") {
+    const std::pair<Scene, double> cases[] = {
+        {mc_test::parallel_rects(1, 1, 1), 0.19982489569838746},
+        {mc_test::perpendicular_squares(), 0.20004377607540316},
+        {mc_test::parallel_rects(2, 1, 1), 0.2858753848507147},
+        {mc_test::parallel_rects(10, 10, 1), 0.8269945223972565},
+        {mc_test::parallel_rects(0.2, 0.2, 1), 0.01240397731324307}};
+    for (const auto& [scene, exact] : cases) {
+        for (const char* sampler : {"sobol", "random"}) {
+            const FormFactors ff = run_target(scene, 64, 1, sampler);
+            CHECK(std::abs(ff.F(0, 1) - exact) < 1e-12);
+            CHECK(std::abs(ff.F(1, 0) - exact) < 1e-12);
+            CHECK((*ff.standard_error)(0, 1) == 0.0);
+        }
+    }
+    // A closed cube (convex: nothing blocks): rows sum to 1 to rounding.
+    const FormFactors cube = run_target(mc_test::unit_cube(2), 16);
+    for (Eigen::Index i = 0; i < cube.F.rows(); ++i)
+        CHECK(cube.F.row(i).sum() == doctest::Approx(1.0).epsilon(1e-12));
+}
+
+TEST_CASE("mc-target: a blocker removes exactly F(dA -> blocker)") {
+    const ShadowCase c = shadow_case();
+    for (const std::string sampler : {"sobol", "halton", "stratified", "random"}) {
+        CAPTURE(sampler);
+        const FormFactors ff = run_target(c.scene, 16384, 1, sampler);
+        const double se = (*ff.standard_error)(0, 1);
+        CAPTURE(ff.F(0, 1));
+        CAPTURE(c.exact);
+        CHECK(se > 0);
+        CHECK(std::abs(ff.F(0, 1) - c.exact) <= k_sigma(sampler) * se);
+    }
+}
+
+TEST_CASE("mc-target: the error falls like 1/sqrt(N) or faster") {
+    const ShadowCase c = shadow_case();
+    for (const std::string sampler : {"random", "sobol"}) {
+        CAPTURE(sampler);
+        std::vector<double> rms;
+        for (std::uint64_t N : {256, 1024, 4096}) {
+            double e2 = 0;
+            for (std::uint64_t seed = 1; seed <= 32; ++seed)
+                e2 += std::pow(run_target(c.scene, N, seed, sampler).F(0, 1) - c.exact, 2) / 32;
+            rms.push_back(std::sqrt(e2));
+        }
+        MESSAGE("mc-target " << sampler << " rms " << rms[0] << " " << rms[1] << " " << rms[2]);
+        CHECK(rms[0] / rms[1] > 1.6);
+        CHECK(rms[1] / rms[2] > 1.6);
+    }
+}
+
+TEST_CASE("mc-target: hidden receiver, additivity and thread independence") {
+    const Polygon floor = quad(Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0));
+    const Polygon whole = quad(Vec3(0, 1, 1), Vec3(1, 1, 1), Vec3(1, 0, 1), Vec3(0, 0, 1));
+    const Polygon left = quad(Vec3(0, 1, 1), Vec3(0.3, 1, 1), Vec3(0.3, 0, 1), Vec3(0, 0, 1));
+    const Polygon right = quad(Vec3(0.3, 1, 1), Vec3(1, 1, 1), Vec3(1, 0, 1), Vec3(0.3, 0, 1));
+    const Polygon small =
+        quad(Vec3(0.2, 0.2, 0.5), Vec3(0.6, 0.2, 0.5), Vec3(0.6, 0.5, 0.5), Vec3(0.2, 0.5, 0.5));
+    const Polygon big =
+        quad(Vec3(-2, -2, 0.5), Vec3(3, -2, 0.5), Vec3(3, 3, 0.5), Vec3(-2, 3, 0.5));
+    const FormFactors hidden = run_target(scene_of({floor, whole}, {big}), 1024);
+    CHECK(hidden.F(0, 1) == 0.0);
+    CHECK(hidden.F(1, 0) == 0.0);
+
+    const FormFactors a = run_target(scene_of({floor, whole}, {small}), 8192, 4);
+    const FormFactors b = run_target(scene_of({floor, left, right}, {small}), 8192, 4);
+    const double se =
+        std::sqrt(std::pow((*a.standard_error)(0, 1), 2) + std::pow((*b.standard_error)(0, 1), 2) +
+                  std::pow((*b.standard_error)(0, 2), 2));
+    CHECK(se > 0);
+    CHECK(std::abs(a.F(0, 1) - b.F(0, 1) - b.F(0, 2)) <= k_sigma("sobol") * se);
+
+    const Scene box = scene_of({floor, whole, left}, {small});
+    const FormFactors t1 = run_target(box, 256, 42, "sobol", 1);
+    const FormFactors t2 = run_target(box, 256, 42, "sobol", 2);
+    CHECK(t1.F == t2.F);
+    CHECK(*t1.standard_error == *t2.standard_error);
+}
