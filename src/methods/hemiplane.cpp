@@ -56,6 +56,11 @@ struct CornerTable {
     }
 };
 
+// An edge of a projected polygon: A x + B y + C ≥ 0 inside, (A, B) unit.
+struct PlaneEdge {
+    double A, B, C;
+};
+
 // A projected convex polygon on the plane, in finest-cell units ([0, R]²).
 struct PlanePolygon {
     int efirst, ecount;  // edges: A x + B y + C ≥ 0 inside, (A, B) unit
@@ -87,7 +92,7 @@ class HemiplaneSolver {
     int R_;
     double W_;
     std::vector<PlanePolygon> polys_;
-    std::vector<double> ea_, eb_, ec_;
+    std::vector<PlaneEdge> edges_;
     std::vector<int> list_;
     double weight_ = 1.0;
     double* row_ = nullptr;
@@ -98,9 +103,7 @@ class HemiplaneSolver {
 void HemiplaneSolver::project(const Occluders& occ, const projection::Frame& frame, int exclude,
                               double near, double edge_on) {
     polys_.clear();
-    ea_.clear();
-    eb_.clear();
-    ec_.clear();
+    edges_.clear();
     const ClipPlane planes[5] = {
         {-1, 0, W_, 0}, {1, 0, W_, 0}, {0, -1, W_, 0}, {0, 1, W_, 0}, {0, 0, 1, near}};
     const Vec3& o = frame.origin;
@@ -165,22 +168,18 @@ void HemiplaneSolver::add_polygon(const P3* poly, int n, const double nl[3], dou
     }
     if (!(std::abs(area2) > 1e-18) || !std::isfinite(area2)) return;
     const double orient = area2 > 0.0 ? 1.0 : -1.0;
-    pp.efirst = static_cast<int>(ea_.size());
+    pp.efirst = static_cast<int>(edges_.size());
     for (int i = 0; i < n; ++i) {
         const int j = i + 1 == n ? 0 : i + 1;
         const double ex = X[j] - X[i], ey = Y[j] - Y[i];
         const double len = std::hypot(ex, ey);
         if (!(len > 1e-12)) continue;
         const double A = -ey / len * orient, B = ex / len * orient;
-        ea_.push_back(A);
-        eb_.push_back(B);
-        ec_.push_back(-(A * X[i] + B * Y[i]));
+        edges_.push_back({A, B, -(A * X[i] + B * Y[i])});
     }
-    pp.ecount = static_cast<int>(ea_.size()) - pp.efirst;
+    pp.ecount = static_cast<int>(edges_.size()) - pp.efirst;
     if (pp.ecount < 3) {
-        ea_.resize(static_cast<std::size_t>(pp.efirst));
-        eb_.resize(ea_.size());
-        ec_.resize(ea_.size());
+        edges_.resize(static_cast<std::size_t>(pp.efirst));
         return;
     }
     // w = (n_a u + n_b v + n_c) / dl with u = x / k − W, v = y / k − W.
@@ -217,14 +216,15 @@ void HemiplaneSolver::recurse(int x0, int y0, int size, std::size_t lb, std::siz
         }
         bool contains = true, disjoint = false;
         for (int e = P.efirst; e < P.efirst + P.ecount; ++e) {
-            const double A = ea_[e], B = eb_[e], C = ec_[e];
-            const double emax = C + A * (A > 0 ? X1 : X0) + B * (B > 0 ? Y1 : Y0);
+            const PlaneEdge& E = edges_[static_cast<std::size_t>(e)];
+            const double ax0 = E.A * X0, ax1 = E.A * X1, by0 = E.B * Y0, by1 = E.B * Y1;
+            const double emax = E.C + std::max(ax0, ax1) + std::max(by0, by1);
             if (emax <= kEdgeTolerance) {
                 disjoint = true;
                 break;
             }
-            const double emin = C + A * (A > 0 ? X0 : X1) + B * (B > 0 ? Y0 : Y1);
-            if (emin < -kEdgeTolerance) contains = false;
+            const double emin = E.C + std::min(ax0, ax1) + std::min(by0, by1);
+            contains = contains && emin >= -kEdgeTolerance;
         }
         if (disjoint) continue;
         list_.push_back(q);
@@ -273,7 +273,8 @@ void HemiplaneSolver::recurse(int x0, int y0, int size, std::size_t lb, std::siz
             const PlanePolygon& P = polys_[static_cast<std::size_t>(list_[idx])];
             bool inside = true;
             for (int e = P.efirst; e < P.efirst + P.ecount && inside; ++e) {
-                inside = ea_[e] * xc + eb_[e] * yc + ec_[e] >= 0.0;
+                const PlaneEdge& E = edges_[static_cast<std::size_t>(e)];
+                inside = E.A * xc + E.B * yc + E.C >= 0.0;
             }
             if (!inside) continue;
             const double w = P.w(xc, yc);
