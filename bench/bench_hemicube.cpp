@@ -201,9 +201,7 @@ void Accuracy(benchmark::State& state) {
         benchmark::DoNotOptimize(F.F.data());
         M = std::move(F.F);
     }
-    const struct {
-        const DenseMatrix& F;
-    } F{M};
+    const struct { const DenseMatrix& F; } F{M};
     if (cube) {
         // Face-to-face factors: area-weighted sums of the 16 × 16 blocks.
         auto block = [&](int a, int b) {
