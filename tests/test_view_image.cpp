@@ -7,6 +7,7 @@
 #include "formfactor/core/error.h"
 #include "formfactor/methods/hemicube.h"
 #include "formfactor/methods/hemiplane.h"
+#include "formfactor/output/atomic_file.h"
 #include "formfactor/output/view_image.h"
 #include "formfactor/scene/scene.h"
 
@@ -43,7 +44,7 @@ TEST_CASE("view image: the hemicube cross of the cube's floor centre, written as
     std::filesystem::remove(path);
     write_png(path.string(), img);
     CHECK(std::filesystem::exists(path));
-    CHECK_FALSE(std::filesystem::exists(path.string() + ".tmp"));
+    CHECK_FALSE(std::filesystem::exists(temporary_path_for(path.string())));
     int w = 0, h = 0, n = 0;
     unsigned char* data = stbi_load(path.string().c_str(), &w, &h, &n, 3);
     REQUIRE(data != nullptr);
@@ -84,7 +85,7 @@ TEST_CASE("view image: an unwritable path throws and leaves nothing") {
     const ViewImage img{2, 2, std::vector<std::uint8_t>(12, 100)};
     const auto bad = temp_dir() / "no_such_dir" / "x.png";
     CHECK_THROWS_AS(write_png(bad.string(), img), Error);
-    CHECK_FALSE(std::filesystem::exists(bad.string() + ".tmp"));
+    CHECK_FALSE(std::filesystem::exists(temporary_path_for(bad.string())));
     CHECK_THROWS_AS(write_png((temp_dir() / "y.png").string(), ViewImage{}), Error);
     CHECK_THROWS_AS(render_view(ProjectionView{}), Error);
 }

@@ -16,5 +16,8 @@ void add_point_command(CLI::App& app);
 void add_info_command(CLI::App& app);
 /// `formfactor run [SCENE]`: the main job, everything into out/.
 void add_run_command(CLI::App& app);
+/// `formfactor inspect SCENE --patch I -o VIEW.png [...]`: what a point sees through the
+/// hemicube or the hemiplane, as a picture.
+void add_inspect_command(CLI::App& app);
 
 }  // namespace formfactor::cli

@@ -40,6 +40,7 @@ int main(int argc, char** argv) {
     formfactor::cli::add_point_command(app);
     formfactor::cli::add_info_command(app);
     formfactor::cli::add_run_command(app);
+    formfactor::cli::add_inspect_command(app);
 
     if (argc <= 1) {
         std::fputs(app.help().c_str(), stdout);

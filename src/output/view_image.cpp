@@ -8,6 +8,7 @@
 #include <system_error>
 
 #include "formfactor/core/error.h"
+#include "formfactor/output/atomic_file.h"
 
 namespace formfactor {
 
@@ -151,7 +152,7 @@ void write_png(const std::string& path, const ViewImage& image) {
         image.rgb.size() != static_cast<std::size_t>(image.width) * image.height * 3) {
         throw Error("cannot write '" + path + "': the image is empty or inconsistent");
     }
-    const std::string tmp = path + ".tmp";
+    const std::string tmp = temporary_path_for(path);
     const int ok = stbi_write_png(tmp.c_str(), image.width, image.height, 3, image.rgb.data(),
                                   image.width * 3);
     std::error_code ec;

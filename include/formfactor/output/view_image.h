@@ -33,7 +33,8 @@ ViewImage render_view(const ProjectionView& view, bool weights = false, int scal
 /// cell); unused pixels white.
 ViewImage render_delta_map(const ProjectionView& view, int scale = 1);
 
-/// Writes `image` as a PNG at `path`, atomically: to a temporary file beside it, then renamed.
+/// Writes `image` as a PNG at `path`, atomically: to a temporary file beside it
+/// (temporary_path_for, output/atomic_file.h), then renamed.
 /// Throws Error when the file cannot be written (nothing is left behind).
 void write_png(const std::string& path, const ViewImage& image);
 
