@@ -77,6 +77,12 @@ std::size_t HemicubeRaster::face_offset(int f) const {
 void HemicubeRaster::render(const Occluders& occ, const Frame& frame, int exclude, double near,
                             double edge_on) {
     std::fill(depth_.begin(), depth_.end(), 0.0f);
+    if (stamp_.size() != occ.patches) stamp_.assign(occ.patches, 0u);
+    if (++epoch_ == 0u) {  // wrapped: forget every stamp
+        std::fill(stamp_.begin(), stamp_.end(), 0u);
+        epoch_ = 1u;
+    }
+    touched_.clear();
     std::fill(items_.begin(), items_.end(), kViewNothing);
     const double ox = frame.origin.x(), oy = frame.origin.y(), oz = frame.origin.z();
     const double ux = frame.u.x(), uy = frame.u.y(), uz = frame.u.z();
@@ -110,15 +116,15 @@ void HemicubeRaster::render(const Occluders& occ, const Frame& frame, int exclud
         // Fast path: every vertex in one face's frustum (its largest coordinate along that
         // face's axis, above the base and the near plane) → the whole primitive is there.
         {
-            int f0 = face_of(loc[0]);
+            const int face0 = face_of(loc[0]);
+            const HemicubeFace& fc = kHemicubeFaces[face0];
             bool single = true;
             for (int k = 0; k < n && single; ++k) {
-                const HemicubeFace& fc = kHemicubeFaces[f0];
-                single = (k == 0 || face_of(loc[k]) == f0) && loc[k].v[2] >= 0.0 &&
+                single = (k == 0 || face_of(loc[k]) == face0) && loc[k].v[2] >= 0.0 &&
                          fc.sd * loc[k].v[fc.id] >= near;
             }
             if (single) {
-                draw(f0, loc, n, nl, dl, item);
+                draw(face0, loc, n, nl, dl, item);
                 continue;
             }
         }
@@ -155,6 +161,10 @@ void HemicubeRaster::render(const Occluders& occ, const Frame& frame, int exclud
 
 void HemicubeRaster::draw(int face, const P3* poly, int n, const double nl[3], double dl,
                           int item) {
+    if (item >= 0 && stamp_[static_cast<std::size_t>(item)] != epoch_) {
+        stamp_[static_cast<std::size_t>(item)] = epoch_;
+        touched_.push_back(item);
+    }
     const HemicubeFace& fc = kHemicubeFaces[face];
     const double half = 0.5 * R_;
     double X[kMaxClippedVertices], Y[kMaxClippedVertices];
@@ -291,9 +301,11 @@ HemicubeDelta::HemicubeDelta(const std::vector<double>& delta, int resolution) {
 void HemicubeRaster::accumulate(const HemicubeDelta& delta, double weight, double* row,
                                 std::size_t patches) {
     // Four interleaved partial sums, indexed by item + 4 (negative items land in slots 0-3 and
-    // are dropped): no branches, and four independent add chains instead of one per item.
+    // are dropped): no branches, and four independent add chains instead of one per item. The
+    // sums stay allocated and zero between hemicubes; only the patches drawn in this one are
+    // read and cleared, so the cost does not grow with the number of patches.
     const std::size_t stride = patches + 4;
-    partial_.assign(4 * stride, 0.0);
+    if (partial_.size() != 4 * stride) partial_.assign(4 * stride, 0.0);
     double* p0 = partial_.data() + 4;
     double* p1 = p0 + stride;
     double* p2 = p1 + stride;
@@ -312,10 +324,12 @@ void HemicubeRaster::accumulate(const HemicubeDelta& delta, double weight, doubl
     for (int f = 1; f < 5; ++f) {
         add(items_.data() + face_offset(f), delta.side(), static_cast<std::size_t>(R_) * H_);
     }
-    for (std::size_t j = 0; j < patches; ++j) {
+    for (const int j : touched_) {
         const double sum = (p0[j] + p1[j]) + (p2[j] + p3[j]);
         if (sum != 0.0) row[j] += weight * sum;
+        p0[j] = p1[j] = p2[j] = p3[j] = 0.0;
     }
+    for (int k = -4; k < 0; ++k) p0[k] = p1[k] = p2[k] = p3[k] = 0.0;
 }
 
 }  // namespace formfactor::projection

@@ -2,6 +2,7 @@
 /// The hemicube's item-buffer rasteriser (private). One instance per worker: its buffers are
 /// allocated once and reused for every hemicube.
 
+#include <cstdint>
 #include <vector>
 
 #include "methods/projection_common.h"
@@ -32,8 +33,8 @@ class HemicubeRaster {
     /// occluders whose plane passes within `edge_on` of the origin are skipped.
     void render(const Occluders& occ, const Frame& frame, int exclude, double near, double edge_on);
 
-    /// row[item] += weight · Σ delta[cell] over the cells each patch owns; row has `patches`
-    /// entries and every item drawn is below that.
+    /// row[item] += weight · Σ delta[cell] over the cells each patch owns, after render();
+    /// row has `patches` entries (the Occluders' patch count).
     void accumulate(const HemicubeDelta& delta, double weight, double* row, std::size_t patches);
 
     /// Cells of padding after the last face (the SIMD span fill may touch them).
@@ -55,7 +56,10 @@ class HemicubeRaster {
     std::size_t cells_;
     std::vector<float> depth_;  // inverse depth along the face axis; 0 = nothing
     std::vector<int> items_;
-    std::vector<double> partial_;  // scratch of accumulate()
+    std::vector<double> partial_;       // scratch of accumulate(), zero between calls
+    std::vector<int> touched_;          // patches drawn by the last render()
+    std::vector<std::uint32_t> stamp_;  // per patch: the render() that last drew it
+    std::uint32_t epoch_ = 0;
 };
 
 /// One face of the hemicube in local coordinates p = (a, b, c): face coordinates

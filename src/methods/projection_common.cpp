@@ -134,6 +134,7 @@ void quad_points(const std::array<Vec3, 4>& q, int K, double scale,
 
 Occluders build_occluders(const Scene& scene) {
     Occluders occ;
+    occ.patches = scene.patches.size();
     occ.first.push_back(0);
     for (std::size_t i = 0; i < scene.patches.size(); ++i) {
         add_polygon(occ, scene.patches[i].polygon, static_cast<int>(i));

@@ -45,6 +45,7 @@ struct Occluders {
     std::vector<double> nx, ny, nz, d;  ///< unit front normal and offset: n·p = d on the plane
     std::vector<double> cx, cy, cz, r;  ///< bounding sphere
     double scale = 1.0;                 ///< diameter of the scene's bounds (> 0)
+    std::size_t patches = 0;            ///< the scene's patch count (items are below it)
 
     std::size_t size() const { return item.size(); }
 };
