@@ -1,13 +1,17 @@
-// `formfactor compute SCENE -o OUT [--report REPORT.json] [--patches PATCHES.csv]`
+// `formfactor compute SCENE -o OUT [--report REPORT.json] [--patches PATCHES.csv]
+//  [--stderr SE] [--per-surface | --per-patch]`
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <filesystem>
 #include <memory>
 
 #include "commands.h"
 #include "common.h"
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
+#include "formfactor/matrix/aggregate.h"
 #include "formfactor/output/atomic_file.h"
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/patch_table.h"
@@ -24,7 +28,20 @@ struct ComputeArgs {
     std::string report;
     std::string patches;
     std::string standard_error;
+    bool per_surface = false;  ///< --per-surface
+    bool per_patch = false;    ///< --per-patch
 };
+
+// Rows of -o (and --stderr): per surface when asked, or by default for View3D (.vs3) input,
+// whose users expect View3D's own output (one row per surface, subsurfaces separated from their
+// base, cmb surfaces combined).
+bool rows_per_surface(const ComputeArgs& args) {
+    if (args.per_surface || args.per_patch) return args.per_surface;
+    std::string ext = std::filesystem::path(args.scene.scene).extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    return ext == ".vs3";
+}
 
 void run_compute(const ComputeArgs& args) {
     Stopwatch total;
@@ -72,10 +89,30 @@ void run_compute(const ComputeArgs& args) {
     const FormFactors ff = method->compute(scene, options, details);
     times.add("compute", sw.lap());
 
+    // What -o and --stderr hold: the patch matrix, or the per-surface one (rows = surfaces).
+    const bool per_surface = rows_per_surface(args);
+    PatchGroups groups;
+    FormFactors per_surface_ff;
+    std::vector<double> emissivities = patch_emissivities(scene);
+    if (per_surface) {
+        groups = surface_groups(scene);
+        per_surface_ff = aggregate(ff, groups);
+        emissivities.clear();
+        for (const auto& members : groups.surfaces) {
+            const Surface& s = scene.surfaces[static_cast<std::size_t>(members.front())];
+            emissivities.push_back(
+                s.material >= 0 && static_cast<std::size_t>(s.material) < scene.materials.size()
+                    ? scene.materials[static_cast<std::size_t>(s.material)].emissivity
+                    : 0.9);
+        }
+        times.add("aggregate", sw.lap());
+    }
+    const FormFactors& written = per_surface ? per_surface_ff : ff;
+
     OutputTransaction tx;
     MatrixFileInfo info;
-    info.areas = ff.areas;
-    info.emissivities = patch_emissivities(scene);
+    info.areas = written.areas;
+    info.emissivities = emissivities;
     info.enclosure = scene.enclosure;
     // F and its standard errors go out in the same formats (-o and --stderr).
     auto stage_matrix = [&](const std::string& path, const DenseMatrix& m) {
@@ -93,14 +130,14 @@ void run_compute(const ComputeArgs& args) {
             }
         });
     };
-    stage_matrix(args.output, ff.F);
+    stage_matrix(args.output, written.F);
     if (!args.standard_error.empty()) {
-        if (!ff.standard_error) {
+        if (!written.standard_error) {
             throw OptionError("--stderr", "method '" + method->name() +
                                               "' gives no standard errors (it is exact; "
                                               "the Monte-Carlo methods give them)");
         }
-        stage_matrix(args.standard_error, *ff.standard_error);
+        stage_matrix(args.standard_error, *written.standard_error);
     }
     if (!args.patches.empty()) {
         tx.stage(args.patches, [&](std::ostream& out) { write_patch_table(out, scene); });
@@ -129,8 +166,24 @@ void run_compute(const ComputeArgs& args) {
         ctx.options["standard_error"] = args.standard_error.empty()
                                             ? nlohmann::json(nullptr)
                                             : nlohmann::json(args.standard_error);
+        ctx.options["per_surface"] = per_surface;
         ctx.outputs["report"] = args.report;
-        const nlohmann::json report = make_report(scene, ff, ctx);
+        nlohmann::json report = make_report(scene, ff, ctx);
+        if (per_surface) {
+            // The report describes the patch computation; this block the matrix in -o.
+            nlohmann::json rows = nlohmann::json::array();
+            for (std::size_t g = 0; g < groups.size(); ++g) {
+                nlohmann::json members = nlohmann::json::array();
+                for (int m : groups.surfaces[g]) members.push_back(m);
+                rows.push_back({{"name", groups.names[g]},
+                                {"area", per_surface_ff.areas[g]},
+                                {"surfaces", members}});
+            }
+            report["per_surface"] = {{"N", per_surface_ff.size()},
+                                     {"rows", rows},
+                                     {"diagnostics", diagnostics_json(diagnose(
+                                                         per_surface_ff.F, per_surface_ff.areas))}};
+        }
         const std::string text = json_text(report);
         tx.stage(args.report, [&](std::ostream& out) {
             out.write(text.data(), static_cast<std::streamsize>(text.size()));
@@ -139,7 +192,15 @@ void run_compute(const ComputeArgs& args) {
     tx.commit();
 
     print_matrix_summary(scene, method->name(), threads, ff, d, times, total.seconds());
-    std::string wrote = fmt::format("{} ({}×{})", args.output, ff.F.rows(), ff.F.cols());
+    if (per_surface) {
+        const Diagnostics ds = diagnose(per_surface_ff.F, per_surface_ff.areas);
+        fmt::print(
+            "per surface {} rows (surfaces, subsurfaces cut out, cmb combined); row sums "
+            "min {:.10g}, max {:.10g}\n",
+            per_surface_ff.size(), ds.row_sum_min, ds.row_sum_max);
+    }
+    std::string wrote = fmt::format("{} ({}×{}{})", args.output, written.F.rows(), written.F.cols(),
+                                    per_surface ? ", per surface" : "");
     if (!args.standard_error.empty()) wrote += ", " + args.standard_error;
     if (!args.patches.empty()) wrote += ", " + args.patches;
     if (!args.report.empty()) wrote += ", " + args.report;
@@ -169,6 +230,13 @@ void add_compute_command(CLI::App& app) {
                     "Also write the standard error of each entry (same formats as -o; "
                     "Monte-Carlo methods only)")
         ->type_name("SE");
+    auto* ps = cmd->add_flag(
+        "--per-surface", args->per_surface,
+        "Write one row per surface (View3D's output): A_G F_GH = sum of A_i F_ij over the "
+        "patches of G and H, VS3 cmb surfaces merged into their target (default for .vs3 input)");
+    auto* pp = cmd->add_flag("--per-patch", args->per_patch,
+                             "Write one row per patch (default for built-in scenes and .obj)");
+    ps->excludes(pp);
     cmd->callback([args] { run_compute(*args); });
 }
 
