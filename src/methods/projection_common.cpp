@@ -140,7 +140,14 @@ Occluders build_occluders(const Scene& scene) {
         add_polygon(occ, scene.patches[i].polygon, static_cast<int>(i));
     }
     for (const Surface& s : scene.surfaces) {
-        if (s.obstruction) add_polygon(occ, s.polygon, kViewObstruction);
+        if (!s.obstruction) continue;
+        if (s.holes.empty()) {
+            add_polygon(occ, s.polygon, kViewObstruction);
+        } else {
+            for (const Polygon& piece : subtract_holes(s.polygon, s.holes)) {
+                add_polygon(occ, piece, kViewObstruction);
+            }
+        }
     }
     Bounds3 b;
     for (std::size_t k = 0; k < occ.x.size(); ++k) b.extend(Vec3(occ.x[k], occ.y[k], occ.z[k]));
