@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include "formfactor/core/error.h"
@@ -101,13 +102,21 @@ void gauss_legendre(int n, std::vector<double>& x, std::vector<double>& w) {
 // weights summing to `scale`.
 void quad_points(const std::array<Vec3, 4>& q, int K, double scale,
                  std::vector<WeightedPoint>& out) {
-    int rows = static_cast<int>(std::floor(std::sqrt(static_cast<double>(K))));
-    while (K % rows != 0) --rows;
-    int cols = K / rows;  // cols >= rows
+    // ns × nt = K nodes, their ratio as close as possible to the quad's aspect ratio.
     const double len_s = (q[1] - q[0]).norm() + (q[2] - q[3]).norm();
     const double len_t = (q[3] - q[0]).norm() + (q[2] - q[1]).norm();
-    int ns = cols, nt = rows;
-    if (len_t > len_s) std::swap(ns, nt);
+    const double aspect = len_t > 0.0 && len_s > 0.0 ? std::log(len_s / len_t) : 0.0;
+    int ns = K, nt = 1;
+    double best = std::numeric_limits<double>::infinity();
+    for (int a = 1; a <= K; ++a) {
+        if (K % a != 0) continue;
+        const double miss = std::abs(std::log(static_cast<double>(a) / (K / a)) - aspect);
+        if (miss < best - 1e-12) {
+            best = miss;
+            ns = a;
+            nt = K / a;
+        }
+    }
     std::vector<double> xs, ws, xt, wt;
     gauss_legendre(ns, xs, ws);
     gauss_legendre(nt, xt, wt);

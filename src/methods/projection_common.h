@@ -60,12 +60,12 @@ struct WeightedPoint {
 };
 
 /// K points of a polygon for the point-to-area average: the centroid for K = 1; otherwise the
-/// Gauss–Legendre product rule with rows × cols = K nodes (the closest factors, more nodes
-/// along the longer side) in the parameters of the quad's bilinear map (a triangle is a quad
-/// with a repeated vertex), weighted by the map's Jacobian. The point-to-area average is a
-/// smooth integral: for the C-11 plates the 4×4 rule is off by 1.5e-6 where 4×4 cell centres
-/// are off by 1.9e-3. Polygons of more than 4 vertices are triangulated and the points shared
-/// out by area.
+/// Gauss–Legendre product rule with ns × nt = K nodes in the parameters of the quad's bilinear
+/// map (a triangle is a quad with a repeated vertex), weighted by the map's Jacobian; the
+/// factors are those whose ratio is closest to the quad's aspect ratio (a 4 × 1 strip gets
+/// 8 × 2 of K = 16). The point-to-area average is a smooth integral: for the C-11 plates the
+/// 4 × 4 rule is off by 1.5e-6 where 4 × 4 cell centres are off by 1.9e-3. Polygons of more
+/// than 4 vertices are triangulated and the points shared out by area.
 std::vector<WeightedPoint> patch_points(const Polygon& polygon, int K);
 
 /// The local frame of a projection: origin at the point, w the unit normal of the base plane,
