@@ -118,21 +118,6 @@ Vec3 PolygonSampler::operator()(double u, double v) const {
     return b0 * t[0] + b1 * t[1] + (1.0 - b0 - b1) * t[2];
 }
 
-Vec3 cosine_direction(double u, double v) {
-    const double a = 2.0 * u - 1.0, b = 2.0 * v - 1.0;
-    // Branch-free selects: the octant is unpredictable for random or quasi-random input.
-    const bool first = std::abs(a) > std::abs(b);
-    const double r = first ? a : b;
-    const double q = first ? b : a;
-    const double t = r != 0.0 ? q / r : 0.0;
-    const double phi = first ? 0.25 * kPi * t : 0.5 * kPi - 0.25 * kPi * t;
-    // Single-precision sine and cosine: rays are traced in float anyway (~6e-8 relative).
-    const float fphi = static_cast<float>(phi);
-    const double x = r * static_cast<double>(std::cos(fphi));
-    const double y = r * static_cast<double>(std::sin(fphi));
-    return {x, y, std::sqrt(std::max(0.0, 1.0 - x * x - y * y))};
-}
-
 // ---- projected-solid-angle sampling of a polygon ----
 
 ProjectedPolygonSampler::ProjectedPolygonSampler(const Polygon& target) {
