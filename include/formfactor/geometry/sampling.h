@@ -83,6 +83,8 @@ class ProjectedPolygonSampler {
     ProjectedPolygonSampler() = default;
     /// Prepares for `target`, a planar polygon whose front (normal) side receives.
     explicit ProjectedPolygonSampler(const Polygon& target);
+    /// Prepares for another target, reusing the memory (no allocation once warm).
+    void reset(const Polygon& target);
 
     /// Sets the sending point x with unit normal n. Returns F_{dA→A}, the unoccluded form
     /// factor from x to the front of the polygon (0 when x does not see the front; then
@@ -113,12 +115,14 @@ class ProjectedPolygonSampler {
         Vec3 a = Vec3::Zero(), b = Vec3::Zero();
         double gamma = 0;
         double phi0 = 0, phi1 = 0;
+        double c0 = 1, s0 = 0, c1 = 1, s1 = 0;  // cos, sin of phi0 and phi1
         Arc far, near;
     };
     void add_piece(std::vector<Vec3>& local);
     double sample_wedge_angle(const Cell& c, double s) const;
 
     std::vector<std::vector<Vec3>> pieces_;  // convex pieces of the target, world coordinates
+    std::size_t piece_count_ = 0;            // pieces_[0, piece_count_) are in use
     Vec3 target_normal_ = Vec3::Zero();
     Vec3 target_point_ = Vec3::Zero();
     Vec3 t_ = Vec3::UnitX(), b_ = Vec3::UnitY(), n_ = Vec3::UnitZ();
