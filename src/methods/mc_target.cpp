@@ -1,14 +1,16 @@
 // mc-target: Monte-Carlo sampling on the target (Wallace, Elmquist & Haines 1989; DESIGN.md,
 // method 7).
 //
-// For each pair (i, j): N sender points x_k uniform on A_i; from each, one shadow ray towards a
-// direction drawn from the projected solid angle of A_j (ProjectedPolygonSampler: exact, no
-// rejection), so that every ray from x_k carries the same weight w_k = F_{dA(x_k)→A_j}. The
-// estimate is the exact unoccluded F_ij (polygon_to_polygon) times the visible fraction
-//     ρ = Σ_k w_k V_k / Σ_k w_k,
+// For each pair (i, j): N rays from N/2 sender points x_g uniform on A_i; from each, two shadow
+// rays towards directions drawn from the projected solid angle of A_j (ProjectedPolygonSampler:
+// exact, no rejection; one set-up per sender point), so that every ray from x_g carries the same
+// weight w_g = F_{dA(x_g)→A_j}. The estimate is the exact unoccluded F_ij (polygon_to_polygon,
+// once per unordered pair, the other by reciprocity) times the visible fraction
+//     ρ = Σ_rays w V / Σ_rays w,
 // a ratio estimator: exact when nothing blocks (ρ = 1) or everything does (ρ = 0), consistent
 // with O(1/N) bias otherwise. --samples = rays per patch pair. Standard error: F_unocc × the
-// spread of the replicates' ρ (or, with the random sampler, the delta-method variance of ρ).
+// spread of the replicates' ρ (or, with the random sampler, the delta-method variance of ρ
+// with the sender points as the independent units).
 #include <atomic>
 
 #include "formfactor/core/parallel.h"
