@@ -1,6 +1,7 @@
 #include "formfactor/core/random.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 
 #include "formfactor/core/error.h"
@@ -8,11 +9,20 @@
 namespace formfactor {
 namespace {
 
+// Bit reversal: byte swap, then the bits within each byte.
+inline std::uint32_t reverse_bits(std::uint32_t x) {
+    x = __builtin_bswap32(x);
+    x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
+    x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
+    return ((x >> 4) & 0x0f0f0f0fu) | ((x & 0x0f0f0f0fu) << 4);
+}
+
 // Sobol generator matrices of the first four dimensions, 32 bits. Dimension 0 is van der
 // Corput; dimensions 1–3 use Joe & Kuo's primitive polynomials and initial direction numbers
 // (new-joe-kuo-6.21201, d = 2, 3, 4: s = 1, 2, 3; a = 0, 1, 1; m = {1}, {1,3}, {1,3,1}).
 struct SobolMatrices {
     std::uint32_t v[4][32];
+    std::uint32_t prefix[4][32];  // reverse_bits(v[d][0] ^ … ^ v[d][t]), the bit-reversed domain
     SobolMatrices() {
         for (int b = 0; b < 32; ++b) v[0][b] = 1u << (31 - b);
         const int s[3] = {1, 2, 3};
@@ -27,11 +37,13 @@ struct SobolMatrices {
                     if ((a[d] >> (s[d] - 1 - k)) & 1u) V[i] ^= V[i - k];
             }
         }
+        for (int d = 0; d < 4; ++d) {
+            std::uint32_t acc = 0;
+            for (int b = 0; b < 32; ++b) prefix[d][b] = reverse_bits(acc ^= v[d][b]);
+        }
     }
 };
 const SobolMatrices kSobol;
-
-std::uint32_t reverse_bits(std::uint32_t x);
 
 // Branch-free (the index bits are unpredictable); dimension 0 is the bit reversal.
 std::uint32_t sobol(std::uint32_t index, int dim) {
@@ -42,25 +54,20 @@ std::uint32_t sobol(std::uint32_t index, int dim) {
     return x;
 }
 
-std::uint32_t reverse_bits(std::uint32_t x) {
-    x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
-    x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
-    x = ((x >> 4) & 0x0f0f0f0fu) | ((x & 0x0f0f0f0fu) << 4);
-    x = ((x >> 8) & 0x00ff00ffu) | ((x & 0x00ff00ffu) << 8);
-    return (x >> 16) | (x << 16);
-}
-
 // Hash-based nested uniform (Owen) scrambling: Laine & Karras 2011's bit-reversed-domain
 // permutation with Burley's improved constants ("Practical Hash-based Owen Scrambling", JCGT
 // 2020; as pbrt-v4's FastOwenScrambler). Each bit is flipped by a hash of the higher bits only.
-std::uint32_t owen_scramble(std::uint32_t v, std::uint32_t seed) {
-    v = reverse_bits(v);
+// Takes the value bit-reversed (v = reverse_bits(x)): the Sobol generator below produces it so.
+inline std::uint32_t owen_scramble_reversed(std::uint32_t v, std::uint32_t seed) {
     v ^= v * 0x3d20adeau;
     v += seed;
     v *= (seed >> 16) | 1u;
     v ^= v * 0x05526c56u;
     v ^= v * 0x53a22864u;
     return reverse_bits(v);
+}
+inline std::uint32_t owen_scramble(std::uint32_t x, std::uint32_t seed) {
+    return owen_scramble_reversed(reverse_bits(x), seed);
 }
 
 // A bijection of [0, l) chosen by p (Kensler, "Correlated Multi-Jittered Sampling", 2013).
@@ -209,6 +216,38 @@ std::array<double, 4> PointSet4::operator()(std::uint32_t index) const {
             break;
     }
     return u;
+}
+
+void PointSet4::generate(std::uint32_t first, std::uint32_t count, double* const out[4]) const {
+    if (count == 0) return;
+    if (kind_ != SamplerKind::sobol) {
+        for (std::uint32_t k = 0; k < count; ++k) {
+            const auto u = (*this)(first + k);
+            for (int d = 0; d < 4; ++d) out[d][k] = u[static_cast<std::size_t>(d)];
+        }
+        return;
+    }
+    // sobol(i + 1) = sobol(i) ^ v[0] ^ … ^ v[t] with t = ctz(i + 1): the bits of i that flip.
+    // Kept bit-reversed (reversal is linear over XOR), which is where the scrambler starts;
+    // then scrambled in a separate loop.
+    constexpr std::uint32_t kChunk = 256;
+    std::uint32_t raw[kChunk];
+    for (int d = 0; d < 4; ++d) {
+        std::uint32_t x = reverse_bits(sobol(first, d));
+        const std::uint32_t* pre = kSobol.prefix[d];
+        const std::uint32_t seed = scramble_[d];
+        double* o = out[d];
+        for (std::uint32_t k0 = 0; k0 < count; k0 += kChunk) {
+            const std::uint32_t m = std::min(kChunk, count - k0);
+            for (std::uint32_t k = 0; k < m; ++k) {
+                raw[k] = x;
+                const std::uint32_t next = first + k0 + k + 1;
+                x ^= pre[next ? std::countr_zero(next) : 31];
+            }
+            for (std::uint32_t k = 0; k < m; ++k)
+                o[k0 + k] = owen_scramble_reversed(raw[k], seed) * 0x1.0p-32;
+        }
+    }
 }
 
 std::uint32_t replicate_count(SamplerKind kind, std::uint64_t n) {

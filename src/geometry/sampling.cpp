@@ -118,34 +118,31 @@ Vec3 PolygonSampler::operator()(double u, double v) const {
     return b0 * t[0] + b1 * t[1] + (1.0 - b0 - b1) * t[2];
 }
 
-Vec3 cosine_direction(double u, double v) {
-    const double a = 2.0 * u - 1.0, b = 2.0 * v - 1.0;
-    // Branch-free selects: the octant is unpredictable for random or quasi-random input.
-    const bool first = std::abs(a) > std::abs(b);
-    const double r = first ? a : b;
-    const double q = first ? b : a;
-    const double t = r != 0.0 ? q / r : 0.0;
-    const double phi = first ? 0.25 * kPi * t : 0.5 * kPi - 0.25 * kPi * t;
-    // Single-precision sine and cosine: rays are traced in float anyway (~6e-8 relative).
-    const float fphi = static_cast<float>(phi);
-    const double x = r * static_cast<double>(std::cos(fphi));
-    const double y = r * static_cast<double>(std::sin(fphi));
-    return {x, y, std::sqrt(std::max(0.0, 1.0 - x * x - y * y))};
-}
-
 // ---- projected-solid-angle sampling of a polygon ----
 
-ProjectedPolygonSampler::ProjectedPolygonSampler(const Polygon& target) {
+ProjectedPolygonSampler::ProjectedPolygonSampler(const Polygon& target) { reset(target); }
+
+void ProjectedPolygonSampler::reset(const Polygon& target) {
     FF_ASSERT(target.size() >= 3);
     target_normal_ = normal(target);
     target_point_ = centroid(target);
+    cells_.clear();
+    cdf_.clear();
+    total_ = 0.0;
+    piece_count_ = 0;
+    auto next_piece = [&]() -> std::vector<Vec3>& {
+        if (pieces_.size() <= piece_count_) pieces_.emplace_back();
+        std::vector<Vec3>& piece = pieces_[piece_count_++];
+        piece.clear();
+        return piece;
+    };
     if (is_convex(target)) {
-        pieces_.push_back(target.vertices);
+        next_piece() = target.vertices;
     } else {
-        for (const auto& t : triangulate(target))
-            pieces_.push_back({target[static_cast<std::size_t>(t[0])],
-                               target[static_cast<std::size_t>(t[1])],
-                               target[static_cast<std::size_t>(t[2])]});
+        for (const auto& t : triangulate(target)) {
+            std::vector<Vec3>& piece = next_piece();
+            for (int k : t) piece.push_back(target[static_cast<std::size_t>(k)]);
+        }
     }
 }
 
@@ -156,16 +153,19 @@ double ProjectedPolygonSampler::set_origin(const Vec3& x, const Vec3& n) {
     if (!(target_normal_.dot(x - target_point_) > 0)) return 0.0;
     n_ = n;
     orthonormal_basis(n_, t_, b_);
-    for (const auto& piece : pieces_) {
+    for (std::size_t pc = 0; pc < piece_count_; ++pc) {
         // Local coordinates (t, b, n) about x, clipped to z ≥ 0 (Sutherland–Hodgman).
         scratch_.clear();
-        for (const Vec3& y : piece) {
+        bool all_above = true;
+        for (const Vec3& y : pieces_[pc]) {
             const Vec3 d = y - x;
             scratch_.emplace_back(d.dot(t_), d.dot(b_), d.dot(n_));
+            all_above = all_above && scratch_.back().z() > 0;
         }
         local_.clear();
         const std::size_t k = scratch_.size();
-        for (std::size_t a = 0; a < k; ++a) {
+        if (all_above) local_.swap(scratch_);
+        for (std::size_t a = 0; a < k && !all_above; ++a) {
             const Vec3& p = scratch_[a];
             const Vec3& q = scratch_[(a + 1) % k];
             if (p.z() >= 0) local_.push_back(p);
@@ -286,6 +286,10 @@ void ProjectedPolygonSampler::add_piece(std::vector<Vec3>& l) {
                 cell.near.set(cn.normalized());
                 const double c0 = std::cos(cur), s0 = std::sin(cur);
                 const double c1 = std::cos(next), s1 = std::sin(next);
+                cell.c0 = c0;
+                cell.s0 = s0;
+                cell.c1 = c1;
+                cell.s1 = s1;
                 cell.far.e0 = cell.far.E(c0, s0);
                 cell.near.e0 = cell.near.E(c0, s0);
                 cell.area = 0.5 * cell.far.a * unwrap(cell.far.E(c1, s1) - cell.far.e0) -
@@ -311,7 +315,7 @@ double ProjectedPolygonSampler::sample_wedge_angle(const Cell& c, double s) cons
     const double t_lin = std::clamp(s / c.area, 0.0, 1.0);
     double phi = lo + width * t_lin;
     {
-        const double c0 = std::cos(lo), s0 = std::sin(lo), c1 = std::cos(hi), s1 = std::sin(hi);
+        const double c0 = c.c0, s0 = c.s0, c1 = c.c1, s1 = c.s1;
         const double d0 = 0.5 * (c.far.r2(c0, s0) - c.near.r2(c0, s0)) * width;
         const double d1 = 0.5 * (c.far.r2(c1, s1) - c.near.r2(c1, s1)) * width;
         // A(t) ≈ d0 t + (d1 − d0) t²/2, rescaled so that A(1) = area.

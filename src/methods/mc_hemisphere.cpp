@@ -16,6 +16,24 @@
 namespace formfactor {
 namespace {
 
+constexpr std::size_t kBatch = 256;
+
+// A thread's working memory: hit counts of the current replicate (all zero between rows), the
+// patches they touch, one batch of queries, hits and point coordinates.
+struct Buffers {
+    std::vector<std::uint32_t> count, touched;
+    std::vector<RayQuery> queries = std::vector<RayQuery>(kBatch);
+    std::vector<RayHit> hits = std::vector<RayHit>(kBatch);
+    std::vector<double> u[4] = {std::vector<double>(kBatch), std::vector<double>(kBatch),
+                                std::vector<double>(kBatch), std::vector<double>(kBatch)};
+    bool clean = true;  // false while a row is in flight (an exception may leave counts)
+    void prepare(std::size_t n) {
+        if (!clean || count.size() != n) count.assign(n, 0);
+        touched.clear();
+        clean = false;
+    }
+};
+
 class McHemisphereMethod final : public Method {
   public:
     std::string name() const override { return "mc-hemisphere"; }
@@ -39,7 +57,6 @@ class McHemisphereMethod final : public Method {
         for (const Patch& p : scene.patches) ff.areas.push_back(p.area);
         std::atomic<std::uint64_t> rays{0}, escaped{0}, back_hits{0}, obstruction_hits{0};
         Progress progress("mc-hemisphere", n, options.progress);
-        constexpr std::size_t kBatch = 256;
 
         parallel_for(n, options.threads, [&](std::size_t i) {
             const Patch& pi = scene.patches[i];
@@ -49,10 +66,16 @@ class McHemisphereMethod final : public Method {
             // F row holds the running totals; Q (replicate second moments) lives in the SE row.
             auto F = ff.F.row(static_cast<Eigen::Index>(i));
             auto Q = ff.standard_error->row(static_cast<Eigen::Index>(i));
-            std::vector<std::uint32_t> count(n, 0);
-            std::vector<std::uint32_t> touched;
-            std::vector<RayQuery> queries(kBatch);
-            std::vector<RayHit> hits(kBatch);
+            // Per-thread buffers, reused across rows (no allocation per row or batch).
+            thread_local Buffers buf;
+            buf.prepare(n);
+            std::vector<std::uint32_t>& count = buf.count;
+            std::vector<std::uint32_t>& touched = buf.touched;
+            RayQuery* queries = buf.queries.data();
+            RayHit* hits = buf.hits.data();
+            double* const u[4] = {buf.u[0].data(), buf.u[1].data(), buf.u[2].data(),
+                                  buf.u[3].data()};
+            const int from = static_cast<int>(i);
             std::uint64_t esc = 0, back = 0, obst = 0;
             const double n_bar = double(N) / R;
             for (std::uint32_t r = 0; r < R; ++r) {
@@ -62,20 +85,20 @@ class McHemisphereMethod final : public Method {
                 for (std::uint64_t s0 = 0; s0 < nr; s0 += kBatch) {
                     const std::size_t m =
                         static_cast<std::size_t>(std::min<std::uint64_t>(kBatch, nr - s0));
+                    set.generate(static_cast<std::uint32_t>(s0), static_cast<std::uint32_t>(m), u);
                     for (std::size_t k = 0; k < m; ++k) {
-                        const auto u = set(static_cast<std::uint32_t>(s0 + k));
-                        const Vec3 d = cosine_direction(u[2], u[3]);
-                        queries[k] = {sampler(u[0], u[1]),
-                                      d.x() * t + d.y() * b + d.z() * pi.normal,
-                                      static_cast<int>(i)};
+                        const Vec3 d = cosine_direction(u[2][k], u[3][k]);
+                        queries[k].origin = sampler(u[0][k], u[1][k]);
+                        queries[k].direction = d.x() * t + d.y() * b + d.z() * pi.normal;
+                        queries[k].from_patch = from;
                     }
-                    vis->first_hit(std::span<const RayQuery>(queries.data(), m),
-                                   std::span<RayHit>(hits.data(), m));
+                    vis->first_hit(std::span<const RayQuery>(queries, m),
+                                   std::span<RayHit>(hits, m));
                     for (std::size_t k = 0; k < m; ++k) {
                         const RayHit& h = hits[k];
                         if (h.patch < 0) {
                             (h.patch == RayHit::kMiss ? esc : obst)++;
-                        } else if (!h.front || h.patch == static_cast<int>(i)) {
+                        } else if (!h.front || h.patch == from) {
                             ++back;
                         } else {
                             const auto j = static_cast<std::uint32_t>(h.patch);
@@ -91,6 +114,7 @@ class McHemisphereMethod final : public Method {
                 }
                 touched.clear();
             }
+            buf.clean = true;
             for (Eigen::Index j = 0; j < F.size(); ++j) {
                 if (F[j] == 0.0) continue;
                 mc::ReplicateMean acc{F[j], Q[j]};

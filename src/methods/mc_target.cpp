@@ -1,14 +1,16 @@
 // mc-target: Monte-Carlo sampling on the target (Wallace, Elmquist & Haines 1989; DESIGN.md,
 // method 7).
 //
-// For each pair (i, j): N sender points x_k uniform on A_i; from each, one shadow ray towards a
-// direction drawn from the projected solid angle of A_j (ProjectedPolygonSampler: exact, no
-// rejection), so that every ray from x_k carries the same weight w_k = F_{dA(x_k)→A_j}. The
-// estimate is the exact unoccluded F_ij (polygon_to_polygon) times the visible fraction
-//     ρ = Σ_k w_k V_k / Σ_k w_k,
+// For each pair (i, j): N rays from N/2 sender points x_g uniform on A_i; from each, two shadow
+// rays towards directions drawn from the projected solid angle of A_j (ProjectedPolygonSampler:
+// exact, no rejection; one set-up per sender point), so that every ray from x_g carries the same
+// weight w_g = F_{dA(x_g)→A_j}. The estimate is the exact unoccluded F_ij (polygon_to_polygon,
+// once per unordered pair, the other by reciprocity) times the visible fraction
+//     ρ = Σ_rays w V / Σ_rays w,
 // a ratio estimator: exact when nothing blocks (ρ = 1) or everything does (ρ = 0), consistent
 // with O(1/N) bias otherwise. --samples = rays per patch pair. Standard error: F_unocc × the
-// spread of the replicates' ρ (or, with the random sampler, the delta-method variance of ρ).
+// spread of the replicates' ρ (or, with the random sampler, the delta-method variance of ρ
+// with the sender points as the independent units).
 #include <atomic>
 
 #include "formfactor/core/parallel.h"
@@ -20,6 +22,47 @@
 
 namespace formfactor {
 namespace {
+
+// Rays drawn from one sender point (one projected-solid-angle set-up). The set-up costs about
+// twice a sample; sharing it halves the cost per ray while the sender points stay numerous.
+constexpr std::uint32_t kDirectionsPerSender = 2;
+constexpr std::size_t kBatch = 256;
+constexpr std::uint32_t kGroupChunk = 128;  // sender points whose coordinates are made at once
+
+// One sender point's rays in the batch: queries [first, first + count), each of weight `weight`
+// (F_{dA(x)→A_j}), for slot j·R + r.
+struct Group {
+    std::uint32_t first = 0, count = 0;
+    double weight = 0;
+    std::uint32_t slot = 0;
+};
+
+// A thread's working memory, reused across rows: per-row accumulators (zero between rows),
+// the batch, and the point coordinates of one replicate.
+struct RowBuffers {
+    std::vector<double> W, V, A2, B2, C2, rho;
+    std::vector<SegmentQuery> queries;
+    std::vector<Group> groups;
+    std::vector<std::uint8_t> blocked = std::vector<std::uint8_t>(kBatch);
+    std::vector<double> sender_u[4], direction_u[4];  // one chunk of groups
+    ProjectedPolygonSampler target;
+    void prepare(std::size_t n, std::uint32_t R) {
+        W.assign(n * R, 0.0);
+        V.assign(n * R, 0.0);
+        A2.assign(n, 0.0);
+        B2.assign(n, 0.0);
+        C2.assign(n, 0.0);
+        rho.resize(R);
+        queries.clear();
+        groups.clear();
+        queries.reserve(kBatch);
+        groups.reserve(kBatch);
+    }
+    RowBuffers() {
+        for (auto& v : sender_u) v.resize(kGroupChunk);
+        for (auto& v : direction_u) v.resize(kGroupChunk * kDirectionsPerSender);
+    }
+};
 
 bool behind(const Patch& p, const Patch& q) {
     const double tol = 1e-12 * diameter(p.polygon);
@@ -53,71 +96,111 @@ class McTargetMethod final : public Method {
         ff.standard_error = DenseMatrix::Zero(ff.F.rows(), ff.F.cols());
         for (const Patch& p : scene.patches) ff.areas.push_back(p.area);
         std::atomic<std::uint64_t> rays{0}, unblocked_pairs{0}, pairs{0};
-        Progress progress("mc-target", n, options.progress);
-        constexpr std::size_t kBatch = 256;
 
+        // Pass 1: the exact unobstructed F_ij (polygon_to_polygon, the dominant cost per pair)
+        // once per unordered pair, j > i; F_ji by reciprocity A_j F_ji = A_i F_ij. Entries are
+        // written by one task each; ff.F holds F_unocc until pass 2 scales its own row.
         parallel_for(n, options.threads, [&](std::size_t i) {
             const Patch& pi = scene.patches[i];
-            // Rays of all pairs and replicates of the row share batches; each remembers its
-            // slot j·R + r. Per slot: Σw and Σw·V; per j: Σw², Σw²·V (delta method, R = 1).
-            std::vector<double> W(n * R, 0.0), V(n * R, 0.0), W2(n, 0.0), W2V(n, 0.0);
-            std::vector<double> f_unocc(n, 0.0);
-            std::vector<SegmentQuery> queries;
-            std::vector<double> weight;
-            std::vector<std::uint32_t> slot;
-            std::vector<std::uint8_t> blocked(kBatch);
-            queries.reserve(kBatch);
-            weight.reserve(kBatch);
-            slot.reserve(kBatch);
-            std::uint64_t row_rays = 0, row_pairs = 0, row_unblocked = 0;
-            auto flush = [&] {
-                vis->occluded(queries, std::span<std::uint8_t>(blocked.data(), queries.size()));
-                row_rays += queries.size();
-                for (std::size_t k = 0; k < queries.size(); ++k) {
-                    const double w = weight[k];
-                    const std::uint32_t j = slot[k] / R;
-                    W[slot[k]] += w;
-                    W2[j] += w * w;
-                    if (!blocked[k]) {
-                        V[slot[k]] += w;
-                        W2V[j] += w * w;
-                    }
-                }
-                queries.clear();
-                weight.clear();
-                slot.clear();
-            };
-            for (std::size_t j = 0; j < n; ++j) {
-                if (j == i) continue;
+            for (std::size_t j = i + 1; j < n; ++j) {
                 const Patch& pj = scene.patches[j];
                 if (behind(pi, pj) || behind(pj, pi)) continue;
-                f_unocc[j] = polygon_to_polygon(pi.polygon, pj.polygon);
-                if (!(f_unocc[j] > 0)) continue;
-                ProjectedPolygonSampler target(pj.polygon);
+                const double f = polygon_to_polygon(pi.polygon, pj.polygon);
+                if (!(f > 0)) continue;
+                const auto ii = static_cast<Eigen::Index>(i), jj = static_cast<Eigen::Index>(j);
+                ff.F(ii, jj) = f;
+                ff.F(jj, ii) = pj.area > 0 ? f * pi.area / pj.area : 0.0;
+            }
+        });
+
+        Progress progress("mc-target", n, options.progress);
+        const std::uint32_t K = kDirectionsPerSender;
+        parallel_for(n, options.threads, [&](std::size_t i) {
+            const Patch& pi = scene.patches[i];
+            // Rays of all pairs and replicates of the row share batches. A group is one sender
+            // point and its (up to K) rays; groups never straddle a batch. Per slot j·R + r:
+            // Σw and Σw·V; per j, for the delta method (R = 1) with groups as the units:
+            // Σ w²v², Σ w²v·m, Σ w²m² (v visible rays of the group's m).
+            thread_local RowBuffers buf;
+            buf.prepare(n, R);
+            std::vector<double>&W = buf.W, &V = buf.V, &A2 = buf.A2, &B2 = buf.B2, &C2 = buf.C2;
+            std::vector<SegmentQuery>& queries = buf.queries;
+            std::vector<Group>& groups = buf.groups;
+            std::uint8_t* blocked = buf.blocked.data();
+            double* const us[4] = {buf.sender_u[0].data(), buf.sender_u[1].data(),
+                                   buf.sender_u[2].data(), buf.sender_u[3].data()};
+            double* const ud[4] = {buf.direction_u[0].data(), buf.direction_u[1].data(),
+                                   buf.direction_u[2].data(), buf.direction_u[3].data()};
+            std::uint64_t row_rays = 0, row_pairs = 0, row_unblocked = 0;
+            auto flush = [&] {
+                vis->occluded(queries, std::span<std::uint8_t>(blocked, queries.size()));
+                row_rays += queries.size();
+                for (const Group& g : groups) {
+                    std::uint32_t v = 0;
+                    for (std::uint32_t k = 0; k < g.count; ++k) v += blocked[g.first + k] ? 0 : 1;
+                    const double w = g.weight, m = g.count, w2 = w * w;
+                    const std::uint32_t j = g.slot / R;
+                    W[g.slot] += m * w;
+                    V[g.slot] += v * w;
+                    A2[j] += w2 * v * v;
+                    B2[j] += w2 * v * m;
+                    C2[j] += w2 * m * m;
+                }
+                queries.clear();
+                groups.clear();
+            };
+            const int from = static_cast<int>(i);
+            for (std::size_t j = 0; j < n; ++j) {
+                if (j == i) continue;
+                const double f_unocc =
+                    ff.F(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j));
+                if (!(f_unocc > 0)) continue;
+                const Patch& pj = scene.patches[j];
+                ProjectedPolygonSampler& target = buf.target;
+                target.reset(pj.polygon);
+                const int to = static_cast<int>(j);
+                const double plane = pj.normal.dot(pj.centroid);
                 for (std::uint32_t r = 0; r < R; ++r) {
-                    const std::uint64_t nr = replicate_size(N, R, r);
-                    const PointSet4 set(kind, stream_key(options.seed, i, j, r),
-                                        static_cast<std::uint32_t>(nr));
-                    for (std::uint32_t s = 0; s < nr; ++s) {
-                        const auto u = set(s);
-                        const Vec3 x = senders[i](u[0], u[1]);
-                        const double w = target.set_origin(x, pi.normal);
-                        if (!(w > 0)) continue;
-                        const Vec3 d = target.sample(u[2], u[3]);
-                        const double den = pj.normal.dot(d);
-                        if (!(den < 0)) continue;  // grazing: measure zero
-                        const double t = pj.normal.dot(pj.centroid - x) / den;
-                        queries.push_back({x, x + t * d, static_cast<int>(i), static_cast<int>(j)});
-                        weight.push_back(w);
-                        slot.push_back(static_cast<std::uint32_t>(j * R + r));
-                        if (queries.size() == kBatch) flush();
+                    const auto nr = static_cast<std::uint32_t>(replicate_size(N, R, r));
+                    const PointSet4 set(kind, stream_key(options.seed, i, j, r), nr);
+                    // Group g: the sender point of point g (dimensions 0, 1: the first points of
+                    // the set, so the sender points stay stratified), directions from points
+                    // gK … gK+K−1 (dimensions 2, 3). Each ray is still (x uniform on A_i,
+                    // direction by the projected solid angle of A_j from x); dimensions are
+                    // scrambled independently, so x and its directions are independent.
+                    const std::uint32_t n_groups = (nr + K - 1) / K;
+                    for (std::uint32_t g0 = 0; g0 < n_groups; g0 += kGroupChunk) {
+                        const std::uint32_t gc = std::min(kGroupChunk, n_groups - g0);
+                        const std::uint32_t d0 = g0 * K, dc = std::min(gc * K, nr - d0);
+                        set.generate(g0, gc, us);
+                        set.generate(d0, dc, ud);
+                        for (std::uint32_t g = 0; g < gc; ++g) {
+                            const std::uint32_t m = std::min(K, dc - g * K);
+                            const Vec3 x = senders[i](us[0][g], us[1][g]);
+                            const double w = target.set_origin(x, pi.normal);
+                            if (!(w > 0)) continue;
+                            if (queries.size() + m > kBatch) flush();
+                            Group grp{static_cast<std::uint32_t>(queries.size()), 0, w,
+                                      static_cast<std::uint32_t>(j * R + r)};
+                            const double h = plane - pj.normal.dot(x);  // < 0: x in front
+                            for (std::uint32_t k = g * K; k < g * K + m; ++k) {
+                                const Vec3 d = target.sample(ud[2][k], ud[3][k]);
+                                const double den = pj.normal.dot(d);
+                                if (!(den < 0)) continue;  // grazing: measure zero
+                                queries.push_back({x, x + (h / den) * d, from, to});
+                                ++grp.count;
+                            }
+                            if (grp.count > 0) groups.push_back(grp);
+                        }
                     }
                 }
             }
             if (!queries.empty()) flush();
-            std::vector<double> rho(R);
+            std::vector<double>& rho = buf.rho;
             for (std::size_t j = 0; j < n; ++j) {
-                if (!(f_unocc[j] > 0)) continue;
+                const double f_unocc =
+                    j == i ? 0.0 : ff.F(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j));
+                if (!(f_unocc > 0)) continue;
                 ++row_pairs;
                 const auto ii = static_cast<Eigen::Index>(i), jj = static_cast<Eigen::Index>(j);
                 double w_sum = 0, v_sum = 0;
@@ -129,13 +212,13 @@ class McTargetMethod final : public Method {
                 }
                 if (!(w_sum > 0)) {
                     // No sender point saw j (a sliver of visibility): unknown, and said so.
-                    ff.F(ii, jj) = f_unocc[j];
-                    (*ff.standard_error)(ii, jj) = f_unocc[j];
+                    ff.F(ii, jj) = f_unocc;
+                    (*ff.standard_error)(ii, jj) = f_unocc;
                     continue;
                 }
                 const double ratio = v_sum / w_sum;
                 if (v_sum == w_sum) ++row_unblocked;
-                ff.F(ii, jj) = f_unocc[j] * ratio;
+                ff.F(ii, jj) = f_unocc * ratio;
                 double se = 0;
                 if (R > 1) {
                     if (used > 1) {
@@ -145,10 +228,11 @@ class McTargetMethod final : public Method {
                         se = std::sqrt(s2 / (used - 1) / used);
                     }
                 } else {
-                    const double v = (1 - 2 * ratio) * W2V[j] + ratio * ratio * W2[j];
+                    // Σ_g w_g²(v_g − ρ m_g)² over the groups (sender points).
+                    const double v = A2[j] - 2 * ratio * B2[j] + ratio * ratio * C2[j];
                     se = std::sqrt(std::max(0.0, v)) / w_sum;
                 }
-                (*ff.standard_error)(ii, jj) = f_unocc[j] * se;
+                (*ff.standard_error)(ii, jj) = f_unocc * se;
             }
             rays += row_rays;
             pairs += row_pairs;
