@@ -225,8 +225,8 @@ FormFactors AnalyticMethod::compute(const Scene& scene, const MethodOptions& opt
     if (may_obstruct(scene)) {
         details["obstructed"] = true;
         apply_obstructions(scene, options, out, details);
-        details["error_bound_per_entry"] =
-            std::max(std::max(tol, 1e-12), details["obstructions"]["max_error_estimate"].get<double>());
+        details["error_bound_per_entry"] = std::max(
+            std::max(tol, 1e-12), details["obstructions"]["max_error_estimate"].get<double>());
     }
     return out;
 }

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <map>
 #include <string>
@@ -76,14 +77,13 @@ struct ClusterTree {
         if (ext.y() > ext[axis]) axis = 1;
         if (ext.z() > ext[axis]) axis = 2;
         const int mid = first + count / 2;
-        std::nth_element(order.begin() + first, order.begin() + mid, order.begin() + first + count,
-                         [&](int a, int b) {
-                             const double ca =
-                                 scene.patches[static_cast<std::size_t>(a)].centroid[axis];
-                             const double cb =
-                                 scene.patches[static_cast<std::size_t>(b)].centroid[axis];
-                             return ca < cb || (ca == cb && a < b);
-                         });
+        std::nth_element(
+            order.begin() + first, order.begin() + mid, order.begin() + first + count,
+            [&](int a, int b) {
+                const double ca = scene.patches[static_cast<std::size_t>(a)].centroid[axis];
+                const double cb = scene.patches[static_cast<std::size_t>(b)].centroid[axis];
+                return ca < cb || (ca == cb && a < b);
+            });
         const int l = build(scene, first, mid - first);
         const int r = build(scene, mid, first + count - mid);
         nodes[static_cast<std::size_t>(id)].left = l;
@@ -148,8 +148,11 @@ class Classifier {
         sh.build(A.hull.data(), static_cast<int>(A.hull.size()), TA.normal, B.hull.data(),
                  static_cast<int>(B.hull.size()), TB.normal, eps_);
         if (sh.facing_away()) return;
+        // The exact (edge-edge) separation test only for patch pairs: above them a false
+        // "partly hidden" costs one more level of recursion, below it an integration.
+        const bool leaves = A.count == 1 && B.count == 1;
         const ShaftClass cls = detail::classify_shaft(sh, blockers_, pool_.data() + first,
-                                                      static_cast<int>(count), kept_);
+                                                      static_cast<int>(count), kept_, leaves);
         const std::size_t pairs =
             static_cast<std::size_t>(A.count) * static_cast<std::size_t>(B.count);
         if (cls == ShaftClass::kHidden) {
@@ -161,7 +164,7 @@ class Classifier {
             out.visible_patch_pairs += pairs;
             return;
         }
-        if (A.count == 1 && B.count == 1) {
+        if (leaves) {
             PartialPair p;
             p.i = TA.order[static_cast<std::size_t>(A.first)];
             p.j = TB.order[static_cast<std::size_t>(B.first)];
@@ -222,6 +225,11 @@ bool AnalyticMethod::may_obstruct(const Scene& scene) {
 
 void AnalyticMethod::apply_obstructions(const Scene& scene, const MethodOptions& options,
                                         FormFactors& out, nlohmann::json& details) {
+    using Clock = std::chrono::steady_clock;
+    const auto t_start = Clock::now();
+    auto seconds = [](Clock::time_point a, Clock::time_point b) {
+        return std::chrono::duration<double>(b - a).count();
+    };
     const double tol = options.obstructed_tolerance;
     if (!(tol > 0.0) || !std::isfinite(tol))
         throw OptionError("--tolerance", "must be a positive number (absolute error per entry)");
@@ -241,9 +249,9 @@ void AnalyticMethod::apply_obstructions(const Scene& scene, const MethodOptions&
             const Patch& pt = scene.patches[p];
             const Vec3 nn = pt.normal;
             const double d = nn.dot(pt.centroid) / diag;
-            const std::array<long long, 4> key = {std::llround(nn.x() * 1e8),
-                                                  std::llround(nn.y() * 1e8),
-                                                  std::llround(nn.z() * 1e8), std::llround(d * 1e8)};
+            const std::array<long long, 4> key = {
+                std::llround(nn.x() * 1e8), std::llround(nn.y() * 1e8), std::llround(nn.z() * 1e8),
+                std::llround(d * 1e8)};
             auto it = key_to_group.find(key);
             if (it == key_to_group.end()) {
                 it = key_to_group.emplace(key, static_cast<int>(trees.size())).first;
@@ -273,10 +281,11 @@ void AnalyticMethod::apply_obstructions(const Scene& scene, const MethodOptions&
                 sum += scene.patches[static_cast<std::size_t>(T.order[static_cast<std::size_t>(k)])]
                            .area;
             if (nd.count == 1) {
-                blockers.add(
-                    scene.patches[static_cast<std::size_t>(T.order[static_cast<std::size_t>(nd.first)])]
-                        .polygon,
-                    T.blocker_id);
+                blockers.add(scene
+                                 .patches[static_cast<std::size_t>(
+                                     T.order[static_cast<std::size_t>(nd.first)])]
+                                 .polygon,
+                             T.blocker_id);
             } else if (std::abs(sum - nd.area) <= 1e-9 * nd.area) {
                 Polygon hp;
                 hp.vertices = nd.hull;
@@ -292,9 +301,18 @@ void AnalyticMethod::apply_obstructions(const Scene& scene, const MethodOptions&
         if (scene.surfaces[s].obstruction)
             blockers.add(scene.surfaces[s].polygon, static_cast<int>(trees.size() + s));
     blockers.build();
+    {
+        std::vector<std::pair<Vec3, int>> points;
+        for (const ClusterTree& t : trees)
+            for (int p : t.order)
+                for (const Vec3& v : scene.patches[static_cast<std::size_t>(p)].polygon.vertices)
+                    points.emplace_back(v, t.blocker_id);
+        blockers.mark_closed_solids(points, 1e-9 * diag);
+    }
 
     const double eps = 1e-11 * diag;
 
+    const auto t_setup = Clock::now();
     // 1. Classification, one task per unordered pair of surfaces.
     std::vector<std::array<int, 2>> spairs;
     for (std::size_t a = 0; a < trees.size(); ++a)
@@ -306,6 +324,7 @@ void AnalyticMethod::apply_obstructions(const Scene& scene, const MethodOptions&
         c.surface_pair(spairs[k][0], spairs[k][1], outputs[k]);
     });
 
+    const auto t_classified = Clock::now();
     // 2. Fully hidden node pairs: zero.
     double* F = out.F.data();
     std::vector<NodePair> hidden;
@@ -360,8 +379,7 @@ void AnalyticMethod::apply_obstructions(const Scene& scene, const MethodOptions&
         Stats st;
         if (unobs > 0.0) {
             const Polygon& ps = scene.patches[s].polygon;
-            const std::vector<Polygon> parts =
-                BlockerSet::convex_parts(scene.patches[r].polygon);
+            const std::vector<Polygon> parts = BlockerSet::convex_parts(scene.patches[r].polygon);
             double hidden_sum = 0.0, err = 0.0;
             int level = 0;
             for (const Polygon& pr : parts) {
@@ -386,6 +404,7 @@ void AnalyticMethod::apply_obstructions(const Scene& scene, const MethodOptions&
         progress.advance();
     });
     progress.finish();
+    const auto t_done = Clock::now();
     Stats total;
     for (const Stats& s : stats) {
         for (std::size_t l = 0; l < total.levels.size(); ++l) total.levels[l] += s.levels[l];
@@ -415,6 +434,9 @@ void AnalyticMethod::apply_obstructions(const Scene& scene, const MethodOptions&
     o["tolerance"] = tol;
     o["max_error_estimate"] = total.max_error;
     o["threads"] = threads;
+    o["seconds_setup"] = seconds(t_start, t_setup);
+    o["seconds_classification"] = seconds(t_setup, t_classified);
+    o["seconds_partly_hidden"] = seconds(t_classified, t_done);
     details["obstructions"] = o;
 }
 

@@ -7,6 +7,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <functional>
+#include <map>
 #include <numeric>
 #include <queue>
 #include <vector>
@@ -233,8 +235,8 @@ PointResult evaluate_point(const Receiver& rc, const Vec3& x, const Vec3& nx,
     int sides = 0;
     for (int k = 0; k < rp.n; ++k) {
         const int m = k + 1 == rp.n ? 0 : k + 1;
-        const Vec3 s = (rp.v[static_cast<std::size_t>(m)] - x)
-                           .cross(rp.v[static_cast<std::size_t>(k)] - x);
+        const Vec3 s =
+            (rp.v[static_cast<std::size_t>(m)] - x).cross(rp.v[static_cast<std::size_t>(k)] - x);
         const double len = s.norm();
         if (!(len > 0.0)) continue;
         side[static_cast<std::size_t>(sides)] = s / len;
@@ -247,6 +249,7 @@ PointResult evaluate_point(const Receiver& rc, const Vec3& x, const Vec3& nx,
     for (int c = 0; c < count; ++c) {
         const int pk = cand[c];
         const auto& pc = blockers.piece(pk);
+        if (pc.cull_back && !(pc.plane.signed_distance(x) > 0.0)) continue;
         const Vec3* pv = blockers.vertices(pk);
         Poly3* a = &buf[0];
         Poly3* bp = &buf[1];
@@ -283,6 +286,8 @@ PointResult evaluate_point(const Receiver& rc, const Vec3& x, const Vec3& nx,
         }
     }
     // Union of the shadows as disjoint convex fragments: shadow k minus shadows 0..k−1.
+    // Fragments below 1e-14 of the receiver's size² are rounding slivers of the subtraction.
+    const double tiny_area = 1e-14 * (rp.v[0] - rp.v[2]).squaredNorm();
     for (std::size_t k = 0; k < shadows.size(); ++k) {
         frags.clear();
         frags.emplace_back();
@@ -292,7 +297,8 @@ PointResult evaluate_point(const Receiver& rc, const Vec3& x, const Vec3& nx,
             for (const Poly2& f : frags) subtract(f, shadows[l], next);
             std::swap(frags, next);
         }
-        for (const Poly2& f : frags) res.hidden += lambert2(f, xl, nl);
+        for (const Poly2& f : frags)
+            if (area2(f) > tiny_area) res.hidden += lambert2(f, xl, nl);
     }
     return res;
 }
@@ -312,8 +318,7 @@ struct SenderMap {
     bool quad = false;
     double tri_j = 0;  // |(B − A) × (C − B)| for the triangle map
     Vec3 at(double u, double v) const {
-        if (quad)
-            return (1 - u) * (1 - v) * p0 + u * (1 - v) * p1 + u * v * p2 + (1 - u) * v * p3;
+        if (quad) return (1 - u) * (1 - v) * p0 + u * (1 - v) * p1 + u * v * p2 + (1 - u) * v * p3;
         return p0 + u * (p1 - p0) + u * v * (p2 - p1);
     }
     double jacobian(double u, double v) const {
@@ -391,6 +396,11 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
     for (int c = 0; c < n; ++c) {
         const auto& pc = blockers.piece(cand[c]);
         const Vec3* pv = blockers.vertices(cand[c]);
+        if (pc.cull_back) {
+            bool front = false;
+            for (const Vec3& v : s.vertices) front = front || pc.plane.signed_distance(v) > 0.0;
+            if (!front) continue;
+        }
         a.n = pc.count;
         for (int k = 0; k < pc.count; ++k) a.v[static_cast<std::size_t>(k)] = pv[k];
         clip3(a, ns, ds, b);
@@ -476,7 +486,8 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
                 std::vector<Vec2>& qv = scratch2;
                 qv.clear();
                 for (int k = 0; k < q.n; ++k)
-                    qv.emplace_back(q.x[static_cast<std::size_t>(k)], q.y[static_cast<std::size_t>(k)]);
+                    qv.emplace_back(q.x[static_cast<std::size_t>(k)],
+                                    q.y[static_cast<std::size_t>(k)]);
                 hit = segment_meets(l, qv, tol);
             }
             if (!hit || cur.size() + nxt.size() >= kMaxPieces) {
@@ -529,6 +540,78 @@ void BlockerSet::build() {
     order_.resize(pieces_.size());
     std::iota(order_.begin(), order_.end(), 0);
     if (!pieces_.empty()) build_node(0, static_cast<int>(pieces_.size()));
+}
+
+void BlockerSet::mark_closed_solids(const std::vector<std::pair<Vec3, int>>& points, double tol) {
+    const std::size_t np = pieces_.size();
+    auto key = [&](const Vec3& v) {
+        return std::array<long long, 3>{std::llround(v.x() / tol), std::llround(v.y() / tol),
+                                        std::llround(v.z() / tol)};
+    };
+    using EdgeKey = std::array<long long, 6>;
+    std::map<EdgeKey, std::vector<int>> edges;  // directed edge → pieces
+    for (std::size_t p = 0; p < np; ++p) {
+        const Piece& pc = pieces_[p];
+        for (int k = 0; k < pc.count; ++k) {
+            const auto a = key(verts_[static_cast<std::size_t>(pc.first + k)]);
+            const auto b = key(verts_[static_cast<std::size_t>(pc.first + (k + 1) % pc.count)]);
+            edges[{a[0], a[1], a[2], b[0], b[1], b[2]}].push_back(static_cast<int>(p));
+        }
+    }
+    // Union–find over pieces joined by reversed edges; a piece with an unmatched edge is open.
+    std::vector<int> parent(np);
+    std::iota(parent.begin(), parent.end(), 0);
+    std::function<int(int)> find = [&](int x) {
+        while (parent[static_cast<std::size_t>(x)] != x)
+            x = parent[static_cast<std::size_t>(x)] =
+                parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(x)])];
+        return x;
+    };
+    std::vector<char> open(np, 0);
+    for (const auto& [e, ps] : edges) {
+        const EdgeKey rev = {e[3], e[4], e[5], e[0], e[1], e[2]};
+        const auto it = edges.find(rev);
+        if (it == edges.end() || ps.size() != 1 || it->second.size() != 1) {
+            for (int p : ps) open[static_cast<std::size_t>(p)] = 1;
+            continue;
+        }
+        parent[static_cast<std::size_t>(find(ps[0]))] = find(it->second[0]);
+    }
+    std::map<int, std::vector<int>> comps;
+    for (std::size_t p = 0; p < np; ++p)
+        comps[find(static_cast<int>(p))].push_back(static_cast<int>(p));
+    for (const auto& [root, ps] : comps) {
+        (void)root;
+        bool closed = ps.size() >= 4;
+        double volume = 0.0;
+        Bounds3 box;
+        std::vector<int> ids;
+        for (int p : ps) {
+            const Piece& pc = pieces_[static_cast<std::size_t>(p)];
+            closed = closed && !open[static_cast<std::size_t>(p)];
+            const Vec3& v0 = verts_[static_cast<std::size_t>(pc.first)];
+            for (int k = 1; k + 1 < pc.count; ++k)
+                volume += v0.dot(verts_[static_cast<std::size_t>(pc.first + k)].cross(
+                              verts_[static_cast<std::size_t>(pc.first + k + 1)])) /
+                          6.0;
+            box.extend(pc.box.lo);
+            box.extend(pc.box.hi);
+            ids.push_back(pc.surface);
+        }
+        if (!closed || !(volume > 0.0)) continue;
+        std::sort(ids.begin(), ids.end());
+        bool empty_inside = true;
+        for (const auto& [x, id] : points) {
+            if (std::binary_search(ids.begin(), ids.end(), id)) continue;
+            if ((x.array() > box.lo.array() + tol).all() &&
+                (x.array() < box.hi.array() - tol).all()) {
+                empty_inside = false;
+                break;
+            }
+        }
+        if (!empty_inside) continue;
+        for (int p : ps) pieces_[static_cast<std::size_t>(p)].cull_back = true;
+    }
 }
 
 int BlockerSet::build_node(int first, int count) {
@@ -649,8 +732,8 @@ bool Shaft::box_outside(const Bounds3& box) const {
     const Vec3 c = 0.5 * (box.lo + box.hi), e = 0.5 * (box.hi - box.lo);
     auto range = [&](const Plane& p, double& lo, double& hi) {
         const double s = p.signed_distance(c);
-        const double r = std::abs(p.n.x()) * e.x() + std::abs(p.n.y()) * e.y() +
-                         std::abs(p.n.z()) * e.z();
+        const double r =
+            std::abs(p.n.x()) * e.x() + std::abs(p.n.y()) * e.y() + std::abs(p.n.z()) * e.z();
         lo = s - r;
         hi = s + r;
     };
@@ -666,7 +749,7 @@ bool Shaft::box_outside(const Bounds3& box) const {
     return false;
 }
 
-bool Shaft::piece_outside(const Vec3* p, int count, const Plane& pl) const {
+bool Shaft::piece_outside(const Vec3* p, int count, const Plane& pl, bool exact) const {
     double hi_a = -1e300, hi_b = -1e300;
     for (int k = 0; k < count; ++k) {
         hi_a = std::max(hi_a, pa_.signed_distance(p[k]));
@@ -691,6 +774,7 @@ bool Shaft::piece_outside(const Vec3* p, int count, const Plane& pl) const {
         hi = std::max(hi, s);
     }
     if (lo >= -eps_ || hi <= eps_) return true;
+    if (!exact) return false;
     // Separating axis theorem for the remaining axes: an edge of the piece crossed with an edge
     // of the hull (the hull's edges are among a's and b's edges and the segments a_i b_j).
     auto separated = [&](const Vec3& axis) {
@@ -757,13 +841,13 @@ bool Shaft::piece_hides(const Vec3* p, int count, const Plane& pl) const {
 }
 
 ShaftClass classify_shaft(const Shaft& shaft, const BlockerSet& blockers, const int* cand, int n,
-                          std::vector<int>& kept) {
+                          std::vector<int>& kept, bool exact) {
     kept.clear();
     for (int c = 0; c < n; ++c) {
         const int k = cand[c];
         const auto& pc = blockers.piece(k);
         const Vec3* v = blockers.vertices(k);
-        if (shaft.piece_outside(v, pc.count, pc.plane)) continue;
+        if (shaft.piece_outside(v, pc.count, pc.plane, exact)) continue;
         if (shaft.piece_hides(v, pc.count, pc.plane)) {
             kept.clear();
             return ShaftClass::kHidden;
@@ -786,9 +870,8 @@ std::vector<Vec3> planar_convex_hull(const std::vector<Vec3>& points, const Vec3
     p.reserve(points.size());
     for (std::size_t k = 0; k < points.size(); ++k)
         p.push_back({u.dot(points[k] - o), v.dot(points[k] - o), static_cast<int>(k)});
-    std::sort(p.begin(), p.end(), [](const P2& a, const P2& b) {
-        return a.x < b.x || (a.x == b.x && a.y < b.y);
-    });
+    std::sort(p.begin(), p.end(),
+              [](const P2& a, const P2& b) { return a.x < b.x || (a.x == b.x && a.y < b.y); });
     auto cross = [](const P2& o2, const P2& a, const P2& b) {
         return (a.x - o2.x) * (b.y - o2.y) - (a.y - o2.y) * (b.x - o2.x);
     };
@@ -855,8 +938,7 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
 
     auto process = [&](Cell& c) {
         const SenderMap& m = maps[static_cast<std::size_t>(c.map)];
-        Vec3 corner[4] = {m.at(c.u0, c.v0), m.at(c.u1, c.v0), m.at(c.u1, c.v1),
-                          m.at(c.u0, c.v1)};
+        Vec3 corner[4] = {m.at(c.u0, c.v0), m.at(c.u1, c.v0), m.at(c.u1, c.v1), m.at(c.u0, c.v1)};
         Vec3 poly[4];
         int np = 0;
         for (const Vec3& q : corner)
@@ -868,18 +950,25 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
         Shaft sh;
         sh.build(poly, np, ns, rc.poly.v.data(), rc.poly.n, rc.n, eps);
         if (sh.facing_away()) return;
-        const ShaftClass cls = classify_shaft(sh, blockers, cand, n, kept);
+        const ShaftClass cls = classify_shaft(sh, blockers, cand, n, kept, false);
         if (cls == ShaftClass::kVisible) return;
-        cell_cand = kept;
+        // Pieces that face the cell first: the shadows of the others (the back faces of a closed
+        // solid) then mostly vanish in the union.
+        cell_cand.clear();
+        const Vec3 mid = m.at(0.5 * (c.u0 + c.u1), 0.5 * (c.v0 + c.v1));
+        for (int pass = 0; pass < 2; ++pass)
+            for (int k : kept)
+                if ((blockers.piece(k).plane.signed_distance(mid) > 0.0) == (pass == 0))
+                    cell_cand.push_back(k);
         const double du = c.u1 - c.u0, dv = c.v1 - c.v0;
         double q2 = 0.0, q3 = 0.0, u3 = 0.0;
         bool any_hidden = false;
         const bool hidden = cls == ShaftClass::kHidden;
         auto f = [&](double u, double v, bool need_unobs) {
             const Vec3 x = m.at(u, v);
-            const PointResult pr = evaluate_point(rc, x, ns, blockers, cell_cand.data(),
-                                                  hidden ? 0 : static_cast<int>(cell_cand.size()),
-                                                  eps, need_unobs);
+            const PointResult pr =
+                evaluate_point(rc, x, ns, blockers, cell_cand.data(),
+                               hidden ? 0 : static_cast<int>(cell_cand.size()), eps, need_unobs);
             ++out.points;
             return pr;
         };
@@ -887,26 +976,46 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
             for (std::size_t j = 0; j < kLowOrder; ++j) {
                 const double u = c.u0 + du * rules.g2.x[i], v = c.v0 + dv * rules.g2.x[j];
                 const PointResult pr = f(u, v, hidden);
-                const double g = hidden ? pr.unobstructed : std::min(pr.hidden, 1.0);
+                const double g = hidden ? pr.unobstructed : pr.hidden;
                 any_hidden = any_hidden || pr.hidden > 0.0;
                 q2 += rules.g2.w[i] * rules.g2.w[j] * m.jacobian(u, v) * g;
             }
         for (std::size_t i = 0; i < kHighOrder; ++i)
             for (std::size_t j = 0; j < kHighOrder; ++j) {
                 const double u = c.u0 + du * rules.g3.x[i], v = c.v0 + dv * rules.g3.x[j];
-                const PointResult pr = f(u, v, true);
+                const PointResult pr = f(u, v, hidden);
                 const double jw = rules.g3.w[i] * rules.g3.w[j] * m.jacobian(u, v);
-                const double g = hidden ? pr.unobstructed : std::min(pr.hidden, pr.unobstructed);
+                const double g = hidden ? pr.unobstructed : pr.hidden;
                 any_hidden = any_hidden || pr.hidden > 0.0;
                 q3 += jw * g;
-                u3 += jw * pr.unobstructed;
             }
         const double scale = du * dv * inv_area;
         c.value = q3 * scale;
         c.error = std::abs(q3 - q2) * scale;
         // Partly hidden by its shaft, yet no sample point sees a shadow: the shadow may fall
         // between the points; what it can hide is at most the cell's unobstructed part.
-        if (!hidden && !any_hidden) c.error = std::max(c.error, u3 * scale);
+        if (!hidden && !any_hidden) {
+            // Unless the exact test finds that no piece meets the cell's shaft after all.
+            bool meets = false;
+            for (int k : cell_cand) {
+                const auto& pc = blockers.piece(k);
+                if (!sh.piece_outside(blockers.vertices(k), pc.count, pc.plane, true)) {
+                    meets = true;
+                    break;
+                }
+            }
+            if (meets) {
+                // What the cell sees of the receiver: a bound on what a shadow can hide.
+                for (std::size_t i = 0; i < kHighOrder; ++i)
+                    for (std::size_t j = 0; j < kHighOrder; ++j) {
+                        const double u = c.u0 + du * rules.g3.x[i], v = c.v0 + dv * rules.g3.x[j];
+                        const PointResult pr =
+                            evaluate_point(rc, m.at(u, v), ns, blockers, nullptr, 0, eps, true);
+                        u3 += rules.g3.w[i] * rules.g3.w[j] * m.jacobian(u, v) * pr.unobstructed;
+                    }
+                c.error = std::max(c.error, u3 * scale);
+            }
+        }
     };
 
     auto worse = [](const Cell& a, const Cell& b) { return a.error < b.error; };
@@ -1021,9 +1130,8 @@ ObstructedFormFactor polygon_to_polygon_obstructed(const Polygon& a, const Polyg
     std::iota(all.begin(), all.end(), 0);
     double hidden = 0.0;
     for (const Polygon& r : detail::BlockerSet::convex_parts(b)) {
-        const detail::HiddenIntegral h =
-            detail::hidden_integral(a, r, set, all.data(), static_cast<int>(all.size()),
-                                    tolerance, eps);
+        const detail::HiddenIntegral h = detail::hidden_integral(
+            a, r, set, all.data(), static_cast<int>(all.size()), tolerance, eps);
         hidden += h.hidden;
         out.error_estimate += h.error;
         out.max_level = std::max(out.max_level, h.max_level);

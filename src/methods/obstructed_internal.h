@@ -23,6 +23,10 @@ class BlockerSet {
         Plane plane;               ///< oriented by the piece's own (Newell) normal
         Bounds3 box;
         int surface = -1;  ///< the blocking surface it belongs to
+        /// Part of a closed, outward-oriented solid with no other geometry inside: a segment
+        /// from a point x that crosses the solid also crosses a piece with x in front, so the
+        /// pieces with x behind (or in) their plane can be skipped for x.
+        bool cull_back = false;
     };
 
     /// Adds polygon p of surface `surface` (split into convex pieces).
@@ -32,6 +36,11 @@ class BlockerSet {
     static std::vector<Polygon> convex_parts(const Polygon& p);
     /// Builds the hierarchy; call once after the last add().
     void build();
+    /// Finds the closed solids (connected pieces whose every edge is matched by the reversed
+    /// edge of another piece, positive signed volume) and sets Piece::cull_back on their pieces,
+    /// unless one of `points` (with the surface id it belongs to) not on the solid lies inside
+    /// the solid's bounding box. `tol`: length for matching vertices.
+    void mark_closed_solids(const std::vector<std::pair<Vec3, int>>& points, double tol);
 
     std::size_t size() const { return pieces_.size(); }
     const Piece& piece(int k) const { return pieces_[static_cast<std::size_t>(k)]; }
@@ -68,8 +77,9 @@ class Shaft {
     /// True when nothing in the box can meet the shaft.
     bool box_outside(const Bounds3& box) const;
     /// True when the convex polygon p (count vertices, plane pl) cannot block a segment of the
-    /// shaft.
-    bool piece_outside(const Vec3* p, int count, const Plane& pl) const;
+    /// shaft: a separating plane among the shaft's planes and p's own plane, and when `exact`,
+    /// also among the edge-edge axes (then the test is exact: false means p meets the hull).
+    bool piece_outside(const Vec3* p, int count, const Plane& pl, bool exact = true) const;
     /// True when the convex polygon p blocks every segment between a and b.
     bool piece_hides(const Vec3* p, int count, const Plane& pl) const;
     /// Every vertex of b is behind or on a's plane, or every vertex of a behind b's plane: F = 0.
@@ -92,7 +102,7 @@ enum class ShaftClass : std::uint8_t { kVisible, kHidden, kPartial };
 /// piece hides every segment, kVisible when none can block, else kPartial with `kept` = the
 /// pieces that may block (a subset of cand, in order).
 ShaftClass classify_shaft(const Shaft& shaft, const BlockerSet& blockers, const int* cand, int n,
-                          std::vector<int>& kept);
+                          std::vector<int>& kept, bool exact = true);
 
 /// Convex hull of the planar points (counter-clockwise about the unit normal n), collinear
 /// points dropped.
@@ -100,12 +110,12 @@ std::vector<Vec3> planar_convex_hull(const std::vector<Vec3>& points, const Vec3
 
 /// The result of integrating the hidden part of a partly hidden pair over the sender.
 struct HiddenIntegral {
-    double hidden = 0;        ///< 1/A_s ∫_s F(x → hidden part of r) dA_x
-    double error = 0;         ///< estimated absolute error of `hidden`
-    int max_level = 0;        ///< deepest subdivision of the sender (0 = the whole sender)
-    std::size_t cells = 0;    ///< final cells
-    std::size_t points = 0;   ///< point evaluations
-    bool capped = false;      ///< stopped at the cell limit before meeting the target
+    double hidden = 0;       ///< 1/A_s ∫_s F(x → hidden part of r) dA_x
+    double error = 0;        ///< estimated absolute error of `hidden`
+    int max_level = 0;       ///< deepest subdivision of the sender (0 = the whole sender)
+    std::size_t cells = 0;   ///< final cells
+    std::size_t points = 0;  ///< point evaluations
+    bool capped = false;     ///< stopped at the cell limit before meeting the target
 };
 
 /// 1/A_s ∫_s F_{dA_x → (r ∩ shadows of the pieces seen from x)} dA_x: the part of F_sr that the

@@ -17,8 +17,8 @@ class Progress;
 
 /// Options shared by the methods; each method documents which it reads.
 struct MethodOptions {
-    int threads = 0;            ///< 0 = all cores
-    double tolerance = 1e-10;   ///< absolute error target per entry (analytic)
+    int threads = 0;           ///< 0 = all cores
+    double tolerance = 1e-10;  ///< absolute error target per entry (analytic)
     /// analytic: absolute error target per entry of the partly hidden pairs of an obstructed
     /// scene (their adaptive integration; fully visible pairs keep `tolerance`, fully hidden
     /// ones are exactly 0). A user-given --tolerance sets both.
