@@ -60,13 +60,16 @@ TEST_CASE("scene: VS3 with comments, obstructions, a subsurface and text after t
     CHECK(s.surfaces[3].name == "obstruction-4");
     CHECK(s.surfaces[4].name == "plate-down");
     CHECK(s.obstruction_count() == 2);
-    CHECK(s.patches.size() == 3);
+    // The bottom minus its triangular window (which touches the bottom's edge) is cut into 2
+    // convex pieces: 2 + top + window.
+    CHECK(s.patches.size() == 4);
+    REQUIRE(s.surfaces[0].holes.size() == 1);
+    CHECK(s.total_patch_area() == doctest::Approx(2.0).epsilon(1e-15));
     CHECK((normal(s.surfaces[4].polygon) - Vec3(0, 0, -1)).norm() == 0.0);
-    // Warnings: ignored controls (naming them), the subsurface semantics.
-    REQUIRE(s.warnings.size() == 2);
+    // Warnings: ignored controls (naming them); subsurfaces are applied (no warning).
+    REQUIRE(s.warnings.size() == 1);
     CHECK(s.warnings[0].find(":3: control maxU, maxO, mino, list have no meaning") !=
           std::string::npos);
-    CHECK(s.warnings[1].find(":22: 1 subsurface(s)") != std::string::npos);
 }
 
 TEST_CASE("scene: VS3 F 3a (origin, azimuth, tilt) gives View3D's F 3 geometry") {

@@ -1,6 +1,88 @@
-#include <cstdio>
+// The `formfactor` command line: parses arguments, calls the library, and maps errors to one
+// line on stderr and an exit code (0 success, 1 bad input, 2 bad usage or option, 3 internal
+// error).
 
-int main() {
-    std::puts("formfactor " FF_VERSION);
-    return 0;
+#include <fmt/format.h>
+
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <exception>
+#include <string>
+
+#include "commands.h"
+#include "formfactor/core/error.h"
+
+namespace {
+
+/// Prints "formfactor: <message>" as a single line on stderr.
+void print_error(const std::string& message) {
+    std::string line = message;
+    for (char& c : line)
+        if (c == '\n' || c == '\r') c = ' ';
+    while (!line.empty() && line.back() == ' ') line.pop_back();
+    std::fflush(stdout);
+    fmt::print(stderr, "formfactor: {}\n", line);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    CLI::App app{"formfactor " FF_VERSION
+                 " — radiative form factors (view factors) between the polygons of a 3D scene",
+                 "formfactor"};
+    app.set_version_flag("--version", "formfactor " FF_VERSION);
+    app.require_subcommand(1);
+    app.footer(
+        "Run 'formfactor SUBCOMMAND --help' for the options of a subcommand.\n"
+        "Exit codes: 0 success, 1 bad input file, 2 bad usage or option, 3 internal error.");
+
+    formfactor::cli::add_compute_command(app);
+    formfactor::cli::add_point_command(app);
+    formfactor::cli::add_info_command(app);
+    formfactor::cli::add_run_command(app);
+    formfactor::cli::add_solve_command(app);
+    formfactor::cli::add_render_command(app);
+
+    if (argc <= 1) {
+        std::fputs(app.help().c_str(), stdout);
+        return 0;
+    }
+    if (argv[1][0] != '-') {
+        std::string names;
+        bool known = false;
+        for (const CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) {
+            known = known || sub->get_name() == argv[1];
+            names += (names.empty() ? "" : ", ") + sub->get_name();
+        }
+        if (!known) {
+            print_error(fmt::format("unknown subcommand '{}' (use {})", argv[1], names));
+            return 2;
+        }
+    }
+    try {
+        app.parse(argc, argv);
+        return 0;
+    } catch (const CLI::CallForHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForAllHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForVersion& e) {
+        return app.exit(e);
+    } catch (const CLI::ParseError& e) {
+        if (e.get_exit_code() == 0) return app.exit(e);
+        print_error(e.what());
+        return 2;
+    } catch (const formfactor::OptionError& e) {
+        print_error(e.what());
+        return 2;
+    } catch (const formfactor::Error& e) {
+        print_error(e.what());
+        return 1;
+    } catch (const std::exception& e) {
+        print_error(std::string("internal error: ") + e.what());
+        return 3;
+    } catch (...) {
+        print_error("internal error: unknown exception");
+        return 3;
+    }
 }

@@ -58,7 +58,8 @@ Bounds3 bounds(const Polygon& p) {
 
 double max_edge_length(const Polygon& p) {
     double m = 0.0;
-    for (std::size_t k = 0; k < p.size(); ++k) m = std::max(m, (p[(k + 1) % p.size()] - p[k]).norm());
+    for (std::size_t k = 0; k < p.size(); ++k)
+        m = std::max(m, (p[(k + 1) % p.size()] - p[k]).norm());
     return m;
 }
 
@@ -186,7 +187,8 @@ Polygon clip_to_front(const Polygon& p, const Plane& plane, double eps) {
     for (const Vec3& v : out.vertices)
         if (clean.vertices.empty() || (v - clean.vertices.back()).squaredNorm() > 0.0)
             clean.vertices.push_back(v);
-    while (clean.size() > 1 && (clean.vertices.front() - clean.vertices.back()).squaredNorm() == 0.0)
+    while (clean.size() > 1 &&
+           (clean.vertices.front() - clean.vertices.back()).squaredNorm() == 0.0)
         clean.vertices.pop_back();
     if (clean.size() < 3 || area(clean) == 0.0) clean.vertices.clear();
     return clean;
@@ -218,7 +220,8 @@ std::vector<std::array<int, 3>> triangulate(const Polygon& p) {
                cross2(A - C, X - C) >= tol;
     };
     std::size_t guard = 0;
-    while (idx.size() > 3 && guard < 4 * static_cast<std::size_t>(n) * static_cast<std::size_t>(n)) {
+    while (idx.size() > 3 &&
+           guard < 4 * static_cast<std::size_t>(n) * static_cast<std::size_t>(n)) {
         ++guard;
         bool clipped = false;
         const std::size_t m = idx.size();
@@ -246,6 +249,167 @@ std::vector<std::array<int, 3>> triangulate(const Polygon& p) {
     }
     for (std::size_t k = 1; k + 1 < idx.size(); ++k) tris.push_back({idx[0], idx[k], idx[k + 1]});
     return tris;
+}
+
+// ---- Convex partitions and holes -------------------------------------------------------------
+
+namespace {
+
+// Is the 2D cycle (indices into q) convex? Collinear corners are allowed, spikes are not.
+bool convex_cycle(const std::vector<Vec2>& q, const std::vector<int>& c) {
+    const std::size_t m = c.size();
+    for (std::size_t k = 0; k < m; ++k) {
+        const Vec2& a = q[static_cast<std::size_t>(c[(k + m - 1) % m])];
+        const Vec2& b = q[static_cast<std::size_t>(c[k])];
+        const Vec2& d = q[static_cast<std::size_t>(c[(k + 1) % m])];
+        const Vec2 e0 = b - a, e1 = d - b;
+        const double cr = cross2(e0, e1), tol = 1e-12 * e0.norm() * e1.norm();
+        if (cr < -tol) return false;
+        if (cr <= tol && e0.dot(e1) < 0.0) return false;
+    }
+    return true;
+}
+
+// Removes repeated and collinear corners (and zero-width spikes) left by clipping.
+Polygon clean_piece(Polygon p, double eps) {
+    bool changed = true;
+    while (changed && p.size() >= 3) {
+        changed = false;
+        const std::size_t m = p.size();
+        for (std::size_t k = 0; k < m; ++k) {
+            const Vec3& a = p[(k + m - 1) % m];
+            const Vec3& b = p[k];
+            const Vec3& c = p[(k + 1) % m];
+            const Vec3 e0 = b - a, e1 = c - b;
+            const bool repeated = e0.norm() <= eps;
+            const bool collinear = e0.cross(e1).norm() <= 1e-14 * e0.norm() * e1.norm();
+            if (repeated || collinear) {
+                p.vertices.erase(p.vertices.begin() + static_cast<std::ptrdiff_t>(k));
+                changed = true;
+                break;
+            }
+        }
+    }
+    if (p.size() < 3) p.vertices.clear();
+    return p;
+}
+
+}  // namespace
+
+std::vector<std::vector<int>> convex_partition(const Polygon& p) {
+    std::vector<std::vector<int>> parts;
+    const std::size_t n = p.size();
+    if (n < 3) return parts;
+    const std::vector<Vec2> q = to_plane(p);
+    std::vector<int> all(n);
+    for (std::size_t k = 0; k < n; ++k) all[k] = static_cast<int>(k);
+    if (convex_cycle(q, all)) {
+        parts.push_back(std::move(all));
+        return parts;
+    }
+    const double d = diameter(p);
+    for (const auto& t : triangulate(p)) {
+        Polygon tri{{p[static_cast<std::size_t>(t[0])], p[static_cast<std::size_t>(t[1])],
+                     p[static_cast<std::size_t>(t[2])]}};
+        if (area(tri) > 1e-14 * d * d) parts.push_back({t[0], t[1], t[2]});
+    }
+    // Hertel–Mehlhorn: drop a diagonal u–v shared by two parts when their union stays convex.
+    bool merged = true;
+    while (merged) {
+        merged = false;
+        for (std::size_t a = 0; a < parts.size() && !merged; ++a) {
+            for (std::size_t b = a + 1; b < parts.size() && !merged; ++b) {
+                const std::vector<int>& A = parts[a];
+                const std::vector<int>& B = parts[b];
+                for (std::size_t k = 0; k < A.size() && !merged; ++k) {
+                    const int u = A[k], v = A[(k + 1) % A.size()];
+                    for (std::size_t l = 0; l < B.size(); ++l) {
+                        if (B[l] != v || B[(l + 1) % B.size()] != u) continue;
+                        // v, ..., u around A, then B's corners after u up to before v.
+                        std::vector<int> m;
+                        for (std::size_t s = 0; s < A.size(); ++s)
+                            m.push_back(A[(k + 1 + s) % A.size()]);
+                        for (std::size_t s = 2; s < B.size(); ++s)
+                            m.push_back(B[(l + s) % B.size()]);
+                        if (convex_cycle(q, m)) {
+                            parts[a] = std::move(m);
+                            parts.erase(parts.begin() + static_cast<std::ptrdiff_t>(b));
+                            merged = true;
+                        }
+                        break;
+                    }
+                }
+            }
+        }
+    }
+    return parts;
+}
+
+std::vector<Polygon> subtract_holes(const Polygon& p, const std::vector<Polygon>& holes) {
+    std::vector<Polygon> pieces;
+    if (p.size() < 3) return pieces;
+    const Vec3 n = normal(p);
+    const Plane pl = plane_of(p);
+    const double d = diameter(p);
+    const double eps = 1e-12 * d;
+    const double min_area = 1e-15 * d * d;
+    for (const auto& part : convex_partition(p)) {
+        Polygon piece;
+        for (int k : part) piece.vertices.push_back(p[static_cast<std::size_t>(k)]);
+        pieces.push_back(std::move(piece));
+    }
+    for (const Polygon& h : holes) {
+        if (h.size() < 3) continue;
+        // The hole in p's plane, counter-clockwise about p's normal.
+        Polygon flat;
+        for (const Vec3& v : h.vertices) flat.vertices.push_back(v - pl.signed_distance(v) * n);
+        if (area_vector(flat).dot(n) < 0.0)
+            std::reverse(flat.vertices.begin(), flat.vertices.end());
+        for (const auto& part : convex_partition(flat)) {
+            Polygon c;
+            for (int k : part) c.vertices.push_back(flat[static_cast<std::size_t>(k)]);
+            Bounds3 cb = bounds(c);
+            cb.lo.array() -= 1e-5 * d;
+            cb.hi.array() += 1e-5 * d;
+            std::vector<Polygon> next;
+            for (Polygon& piece : pieces) {
+                const Bounds3 pb = bounds(piece);
+                if ((pb.hi.array() < cb.lo.array()).any() ||
+                    (pb.lo.array() > cb.hi.array()).any()) {
+                    next.push_back(std::move(piece));
+                    continue;
+                }
+                Polygon rest = std::move(piece);
+                for (std::size_t k = 0; k < c.size() && rest.size() >= 3; ++k) {
+                    const Vec3& a = c[k];
+                    const Vec3 m = n.cross(c[(k + 1) % c.size()] - a);
+                    const double len = m.norm();
+                    if (!(len > 0.0)) continue;
+                    Plane inside;  // the hole's side of edge k (its left, seen from the front)
+                    inside.n = m / len;
+                    inside.d = inside.n.dot(a);
+                    const Plane outside{-inside.n, -inside.d};
+                    Polygon out = clean_piece(clip_to_front(rest, outside, eps), eps);
+                    if (out.size() >= 3 && area(out) > min_area) next.push_back(std::move(out));
+                    rest = clip_to_front(rest, inside, eps);
+                }
+                // What is left of `rest` lies inside the hole.
+            }
+            pieces = std::move(next);
+        }
+    }
+    std::vector<Polygon> out;
+    for (Polygon& piece : pieces) {
+        Polygon c = clean_piece(std::move(piece), eps);
+        if (c.size() >= 3 && area(c) > min_area) out.push_back(std::move(c));
+    }
+    return out;
+}
+
+double overlap_area(const Polygon& a, const Polygon& b) {
+    double rest = 0.0;
+    for (const Polygon& piece : subtract_holes(a, {b})) rest += area(piece);
+    return std::max(0.0, area(a) - rest);
 }
 
 }  // namespace formfactor

@@ -17,6 +17,15 @@ std::unique_ptr<Method> make_method(const std::string& name) {
     throw OptionError("--method", "unknown method '" + name + "'");
 }
 
-std::string default_method(const Scene&) { return "analytic"; }
+std::string default_method(const Scene& scene) {
+    // analytic is exact but handles unoccluded scenes only; mc-target is exact wherever nothing
+    // blocks and estimates only the visible fraction elsewhere (docs/monte_carlo.md).
+    try {
+        AnalyticMethod().check(scene);
+        return "analytic";
+    } catch (const Error&) {
+        return "mc-target";
+    }
+}
 
 }  // namespace formfactor

@@ -434,9 +434,16 @@ void save_obj(const Scene& scene, const std::string& path) {
         obj << "# " << t << "\n";
     }
     if (!scene.materials.empty()) obj << "mtllib " << mtl_file << "\n";
+    // OBJ has no holes: a surface with holes is written as its convex pieces (polygon minus
+    // holes), faces of its group (read back as surfaces NAME.1, NAME.2, ...).
+    std::vector<std::vector<Polygon>> faces;
     for (const Surface& s : scene.surfaces)
-        for (const Vec3& v : s.polygon.vertices)
-            obj << "v " << exact(v.x()) << " " << exact(v.y()) << " " << exact(v.z()) << "\n";
+        faces.push_back(s.holes.empty() ? std::vector<Polygon>{s.polygon}
+                                        : subtract_holes(s.polygon, s.holes));
+    for (const auto& f : faces)
+        for (const Polygon& poly : f)
+            for (const Vec3& v : poly.vertices)
+                obj << "v " << exact(v.x()) << " " << exact(v.y()) << " " << exact(v.z()) << "\n";
     // Group names: unique per surface, so that each reads back as one surface of that name.
     std::set<std::string> groups;
     std::size_t next = 1;
@@ -450,9 +457,11 @@ void save_obj(const Scene& scene, const std::string& path) {
         obj << "g " << g << "\n";
         if (s.material >= 0 && static_cast<std::size_t>(s.material) < mat_names.size())
             obj << "usemtl " << mat_names[static_cast<std::size_t>(s.material)] << "\n";
-        obj << "f";
-        for (std::size_t j = 0; j < s.polygon.size(); ++j) obj << " " << next++;
-        obj << "\n";
+        for (const Polygon& f : faces[k]) {
+            obj << "f";
+            for (std::size_t j = 0; j < f.size(); ++j) obj << " " << next++;
+            obj << "\n";
+        }
     }
     if (!scene.materials.empty()) detail::write_atomically(mtl_path, mtl.str());
     detail::write_atomically(path, obj.str());

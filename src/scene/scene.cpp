@@ -28,6 +28,13 @@ Bounds3 Scene::bounds() const {
     return b;
 }
 
+double surface_area(const Surface& s) {
+    const Vec3 n = normal(s.polygon);
+    double a = area(s.polygon);
+    for (const Polygon& h : s.holes) a -= std::abs(area_vector(h).dot(n));
+    return a;
+}
+
 Patch make_patch(Polygon polygon, int surface) {
     Patch p;
     p.area = area(polygon);

@@ -31,7 +31,7 @@ struct Plan {
     std::vector<std::array<double, 2>> grid;  // quads: {n_u, n_v}; triangles: {n, n}
 };
 
-Plan plan_for(const Polygon& p, const SubdivisionOptions& o) {
+Plan plan_for_polygon(const Polygon& p, const SubdivisionOptions& o) {
     Plan plan;
     // Unsplit: n = 1, or every edge already within max_edge (any polygon stays whole).
     if ((o.max_edge == 0.0 && o.n == 1) || (o.max_edge > 0.0 && max_edge_length(p) <= o.max_edge)) {
@@ -68,6 +68,18 @@ Plan plan_for(const Polygon& p, const SubdivisionOptions& o) {
         } else {
             plan.grid.push_back({double(o.n), double(o.n)});
         }
+    }
+    return plan;
+}
+
+// A surface with holes: its convex pieces (polygon minus holes), each planned on its own.
+Plan plan_for(const Surface& s, const SubdivisionOptions& o) {
+    if (s.holes.empty()) return plan_for_polygon(s.polygon, o);
+    Plan plan;
+    for (const Polygon& piece : subtract_holes(s.polygon, s.holes)) {
+        Plan sub = plan_for_polygon(piece, o);
+        plan.pieces.insert(plan.pieces.end(), sub.pieces.begin(), sub.pieces.end());
+        plan.grid.insert(plan.grid.end(), sub.grid.begin(), sub.grid.end());
     }
     return plan;
 }
@@ -123,7 +135,7 @@ void subdivide(Scene& scene, const SubdivisionOptions& options) {
     double total = 0.0;
     for (std::size_t s = 0; s < scene.surfaces.size(); ++s) {
         if (scene.surfaces[s].obstruction) continue;
-        plans[s] = plan_for(scene.surfaces[s].polygon, options);
+        plans[s] = plan_for(scene.surfaces[s], options);
         for (const auto& g : plans[s].grid) total += g[0] * g[1];
     }
     if (!(total <= kMaxPatches))

@@ -405,7 +405,6 @@ class Vs3Reader {
             s.material = k;
             scene_.surfaces.push_back(std::move(s));
         }
-        int n_sub = 0, n_cmb = 0, first_sub = -1, first_cmb = -1;
         for (int k = 0; k < ns; ++k) {
             const PendingSurface& p = pending_[static_cast<std::size_t>(k)];
             Surface& s = scene_.surfaces[static_cast<std::size_t>(k)];
@@ -423,10 +422,6 @@ class Vs3Reader {
                                      " must come before its subsurface");
                 check_subsurface(p.line, me, s.polygon, b, base.polygon);
                 s.base = b - 1;
-                if (!base.obstruction) {
-                    ++n_sub;
-                    if (first_sub < 0) first_sub = k;
-                }
             }
             if (p.cmb != 0) {
                 const int c = p.cmb;
@@ -446,26 +441,29 @@ class Vs3Reader {
                                      std::to_string(c) + " is itself combined with " +
                                      std::to_string(target.cmb) + ")");
                 s.combine = c - 1;
-                ++n_cmb;
-                if (first_cmb < 0) first_cmb = k;
             }
         }
-        if (n_sub > 0) {
-            const Surface& s = scene_.surfaces[static_cast<std::size_t>(first_sub)];
-            warn(s.where.line,
-                 std::to_string(n_sub) + " subsurface(s) (base != 0, first: surface " +
-                     std::to_string(first_sub + 1) + " on surface " + std::to_string(s.base + 1) +
-                     "): View3D subtracts a subsurface from its base (the base then stands for "
-                     "base minus subsurface); formfactor keeps both whole, overlapping, and "
-                     "records Surface::base, so F of a base includes its subsurfaces: "
-                     "A_rest F_rest,j = A_base F_base,j - A_sub F_sub,j");
-        }
-        if (n_cmb > 0) {
-            warn(scene_.surfaces[static_cast<std::size_t>(first_cmb)].where.line,
-                 std::to_string(n_cmb) +
-                     " surface(s) combined with others (cmb != 0): "
-                     "formfactor keeps them separate and records Surface::combine; View3D "
-                     "reports a combined surface as one (sum A_i F_ij over the group)");
+        // Subsurfaces become holes of their (radiating) base: the base then stands for base
+        // minus its subsurfaces, as after View3D's Separate step. Siblings must not overlap.
+        for (int k = 0; k < ns; ++k) {
+            const Surface& s = scene_.surfaces[static_cast<std::size_t>(k)];
+            if (s.base < 0) continue;
+            Surface& base = scene_.surfaces[static_cast<std::size_t>(s.base)];
+            if (base.obstruction) continue;
+            for (int j = 0; j < k; ++j) {
+                const Surface& t = scene_.surfaces[static_cast<std::size_t>(j)];
+                if (t.base != s.base) continue;
+                const double o = overlap_area(s.polygon, t.polygon);
+                const double a = std::min(area(s.polygon), area(t.polygon));
+                if (o > 1e-9 * a)
+                    fail(s.where.line,
+                         "surface " + std::to_string(k + 1) + " overlaps surface " +
+                             std::to_string(j + 1) + " (both subsurfaces of surface " +
+                             std::to_string(s.base + 1) + "; overlap area " + short_number(o) +
+                             "): subsurfaces of one base must not "
+                             "overlap");
+            }
+            base.holes.push_back(s.polygon);
         }
     }
 
@@ -510,6 +508,12 @@ class Vs3Reader {
             }
             if (!on_edge && winding == 0) fail(line, me + " is not entirely within its " + bs);
         }
+        // The corners can all be inside a non-convex base while an edge leaves it.
+        double outside = 0.0;
+        for (const Polygon& piece : subtract_holes(sub, {base})) outside += area(piece);
+        if (outside > 1e-9 * area(sub))
+            fail(line, me + " is not entirely within its " + bs + " (area " +
+                           short_number(outside) + " outside)");
     }
 
     std::string path_;
@@ -567,8 +571,20 @@ void save_vs3(const Scene& scene, const std::string& path) {
     std::vector<Piece> pieces;
     std::vector<int> first_piece(scene.surfaces.size(), -1);
     std::vector<bool> is_base(scene.surfaces.size(), false);
+    std::vector<std::size_t> subsurfaces(scene.surfaces.size(), 0);
     for (const Surface& s : scene.surfaces)
-        if (s.base >= 0) is_base[static_cast<std::size_t>(s.base)] = true;
+        if (s.base >= 0) {
+            is_base[static_cast<std::size_t>(s.base)] = true;
+            ++subsurfaces[static_cast<std::size_t>(s.base)];
+        }
+    // VS3 expresses holes only as subsurfaces (which the reader turns back into holes).
+    for (std::size_t s = 0; s < scene.surfaces.size(); ++s) {
+        const Surface& x = scene.surfaces[s];
+        if (!x.holes.empty() && (x.obstruction || x.holes.size() != subsurfaces[s]))
+            throw GeometryError("cannot write surface '" + x.name + "' to VS3: it has " +
+                                std::to_string(x.holes.size()) +
+                                " hole(s) that are not its subsurfaces");
+    }
     for (std::size_t s : order) {
         const Polygon& p = scene.surfaces[s].polygon;
         first_piece[s] = static_cast<int>(pieces.size());

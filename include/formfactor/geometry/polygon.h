@@ -62,4 +62,27 @@ Polygon clip_to_front(const Polygon& p, const Plane& plane, double eps = 0.0);
 /// counter-clockwise about the polygon's normal.
 std::vector<std::array<int, 3>> triangulate(const Polygon& p);
 
+/// A partition of a simple polygon into convex polygons: p itself when convex, else the
+/// ear-clipping triangles (triangulate()) merged greedily across shared diagonals while the
+/// union stays convex (Hertel–Mehlhorn; at most 4× the minimum number of pieces). Each piece is
+/// a cycle of indices into p.vertices, counter-clockwise about p's normal. Zero-area triangles
+/// of the triangulation are dropped.
+std::vector<std::vector<int>> convex_partition(const Polygon& p);
+
+/// p minus the union of `holes`, as convex polygons that tile it exactly (up to rounding), each
+/// counter-clockwise about p's normal. The holes are taken in p's plane: each convex part of a
+/// hole (convex_partition) is extruded along p's normal and cut away from every piece with one
+/// Sutherland–Hodgman clip per hole edge (the part outside that edge is kept as a piece, the
+/// rest goes on to the next edge). Holes may touch p's boundary or each other (the pieces then
+/// simply end there); a hole outside p removes nothing. Vertices of p are kept bit for bit;
+/// vertices within 1e-12 · diameter(p) of a cut line count as on it; collinear corners are
+/// removed and pieces of area ≤ 1e-15 · diameter(p)² (rounding slivers) dropped. Without holes
+/// the result is the convex partition of p.
+std::vector<Polygon> subtract_holes(const Polygon& p, const std::vector<Polygon>& holes);
+
+/// Area of the overlap of two coplanar polygons (b taken in a's plane, projected along a's
+/// normal): area(a) − Σ area(subtract_holes(a, {b})). Zero for disjoint or edge-sharing
+/// polygons (up to rounding).
+double overlap_area(const Polygon& a, const Polygon& b);
+
 }  // namespace formfactor

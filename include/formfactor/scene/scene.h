@@ -39,7 +39,16 @@ struct Surface {
     int base = -1;             ///< VS3: index of the base surface of a subsurface, else -1
     int combine = -1;          ///< VS3 cmb: index of the surface this one is combined with, else -1
     SourceLocation where;      ///< the file and line that defined it
+    /// Regions cut out of the surface: coplanar polygons inside it that do not overlap each other
+    /// (they may touch each other and the boundary). The surface stands for polygon minus holes:
+    /// its patches tile exactly that (subdivide()). VS3: the polygons of its subsurfaces (the
+    /// surfaces whose base it is), so that a wall and its window are disjoint, as after View3D's
+    /// Separate step.
+    std::vector<Polygon> holes;
 };
+
+/// Area of a surface: area(polygon) minus the areas of its holes (projected on its plane).
+double surface_area(const Surface& s);
 
 /// A patch: a row and a column of the form-factor matrix.
 struct Patch {
@@ -112,9 +121,14 @@ Scene load_obj(const std::string& path);
 /// obstruction-only surfaces; the emit column becomes the emissivity of a material per surface
 /// (reflectance 1 − ε, grey). `C` is kept in Scene::vs3_control (encl=1 sets
 /// Scene::enclosure). Masking (`M`) and null (`N`) surfaces are rejected (not supported).
-/// Subsurfaces (base ≠ 0) and combined surfaces (cmb ≠ 0) are loaded with Surface::base /
-/// Surface::combine set and a warning: their view-factor algebra (View3D's Separate/Combine
-/// steps) is not applied here. Throws InputError("FILE", LINE, ...) on bad input.
+/// Subsurfaces (base ≠ 0): Surface::base is set and the subsurface's polygon becomes a hole of
+/// its base (Surface::holes), so the base's patches cover base minus its subsurfaces (View3D's
+/// Separate step, done geometrically: exact for every method). Subsurfaces of subsurfaces
+/// nest the same way (each surface loses its direct subsurfaces). Subsurfaces of one base that
+/// overlap are an error. A subsurface of an obstruction-only surface cuts no hole (the
+/// obstruction has no patches). Combined surfaces (cmb ≠ 0) are kept separate with
+/// Surface::combine set: surface_groups() / aggregate_per_surface() merge them as View3D's
+/// Combine step does. Throws InputError("FILE", LINE, ...) on bad input.
 Scene load_vs3(const std::string& path);
 
 /// A built-in scene by name (see builtin_scene_names()). Throws InputError for an unknown name.
@@ -131,10 +145,13 @@ Scene builtin_scene(const std::string& name);
 /// - max_edge L > 0: a convex quad → n_u × n_v with n_u = ⌈max(|v0v1|, |v3v2|)/L⌉,
 ///   n_v = ⌈max(|v0v3|, |v1v2|)/L⌉ (row-major as above, n_v rows); a triangle → n² with
 ///   n = ⌈longest edge/L⌉; others triangulated, then each triangle so. Every child edge ≤ L.
-/// A surface stays whole (one patch, whatever its shape) when n = 1 without max_edge, or when
-/// all its edges are ≤ L. Children keep the surface's orientation. Throws OptionError("--subdivide"
-/// / "--max-edge") for n < 1, L < 0 or not finite, both set (n > 1 and L > 0), or more than
-/// kMaxPatches patches.
+/// A surface with holes is first cut into convex pieces that tile polygon minus holes
+/// (subtract_holes()), in that order; each piece is then treated as a surface of its own by the
+/// rules above and below (so even n = 1 gives several patches for it).
+/// A surface without holes stays whole (one patch, whatever its shape) when n = 1 without
+/// max_edge, or when all its edges are ≤ L. Children keep the surface's orientation. Throws
+/// OptionError("--subdivide" / "--max-edge") for n < 1, L < 0 or not finite, both set (n > 1 and L
+/// > 0), or more than kMaxPatches patches.
 void subdivide(Scene& scene, const SubdivisionOptions& options);
 
 /// Upper limit on the number of patches subdivide() makes.

@@ -1,0 +1,198 @@
+// `formfactor run [SCENE]`: the main job. Computes the form-factor matrix of a scene (by default
+// the Cornell box with its blocks), solves radiosity, renders the solution, and writes
+// everything into a directory (default out/).
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <memory>
+
+#include "commands.h"
+#include "common.h"
+#include "formfactor/core/error.h"
+#include "formfactor/core/parallel.h"
+#include "formfactor/output/atomic_file.h"
+#include "formfactor/output/matrix_io.h"
+#include "formfactor/output/patch_table.h"
+#include "formfactor/output/render.h"
+#include "formfactor/output/report.h"
+#include "formfactor/output/solution_io.h"
+#include "formfactor/solve/radiosity.h"
+#include "solve_common.h"
+
+namespace formfactor::cli {
+
+namespace {
+
+/// The scene `run` uses without an argument: the Cornell box with its two blocks.
+constexpr const char* kRunScene = "cornell";
+/// Its default subdivision: 12×12 per surface (2880 patches for the Cornell box), fine enough
+/// for soft shadows and colour bleeding.
+constexpr int kRunSubdivide = 12;
+/// The method for an occluded scene when --method is not given: one set of rays per row gives
+/// a whole row of F, so thousands of patches take seconds (default_method's per-pair mc-target
+/// grows with N² pairs: ~2 min here).
+constexpr const char* kRunOcclusionMethod = "mc-hemisphere";
+/// The picture's size in pixels.
+constexpr int kRunImageSize = 512;
+
+struct RunArgs {
+    SceneArgs scene;
+    MethodArgs method;
+    SolverArgs solver;
+    RepairArgs repair;
+    std::string out_dir = "out";
+    int image_size = kRunImageSize;
+};
+
+void run_run(RunArgs args) {
+    Stopwatch total;
+    args.scene.validate();
+    args.method.validate();
+    if (args.image_size < 16 || args.image_size > 16384)
+        throw OptionError("--image-size", "must be 16..16384");
+    namespace fs = std::filesystem;
+    const fs::path dir(args.out_dir);
+    if (args.out_dir.empty()) throw OptionError("--out-dir", "must not be empty");
+    std::error_code ec;
+    if (fs::exists(dir, ec) && !fs::is_directory(dir, ec)) {
+        throw OptionError("--out-dir", "'" + args.out_dir + "' exists and is not a directory");
+    }
+    const int threads = effective_threads(args.method.options.threads);
+    const SolverOptions solver_options = args.solver.options(SolverKind::gauss_seidel, threads);
+    parse_repair_mode(args.repair.mode);
+
+    StepTimes times;
+    Scene scene = load_and_subdivide(args.scene, times);
+    std::string note;
+    if (args.method.method.empty() && default_method(scene) != "analytic") {
+        const auto names = method_names();
+        if (std::find(names.begin(), names.end(), kRunOcclusionMethod) != names.end()) {
+            note = fmt::format(
+                "note: {} occludes: run uses {} (a whole row of F per set of rays), not the "
+                "per-pair {}; choose with --method",
+                scene.name, kRunOcclusionMethod, default_method(scene));
+            args.method.method = kRunOcclusionMethod;
+        }
+    }
+    const auto method = args.method.resolve(scene);
+    const std::string stem = fs::path(scene.name).stem().string();
+    const std::string matrix_npy = (dir / "formfactors.npy").string();
+    const std::string matrix_csv = (dir / "formfactors.csv").string();
+    const std::string patches_csv = (dir / "patches.csv").string();
+    const std::string report_json = (dir / "report.json").string();
+    const std::string se_npy = (dir / "standard_errors.npy").string();
+    const std::string radiosity_csv = (dir / "radiosity.csv").string();
+    const std::string image_png = (dir / (stem + ".png")).string();
+    const std::string mesh_ply = (dir / (stem + ".ply")).string();
+    if (!note.empty()) fmt::print("{}\n", note);
+    fmt::print("formfactor run: {} ({} patches), method {}\n", scene.name, scene.patches.size(),
+               method->name());
+    std::fflush(stdout);
+
+    Stopwatch sw;
+    MethodOptions options = args.method.method_options();
+    options.progress = true;
+    nlohmann::json details = nlohmann::json::object();
+    FormFactors ff = method->compute(scene, options, details);
+    times.add("compute", sw.lap());
+    const Diagnostics raw = diagnose(ff.F, ff.areas);
+    const std::optional<RepairReport> repaired = args.repair.apply(ff, scene);
+    if (repaired) times.add("repair", sw.lap());
+
+    const RadiosityResult solution =
+        solve_radiosity(ff, properties_from_scene(scene), solver_options);
+    times.add("solve", sw.lap());
+
+    RenderOptions ro;
+    ro.width = ro.height = args.image_size;
+    ro.emitters = emitting_patches(scene);
+    RenderInfo info;
+    const std::string png = encode_png(render_radiosity(scene, solution.radiosity, ro, &info));
+    ExportOptions eo;
+    eo.emitters = ro.emitters;
+    const std::string ply = encode_mesh(mesh_ply, scene, solution.radiosity, eo);
+    times.add("render", sw.lap());
+
+    fs::create_directories(dir, ec);
+    if (ec) throw InputError(args.out_dir, 0, "cannot create the directory: " + ec.message());
+    OutputTransaction tx;
+    tx.stage(matrix_npy, [&](std::ostream& out) { write_npy_matrix(out, ff.F); });
+    tx.stage(matrix_csv, [&](std::ostream& out) { write_csv_matrix(out, ff.F); });
+    tx.stage(patches_csv, [&](std::ostream& out) { write_patch_table(out, scene); });
+    if (ff.standard_error) {
+        tx.stage(se_npy, [&](std::ostream& out) { write_npy_matrix(out, *ff.standard_error); });
+    }
+    const std::string table = radiosity_csv_text(solution.radiosity);
+    tx.stage(radiosity_csv, [&](std::ostream& out) { out << table; });
+    tx.stage(image_png, [&](std::ostream& out) { out << png; });
+    tx.stage(mesh_ply, [&](std::ostream& out) { out << ply; });
+    times.add("write", sw.lap());
+
+    ReportContext ctx;
+    ctx.command = "run";
+    ctx.method = method->name();
+    ctx.options = args.scene.to_json();
+    ctx.options.update(args.method.to_json(method->name()));
+    ctx.options["out_dir"] = args.out_dir;
+    ctx.options["solver"] = to_string(solver_options.solver);
+    ctx.options["residual"] = solver_options.residual;
+    ctx.options["repair"] = args.repair.mode;
+    ctx.options["image_size"] = args.image_size;
+    ctx.timings = times;
+    ctx.total_seconds = total.seconds();
+    ctx.threads = threads;
+    ctx.details = details;
+    ctx.outputs = {{"matrix_npy", matrix_npy}, {"matrix_csv", matrix_csv},
+                   {"patches", patches_csv},   {"radiosity", radiosity_csv},
+                   {"image", image_png},       {"mesh", mesh_ply},
+                   {"report", report_json}};
+    if (ff.standard_error) ctx.outputs["standard_error"] = se_npy;
+    nlohmann::json report = make_report(scene, ff, ctx);
+    report["solve"] = to_json(solution);
+    report["render"] = {{"width", args.image_size},
+                        {"height", args.image_size},
+                        {"exposure", info.exposure},
+                        {"triangles", info.triangles}};
+    if (repaired) report["repair"] = to_json(*repaired);
+    if (!note.empty()) report["note"] = note;
+    const std::string text = json_text(report);
+    tx.stage(report_json, [&](std::ostream& out) {
+        out.write(text.data(), static_cast<std::streamsize>(text.size()));
+    });
+    tx.commit();
+
+    print_matrix_summary(scene, method->name(), threads, ff, raw, times, total.seconds());
+    print_radiosity_summary(solution);
+    fmt::print("wrote      {} ({}×{} float64), {}, {}, {}, {}, {}, {}{}\n", matrix_npy, ff.F.rows(),
+               ff.F.cols(), matrix_csv, patches_csv, radiosity_csv, image_png, mesh_ply,
+               report_json, ff.standard_error ? ", " + se_npy : std::string());
+}
+
+}  // namespace
+
+void add_run_command(CLI::App& app) {
+    auto args = std::make_shared<RunArgs>();
+    CLI::App* cmd = app.add_subcommand(
+        "run",
+        fmt::format("The main job: form factors of a scene (default {}, {}×{} patches per "
+                    "surface), its radiosity solution and a picture, into a directory: "
+                    "formfactors.npy, formfactors.csv, patches.csv, radiosity.csv, SCENE.png, "
+                    "SCENE.ply, report.json (and standard_errors.npy for a Monte-Carlo method)",
+                    kRunScene, kRunSubdivide, kRunSubdivide));
+    args->scene.subdivide = kRunSubdivide;
+    args->scene.add_to(cmd, kRunScene);
+    args->method.add_to(cmd);
+    args->solver.add_to(cmd);
+    args->repair.add_to(cmd);
+    cmd->add_option("--out-dir", args->out_dir, "Directory for the outputs (created)")
+        ->capture_default_str()
+        ->type_name("DIR");
+    cmd->add_option("--image-size", args->image_size, "Width and height of the picture (pixels)")
+        ->capture_default_str()
+        ->type_name("PX");
+    cmd->callback([args] { run_run(*args); });
+}
+
+}  // namespace formfactor::cli

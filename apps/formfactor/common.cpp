@@ -1,0 +1,251 @@
+#include "common.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <filesystem>
+
+#include "formfactor/core/error.h"
+#include "formfactor/core/parallel.h"
+#include "formfactor/core/random.h"
+
+namespace formfactor::cli {
+
+void SceneArgs::add_to(CLI::App* cmd, const std::string& default_scene) {
+    auto* opt = cmd->add_option(
+        "SCENE", scene, "An .obj or .vs3 file, or a built-in scene: " + [] {
+            std::string names;
+            for (const auto& n : builtin_scene_names()) names += (names.empty() ? "" : ", ") + n;
+            return names.empty() ? std::string("(none)") : names;
+        }());
+    if (default_scene.empty()) {
+        opt->required();
+    } else {
+        scene = default_scene;
+        opt->capture_default_str();
+    }
+    subdivide_opt = cmd->add_option("--subdivide", subdivide,
+                                    "Split every surface into N×N patches (quads; triangles into "
+                                    "N², other polygons alike)");
+    subdivide_opt->type_name("N");
+    if (subdivide != 1) subdivide_opt->capture_default_str();
+    max_edge_opt = cmd->add_option("--max-edge", max_edge,
+                                   "Split surfaces until no patch edge is longer than L (scene "
+                                   "units); excludes --subdivide");
+    max_edge_opt->type_name("L");
+}
+
+void SceneArgs::validate() const {
+    const bool has_n = subdivide_opt && subdivide_opt->count() > 0;
+    const bool has_l = max_edge_opt && max_edge_opt->count() > 0;
+    if (has_n && has_l) {
+        throw OptionError("--subdivide", "cannot be combined with --max-edge (choose one)");
+    }
+    if (subdivide < 1) {
+        throw OptionError("--subdivide",
+                          fmt::format("must be a whole number ≥ 1, got {}", subdivide));
+    }
+    if (subdivide > 100000) {
+        throw OptionError("--subdivide",
+                          fmt::format("{} is too large (at most 100000)", subdivide));
+    }
+    if (has_l && !(std::isfinite(max_edge) && max_edge > 0.0)) {
+        throw OptionError("--max-edge",
+                          fmt::format("must be a finite length > 0, got {}", max_edge));
+    }
+}
+
+SubdivisionOptions SceneArgs::subdivision() const {
+    SubdivisionOptions o;
+    const bool has_l = max_edge_opt && max_edge_opt->count() > 0;
+    if (has_l) {
+        o.n = 1;
+        o.max_edge = max_edge;
+    } else {
+        o.n = subdivide;
+        o.max_edge = 0.0;
+    }
+    return o;
+}
+
+nlohmann::json SceneArgs::to_json() const {
+    const SubdivisionOptions o = subdivision();
+    nlohmann::json j{{"scene", scene}, {"subdivide", o.n}};
+    j["max_edge"] = o.max_edge > 0.0 ? nlohmann::json(o.max_edge) : nlohmann::json(nullptr);
+    return j;
+}
+
+void MethodArgs::add_to(CLI::App* cmd) {
+    std::string names;
+    for (const auto& n : method_names()) names += (names.empty() ? "" : ", ") + n;
+    cmd->add_option("--method", method,
+                    "Estimator of F" + (names.empty() ? std::string() : " (" + names + ")") +
+                        "; default: the most accurate one that handles the scene")
+        ->type_name("NAME");
+    cmd->add_option("--threads", options.threads, "Worker threads (0 = all cores)")
+        ->type_name("T")
+        ->capture_default_str();
+    cmd->add_option("--tolerance", options.tolerance,
+                    "Absolute error target per entry (analytic method)")
+        ->type_name("EPS")
+        ->capture_default_str();
+    cmd->add_option("--samples", samples,
+                    "Monte-Carlo samples per row or pair (0 = the method's default)")
+        ->type_name("S")
+        ->capture_default_str();
+    cmd->add_option("--seed", seed, "Seed of the random streams (Monte-Carlo methods)")
+        ->capture_default_str();
+    cmd->add_option("--sampler", options.sampler,
+                    "Monte-Carlo point set: sobol, halton, stratified or random")
+        ->type_name("NAME")
+        ->capture_default_str();
+    cmd->add_option("--resolution", options.resolution, "Hemicube / hemiplane cells per side")
+        ->type_name("R")
+        ->capture_default_str();
+    cmd->add_option("--points", options.points, "Hemicube / hemiplane points per patch")
+        ->type_name("P")
+        ->capture_default_str();
+}
+
+void MethodArgs::validate() const {
+    if (options.threads < 0) {
+        throw OptionError("--threads",
+                          fmt::format("must be ≥ 0 (0 = all cores), got {}", options.threads));
+    }
+    if (options.threads > 4096) {
+        throw OptionError("--threads",
+                          fmt::format("{} is too many (at most 4096)", options.threads));
+    }
+    if (!(std::isfinite(options.tolerance) && options.tolerance > 0.0)) {
+        throw OptionError("--tolerance",
+                          fmt::format("must be a finite number > 0, got {}", options.tolerance));
+    }
+    if (samples < 0) throw OptionError("--samples", fmt::format("must be ≥ 0, got {}", samples));
+    if (seed < 0) throw OptionError("--seed", fmt::format("must be ≥ 0, got {}", seed));
+    if (options.resolution < 1) {
+        throw OptionError("--resolution", fmt::format("must be ≥ 1, got {}", options.resolution));
+    }
+    if (options.points < 1) {
+        throw OptionError("--points", fmt::format("must be ≥ 1, got {}", options.points));
+    }
+    parse_sampler(options.sampler);            // OptionError("--sampler", ...) when unknown
+    if (!method.empty()) make_method(method);  // OptionError("--method", ...) when unknown
+}
+
+MethodOptions MethodArgs::method_options() const {
+    MethodOptions o = options;
+    o.samples = static_cast<std::uint64_t>(samples);
+    o.seed = static_cast<std::uint64_t>(seed);
+    return o;
+}
+
+std::unique_ptr<Method> MethodArgs::resolve(const Scene& scene) const {
+    const std::string name = method.empty() ? default_method(scene) : method;
+    auto m = make_method(name);
+    m->check(scene);
+    return m;
+}
+
+nlohmann::json MethodArgs::to_json(const std::string& resolved_method) const {
+    return nlohmann::json{
+        {"method", resolved_method},  {"method_given", !method.empty()},
+        {"threads", options.threads}, {"tolerance", options.tolerance},
+        {"samples", options.samples}, {"seed", options.seed},
+        {"sampler", options.sampler}, {"resolution", options.resolution},
+        {"points", options.points},
+    };
+}
+
+Scene load_and_subdivide(const SceneArgs& args, StepTimes& times) {
+    Stopwatch sw;
+    Scene scene = load_scene(args.scene);
+    times.add("load", sw.lap());
+    subdivide(scene, args.subdivision());
+    times.add("subdivide", sw.lap());
+    return scene;
+}
+
+std::vector<double> patch_emissivities(const Scene& scene) {
+    std::vector<double> e;
+    e.reserve(scene.patches.size());
+    for (const auto& p : scene.patches) {
+        double eps = 0.9;
+        if (p.surface >= 0 && static_cast<std::size_t>(p.surface) < scene.surfaces.size()) {
+            const int m = scene.surfaces[static_cast<std::size_t>(p.surface)].material;
+            if (m >= 0 && static_cast<std::size_t>(m) < scene.materials.size()) {
+                eps = scene.materials[static_cast<std::size_t>(m)].emissivity;
+            }
+        }
+        e.push_back(eps);
+    }
+    return e;
+}
+
+std::string format_seconds(double s) {
+    if (s < 10.0) return fmt::format("{:.3f} s", s);
+    if (s < 60.0) return fmt::format("{:.1f} s", s);
+    const long long whole = static_cast<long long>(s + 0.5);
+    if (whole < 3600) return fmt::format("{} min {:02d} s", whole / 60, whole % 60);
+    return fmt::format("{} h {:02d} min", whole / 3600, (whole / 60) % 60);
+}
+
+std::string format_timings(const StepTimes& times, double total) {
+    std::string out;
+    for (const auto& [name, s] : times.steps) {
+        out += fmt::format("{}{} {}", out.empty() ? "" : ", ", name, format_seconds(s));
+    }
+    out += fmt::format("{}total {}", out.empty() ? "" : ", ", format_seconds(total));
+    return out;
+}
+
+void print_matrix_summary(const Scene& scene, const std::string& method, int threads,
+                          const FormFactors& ff, const Diagnostics& d, const StepTimes& times,
+                          double total) {
+    std::size_t obstructions = 0;
+    for (const auto& s : scene.surfaces) obstructions += s.obstruction ? 1 : 0;
+    fmt::print("scene      {}: {} surfaces, {} obstructions, N = {} patches\n", scene.name,
+               scene.surfaces.size() - obstructions, obstructions, d.n);
+    fmt::print("method     {} ({} thread{})\n", method, threads, threads == 1 ? "" : "s");
+    fmt::print("row sums   min {:.10g}, max {:.10g}, mean {:.10g}\n", d.row_sum_min, d.row_sum_max,
+               d.row_sum_mean);
+    fmt::print("reciprocity max |A_i F_ij - A_j F_ji| / max(...) = {:.3g}",
+               d.max_reciprocity_defect);
+    if (d.max_reciprocity_defect > 0.0) {
+        fmt::print(" (patches {}, {})", d.reciprocity_i, d.reciprocity_j);
+    }
+    fmt::print("\n");
+    if (ff.standard_error && ff.standard_error->size() > 0) {
+        fmt::print("std error  max {:.3g}, mean {:.3g} (per entry)\n",
+                   ff.standard_error->maxCoeff(), ff.standard_error->mean());
+    }
+    if (d.negative_entries || d.entries_above_one || d.nonfinite_entries) {
+        fmt::print("warning    {} entries < 0, {} entries > 1, {} non-finite entries\n",
+                   d.negative_entries, d.entries_above_one, d.nonfinite_entries);
+    }
+    fmt::print("time       {}\n", format_timings(times, total));
+}
+
+bool same_file(const std::string& a, const std::string& b) {
+    std::error_code ea, eb;
+    const auto ca = std::filesystem::weakly_canonical(std::filesystem::absolute(a), ea);
+    const auto cb = std::filesystem::weakly_canonical(std::filesystem::absolute(b), eb);
+    if (ea || eb)
+        return std::filesystem::path(a).lexically_normal() ==
+               std::filesystem::path(b).lexically_normal();
+    return ca == cb;
+}
+
+void require_extension(const std::string& path, const std::string& ext, const std::string& option) {
+    std::string e = std::filesystem::path(path).extension().string();
+    std::transform(e.begin(), e.end(), e.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    if (e == ext) return;
+    if (e.empty()) {
+        throw OptionError(option, "'" + path + "' has no extension (use " + ext + ")");
+    }
+    throw OptionError(option, "unknown output extension '" + e + "' (use " + ext + ")");
+}
+
+}  // namespace formfactor::cli

@@ -1,0 +1,96 @@
+#pragma once
+// Pieces shared by the subcommands: scene and method options, their validation, timing and the
+// printed summary. Everything here throws formfactor::OptionError / InputError; main() turns
+// them into one line on stderr and an exit code.
+
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <memory>
+#include <string>
+
+#include "formfactor/matrix/form_factors.h"
+#include "formfactor/methods/method.h"
+#include "formfactor/output/report.h"
+#include "formfactor/scene/scene.h"
+
+namespace formfactor::cli {
+
+/// Wall-clock stopwatch.
+class Stopwatch {
+  public:
+    Stopwatch() : start_(std::chrono::steady_clock::now()) {}
+    /// Seconds since construction or the last restart().
+    double seconds() const {
+        return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+    }
+    /// Returns seconds() and restarts.
+    double lap() {
+        const double s = seconds();
+        start_ = std::chrono::steady_clock::now();
+        return s;
+    }
+
+  private:
+    std::chrono::steady_clock::time_point start_;
+};
+
+/// SCENE plus --subdivide N | --max-edge L.
+struct SceneArgs {
+    std::string scene;
+    int subdivide = 1;
+    double max_edge = 0.0;
+    CLI::Option* subdivide_opt = nullptr;
+    CLI::Option* max_edge_opt = nullptr;
+
+    /// Registers SCENE (positional; required unless `default_scene` is given) and the
+    /// subdivision options on `cmd`.
+    void add_to(CLI::App* cmd, const std::string& default_scene = "");
+    /// Throws OptionError for a bad value or for both options at once.
+    void validate() const;
+    /// The validated subdivision (n = 1 and no max edge when neither option was given).
+    SubdivisionOptions subdivision() const;
+    /// The options as JSON for the report.
+    nlohmann::json to_json() const;
+};
+
+/// --method, --threads, --tolerance, --samples, --seed, --resolution, --points.
+struct MethodArgs {
+    std::string method;  ///< empty = default_method(scene)
+    MethodOptions options;
+    long long samples = 0;  ///< parsed signed so that a negative value is caught, not wrapped
+    long long seed = 1;
+
+    void add_to(CLI::App* cmd);
+    /// Throws OptionError for a bad value, and for an unknown --method (make_method).
+    void validate() const;
+    /// The validated options (samples and seed copied in).
+    MethodOptions method_options() const;
+    /// The method: --method, else default_method(scene). Checks that it can handle the scene.
+    std::unique_ptr<Method> resolve(const Scene& scene) const;
+    /// Every option as JSON for the report (with the resolved method name).
+    nlohmann::json to_json(const std::string& resolved_method) const;
+};
+
+/// Loads the scene and subdivides it, timing both steps into `times` ("load", "subdivide").
+Scene load_and_subdivide(const SceneArgs& args, StepTimes& times);
+
+/// Per-patch emissivities from the scene's materials (for View3D's .txt).
+std::vector<double> patch_emissivities(const Scene& scene);
+
+/// A time for people: "0.012 s", "3.4 s", "2 min 05 s".
+std::string format_seconds(double s);
+/// "load 0.001 s, compute 1.2 s, ..., total 1.3 s".
+std::string format_timings(const StepTimes& times, double total);
+
+/// Prints the compute summary (N, method, row sums, reciprocity, timings) to stdout.
+void print_matrix_summary(const Scene& scene, const std::string& method, int threads,
+                          const FormFactors& ff, const Diagnostics& d, const StepTimes& times,
+                          double total);
+
+/// True when the two paths name the same file (after normalisation; they need not exist).
+bool same_file(const std::string& a, const std::string& b);
+
+/// Throws OptionError(option, ...) unless `path`'s extension is `ext` (case-insensitive).
+void require_extension(const std::string& path, const std::string& ext, const std::string& option);
+
+}  // namespace formfactor::cli

@@ -1,0 +1,131 @@
+#include "solve_common.h"
+
+#include <fmt/format.h>
+
+#include <cstdio>
+
+#include "formfactor/core/error.h"
+
+namespace formfactor::cli {
+
+void RepairArgs::add_to(CLI::App* cmd) {
+    cmd->add_option("--repair", mode,
+                    "Repair F before use: none, reciprocity (symmetrise A_i "
+                    "F_ij), closure or "
+                    "both (also scale rows to sum to 1, keeping reciprocity; "
+                    "closed scenes only)")
+        ->type_name("MODE")
+        ->capture_default_str();
+    cmd->add_flag("--force-closure", force_closure,
+                  "Close the rows even when the scene looks open (row sums < 0.99)");
+}
+
+RepairOptions RepairArgs::options(const Scene& scene) const {
+    RepairOptions o;
+    o.mode = parse_repair_mode(mode);
+    o.enclosure = scene.enclosure;
+    o.force_closure = force_closure;
+    return o;
+}
+
+std::optional<RepairReport> RepairArgs::apply(FormFactors& ff, const Scene& scene) const {
+    const RepairOptions o = options(scene);
+    if (o.mode == RepairMode::none) return std::nullopt;
+    RepairReport r = repair(ff.F, ff.areas, o);
+    fmt::print(
+        "repair     {}: row sums [{:.10g}, {:.10g}] -> [{:.10g}, {:.10g}], "
+        "reciprocity defect "
+        "{:.3g} -> {:.3g}, entries moved by at most {:.3g} ({:.3g} relative)\n",
+        to_string(o.mode), r.before.row_sum_min, r.before.row_sum_max, r.after.row_sum_min,
+        r.after.row_sum_max, r.before.max_reciprocity_defect, r.after.max_reciprocity_defect,
+        r.max_abs_change, r.max_relative_change);
+    print_warnings(r.warnings);
+    return r;
+}
+
+void SolverArgs::add_to(CLI::App* cmd) {
+    cmd->add_option("--solver", solver,
+                    "jacobi, gauss-seidel, shooting (progressive refinement) or "
+                    "direct (LU); "
+                    "default gauss-seidel (radiosity), direct (--thermal)")
+        ->type_name("NAME");
+    cmd->add_option("--residual", residual, "Stop when max|E + rho F B - B| / max|B| is below this")
+        ->type_name("R")
+        ->capture_default_str();
+    cmd->add_option("--max-iterations", max_iterations,
+                    "Sweeps (jacobi, gauss-seidel) or shots (shooting); 0 = "
+                    "10000 sweeps or "
+                    "10000 N shots")
+        ->type_name("K")
+        ->capture_default_str();
+    cmd->add_flag("--allow-unconverged", allow_unconverged,
+                  "Write the current estimate with a warning when the limit is "
+                  "reached (default: "
+                  "an error)");
+}
+
+SolverOptions SolverArgs::options(SolverKind default_kind, int threads) const {
+    SolverOptions o;
+    o.solver = solver.empty() ? default_kind : parse_solver(solver);
+    if (!(residual > 0.0) || !std::isfinite(residual))
+        throw OptionError("--residual", "must be a positive number");
+    if (max_iterations < 0) throw OptionError("--max-iterations", "must be >= 0");
+    o.residual = residual;
+    o.max_iterations = max_iterations;
+    o.fail_if_not_converged = !allow_unconverged;
+    o.threads = threads;
+    return o;
+}
+
+std::vector<bool> emitting_patches(const Scene& scene) {
+    std::vector<bool> e(scene.patches.size(), false);
+    for (std::size_t i = 0; i < e.size(); ++i) {
+        const int s = scene.patches[i].surface;
+        if (s < 0 || static_cast<std::size_t>(s) >= scene.surfaces.size()) continue;
+        const int m = scene.surfaces[static_cast<std::size_t>(s)].material;
+        if (m >= 0 && static_cast<std::size_t>(m) < scene.materials.size())
+            e[i] = scene.materials[static_cast<std::size_t>(m)].emission.maxCoeff() > 0.0;
+    }
+    return e;
+}
+
+void print_warnings(const std::vector<std::string>& warnings) {
+    std::fflush(stdout);
+    for (const auto& w : warnings) fmt::print(stderr, "formfactor: warning: {}\n", w);
+}
+
+void print_radiosity_summary(const RadiosityResult& r) {
+    const auto& s = r.stats;
+    fmt::print(
+        "solve      radiosity, {}: {} {}, residual {:.3g} (tolerance "
+        "{:.3g}), {:.3f} s\n",
+        s.solver, s.iterations,
+        s.solver == "shooting" ? "shots" : (s.solver == "direct" ? "LU" : "sweeps"), s.residual,
+        s.tolerance, s.seconds);
+    const auto& b = r.balance;
+    fmt::print(
+        "balance    emitted ({:.6g}, {:.6g}, {:.6g}) = absorbed ({:.6g}, "
+        "{:.6g}, {:.6g}) + "
+        "escaped ({:.6g}, {:.6g}, {:.6g}); relative defect {:.3g}\n",
+        b.emitted[0], b.emitted[1], b.emitted[2], b.absorbed[0], b.absorbed[1], b.absorbed[2],
+        b.escaped[0], b.escaped[1], b.escaped[2], b.relative_defect);
+    print_warnings(s.warnings);
+}
+
+void print_thermal_summary(const ThermalResult& r) {
+    const auto& s = r.stats;
+    fmt::print(
+        "solve      thermal, {}: {} {}, residual {:.3g} (tolerance "
+        "{:.3g}), {:.3f} s\n",
+        s.solver, s.iterations,
+        s.solver == "shooting" ? "shots" : (s.solver == "direct" ? "LU" : "sweeps"), s.residual,
+        s.tolerance, s.seconds);
+    fmt::print(
+        "balance    sum of net power {:.6g} W, to the environment ({} K) "
+        "{:.6g} W; relative "
+        "defect {:.3g}\n",
+        r.total_net_power, r.ambient_temperature, r.escaped_power, r.relative_balance_defect);
+    print_warnings(r.warnings);
+}
+
+}  // namespace formfactor::cli

@@ -1,0 +1,53 @@
+#pragma once
+// Pieces shared by `solve`, `render` and `run`: solver and repair options, the
+// stage that turns a scene and F into a solution, and the printed summaries.
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+
+#include "formfactor/matrix/repair.h"
+#include "formfactor/output/render.h"
+#include "formfactor/scene/scene.h"
+#include "formfactor/solve/properties.h"
+#include "formfactor/solve/radiosity.h"
+#include "formfactor/solve/thermal.h"
+
+namespace formfactor::cli {
+
+/// --repair MODE and --force-closure.
+struct RepairArgs {
+    std::string mode = "none";
+    bool force_closure = false;
+
+    void add_to(CLI::App* cmd);
+    /// Throws OptionError("--repair") for an unknown mode.
+    RepairOptions options(const Scene& scene) const;
+    /// Repairs ff.F in place when the mode is not none; prints one line; returns
+    /// the report (nullopt when nothing was asked).
+    std::optional<RepairReport> apply(FormFactors& ff, const Scene& scene) const;
+};
+
+/// --solver, --residual, --max-iterations, --allow-unconverged.
+struct SolverArgs {
+    std::string solver;  ///< empty = the default of the problem (gauss-seidel / direct)
+    double residual = 1e-8;
+    long long max_iterations = 0;
+    bool allow_unconverged = false;
+
+    void add_to(CLI::App* cmd);
+    /// Throws OptionError for a bad value.
+    SolverOptions options(SolverKind default_kind, int threads) const;
+};
+
+/// Patches whose material emits (left out of the automatic exposure).
+std::vector<bool> emitting_patches(const Scene& scene);
+
+/// Prints the solve summary lines (solver, iterations, residual, time, energy
+/// balance) and the warnings (to stderr, "formfactor: warning: ...").
+void print_radiosity_summary(const RadiosityResult& r);
+void print_thermal_summary(const ThermalResult& r);
+void print_warnings(const std::vector<std::string>& warnings);
+
+}  // namespace formfactor::cli

@@ -1,0 +1,58 @@
+#pragma once
+/// Atomic file output (STYLE.md, "Errors"): every file is written to a temporary name in the
+/// same directory and renamed over the target only when everything succeeded, so an error or an
+/// interrupted run never leaves a half-written or stale-but-new output behind.
+
+#include <functional>
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+namespace formfactor {
+
+/// Writes the content that `write` puts into the stream to `path`, atomically: the bytes go to
+/// `PATH.tmp.<pid>` in the same directory (binary mode, so what is written is what ends up in
+/// the file), which is renamed to `path` on success. When `write` throws, or the stream fails
+/// (disk full, ...), or the rename fails, the temporary is removed, `path` is left as it was, and
+/// the exception propagates (an I/O failure becomes InputError(path, 0, reason)).
+void write_file_atomically(const std::string& path,
+                           const std::function<void(std::ostream&)>& write);
+
+/// Several outputs that appear together or not at all: stage() writes each one to its
+/// temporary; commit() renames them all. Anything not committed (an exception before commit(),
+/// or the transaction going out of scope) is removed. Use this when a command writes more than
+/// one file, so a failure in the last one does not leave the first ones behind.
+class OutputTransaction {
+  public:
+    OutputTransaction() = default;
+    ~OutputTransaction();
+    OutputTransaction(const OutputTransaction&) = delete;
+    OutputTransaction& operator=(const OutputTransaction&) = delete;
+
+    /// Writes `path`'s future content to its temporary now (throws like write_file_atomically).
+    /// Staging the same path twice is an error (formfactor::Error).
+    void stage(const std::string& path, const std::function<void(std::ostream&)>& write);
+    /// Renames every staged temporary to its target, in staging order. When a rename fails,
+    /// the remaining temporaries are removed and InputError(path, 0, reason) is thrown.
+    void commit();
+    /// Removes every staged temporary (idempotent).
+    void abort() noexcept;
+    /// The targets staged so far, in order.
+    std::vector<std::string> paths() const;
+
+  private:
+    struct Staged {
+        std::string target;
+        std::string temporary;
+    };
+    std::vector<Staged> staged_;
+};
+
+/// The temporary name used for `path`: `path + ".tmp." + pid`.
+std::string temporary_path_for(const std::string& path);
+
+/// Throws InputError(path, 0, ...) when the directory that would hold `path` does not exist or
+/// is not a directory. Call it before a long computation so that a typo in -o fails at once.
+void check_output_directory(const std::string& path);
+
+}  // namespace formfactor

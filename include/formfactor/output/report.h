@@ -1,0 +1,72 @@
+#pragma once
+/// The JSON run report: what was computed, how, how long it took, and what the matrix looks like
+/// (DESIGN.md, "Repair and diagnostics"). Users script against its keys: they are a contract —
+/// add keys, never rename or remove them. Layout (every time in seconds of wall-clock time):
+///
+///     { "formfactor_version": "0.1.0", "timestamp": "2024-01-31T12:00:00Z",
+///       "command": "compute", "scene": { scene_summary_json() }, "N": 42,
+///       "method": "analytic", "options": { every option, as resolved },
+///       "threads": 2, "timings": { "load": s, "subdivide": s, "compute": s, ..., "total": s },
+///       "diagnostics": { diagnostics_json() }, "details": { the method's own fields },
+///       "outputs": { "matrix": "F.npy", ... } }
+
+#include <nlohmann/json.hpp>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "formfactor/matrix/form_factors.h"
+#include "formfactor/scene/scene.h"
+
+namespace formfactor {
+
+/// Wall-clock seconds per named step, in the order they ran.
+struct StepTimes {
+    std::vector<std::pair<std::string, double>> steps;
+    /// Appends (or adds to) the step `name`.
+    void add(const std::string& name, double seconds);
+    /// Sum of the steps.
+    double sum() const;
+};
+
+/// Everything the report says that is not in the scene or the matrix.
+struct ReportContext {
+    std::string command = "compute";                    ///< the CLI subcommand (or API caller)
+    std::string method;                                 ///< Method::name()
+    nlohmann::json options = nlohmann::json::object();  ///< every option, as resolved
+    StepTimes timings;                                  ///< per step
+    double total_seconds = 0.0;  ///< wall time from start to the report (≥ the sum of steps)
+    int threads = 0;             ///< threads actually used
+    nlohmann::json details = nlohmann::json::object();  ///< Method::compute()'s details
+    nlohmann::json outputs = nlohmann::json::object();  ///< role → path of each file written
+};
+
+/// The diagnostics as JSON: {"row_sum": {"min", "max", "mean"}, "reciprocity": {"max_defect",
+/// "i", "j"}, "negative_entries", "entries_above_one", "nonfinite_entries", "max_abs_diagonal"}.
+/// The reciprocity defect is max |A_i F_ij − A_j F_ji| / max(A_i F_ij, A_j F_ji), at (i, j),
+/// 0-based patch indices.
+nlohmann::json diagnostics_json(const Diagnostics& d);
+
+/// The per-entry standard errors of a Monte-Carlo estimate: {"max", "mean"} over the matrix, or
+/// null when the method gives none (exact methods).
+nlohmann::json standard_error_json(const FormFactors& ff);
+
+/// A summary of a scene: {"name", "title", "surfaces" (those with rows: not obstructions),
+/// "obstructions", "patches", "materials", "enclosure", "total_area", "patch_area": {"min",
+/// "max"}, "bounds": {"min": [x,y,z], "max": [x,y,z]}, "warnings": [...]}.
+nlohmann::json scene_summary_json(const Scene& scene);
+
+/// The full report for F computed on `scene` (diagnose() is run here; "diagnostics" also gets
+/// "standard_error": standard_error_json(ff)).
+nlohmann::json make_report(const Scene& scene, const FormFactors& ff, const ReportContext& ctx);
+
+/// The current UTC time as ISO 8601, e.g. "2024-01-31T12:00:00Z".
+std::string utc_timestamp();
+
+/// The report's text: two-space indentation, a final newline (NaN and Inf become null).
+std::string json_text(const nlohmann::json& j);
+
+/// Writes json_text(j) to `path` atomically.
+void write_json_file(const std::string& path, const nlohmann::json& j);
+
+}  // namespace formfactor

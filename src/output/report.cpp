@@ -1,0 +1,132 @@
+#include "formfactor/output/report.h"
+
+#include <algorithm>
+#include <ctime>
+#include <limits>
+#include <ostream>
+
+#include "formfactor/output/atomic_file.h"
+
+namespace formfactor {
+
+using nlohmann::json;
+
+void StepTimes::add(const std::string& name, double seconds) {
+    for (auto& [n, s] : steps) {
+        if (n == name) {
+            s += seconds;
+            return;
+        }
+    }
+    steps.emplace_back(name, seconds);
+}
+
+double StepTimes::sum() const {
+    double s = 0.0;
+    for (const auto& step : steps) s += step.second;
+    return s;
+}
+
+json diagnostics_json(const Diagnostics& d) {
+    return json{
+        {"row_sum", {{"min", d.row_sum_min}, {"max", d.row_sum_max}, {"mean", d.row_sum_mean}}},
+        {"reciprocity",
+         {{"max_defect", d.max_reciprocity_defect},
+          {"i", d.reciprocity_i},
+          {"j", d.reciprocity_j}}},
+        {"negative_entries", d.negative_entries},
+        {"entries_above_one", d.entries_above_one},
+        {"nonfinite_entries", d.nonfinite_entries},
+        {"max_abs_diagonal", d.max_abs_diagonal},
+    };
+}
+
+namespace {
+
+json vec_json(const Vec3& v) { return json::array({v.x(), v.y(), v.z()}); }
+
+}  // namespace
+
+json scene_summary_json(const Scene& scene) {
+    std::size_t obstructions = 0;
+    for (const auto& s : scene.surfaces) obstructions += s.obstruction ? 1 : 0;
+    double total = 0.0;
+    double amin = std::numeric_limits<double>::infinity();
+    double amax = 0.0;
+    for (const auto& p : scene.patches) {
+        total += p.area;
+        amin = std::min(amin, p.area);
+        amax = std::max(amax, p.area);
+    }
+    if (scene.patches.empty()) amin = 0.0;
+    Bounds3 b;
+    for (const auto& s : scene.surfaces) {
+        for (const auto& v : s.polygon.vertices) b.extend(v);
+    }
+    json j{
+        {"name", scene.name},
+        {"title", scene.title},
+        {"surfaces", scene.surfaces.size() - obstructions},
+        {"obstructions", obstructions},
+        {"patches", scene.patches.size()},
+        {"materials", scene.materials.size()},
+        {"enclosure", scene.enclosure},
+        {"total_area", total},
+        {"patch_area", {{"min", amin}, {"max", amax}}},
+        {"warnings", scene.warnings},
+    };
+    if (b.empty()) {
+        j["bounds"] = nullptr;
+    } else {
+        j["bounds"] = {{"min", vec_json(b.lo)}, {"max", vec_json(b.hi)}};
+    }
+    return j;
+}
+
+std::string utc_timestamp() {
+    const std::time_t now = std::time(nullptr);
+    std::tm tm{};
+    gmtime_r(&now, &tm);
+    char buf[32];
+    std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+    return buf;
+}
+
+json standard_error_json(const FormFactors& ff) {
+    if (!ff.standard_error || ff.standard_error->size() == 0) return nullptr;
+    const DenseMatrix& se = *ff.standard_error;
+    return json{{"max", se.maxCoeff()}, {"mean", se.mean()}};
+}
+
+json make_report(const Scene& scene, const FormFactors& ff, const ReportContext& ctx) {
+    json diagnostics = diagnostics_json(diagnose(ff.F, ff.areas));
+    diagnostics["standard_error"] = standard_error_json(ff);
+    json timings = json::object();
+    for (const auto& [name, seconds] : ctx.timings.steps) timings[name] = seconds;
+    timings["total"] = std::max(ctx.total_seconds, ctx.timings.sum());
+    return json{
+        {"formfactor_version", FF_VERSION},
+        {"timestamp", utc_timestamp()},
+        {"command", ctx.command},
+        {"scene", scene_summary_json(scene)},
+        {"N", ff.size()},
+        {"method", ctx.method},
+        {"options", ctx.options},
+        {"threads", ctx.threads},
+        {"timings", timings},
+        {"diagnostics", diagnostics},
+        {"details", ctx.details},
+        {"outputs", ctx.outputs},
+    };
+}
+
+std::string json_text(const json& j) { return j.dump(2) + "\n"; }
+
+void write_json_file(const std::string& path, const json& j) {
+    const std::string text = json_text(j);
+    write_file_atomically(path, [&](std::ostream& out) {
+        out.write(text.data(), static_cast<std::streamsize>(text.size()));
+    });
+}
+
+}  // namespace formfactor

@@ -1,0 +1,335 @@
+#include "solve/linear_system.h"
+
+#include <fmt/format.h>
+
+#include <Eigen/LU>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "formfactor/core/error.h"
+#include "formfactor/core/parallel.h"
+
+namespace formfactor {
+
+SolverKind parse_solver(const std::string& name) {
+    if (name == "jacobi") return SolverKind::jacobi;
+    if (name == "gauss-seidel" || name == "gauss_seidel") return SolverKind::gauss_seidel;
+    if (name == "shooting" || name == "progressive") return SolverKind::shooting;
+    if (name == "direct" || name == "lu") return SolverKind::direct;
+    throw OptionError("--solver", "unknown solver '" + name +
+                                      "' (expected jacobi, gauss-seidel, shooting or direct)");
+}
+
+std::string to_string(SolverKind kind) {
+    switch (kind) {
+        case SolverKind::jacobi:
+            return "jacobi";
+        case SolverKind::gauss_seidel:
+            return "gauss-seidel";
+        case SolverKind::shooting:
+            return "shooting";
+        case SolverKind::direct:
+            return "direct";
+    }
+    return "?";
+}
+
+namespace detail {
+
+namespace {
+
+constexpr Eigen::Index kRowBlock = 32;  // rows per parallel task: amortises the dispatch
+constexpr Eigen::Index kShootingTransposeMax = 8192;
+
+double max_abs(const Columns& x) { return x.size() ? x.cwiseAbs().maxCoeff() : 0.0; }
+
+}  // namespace
+
+void multiply(const DenseMatrix& F, const Columns& x, Columns& y, int threads) {
+    const Eigen::Index n = F.rows();
+    const Eigen::Index k = x.cols();
+    if (y.rows() != n || y.cols() != k) y.resize(n, k);
+    const std::size_t blocks = static_cast<std::size_t>((n + kRowBlock - 1) / kRowBlock);
+    auto body = [&](std::size_t b) {
+        const Eigen::Index lo = static_cast<Eigen::Index>(b) * kRowBlock;
+        const Eigen::Index hi = std::min(n, lo + kRowBlock);
+        for (Eigen::Index i = lo; i < hi; ++i)
+            for (Eigen::Index c = 0; c < k; ++c) y(i, c) = F.row(i).dot(x.col(c));
+    };
+    // Small systems: a thread hand-off costs more than the product.
+    if (n * n < 64 * 64) {
+        for (std::size_t b = 0; b < blocks; ++b) body(b);
+    } else {
+        parallel_for(blocks, threads, body);
+    }
+}
+
+double relative_residual(const DenseMatrix& F, const Columns& d, const Columns& c, const Columns& x,
+                         Columns& work, int threads) {
+    multiply(F, x, work, threads);
+    double r = 0.0;
+    for (Eigen::Index k = 0; k < x.cols(); ++k)
+        for (Eigen::Index i = 0; i < x.rows(); ++i)
+            r = std::max(r, std::abs(c(i, k) + d(i, k) * work(i, k) - x(i, k)));
+    const double xm = max_abs(x);
+    if (xm == 0.0) return r == 0.0 ? 0.0 : std::numeric_limits<double>::infinity();
+    return r / xm;
+}
+
+namespace {
+
+// x ← c + D F x until the update (= the residual of the previous iterate) is below tolerance.
+long long run_jacobi(const DenseMatrix& F, const Columns& d, const Columns& c,
+                     const SolverOptions& o, long long max_it, Columns& x, Columns& y,
+                     double& residual) {
+    long long it = 0;
+    while (it < max_it) {
+        multiply(F, x, y, o.threads);
+        double change = 0.0;
+        for (Eigen::Index k = 0; k < x.cols(); ++k)
+            for (Eigen::Index i = 0; i < x.rows(); ++i) {
+                const double v = c(i, k) + d(i, k) * y(i, k);
+                change = std::max(change, std::abs(v - x(i, k)));
+                x(i, k) = v;
+            }
+        ++it;
+        const double xm = max_abs(x);
+        if (change <= o.residual * xm || xm == 0.0) {
+            residual = relative_residual(F, d, c, x, y, o.threads);
+            if (residual <= o.residual) return it;
+        }
+    }
+    residual = relative_residual(F, d, c, x, y, o.threads);
+    return it;
+}
+
+// In-place sweeps. In the ∞-norm the residual after a sweep is at most the largest update
+// (row sums of D F ≤ 1), so a small update triggers the exact residual check.
+long long run_gauss_seidel(const DenseMatrix& F, const Columns& d, const Columns& c,
+                           const SolverOptions& o, long long max_it, Columns& x, Columns& y,
+                           double& residual) {
+    const Eigen::Index n = F.rows();
+    long long it = 0;
+    while (it < max_it) {
+        double change = 0.0;
+        for (Eigen::Index i = 0; i < n; ++i) {
+            const double fii = F(i, i);
+            for (Eigen::Index k = 0; k < x.cols(); ++k) {
+                const double s = F.row(i).dot(x.col(k)) - fii * x(i, k);
+                const double v = (c(i, k) + d(i, k) * s) / (1.0 - d(i, k) * fii);
+                change = std::max(change, std::abs(v - x(i, k)));
+                x(i, k) = v;
+            }
+        }
+        ++it;
+        const double xm = max_abs(x);
+        if (change <= o.residual * xm || xm == 0.0) {
+            residual = relative_residual(F, d, c, x, y, o.threads);
+            if (residual <= o.residual) return it;
+        }
+    }
+    residual = relative_residual(F, d, c, x, y, o.threads);
+    return it;
+}
+
+// Progressive refinement as Southwell iteration: r = c + D F x − x is the unshot quantity;
+// shooting patch i adds δ = r_i / (1 − d_i F_ii) to x_i, clears r_i and sends d_j F_ji δ to
+// every other r_j. Column i of F (F_ji, "what j receives from i") is read directly rather than
+// through reciprocity (F_ij A_i / A_j), so the fixed point is exactly that of the other solvers
+// even for a matrix that breaks reciprocity.
+long long run_shooting(const DenseMatrix& F, const std::vector<double>& areas, const Columns& d,
+                       const Columns& c, const SolverOptions& o, long long max_it, Columns& x,
+                       Columns& r, Columns& y, double& residual) {
+    const Eigen::Index n = F.rows();
+    const Eigen::Index kc = x.cols();
+    x.setZero();
+    r = c;
+    long long it = 0;
+    // Columns of a row-major F are strided: a transposed copy makes each shot one contiguous
+    // pass, at the cost of N² doubles (skipped above kShootingTransposeMax patches).
+    const bool transposed = n <= kShootingTransposeMax;
+    DenseMatrix Ft;
+    if (transposed) Ft = F.transpose();
+    auto recompute_residual = [&] {
+        multiply(F, x, y, o.threads);
+        r = c + (d.array() * y.array()).matrix() - x;
+    };
+    while (true) {
+        // One scan: the shooter, ‖r‖_∞ and ‖x‖_∞.
+        Eigen::Index best = -1;
+        double best_power = -1.0, rmax = 0.0, xmax = 0.0;
+        for (Eigen::Index i = 0; i < n; ++i) {
+            double p = 0.0;
+            for (Eigen::Index k = 0; k < kc; ++k) {
+                const double a = std::abs(r(i, k));
+                p += a;
+                rmax = std::max(rmax, a);
+                xmax = std::max(xmax, std::abs(x(i, k)));
+            }
+            p *= areas[static_cast<std::size_t>(i)];
+            if (p > best_power) {
+                best_power = p;
+                best = i;
+            }
+        }
+        if (rmax <= o.residual * xmax || rmax == 0.0) {
+            // The running residual accumulates rounding: confirm from scratch.
+            residual = relative_residual(F, d, c, x, y, o.threads);
+            if (residual <= o.residual) return it;
+            recompute_residual();
+            continue;
+        }
+        if (it >= max_it) break;
+        const Eigen::Index i = best;
+        const double fii = F(i, i);
+        for (Eigen::Index k = 0; k < kc; ++k) {
+            const double delta = r(i, k) / (1.0 - d(i, k) * fii);
+            x(i, k) += delta;
+            r(i, k) = 0.0;
+            if (delta == 0.0) continue;
+            if (transposed) {
+                const double* col = Ft.data() + i * n;  // row i of Fᵀ = column i of F
+                for (Eigen::Index j = 0; j < n; ++j)
+                    if (j != i) r(j, k) += d(j, k) * col[j] * delta;
+            } else {
+                for (Eigen::Index j = 0; j < n; ++j)
+                    if (j != i) r(j, k) += d(j, k) * F(j, i) * delta;
+            }
+        }
+        ++it;
+    }
+    residual = relative_residual(F, d, c, x, y, o.threads);
+    return it;
+}
+
+void run_direct(const DenseMatrix& F, const Columns& d, const Columns& c, Columns& x) {
+    const Eigen::Index n = F.rows();
+    for (Eigen::Index k = 0; k < c.cols(); ++k) {
+        // Channels with the same d share one factorisation.
+        Eigen::Index same = -1;
+        for (Eigen::Index p = 0; p < k; ++p)
+            if (d.col(p) == d.col(k)) {
+                same = p;
+                break;
+            }
+        if (same >= 0) continue;
+        DenseMatrix M = -(d.col(k).asDiagonal() * F);
+        M.diagonal().array() += 1.0;
+        Eigen::PartialPivLU<DenseMatrix> lu(M);
+        const double rcond = lu.rcond();
+        if (!(rcond > 1e-14))
+            throw Error(fmt::format(
+                "solve: the system I - diag(d) F is singular (reciprocal condition number {:.3g})",
+                rcond));
+        for (Eigen::Index q = k; q < c.cols(); ++q)
+            if (q == k || d.col(q) == d.col(k)) x.col(q) = lu.solve(c.col(q));
+    }
+    if (!x.allFinite()) throw Error("solve: the direct solve produced non-finite values");
+    (void)n;
+}
+
+}  // namespace
+
+SolverStats solve_linear(const DenseMatrix& F, const std::vector<double>& areas, const Columns& d,
+                         const Columns& c, const SolverOptions& options, Columns& x) {
+    const auto start = std::chrono::steady_clock::now();
+    const Eigen::Index n = F.rows();
+    FF_ASSERT(F.cols() == n && d.rows() == n && c.rows() == n && d.cols() == c.cols());
+    FF_ASSERT(static_cast<Eigen::Index>(areas.size()) == n);
+    if (!(options.residual > 0.0) || !std::isfinite(options.residual))
+        throw OptionError("--residual", "must be a positive number");
+    if (options.max_iterations < 0)
+        throw OptionError("--max-iterations", "must be ≥ 0 (0 = automatic)");
+
+    SolverStats st;
+    st.solver = to_string(options.solver);
+    st.tolerance = options.residual;
+    x = c;
+    Columns y(n, c.cols());
+    double residual = 0.0;
+    switch (options.solver) {
+        case SolverKind::jacobi:
+        case SolverKind::gauss_seidel: {
+            const long long max_it = options.max_iterations > 0 ? options.max_iterations : 10000;
+            st.iterations = options.solver == SolverKind::jacobi
+                                ? run_jacobi(F, d, c, options, max_it, x, y, residual)
+                                : run_gauss_seidel(F, d, c, options, max_it, x, y, residual);
+            break;
+        }
+        case SolverKind::shooting: {
+            const long long max_it = options.max_iterations > 0
+                                         ? options.max_iterations
+                                         : 10000LL * std::max<long long>(1, n);
+            Columns r(n, c.cols());
+            st.iterations = run_shooting(F, areas, d, c, options, max_it, x, r, y, residual);
+            // Ambient term (Cohen et al. 1988, eq. 5): the unshot power spread evenly, times
+            // the interreflection factor 1 / (1 − ρ_avg).
+            double total_area = 0.0;
+            for (double a : areas) total_area += a;
+            st.ambient.assign(static_cast<std::size_t>(c.cols()), 0.0);
+            if (total_area > 0.0) {
+                for (Eigen::Index k = 0; k < c.cols(); ++k) {
+                    double unshot = 0.0, rho = 0.0;
+                    for (Eigen::Index i = 0; i < n; ++i) {
+                        unshot += areas[static_cast<std::size_t>(i)] * r(i, k);
+                        rho += areas[static_cast<std::size_t>(i)] * d(i, k);
+                    }
+                    unshot /= total_area;
+                    rho /= total_area;
+                    const double amb = rho < 1.0 ? unshot / (1.0 - rho) : 0.0;
+                    st.ambient[static_cast<std::size_t>(k)] = amb;
+                    if (options.add_ambient)
+                        for (Eigen::Index i = 0; i < n; ++i) x(i, k) += d(i, k) * amb;
+                }
+            }
+            if (options.add_ambient) residual = relative_residual(F, d, c, x, y, options.threads);
+            break;
+        }
+        case SolverKind::direct:
+            run_direct(F, d, c, x);
+            st.iterations = 1;
+            residual = relative_residual(F, d, c, x, y, options.threads);
+            break;
+    }
+    st.residual = residual;
+    st.converged = residual <= options.residual;
+    st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (!st.converged) {
+        std::string msg;
+        if (options.solver == SolverKind::direct)
+            msg = fmt::format(
+                "solve: the direct solve's relative residual {:.3g} is above the tolerance {:.3g} "
+                "(ill-conditioned system)",
+                residual, options.residual);
+        else
+            msg = fmt::format(
+                "solve: {} did not converge in {} {}: relative residual {:.3g} > tolerance {:.3g} "
+                "(raise --max-iterations, loosen --residual or use --solver direct)",
+                st.solver, st.iterations,
+                options.solver == SolverKind::shooting ? "shots" : "sweeps", residual,
+                options.residual);
+        if (options.fail_if_not_converged && options.solver != SolverKind::direct &&
+            !options.add_ambient)
+            throw Error(msg);
+        st.warnings.push_back(msg);
+    }
+    return st;
+}
+
+void check_sizes(const FormFactors& ff, std::size_t properties) {
+    const std::size_t n = ff.size();
+    if (static_cast<std::size_t>(ff.F.cols()) != n)
+        throw Error(
+            fmt::format("solve: the matrix is {}x{}, not square", ff.F.rows(), ff.F.cols()));
+    if (ff.areas.size() != n)
+        throw Error(fmt::format("solve: {} patch areas for a {}x{} matrix", ff.areas.size(), n, n));
+    if (properties != n)
+        throw Error(
+            fmt::format("solve: the scene has {} patches but the matrix is {}x{} (same scene and "
+                        "subdivision?)",
+                        properties, n, n));
+}
+
+}  // namespace detail
+}  // namespace formfactor

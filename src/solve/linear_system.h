@@ -1,0 +1,30 @@
+#pragma once
+// The engine behind solve_radiosity and solve_thermal: x = c + diag(d_k) F x per column k.
+
+#include <Eigen/Core>
+#include <vector>
+
+#include "formfactor/matrix/form_factors.h"
+#include "formfactor/solve/solver.h"
+
+namespace formfactor::detail {
+
+/// n×k, column-major: one column per channel (contiguous per channel for the dot products).
+using Columns = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor>;
+
+/// Solves x = c + diag(d.col(k)) F x for every column k with options.solver. `areas` weights
+/// the shooting order (A_i |r_i|) and the ambient term. x is resized to c's shape.
+SolverStats solve_linear(const DenseMatrix& F, const std::vector<double>& areas, const Columns& d,
+                         const Columns& c, const SolverOptions& options, Columns& x);
+
+/// y = F x, rows in parallel (no allocation when y already has x's shape).
+void multiply(const DenseMatrix& F, const Columns& x, Columns& y, int threads);
+
+/// ‖c + D F x − x‖_∞ / ‖x‖_∞ (0 when x = 0); `work` is scratch of x's shape.
+double relative_residual(const DenseMatrix& F, const Columns& d, const Columns& c, const Columns& x,
+                         Columns& work, int threads);
+
+/// Throws Error unless F is n×n with n areas and n patch properties.
+void check_sizes(const FormFactors& ff, std::size_t properties);
+
+}  // namespace formfactor::detail

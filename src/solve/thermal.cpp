@@ -1,0 +1,142 @@
+#include "formfactor/solve/thermal.h"
+
+#include <fmt/format.h>
+
+#include <Eigen/LU>
+#include <cmath>
+
+#include "formfactor/core/error.h"
+#include "solve/linear_system.h"
+
+namespace formfactor {
+
+ThermalResult solve_thermal(const FormFactors& ff, const PatchProperties& props,
+                            const ThermalOptions& options) {
+    detail::check_sizes(ff, props.size());
+    validate_properties(props);
+    if (!(options.ambient_temperature >= 0.0) || !std::isfinite(options.ambient_temperature))
+        throw OptionError("--ambient-temperature", "must be a temperature ≥ 0 K");
+    const Eigen::Index n = ff.F.rows();
+    const double sigma = kStefanBoltzmann;
+    const double eb_env = sigma * std::pow(options.ambient_temperature, 4);
+
+    ThermalResult res;
+    res.ambient_temperature = options.ambient_temperature;
+    detail::Columns d(n, 1), c(n, 1), x;
+    std::vector<double> open(static_cast<std::size_t>(n));
+    std::size_t adiabatic = 0, known_t = 0;
+    double min_row_sum = 1.0;
+    for (Eigen::Index i = 0; i < n; ++i) {
+        const auto si = static_cast<std::size_t>(i);
+        const double s = ff.F.row(i).sum();
+        min_row_sum = std::min(min_row_sum, s);
+        open[si] = 1.0 - s;
+        const double eps = props.emissivity[si];
+        const double T = props.temperature[si];
+        if (!std::isnan(T)) {
+            ++known_t;
+            d(i, 0) = 1.0 - eps;
+            c(i, 0) = eps * sigma * std::pow(T, 4) + (1.0 - eps) * open[si] * eb_env;
+        } else {
+            double q = props.net_flux[si];
+            if (std::isnan(q)) {
+                q = 0.0;
+                ++adiabatic;
+            }
+            d(i, 0) = 1.0;
+            c(i, 0) = q + open[si] * eb_env;
+        }
+    }
+    if (adiabatic > 0)
+        res.warnings.push_back(fmt::format(
+            "{} patch(es) have neither a temperature nor a net flux: treated as adiabatic "
+            "(re-radiating, net_flux = 0)",
+            adiabatic));
+    if (known_t == 0 && n > 0 && min_row_sum > 1.0 - 1e-9)
+        throw Error(
+            "thermal: every patch has a prescribed net flux (or none) in a closed enclosure: the "
+            "temperatures are then defined only up to a constant; give at least one patch a "
+            "temperature");
+    if (min_row_sum < 1.0 - 1e-6)
+        res.warnings.push_back(fmt::format(
+            "open scene (row sums down to {:.6g}): the missing part of each row sees the "
+            "environment, a black body at {} K",
+            min_row_sum, options.ambient_temperature));
+
+    res.stats = detail::solve_linear(ff.F, ff.areas, d, c, options.solver, x);
+
+    // Irradiation H = F J + (1 − s) σ T_env⁴, then the per-patch outputs.
+    detail::Columns H;
+    detail::multiply(ff.F, x, H, options.solver.threads);
+    res.area = ff.areas;
+    res.emissivity = props.emissivity;
+    res.temperature.resize(static_cast<std::size_t>(n));
+    res.temperature_prescribed.resize(static_cast<std::size_t>(n));
+    res.radiosity.resize(static_cast<std::size_t>(n));
+    res.net_flux.resize(static_cast<std::size_t>(n));
+    res.net_power.resize(static_cast<std::size_t>(n));
+    double abs_power = 0.0;
+    std::size_t negative_t = 0;
+    for (Eigen::Index i = 0; i < n; ++i) {
+        const auto si = static_cast<std::size_t>(i);
+        const double J = x(i, 0);
+        const double h = H(i, 0) + open[si] * eb_env;
+        const double eps = props.emissivity[si];
+        const double T = props.temperature[si];
+        double q;
+        if (!std::isnan(T)) {
+            // ε < 1: from the surface's own balance (no cancellation when J ≈ H, e.g. small ε);
+            // ε = 1: J = σT⁴ exactly and q = J − H.
+            q = eps < 1.0 ? eps / (1.0 - eps) * (sigma * std::pow(T, 4) - J) : J - h;
+            res.temperature[si] = T;
+            res.temperature_prescribed[si] = true;
+        } else {
+            q = std::isnan(props.net_flux[si]) ? 0.0 : props.net_flux[si];
+            const double eb = J + q * (1.0 - eps) / eps;
+            if (eb >= 0.0) {
+                res.temperature[si] = std::pow(eb / sigma, 0.25);
+            } else {
+                res.temperature[si] = std::numeric_limits<double>::quiet_NaN();
+                ++negative_t;
+            }
+            res.temperature_prescribed[si] = false;
+        }
+        res.radiosity[si] = J;
+        res.net_flux[si] = q;
+        res.net_power[si] = q * ff.areas[si];
+        res.total_net_power += res.net_power[si];
+        res.escaped_power += ff.areas[si] * open[si] * (J - eb_env);
+        abs_power += std::abs(res.net_power[si]);
+    }
+    if (negative_t > 0)
+        res.warnings.push_back(fmt::format(
+            "{} patch(es) with a prescribed flux would need σT⁴ < 0 (the flux is more than the "
+            "surroundings can supply): temperature written as nan",
+            negative_t));
+    res.relative_balance_defect =
+        abs_power > 0.0 ? std::abs(res.total_net_power - res.escaped_power) / abs_power : 0.0;
+    for (const auto& w : res.stats.warnings) res.warnings.push_back(w);
+    return res;
+}
+
+DenseMatrix total_exchange_factors(const DenseMatrix& F, const std::vector<double>& emissivity) {
+    const Eigen::Index n = F.rows();
+    if (F.cols() != n || static_cast<Eigen::Index>(emissivity.size()) != n)
+        throw Error(fmt::format("exchange factors: {}x{} matrix with {} emissivities", F.rows(),
+                                F.cols(), emissivity.size()));
+    Eigen::VectorXd eps(n);
+    for (Eigen::Index i = 0; i < n; ++i) {
+        eps(i) = emissivity[static_cast<std::size_t>(i)];
+        if (!(eps(i) > 0.0 && eps(i) <= 1.0))
+            throw GeometryError(fmt::format("patch {}: emissivity {} outside (0, 1]", i, eps(i)));
+    }
+    // F (I − R F)⁻¹ = (I − F R)⁻¹ F with R = diag(1 − ε): one LU, N right-hand sides.
+    DenseMatrix M = -(F * (Eigen::VectorXd::Ones(n) - eps).asDiagonal());
+    M.diagonal().array() += 1.0;
+    Eigen::PartialPivLU<DenseMatrix> lu(M);
+    DenseMatrix G = lu.solve(F);
+    if (!G.allFinite()) throw Error("exchange factors: I - F diag(1 - eps) is singular");
+    return eps.asDiagonal() * G * eps.asDiagonal();
+}
+
+}  // namespace formfactor

@@ -1,0 +1,195 @@
+// End-to-end tests of `formfactor solve` and `formfactor render`.
+
+#include <doctest/doctest.h>
+#include <stb/stb_image.h>
+
+#include <cmath>
+#include <nlohmann/json.hpp>
+
+#include "cli_runner.h"
+#include "formfactor/output/matrix_io.h"
+#include "formfactor/output/solution_io.h"
+
+using namespace formfactor;
+using formfactor::testing::Cli;
+using formfactor::testing::CliResult;
+using formfactor::testing::read_text;
+using formfactor::testing::write_text;
+
+namespace {
+
+std::string describe(const CliResult& r) {
+    return "exit " + std::to_string(r.code) + "\nstdout: " + r.out + "\nstderr: " + r.err;
+}
+
+constexpr double kSigma = 5.670374419e-8;
+
+}  // namespace
+
+TEST_CASE(
+    "cli solve: radiosity of the closed cube with a light, every solver, "
+    "a report") {
+    Cli cli;
+    // Face z0 (patches 64..79 with --subdivide 4) emits; uniform ρ = 0.5 from the
+    // material.
+    write_text(cli.file("p.csv"), "surface,emission_r,emission_g,emission_b\nz0,1,2,3\n");
+    CliResult r = cli.run(
+        "solve cube --subdivide 4 --properties p.csv --solver "
+        "direct -o ref.csv --report r.json");
+    INFO(describe(r));
+    REQUIRE(r.code == 0);
+    CHECK(r.out.find("solve      radiosity, direct") != std::string::npos);
+    const SolutionTable ref = read_solution_csv(cli.file("ref.csv"), 96);
+    // Closed enclosure, uniform ρ: Σ A_i B_i (1 − ρ) = Σ A_i E_i, so the mean
+    // radiosity is E_total / (A_total (1 − ρ)) = (1 · 1) / (6 · 0.5) per unit of
+    // emission.
+    double mean = 0.0;
+    for (const auto& b : ref.radiosity) mean += b[0] / 96.0;
+    CHECK(mean == doctest::Approx(1.0 / 3.0).epsilon(1e-9));
+    const auto report = nlohmann::json::parse(read_text(cli.file("r.json")));
+    CHECK(report["command"] == "solve");
+    CHECK(report["solve"]["kind"] == "radiosity");
+    CHECK(report["solve"]["solver"]["converged"] == true);
+    CHECK(report["solve"]["energy_balance"]["relative_defect"].get<double>() < 1e-9);
+    for (const char* s : {"jacobi", "gauss-seidel", "shooting"}) {
+        r = cli.run(std::string("solve cube --subdivide 4 --properties p.csv --residual 1e-12 ") +
+                    "--solver " + s + " -o b.csv");
+        INFO(describe(r));
+        REQUIRE(r.code == 0);
+        const SolutionTable t = read_solution_csv(cli.file("b.csv"), 96);
+        for (std::size_t i = 0; i < 96; ++i)
+            CHECK((t.radiosity[i] - ref.radiosity[i]).cwiseAbs().maxCoeff() < 1e-10);
+    }
+}
+
+TEST_CASE(
+    "cli solve: thermal two-surface enclosure from the cube, exchange "
+    "factors") {
+    Cli cli;
+    // Face z0 at 1000 K, ε = 0.6; the five others black at 300 K: q = ε σ (T1⁴ −
+    // T2⁴).
+    write_text(cli.file("p.csv"),
+               "surface,emissivity,temperature\nx0,1,300\nx1,1,300\ny0,1,300\ny1,1,300\n"
+               "z0,0.6,1000\nz1,1,300\n");
+    CliResult r = cli.run(
+        "solve cube --subdivide 2 --thermal --properties p.csv "
+        "-o t.csv --exchange-factors X.csv "
+        "--report r.json");
+    INFO(describe(r));
+    REQUIRE(r.code == 0);
+    const SolutionTable t = read_solution_csv(cli.file("t.csv"), 24);
+    REQUIRE(t.thermal);
+    const double q = 0.6 * kSigma * (std::pow(1000.0, 4) - std::pow(300.0, 4));
+    for (std::size_t i = 16; i < 20; ++i) CHECK(t.net_flux[i] == doctest::Approx(q).epsilon(1e-9));
+    double total = 0.0;
+    for (double p : t.net_power) total += p;
+    CHECK(std::abs(total) < 1e-9 * q);
+    const std::string text = read_text(cli.file("t.csv"));
+    CHECK(text.substr(0, text.find('\n')) ==
+          "patch,area,emissivity,temperature,radiosity,net_flux,net_power");
+    const DenseMatrix X = read_matrix(cli.file("X.csv"));
+    REQUIRE(X.rows() == 24);
+    CHECK(X.row(16).sum() == doctest::Approx(0.6).epsilon(1e-9));  // Σ_j 𝓕_ij = ε_i (closed)
+    const auto report = nlohmann::json::parse(read_text(cli.file("r.json")));
+    CHECK(report["solve"]["kind"] == "thermal");
+    CHECK(std::abs(report["solve"]["energy_balance"]["total_net_power_W"].get<double>()) <
+          1e-9 * q);
+}
+
+TEST_CASE("cli solve: repair, and the errors") {
+    Cli cli;
+    CliResult r = cli.run("solve cube --subdivide 3 --repair both -o a.csv --report r.json");
+    INFO(describe(r));
+    REQUIRE(r.code == 0);
+    CHECK(r.out.find("repair     both") != std::string::npos);
+    const auto report = nlohmann::json::parse(read_text(cli.file("r.json")));
+    CHECK(report["repair"]["mode"] == "both");
+    CHECK(std::abs(report["repair"]["after"]["row_sum_max"].get<double>() - 1.0) < 1e-12);
+
+    r = cli.run("solve plates --repair closure -o b.csv");
+    CHECK(r.code == 2);
+    CHECK(r.err.find("--repair: the scene is open") != std::string::npos);
+    r = cli.run("solve cube --solver sor -o b.csv");
+    CHECK(r.code == 2);
+    CHECK(r.err.find("--solver: unknown solver 'sor'") != std::string::npos);
+    write_text(cli.file("bad.csv"), "patch,emissivity\n0,2\n");
+    r = cli.run("solve cube --thermal --properties bad.csv -o b.csv");
+    CHECK(r.code == 1);
+    CHECK(r.err.find("bad.csv:2: emissivity = 2 must be in (0, 1]") != std::string::npos);
+    r = cli.run(
+        "solve cube --solver jacobi --max-iterations 2 --properties "
+        "p.csv -o b.csv");
+    CHECK(r.code == 1);
+    write_text(cli.file("light.csv"), "patch,emission_r\n0,1\n");
+    r = cli.run(
+        "solve cube --solver jacobi --max-iterations 2 --properties "
+        "light.csv -o b.csv");
+    CHECK(r.code == 1);
+    CHECK(r.err.find("did not converge in 2 sweeps") != std::string::npos);
+    r = cli.run(
+        "solve cube --solver jacobi --max-iterations 2 --properties "
+        "light.csv -o b.csv "
+        "--allow-unconverged");
+    CHECK(r.code == 0);
+    CHECK(r.err.find("warning: solve: jacobi did not converge") != std::string::npos);
+    r = cli.run("compute cube -o F.npy");
+    REQUIRE(r.code == 0);
+    r = cli.run("solve cube --subdivide 2 --matrix F.npy -o c.csv");
+    CHECK(r.code == 1);
+    CHECK(r.err.find("F.npy: a 6x6 matrix, the scene has 24 patches") != std::string::npos);
+    r = cli.run("solve cube --matrix F.npy --properties light.csv -o c.csv");
+    CHECK(r.code == 0);
+    CHECK(r.out.find("F from matrix file") != std::string::npos);
+}
+
+TEST_CASE("cli render: PNG of a solution, false colour, meshes") {
+    Cli cli;
+    CliResult r = cli.run("solve cornell-empty --subdivide 6 -o b.csv");
+    INFO(describe(r));
+    REQUIRE(r.code == 0);
+    r = cli.run(
+        "render cornell-empty --subdivide 6 --radiosity b.csv --size 96 "
+        "72 -o c.png");
+    INFO(describe(r));
+    REQUIRE(r.code == 0);
+    int w = 0, h = 0, n = 0;
+    unsigned char* img = stbi_load(cli.file("c.png").c_str(), &w, &h, &n, 3);
+    REQUIRE(img != nullptr);
+    CHECK(w == 96);
+    CHECK(h == 72);
+    // The published camera: the red wall on the left, the green one on the right.
+    const unsigned char* left = img + 3 * (36 * 96 + 14);
+    const unsigned char* right = img + 3 * (36 * 96 + 81);
+    CHECK(left[0] > left[1] + 40);
+    CHECK(right[1] > right[0] + 20);
+    stbi_image_free(img);
+    r = cli.run("render cornell-empty --subdivide 6 --radiosity b.csv -o c.ply");
+    CHECK(r.code == 0);
+    CHECK(read_text(cli.file("c.ply")).substr(0, 4) == "ply\n");
+    r = cli.run("render cornell-empty --subdivide 6 --radiosity b.csv -o c.gltf");
+    CHECK(r.code == 0);
+    CHECK(nlohmann::json::parse(read_text(cli.file("c.gltf")))["asset"]["version"] == "2.0");
+    r = cli.run("compute cornell-empty --subdivide 6 -o F.npy");
+    REQUIRE(r.code == 0);
+    r = cli.run(
+        "render cornell-empty --subdivide 6 --false-colour row --row 5 "
+        "--matrix F.npy --size 120 "
+        "80 -o row.png");
+    CHECK(r.code == 0);
+    CHECK(r.out.find("F from patch 5") != std::string::npos);
+    // Errors.
+    r = cli.run(
+        "render cornell-empty --subdivide 6 --radiosity b.csv "
+        "--false-colour temperature "
+        "-o t.png");
+    CHECK(r.code == 2);
+    CHECK(r.err.find("needs a thermal result table") != std::string::npos);
+    r = cli.run("render cornell-empty --radiosity b.csv -o c.png");
+    CHECK(r.code == 1);
+    CHECK(r.err.find("the scene has 10") != std::string::npos);
+    r = cli.run("render cornell-empty --radiosity b.csv -o c.bmp");
+    CHECK(r.code == 2);
+    r = cli.run("render cornell-empty -o c.png");
+    CHECK(r.code == 2);
+    CHECK(r.err.find("--radiosity") != std::string::npos);
+}
