@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <functional>
 #include <map>
 #include <numeric>
@@ -389,10 +390,24 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
     const double ds = ns.dot(s[0]);
     // The polygons whose vertices and edges make events.
     thread_local std::vector<Poly3> polys;
+    // Per polygon: a bit per edge that cannot be a kink (an edge between two faces of a closed
+    // solid that both face the whole sender: inside the union of the shadows).
+    thread_local std::vector<std::uint64_t> inner;
     polys.clear();
+    inner.clear();
     Poly3 a, b;
     clip3(rc.poly, ns, ds + eps, a);
-    if (a.n >= 3) polys.push_back(a);
+    if (a.n >= 3) {
+        polys.push_back(a);
+        inner.push_back(0);
+    }
+    auto faces_sender = [&](int k) {
+        const auto& pc = blockers.piece(k);
+        if (!pc.cull_back) return false;
+        for (const Vec3& v : s.vertices)
+            if (!(pc.plane.signed_distance(v) > 0.0)) return false;
+        return true;
+    };
     for (int c = 0; c < n; ++c) {
         const auto& pc = blockers.piece(cand[c]);
         const Vec3* pv = blockers.vertices(cand[c]);
@@ -405,7 +420,19 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
         for (int k = 0; k < pc.count; ++k) a.v[static_cast<std::size_t>(k)] = pv[k];
         clip3(a, ns, ds, b);
         clip3(b, rc.n, rc.d, a);
-        if (a.n >= 3) polys.push_back(a);
+        if (a.n < 3) continue;
+        std::uint64_t mask = 0;
+        if (a.n == pc.count && pc.count <= 64 && faces_sender(cand[c])) {
+            bool same = true;
+            for (int k = 0; k < pc.count && same; ++k)
+                same = a.v[static_cast<std::size_t>(k)] == pv[k];
+            for (int k = 0; k < pc.count && same; ++k) {
+                const int nb = blockers.neighbor(cand[c], k);
+                if (nb >= 0 && faces_sender(nb)) mask |= std::uint64_t{1} << k;
+            }
+        }
+        polys.push_back(a);
+        inner.push_back(mask);
     }
     if (polys.size() < 2) return convex_s;
     Vec3 su, sv;
@@ -419,11 +446,15 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
     for (const Vec3& v : s.vertices) s2.emplace_back(su.dot(v - o), sv.dot(v - o));
     for (std::size_t x = 0; x < polys.size(); ++x)
         for (int w = 0; w < polys[x].n; ++w) {
+            // A vertex between two inner edges is inside the union too.
+            const int wprev = w == 0 ? polys[x].n - 1 : w - 1;
+            if ((inner[x] >> w & 1) && (inner[x] >> wprev & 1)) continue;
             const Vec3& pw = polys[x].v[static_cast<std::size_t>(w)];
             for (std::size_t y = 0; y < polys.size(); ++y) {
                 if (y == x) continue;
                 const Poly3& q = polys[y];
                 for (int e = 0; e < q.n; ++e) {
+                    if (inner[y] >> e & 1) continue;
                     const Vec3& e0 = q.v[static_cast<std::size_t>(e)];
                     const Vec3& e1 = q.v[static_cast<std::size_t>(e + 1 == q.n ? 0 : e + 1)];
                     const Vec3 m = (e1 - e0).cross(pw - e0);
@@ -611,6 +642,16 @@ void BlockerSet::mark_closed_solids(const std::vector<std::pair<Vec3, int>>& poi
         }
         if (!empty_inside) continue;
         for (int p : ps) pieces_[static_cast<std::size_t>(p)].cull_back = true;
+        if (neighbor_.empty()) neighbor_.assign(verts_.size(), -1);
+        for (int p : ps) {
+            const Piece& pc = pieces_[static_cast<std::size_t>(p)];
+            for (int k = 0; k < pc.count; ++k) {
+                const auto a = key(verts_[static_cast<std::size_t>(pc.first + k)]);
+                const auto b = key(verts_[static_cast<std::size_t>(pc.first + (k + 1) % pc.count)]);
+                const auto it = edges.find({b[0], b[1], b[2], a[0], a[1], a[2]});
+                neighbor_[static_cast<std::size_t>(pc.first + k)] = it->second[0];
+            }
+        }
     }
 }
 

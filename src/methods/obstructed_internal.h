@@ -47,6 +47,12 @@ class BlockerSet {
     const Vec3* vertices(int k) const {
         return verts_.data() + pieces_[static_cast<std::size_t>(k)].first;
     }
+    /// The piece across edge e (from vertex e to e + 1) of piece k in its closed solid, else −1
+    /// (set by mark_closed_solids()).
+    int neighbor(int k, int e) const {
+        if (neighbor_.empty()) return -1;
+        return neighbor_[static_cast<std::size_t>(pieces_[static_cast<std::size_t>(k)].first + e)];
+    }
 
     /// Appends to `out` the pieces whose box may meet the shaft, skipping the pieces of
     /// surfaces skip_a and skip_b.
@@ -59,6 +65,7 @@ class BlockerSet {
         int first = 0, count = 0;   // leaf: order_[first, first + count)
     };
     std::vector<Vec3> verts_;
+    std::vector<int> neighbor_;  // per vertex of verts_: the piece across the edge it starts
     std::vector<Piece> pieces_;
     std::vector<Node> nodes_;
     std::vector<int> order_;
