@@ -117,9 +117,14 @@ void AnalyticMethod::check(const Scene&) const {
 
 FormFactors AnalyticMethod::compute(const Scene& scene, const MethodOptions& options,
                                     nlohmann::json& details) const {
-    const double tol = options.tolerance;
-    if (!(tol > 0.0) || !std::isfinite(tol))
+    if (!(options.tolerance > 0.0) || !std::isfinite(options.tolerance))
         throw OptionError("--tolerance", "must be a positive number (absolute error per entry)");
+    // In an obstructed scene the unobstructed values (kept for the fully visible pairs, the
+    // reference of the partly hidden ones) stay at ≤ 1e-10: they are cheap, and the closure of
+    // the rows rests on them; options.obstructed_tolerance governs the partly hidden pairs.
+    const bool obstructed = may_obstruct(scene);
+    const double tol =
+        obstructed ? std::min(options.tolerance, kVisibleTolerance) : options.tolerance;
     const std::size_t n = scene.patches.size();
     FormFactors out;
     out.F = DenseMatrix::Zero(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
@@ -221,9 +226,8 @@ FormFactors AnalyticMethod::compute(const Scene& scene, const MethodOptions& opt
     details["error_bound_per_entry"] = std::max(tol, 1e-12);
     details["exact_path_error"] = 1e-12;
     details["threads"] = effective_threads(options.threads);
-    details["obstructed"] = false;
-    if (may_obstruct(scene)) {
-        details["obstructed"] = true;
+    details["obstructed"] = obstructed;
+    if (obstructed) {
         apply_obstructions(scene, options, out, details);
         details["error_bound_per_entry"] = std::max(
             std::max(tol, 1e-12), details["obstructions"]["max_error_estimate"].get<double>());

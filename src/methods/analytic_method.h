@@ -21,6 +21,9 @@ class AnalyticMethod final : public Method {
     /// surface, or a surface with vertices of other surfaces on both sides of its plane).
     static bool may_obstruct(const Scene& scene);
 
+    /// Largest tolerance of the unobstructed values in an obstructed scene (see compute()).
+    static constexpr double kVisibleTolerance = 1e-10;
+
   private:
     /// The obstruction pass over an unobstructed matrix (src/methods/analytic_obstructed.cpp).
     static void apply_obstructions(const Scene& scene, const MethodOptions& options,
