@@ -407,6 +407,17 @@ TEST_CASE("obstructed: room scene, box as patches or as obstructions, VS3 round 
     nlohmann::json d3;
     const FormFactors c = m->compute(back, o, d3);
     CHECK((c.F - b.F).cwiseAbs().maxCoeff() <= 1e-12);
+    // The committed fixtures (tests/data/room-4*.vs3, written by save_vs3) give the same.
+    nlohmann::json d4, d5;
+    const FormFactors e = m->compute(load_scene(test::data("room-4.vs3")), o, d4);
+    const FormFactors g = m->compute(load_scene(test::data("room-4-obstruction.vs3")), o, d5);
+    CHECK((e.F - a.F).cwiseAbs().maxCoeff() <= 1e-12);
+    CHECK((g.F - b.F).cwiseAbs().maxCoeff() <= 1e-12);
+    // And the built-in names.
+    CHECK(is_builtin_scene("room-4"));
+    CHECK(is_builtin_scene("room-4-obstruction"));
+    CHECK_FALSE(is_builtin_scene("room-x"));
+    CHECK(load_scene("room-4-obstruction").obstruction_count() == 6);
 }
 
 TEST_CASE("obstructed: analytic agrees with mc-target on the room (independent check)") {
