@@ -729,12 +729,57 @@ void Shaft::build(const Vec3* a, int na, const Vec3& normal_a, const Vec3* b, in
     for (int k = 0; k < na; ++k) a_front = a_front || pb_.signed_distance(a[k]) > eps;
     facing_away_ = !a_front || !b_front;
     sides_ = 0;
+    links_ = 0;
+    ca_ = cb_ = Vec3::Zero();
+    for (int k = 0; k < na; ++k) ca_ += a[k];
+    for (int k = 0; k < nb; ++k) cb_ += b[k];
+    ca_ /= na;
+    cb_ /= nb;
     // Side faces of the hull: through an edge of one polygon and a vertex of the other, with
     // every vertex of both on one side.
-    auto sides_of = [&](const Vec3* p, int np, const Vec3& own, const Vec3* q, int nq) {
+    auto sides_of = [&](const Vec3* p, int np, const Vec3& own, const Vec3& pc, const Vec3* q,
+                        int nq) {
         for (int k = 0; k < np; ++k) {
             const Vec3& e0 = p[k];
             const Vec3 t = p[k + 1 == np ? 0 : k + 1] - e0;
+            // When q is in front of p's plane, the face through this edge is the plane through
+            // the vertex of q with the smallest angle above p's plane, seen along the edge
+            // (angles compared by cross products, in the section across the edge, x pointing
+            // out of p, y along p's normal).
+            {
+                Vec3 r = t.cross(own);
+                if (r.dot(pc - e0) > 0.0) r = -r;
+                int best = -1;
+                double bx = 0.0, by = 0.0;
+                bool front = true;
+                const double tn = t.norm();
+                for (int w = 0; w < nq && front; ++w) {
+                    const Vec3 d = q[w] - e0;
+                    const double x = r.dot(d) / tn, y = own.dot(d);
+                    if (y < -eps) front = false;
+                    if (x * x + y * y <= eps * eps) continue;  // on the edge's line
+                    if (best < 0 || x * by - y * bx > 0.0) {
+                        best = w;
+                        bx = x;
+                        by = y;
+                    }
+                }
+                if (front) {
+                    if (best >= 0 && by > eps) {
+                        Vec3 m = t.cross(q[best] - e0);
+                        m.normalize();
+                        double off = m.dot(e0);
+                        if (m.dot(pc) - off > 0.0) {
+                            m = -m;
+                            off = -off;
+                        }
+                        side_[sides_++] = Plane{m, off};
+                        link_[links_++] = q[best] - e0;
+                        link_[links_++] = q[best] - p[k + 1 == np ? 0 : k + 1];
+                    }
+                    continue;
+                }
+            }
             for (int w = 0; w < nq; ++w) {
                 Vec3 m = t.cross(q[w] - e0);
                 const double len = m.norm();
@@ -754,19 +799,17 @@ void Shaft::build(const Vec3* a, int na, const Vec3& normal_a, const Vec3* b, in
                     lo = std::min(lo, s);
                     hi = std::max(hi, s);
                 }
-                if (hi <= eps) {
-                    side_[sides_++] = {m, off};
-                    break;
-                }
-                if (lo >= -eps) {
-                    side_[sides_++] = {-m, -off};
+                if (hi <= eps || lo >= -eps) {
+                    side_[sides_++] = hi <= eps ? Plane{m, off} : Plane{-m, -off};
+                    link_[links_++] = q[w] - e0;
+                    link_[links_++] = q[w] - p[k + 1 == np ? 0 : k + 1];
                     break;
                 }
             }
         }
     };
-    sides_of(a, na, normal_a, b, nb);
-    sides_of(b, nb, normal_b, a, na);
+    sides_of(a, na, normal_a, ca_, b, nb);
+    sides_of(b, nb, normal_b, cb_, a, na);
 }
 
 bool Shaft::box_outside(const Bounds3& box) const {
@@ -816,8 +859,21 @@ bool Shaft::piece_outside(const Vec3* p, int count, const Plane& pl, bool exact)
     }
     if (lo >= -eps_ || hi <= eps_) return true;
     if (!exact) return false;
+    // The segment between the polygons' centres crosses the piece: it certainly blocks.
+    {
+        const double s0 = pl.signed_distance(ca_), s1 = pl.signed_distance(cb_);
+        if ((s0 > eps_ && s1 < -eps_) || (s0 < -eps_ && s1 > eps_)) {
+            const Vec3 z = ca_ + (cb_ - ca_) * (s0 / (s0 - s1));
+            bool inside = true;
+            for (int k = 0; k < count && inside; ++k) {
+                const Vec3 e = p[k + 1 == count ? 0 : k + 1] - p[k];
+                inside = e.cross(z - p[k]).dot(pl.n) > eps_ * e.norm();
+            }
+            if (inside) return false;
+        }
+    }
     // Separating axis theorem for the remaining axes: an edge of the piece crossed with an edge
-    // of the hull (the hull's edges are among a's and b's edges and the segments a_i b_j).
+    // of the hull (a's and b's edges, and the edges of the side faces between them).
     auto separated = [&](const Vec3& axis) {
         const double len = axis.norm();
         if (!(len > 0.0)) return false;
@@ -846,9 +902,8 @@ bool Shaft::piece_outside(const Vec3* p, int count, const Plane& pl, bool exact)
             if (separated(e.cross(a_[i + 1 == na_ ? 0 : i + 1] - a_[i]))) return true;
         for (int j = 0; j < nb_; ++j)
             if (separated(e.cross(b_[j + 1 == nb_ ? 0 : j + 1] - b_[j]))) return true;
-        for (int i = 0; i < na_; ++i)
-            for (int j = 0; j < nb_; ++j)
-                if (separated(e.cross(b_[j] - a_[i]))) return true;
+        for (int l = 0; l < links_; ++l)
+            if (separated(e.cross(link_[l]))) return true;
     }
     return false;
 }

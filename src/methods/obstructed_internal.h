@@ -99,6 +99,9 @@ class Shaft {
     Plane pa_, pb_;
     Plane side_[2 * kMaxPieceVertices + 2];
     int sides_ = 0;
+    Vec3 link_[4 * kMaxPieceVertices];  // directions of the hull's edges between a and b
+    int links_ = 0;
+    Vec3 ca_, cb_;  // vertex averages
     double eps_ = 0;
     bool facing_away_ = false;
 };
