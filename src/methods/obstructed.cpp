@@ -304,6 +304,11 @@ PointResult evaluate_point(const Receiver& rc, const Vec3& x, const Vec3& nx,
     return res;
 }
 
+// Cells where the shaft test finds a blocker but no sample point sees a shadow get their whole
+// unobstructed contribution as the error estimate (forcing subdivision) down to this level; below
+// it such a shadow is a sliver along a shadow boundary, whose part the normal estimate covers.
+constexpr int kSuspiciousLevels = 4;
+
 // The tensor Gauss–Legendre rules of a cell (after a first try with orders 1 and 2): the result
 // is the higher order's, the difference of the two its error estimate.
 constexpr int kLowOrder = 2, kHighOrder = 3;
@@ -1106,7 +1111,7 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
         c.error = std::abs(q3 - q2) * scale;
         // Partly hidden by its shaft, yet no sample point sees a shadow: the shadow may fall
         // between the points; what it can hide is at most the cell's unobstructed part.
-        if (!hidden && !any_hidden) {
+        if (!hidden && !any_hidden && c.level < kSuspiciousLevels) {
             // Unless the exact test finds that no piece meets the cell's shaft after all.
             bool meets = false;
             for (int k : cell_cand) {
