@@ -20,5 +20,8 @@ void add_run_command(CLI::App& app);
 void add_solve_command(CLI::App& app);
 /// `formfactor render SCENE --radiosity RESULT.csv -o image.png [...]`: pictures and meshes.
 void add_render_command(CLI::App& app);
+/// `formfactor inspect SCENE --patch I -o VIEW.png [...]`: what a point sees through the
+/// hemicube or the hemiplane, as a picture.
+void add_inspect_command(CLI::App& app);
 
 }  // namespace formfactor::cli

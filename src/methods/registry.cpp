@@ -1,4 +1,6 @@
 #include "formfactor/core/error.h"
+#include "formfactor/methods/hemicube.h"
+#include "formfactor/methods/hemiplane.h"
 #include "formfactor/methods/method.h"
 #include "mc_common.h"
 #include "methods/analytic_method.h"
@@ -6,11 +8,13 @@
 namespace formfactor {
 
 std::vector<std::string> method_names() {
-    return {"analytic", "mc-area", "mc-hemisphere", "mc-target"};
+    return {"analytic", "hemicube", "hemiplane", "mc-area", "mc-hemisphere", "mc-target"};
 }
 
 std::unique_ptr<Method> make_method(const std::string& name) {
     if (name == "analytic") return std::make_unique<AnalyticMethod>();
+    if (name == "hemicube") return std::make_unique<HemicubeMethod>();
+    if (name == "hemiplane") return std::make_unique<HemiplaneMethod>();
     if (name == "mc-area") return make_mc_area_method();
     if (name == "mc-hemisphere") return make_mc_hemisphere_method();
     if (name == "mc-target") return make_mc_target_method();

@@ -1,0 +1,197 @@
+#include "formfactor/methods/hemicube.h"
+
+#include <tbb/enumerable_thread_specific.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <memory>
+#include <string>
+
+#include "formfactor/core/error.h"
+#include "formfactor/core/parallel.h"
+#include "formfactor/core/progress.h"
+#include "methods/hemicube_raster.h"
+#include "methods/projection_common.h"
+
+namespace formfactor {
+
+using projection::HemicubeRaster;
+
+std::vector<double> hemicube_delta_form_factors(int resolution) {
+    projection::check_projection_options(resolution, 1, false);
+    const int R = resolution, H = resolution / 2;
+    std::vector<double> d(static_cast<std::size_t>(R) * R * 3);
+    const double dA = 4.0 / (static_cast<double>(R) * R);
+    std::size_t k = 0;
+    for (int Y = 0; Y < R; ++Y) {
+        const double v = (2.0 * Y + 1.0) / R - 1.0;
+        for (int X = 0; X < R; ++X) {
+            const double u = (2.0 * X + 1.0) / R - 1.0;
+            const double q = u * u + v * v + 1.0;
+            d[k++] = dA / (kPi * q * q);
+        }
+    }
+    for (int f = 1; f < 5; ++f) {
+        for (int Y = 0; Y < H; ++Y) {
+            const double z = (2.0 * Y + 1.0) / R;
+            for (int X = 0; X < R; ++X) {
+                const double s = (2.0 * X + 1.0) / R - 1.0;
+                const double q = s * s + z * z + 1.0;
+                d[k++] = z * dA / (kPi * q * q);
+            }
+        }
+    }
+    double sum = 0.0;
+    for (double x : d) sum += x;
+    for (double& x : d) x /= sum;
+    return d;
+}
+
+namespace {
+
+projection::Frame point_frame(const Vec3& point, const Vec3& normal, double rotation) {
+    if (!(normal.norm() > 0.0) || !point.allFinite() || !normal.allFinite()) {
+        throw GeometryError(
+            "hemicube: the point and its normal must be finite, the normal "
+            "non-zero");
+    }
+    return projection::make_frame(point, normal, rotation);
+}
+
+Vec3 patch_normal(const Patch& p) {
+    return p.normal.squaredNorm() > 0.0 ? p.normal.normalized() : normal(p.polygon);
+}
+
+}  // namespace
+
+std::vector<double> hemicube_point_row(const Scene& scene, const Vec3& point, const Vec3& normal,
+                                       int resolution, double rotation, int exclude_patch) {
+    const std::vector<double> delta = hemicube_delta_form_factors(resolution);
+    const projection::Occluders occ = projection::build_occluders(scene);
+    HemicubeRaster raster(resolution);
+    raster.render(occ, point_frame(point, normal, rotation), exclude_patch,
+                  projection::kRelativeNear * occ.scale, projection::kRelativeEdgeOn * occ.scale);
+    std::vector<double> row(scene.patches.size(), 0.0);
+    raster.accumulate(projection::HemicubeDelta(delta, resolution), 1.0, row.data(), row.size());
+    return row;
+}
+
+ProjectionView hemicube_view(const Scene& scene, const Vec3& point, const Vec3& normal,
+                             int resolution, double rotation, int exclude_patch) {
+    const std::vector<double> delta = hemicube_delta_form_factors(resolution);
+    const projection::Occluders occ = projection::build_occluders(scene);
+    HemicubeRaster raster(resolution);
+    raster.render(occ, point_frame(point, normal, rotation), exclude_patch,
+                  projection::kRelativeNear * occ.scale, projection::kRelativeEdgeOn * occ.scale);
+    const int R = resolution, H = resolution / 2;
+    ProjectionView view;
+    view.kind = ProjectionView::Kind::hemicube;
+    view.resolution = R;
+    view.width = view.height = 2 * R;
+    view.items.assign(static_cast<std::size_t>(4) * R * R, kViewUnused);
+    view.delta.assign(view.items.size(), 0.0);
+    const std::vector<int>& items = raster.items();
+    for (int f = 0; f < 5; ++f) {
+        const auto& fc = projection::kHemicubeFaces[f];
+        const int rows = f == 0 ? R : H;
+        const std::size_t off = raster.face_offset(f);
+        for (int Y = 0; Y < rows; ++Y) {
+            for (int X = 0; X < R; ++X) {
+                // Direction of the cell centre in the local frame.
+                const double u = (2.0 * X + 1.0) / R - 1.0;
+                const double v = fc.top ? (2.0 * Y + 1.0) / R - 1.0 : (2.0 * Y + 1.0) / R;
+                double dir[3] = {0, 0, 0};
+                dir[fc.iu] += fc.su * u;
+                dir[fc.iv] += fc.sv * v;
+                dir[fc.id] += fc.sd;
+                const double a = dir[0], b = dir[1], c = dir[2];
+                double x, y;  // position in the unfolded cross, [−2, 2]²
+                if (f == 0) {
+                    x = a / c;
+                    y = b / c;
+                } else if (f == 1) {
+                    x = 2.0 - c / a;
+                    y = b / a;
+                } else if (f == 2) {
+                    x = -2.0 + c / -a;
+                    y = b / -a;
+                } else if (f == 3) {
+                    y = 2.0 - c / b;
+                    x = a / b;
+                } else {
+                    y = -2.0 + c / -b;
+                    x = a / -b;
+                }
+                const int col =
+                    std::clamp(static_cast<int>(std::floor((x + 2.0) * 0.5 * R)), 0, 2 * R - 1);
+                const int row =
+                    2 * R - 1 -
+                    std::clamp(static_cast<int>(std::floor((y + 2.0) * 0.5 * R)), 0, 2 * R - 1);
+                const std::size_t cell = off + static_cast<std::size_t>(Y) * R + X;
+                const std::size_t pix = static_cast<std::size_t>(row) * 2 * R + col;
+                view.items[pix] = items[cell];
+                view.delta[pix] = delta[cell];
+            }
+        }
+    }
+    return view;
+}
+
+void HemicubeMethod::check(const Scene& scene) const {
+    for (std::size_t i = 0; i < scene.patches.size(); ++i) {
+        const Patch& p = scene.patches[i];
+        if (p.polygon.size() < 3 || !(patch_normal(p).squaredNorm() > 0.0)) {
+            throw GeometryError("hemicube: patch " + std::to_string(i) +
+                                " is degenerate (no normal)");
+        }
+    }
+}
+
+FormFactors HemicubeMethod::compute(const Scene& scene, const MethodOptions& options,
+                                    nlohmann::json& details) const {
+    projection::check_projection_options(options.resolution, options.points, false);
+    check(scene);
+    const std::size_t n = scene.patches.size();
+    FormFactors out;
+    out.F = DenseMatrix::Zero(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
+    out.areas.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        const Patch& p = scene.patches[i];
+        out.areas[i] = p.area > 0.0 ? p.area : area(p.polygon);
+    }
+    const int R = options.resolution;
+    const projection::HemicubeDelta delta(hemicube_delta_form_factors(R), R);
+    const projection::Occluders occ = projection::build_occluders(scene);
+    const double near = projection::kRelativeNear * occ.scale;
+    const double edge_on = projection::kRelativeEdgeOn * occ.scale;
+    tbb::enumerable_thread_specific<std::unique_ptr<HemicubeRaster>> workers;
+    std::atomic<std::size_t> hemicubes{0};
+    Progress progress("hemicube", n, options.progress);
+    parallel_for(n, options.threads, [&](std::size_t i) {
+        std::unique_ptr<HemicubeRaster>& raster = workers.local();
+        if (!raster) raster = std::make_unique<HemicubeRaster>(R);
+        const Patch& p = scene.patches[i];
+        const Vec3 nrm = patch_normal(p);
+        double* row = out.F.row(static_cast<Eigen::Index>(i)).data();
+        const auto points = projection::patch_points(p.polygon, options.points);
+        for (std::size_t k = 0; k < points.size(); ++k) {
+            const double rotation = 2.0 * kPi * projection::stream_uniform(options.seed, i, k);
+            raster->render(occ, projection::make_frame(points[k].x, nrm, rotation),
+                           static_cast<int>(i), near, edge_on);
+            raster->accumulate(delta, points[k].weight, row, n);
+        }
+        row[i] = 0.0;
+        hemicubes.fetch_add(points.size(), std::memory_order_relaxed);
+        progress.advance();
+    });
+    progress.finish();
+    details["resolution"] = R;
+    details["points"] = options.points;
+    details["hemicubes"] = hemicubes.load();
+    details["cells_per_hemicube"] = 3 * R * R;
+    details["seed"] = options.seed;
+    return out;
+}
+
+}  // namespace formfactor

@@ -1,0 +1,103 @@
+#pragma once
+/// Private machinery shared by the projection methods (hemicube, hemiplane): the occluder
+/// arrays built once per scene, the points and frames of the projections, the seeded random
+/// streams and convex clipping in the local frame of a point.
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "formfactor/core/types.h"
+#include "formfactor/geometry/polygon.h"
+#include "formfactor/methods/projection_view.h"
+#include "formfactor/scene/scene.h"
+
+namespace formfactor::projection {
+
+/// splitmix64 finaliser: a good 64-bit mixing function.
+inline std::uint64_t mix64(std::uint64_t x) {
+    x += 0x9e3779b97f4a7c15ULL;
+    x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
+    return x ^ (x >> 31);
+}
+
+/// A uniform number in [0, 1) that depends only on (seed, i, k): the rotation of hemicube k of
+/// row i. The thread count never changes it.
+inline double stream_uniform(std::uint64_t seed, std::uint64_t i, std::uint64_t k) {
+    const std::uint64_t h = mix64(mix64(mix64(seed) ^ (i * 0xd1b54a32d192ed03ULL)) ^ k);
+    return static_cast<double>(h >> 11) * 0x1.0p-53;
+}
+
+/// Largest number of vertices of a primitive stored as one convex polygon.
+inline constexpr int kMaxPrimitiveVertices = 8;
+/// Room for a primitive clipped by up to 6 planes.
+inline constexpr int kMaxClippedVertices = kMaxPrimitiveVertices + 8;
+
+/// Every surface that can block a view, as convex primitives in flat arrays (structure of
+/// arrays): patches (item = patch index) and obstruction-only surfaces (item =
+/// kViewObstruction). Convex polygons of up to kMaxPrimitiveVertices vertices stay whole; the
+/// rest are triangulated.
+struct Occluders {
+    std::vector<double> x, y, z;        ///< vertices; primitive p owns [first[p], first[p+1])
+    std::vector<std::uint32_t> first;   ///< size() + 1 offsets
+    std::vector<int> item;              ///< patch index, or kViewObstruction
+    std::vector<double> nx, ny, nz, d;  ///< unit front normal and offset: n·p = d on the plane
+    std::vector<double> cx, cy, cz, r;  ///< bounding sphere
+    double scale = 1.0;                 ///< diameter of the scene's bounds (> 0)
+    std::size_t patches = 0;            ///< the scene's patch count (items are below it)
+
+    std::size_t size() const { return item.size(); }
+};
+
+/// Builds the occluder arrays of a scene. Degenerate polygons are skipped.
+Occluders build_occluders(const Scene& scene);
+
+/// A point of a patch with its quadrature weight (weights of a patch sum to 1).
+struct WeightedPoint {
+    Vec3 x;
+    double weight;
+};
+
+/// K points of a polygon for the point-to-area average: the centroid for K = 1; otherwise the
+/// Gauss–Legendre product rule with ns × nt = K nodes in the parameters of the quad's bilinear
+/// map (a triangle is a quad with a repeated vertex), weighted by the map's Jacobian; the
+/// factors are those whose ratio is closest to the quad's aspect ratio (a 4 × 1 strip gets
+/// 8 × 2 of K = 16). The point-to-area average is a smooth integral: for the C-11 plates the
+/// 4 × 4 rule is off by 1.5e-6 where 4 × 4 cell centres are off by 1.9e-3. Polygons of more
+/// than 4 vertices are triangulated and the points shared out by area.
+std::vector<WeightedPoint> patch_points(const Polygon& polygon, int K);
+
+/// The local frame of a projection: origin at the point, w the unit normal of the base plane,
+/// (u, v, w) right-handed and orthonormal, rotated by `rotation` radians about w.
+struct Frame {
+    Vec3 origin, u, v, w;
+};
+Frame make_frame(const Vec3& point, const Vec3& normal, double rotation);
+
+/// A point in local coordinates (a along u, b along v, c along w: the height above the base).
+struct P3 {
+    double v[3];
+};
+
+/// A clipping plane in local coordinates: inside where na·a + nb·b + nc·c − off ≥ 0.
+struct ClipPlane {
+    double na, nb, nc, off;
+    double distance(const P3& p) const { return na * p.v[0] + nb * p.v[1] + nc * p.v[2] - off; }
+};
+
+/// Sutherland–Hodgman clip of the convex polygon in[0..n) by one plane into out; returns the
+/// vertex count. The intersection of an edge is computed from its inside end, so two polygons
+/// that share an edge get bit-identical clipped vertices on it.
+int clip_convex(const P3* in, int n, const ClipPlane& plane, P3* out);
+
+/// Checks --resolution and --points for the projection methods; throws OptionError.
+void check_projection_options(int resolution, int points, bool power_of_two);
+
+/// The near distance below which nothing is seen, relative to the scene's size.
+inline constexpr double kRelativeNear = 1e-9;
+/// Occluders whose plane passes within this distance (relative to the scene's size) of the
+/// point are seen edge-on and skipped.
+inline constexpr double kRelativeEdgeOn = 1e-12;
+
+}  // namespace formfactor::projection
