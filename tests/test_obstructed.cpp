@@ -390,6 +390,11 @@ TEST_CASE("obstructed: room scene, box as patches or as obstructions, VS3 round 
     nlohmann::json d1, d2;
     const FormFactors a = m->compute(with_patches, o, d1);
     const FormFactors b = m->compute(with_obstruction, o, d2);
+    // The thread count changes nothing.
+    MethodOptions one = o;
+    one.threads = 1;
+    nlohmann::json d0;
+    CHECK((m->compute(with_patches, one, d0).F - a.F).cwiseAbs().maxCoeff() == 0.0);
     // The walls see each other past the same box either way.
     const double diff = (a.F.topLeftCorner(96, 96) - b.F).cwiseAbs().maxCoeff();
     CHECK(diff <= 2e-6);
