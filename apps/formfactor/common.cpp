@@ -88,9 +88,11 @@ void MethodArgs::add_to(CLI::App* cmd) {
         ->type_name("T")
         ->capture_default_str();
     cmd->add_option("--tolerance", options.tolerance,
-                    "Absolute error target per entry (analytic method)")
+                    "Absolute error target per entry (analytic method; default 1e-10, and 1e-6 "
+                    "for the pairs of an obstructed scene that are partly hidden)")
         ->type_name("EPS")
-        ->capture_default_str();
+        ->capture_default_str()
+        ->each([this](const std::string&) { tolerance_given = true; });
     cmd->add_option("--samples", samples,
                     "Monte-Carlo samples per row or pair (0 = the method's default)")
         ->type_name("S")
@@ -138,6 +140,7 @@ MethodOptions MethodArgs::method_options() const {
     MethodOptions o = options;
     o.samples = static_cast<std::uint64_t>(samples);
     o.seed = static_cast<std::uint64_t>(seed);
+    if (tolerance_given) o.obstructed_tolerance = options.tolerance;
     return o;
 }
 
@@ -150,10 +153,16 @@ std::unique_ptr<Method> MethodArgs::resolve(const Scene& scene) const {
 
 nlohmann::json MethodArgs::to_json(const std::string& resolved_method) const {
     return nlohmann::json{
-        {"method", resolved_method},  {"method_given", !method.empty()},
-        {"threads", options.threads}, {"tolerance", options.tolerance},
-        {"samples", options.samples}, {"seed", options.seed},
-        {"sampler", options.sampler}, {"resolution", options.resolution},
+        {"method", resolved_method},
+        {"method_given", !method.empty()},
+        {"threads", options.threads},
+        {"tolerance", options.tolerance},
+        {"obstructed_tolerance",
+         tolerance_given ? options.tolerance : MethodOptions{}.obstructed_tolerance},
+        {"samples", options.samples},
+        {"seed", options.seed},
+        {"sampler", options.sampler},
+        {"resolution", options.resolution},
         {"points", options.points},
     };
 }

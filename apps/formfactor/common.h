@@ -59,6 +59,7 @@ struct MethodArgs {
     MethodOptions options;
     long long samples = 0;  ///< parsed signed so that a negative value is caught, not wrapped
     long long seed = 1;
+    bool tolerance_given = false;  ///< --tolerance also sets options.obstructed_tolerance
 
     void add_to(CLI::App* cmd);
     /// Throws OptionError for a bad value, and for an unknown --method (make_method).

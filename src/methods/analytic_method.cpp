@@ -1,6 +1,7 @@
 // The `analytic` method: every unordered pair of patches once, exactly (double contour
 // integral) when near, by a tensor Gauss rule with an a-priori error bound when far; the other
-// entry of the pair by reciprocity. Unobstructed scenes only (check() refuses the others).
+// entry of the pair by reciprocity. In obstructed scenes the obstruction pass
+// (analytic_obstructed.cpp) then corrects the pairs that something may block.
 
 #include "methods/analytic_method.h"
 
@@ -110,57 +111,20 @@ struct RowStats {
 
 std::string AnalyticMethod::name() const { return "analytic"; }
 
-void AnalyticMethod::check(const Scene& scene) const {
-    for (const Surface& s : scene.surfaces)
-        if (s.obstruction)
-            throw Error("scene has surfaces that may obstruct others (e.g. surface '" + s.name +
-                        "', obstruction-only); the analytic method does not handle visibility "
-                        "yet");
-    // The polygons that take part: surfaces when the scene has them, else the patches.
-    std::vector<const Polygon*> polys;
-    std::vector<std::string> names;
-    if (!scene.surfaces.empty()) {
-        for (const Surface& s : scene.surfaces) {
-            polys.push_back(&s.polygon);
-            names.push_back(s.name);
-        }
-    } else {
-        for (std::size_t p = 0; p < scene.patches.size(); ++p) {
-            polys.push_back(&scene.patches[p].polygon);
-            names.push_back("patch " + std::to_string(p));
-        }
-    }
-    Bounds3 box;
-    for (const Polygon* p : polys)
-        for (const Vec3& v : p->vertices) box.extend(v);
-    if (box.empty()) return;
-    const double eps = 1e-9 * box.diagonal().norm();
-    // Surface k cannot block any segment between two other surfaces when all their vertices are
-    // in one closed half-space of k's plane.
-    for (std::size_t k = 0; k < polys.size(); ++k) {
-        const Plane pl = plane_of(*polys[k]);
-        bool front = false, behind = false;
-        for (std::size_t m = 0; m < polys.size() && !(front && behind); ++m) {
-            if (m == k) continue;
-            for (const Vec3& v : polys[m]->vertices) {
-                const double s = pl.signed_distance(v);
-                front = front || s > eps;
-                behind = behind || s < -eps;
-            }
-        }
-        if (front && behind) {
-            const std::string& nm = names[k].empty() ? "#" + std::to_string(k) : names[k];
-            throw Error("scene has surfaces that may obstruct others (e.g. surface '" + nm +
-                        "'); the analytic method does not handle visibility yet");
-        }
-    }
+void AnalyticMethod::check(const Scene&) const {
+    // Every scene: obstructed ones go through the obstruction pass of compute().
 }
 
 FormFactors AnalyticMethod::compute(const Scene& scene, const MethodOptions& options,
                                     nlohmann::json& details) const {
-    const double tol = options.tolerance;
-    if (!(tol > 0.0) || !std::isfinite(tol))
+    if (!(options.tolerance > 0.0) || !std::isfinite(options.tolerance))
         throw OptionError("--tolerance", "must be a positive number (absolute error per entry)");
+    // In an obstructed scene the unobstructed values (kept for the fully visible pairs, the
+    // reference of the partly hidden ones) stay at ≤ 1e-10: they are cheap, and the closure of
+    // the rows rests on them; options.obstructed_tolerance governs the partly hidden pairs.
+    const bool obstructed = may_obstruct(scene);
+    const double tol =
+        obstructed ? std::min(options.tolerance, kVisibleTolerance) : options.tolerance;
     const std::size_t n = scene.patches.size();
     FormFactors out;
     out.F = DenseMatrix::Zero(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
@@ -262,6 +226,12 @@ FormFactors AnalyticMethod::compute(const Scene& scene, const MethodOptions& opt
     details["error_bound_per_entry"] = std::max(tol, 1e-12);
     details["exact_path_error"] = 1e-12;
     details["threads"] = effective_threads(options.threads);
+    details["obstructed"] = obstructed;
+    if (obstructed) {
+        apply_obstructions(scene, options, out, details);
+        details["error_bound_per_entry"] = std::max(
+            std::max(tol, 1e-12), details["obstructions"]["max_error_estimate"].get<double>());
+    }
     return out;
 }
 

@@ -5,15 +5,29 @@
 
 namespace formfactor {
 
-/// Exact unobstructed form factors for every pair of patches: the double contour integral for
-/// near pairs, a tensor Gauss rule with an a-priori error bound ≤ options.tolerance for far
-/// pairs, reciprocity for the other half. Refuses scenes where a surface may block another.
+/// Form factors for every pair of patches: exact unobstructed values (the double contour
+/// integral for near pairs, a tensor Gauss rule with an a-priori error bound ≤ options.tolerance
+/// for far pairs, reciprocity for the other half); in scenes where something may block, pairs
+/// are then classified by conservative shaft tests (fully visible: kept; fully hidden: 0; partly
+/// hidden: adaptive integration to options.obstructed_tolerance).
 class AnalyticMethod final : public Method {
   public:
     std::string name() const override;
     void check(const Scene& scene) const override;
     FormFactors compute(const Scene& scene, const MethodOptions& options,
                         nlohmann::json& details) const override;
+
+    /// True when some surface may block a segment between two others (an obstruction-only
+    /// surface, or a surface with vertices of other surfaces on both sides of its plane).
+    static bool may_obstruct(const Scene& scene);
+
+    /// Largest tolerance of the unobstructed values in an obstructed scene (see compute()).
+    static constexpr double kVisibleTolerance = 1e-10;
+
+  private:
+    /// The obstruction pass over an unobstructed matrix (src/methods/analytic_obstructed.cpp).
+    static void apply_obstructions(const Scene& scene, const MethodOptions& options,
+                                   FormFactors& out, nlohmann::json& details);
 };
 
 }  // namespace formfactor

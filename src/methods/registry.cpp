@@ -22,14 +22,11 @@ std::unique_ptr<Method> make_method(const std::string& name) {
 }
 
 std::string default_method(const Scene& scene) {
-    // analytic is exact but handles unoccluded scenes only; mc-target is exact wherever nothing
-    // blocks and estimates only the visible fraction elsewhere (docs/monte_carlo.md).
-    try {
-        AnalyticMethod().check(scene);
-        return "analytic";
-    } catch (const Error&) {
-        return "mc-target";
-    }
+    // analytic is exact for unoccluded scenes. With occlusion it is exact-grade too (to
+    // MethodOptions::obstructed_tolerance, docs/analytic.md), but its cost then grows with the
+    // partly hidden pairs; mc-target stays the default there (a per-pair estimate whose cost is
+    // predictable), --method analytic asks for the exact-grade result.
+    return AnalyticMethod::may_obstruct(scene) ? "mc-target" : "analytic";
 }
 
 }  // namespace formfactor

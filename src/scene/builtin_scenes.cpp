@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "formfactor/core/error.h"
+#include "formfactor/scene/room.h"
 #include "formfactor/scene/scene.h"
 
 namespace formfactor {
@@ -162,12 +163,39 @@ std::vector<std::string> builtin_scene_names() {
     return {"cornell", "cornell-empty", "plates", "perpendicular", "cube"};
 }
 
+namespace {
+
+// "room-N" or "room-N-obstruction" (formfactor/scene/room.h): N, and whether the box is an
+// obstruction; N = 0 when the name is not of that form.
+int parse_room_name(const std::string& name, bool& obstruction) {
+    obstruction = false;
+    if (name.rfind("room-", 0) != 0) return 0;
+    std::string rest = name.substr(5);
+    const std::string suffix = "-obstruction";
+    if (rest.size() > suffix.size() &&
+        rest.compare(rest.size() - suffix.size(), suffix.size(), suffix) == 0) {
+        obstruction = true;
+        rest.resize(rest.size() - suffix.size());
+    }
+    if (rest.empty() || rest.size() > 4 ||
+        !std::all_of(rest.begin(), rest.end(), [](char c) { return c >= '0' && c <= '9'; }))
+        return 0;
+    return std::stoi(rest);
+}
+
+}  // namespace
+
 bool is_builtin_scene(const std::string& name) {
     const auto names = builtin_scene_names();
-    return std::find(names.begin(), names.end(), name) != names.end();
+    bool ob = false;
+    return std::find(names.begin(), names.end(), name) != names.end() ||
+           parse_room_name(name, ob) > 0;
 }
 
 Scene builtin_scene(const std::string& name) {
+    bool room_obstruction = false;
+    if (const int n = parse_room_name(name, room_obstruction); n > 0)
+        return room_scene(n, room_obstruction ? RoomBox::kObstruction : RoomBox::kPatches);
     if (name == "cornell") return cornell(true);
     if (name == "cornell-empty") return cornell(false);
     if (name == "plates") return plates();

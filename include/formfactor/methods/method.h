@@ -17,8 +17,12 @@ class Progress;
 
 /// Options shared by the methods; each method documents which it reads.
 struct MethodOptions {
-    int threads = 0;            ///< 0 = all cores
-    double tolerance = 1e-10;   ///< absolute error target per entry (analytic)
+    int threads = 0;           ///< 0 = all cores
+    double tolerance = 1e-10;  ///< absolute error target per entry (analytic)
+    /// analytic: absolute error target per entry of the partly hidden pairs of an obstructed
+    /// scene (their adaptive integration; fully visible pairs keep `tolerance`, fully hidden
+    /// ones are exactly 0). A user-given --tolerance sets both.
+    double obstructed_tolerance = 1e-6;
     std::uint64_t samples = 0;  ///< Monte Carlo: samples per row or pair (0 = method default)
     std::uint64_t seed = 1;     ///< random streams are seeded from (seed, i, j)
     int resolution = 256;       ///< hemicube / hemiplane cells per side

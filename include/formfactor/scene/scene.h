@@ -104,7 +104,8 @@ struct Scene {
 };
 
 /// Loads a scene: a built-in name (`cornell`, `cornell-empty`, `plates`, `perpendicular`,
-/// `cube`) or a file path by extension (`.obj`, `.vs3`). The patches are the surfaces, unsplit;
+/// `cube`, and `room-N` / `room-N-obstruction`, the pre-split room of formfactor/scene/room.h)
+/// or a file path by extension (`.obj`, `.vs3`). The patches are the surfaces, unsplit;
 /// call subdivide() for more. Throws InputError naming file and line on bad input.
 Scene load_scene(const std::string& name_or_path);
 

@@ -1,0 +1,443 @@
+// The obstruction pass of the `analytic` method: hierarchical, conservative classification of
+// patch pairs by shafts against a BVH of blocker pieces, then the adaptive integration of the
+// hidden part of every partly hidden pair. See docs/analytic.md, "Obstructed scenes".
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "formfactor/core/error.h"
+#include "formfactor/core/parallel.h"
+#include "formfactor/core/progress.h"
+#include "methods/analytic_method.h"
+#include "methods/obstructed_internal.h"
+
+namespace formfactor {
+
+namespace {
+
+using detail::BlockerSet;
+using detail::Shaft;
+using detail::ShaftClass;
+
+// A hierarchy of the patches of one surface: nodes bound their patches by the planar convex
+// hull of their vertices (a superset of their union, so every shaft test stays conservative).
+struct ClusterTree {
+    struct Node {
+        std::vector<Vec3> hull;
+        double area = 0;
+        int left = -1, right = -1;
+        int first = 0, count = 0;  // order[first, first + count)
+    };
+    std::vector<Node> nodes;
+    std::vector<int> order;  // patch indices
+    Vec3 normal = Vec3::UnitZ();
+    int blocker_id = -1;  // the id of this surface's pieces in the BlockerSet
+
+    int build(const Scene& scene, int first, int count) {
+        const int id = static_cast<int>(nodes.size());
+        nodes.push_back({});
+        std::vector<Vec3> pts;
+        Bounds3 cbox;
+        for (int k = first; k < first + count; ++k) {
+            const Patch& p = scene.patches[static_cast<std::size_t>(order[k])];
+            for (const Vec3& v : p.polygon.vertices) pts.push_back(v);
+            cbox.extend(p.centroid);
+        }
+        std::vector<Vec3> hull = detail::planar_convex_hull(pts, normal);
+        if (hull.size() > static_cast<std::size_t>(detail::kMaxPieceVertices) || hull.size() < 3) {
+            // Too many vertices for a shaft: the bounding rectangle in the plane (a superset).
+            Vec3 u, v;
+            orthonormal_basis(normal, u, v);
+            double lo_u = 1e300, hi_u = -1e300, lo_v = 1e300, hi_v = -1e300;
+            for (const Vec3& q : pts) {
+                lo_u = std::min(lo_u, u.dot(q));
+                hi_u = std::max(hi_u, u.dot(q));
+                lo_v = std::min(lo_v, v.dot(q));
+                hi_v = std::max(hi_v, v.dot(q));
+            }
+            const Vec3 o = normal * normal.dot(pts[0]);
+            hull = {o + lo_u * u + lo_v * v, o + hi_u * u + lo_v * v, o + hi_u * u + hi_v * v,
+                    o + lo_u * u + hi_v * v};
+        }
+        Polygon hp;
+        hp.vertices = hull;
+        nodes[static_cast<std::size_t>(id)].area = area(hp);
+        nodes[static_cast<std::size_t>(id)].hull = std::move(hull);
+        nodes[static_cast<std::size_t>(id)].first = first;
+        nodes[static_cast<std::size_t>(id)].count = count;
+        if (count == 1) return id;
+        int axis = 0;
+        const Vec3 ext = cbox.diagonal();
+        if (ext.y() > ext[axis]) axis = 1;
+        if (ext.z() > ext[axis]) axis = 2;
+        const int mid = first + count / 2;
+        std::nth_element(
+            order.begin() + first, order.begin() + mid, order.begin() + first + count,
+            [&](int a, int b) {
+                const double ca = scene.patches[static_cast<std::size_t>(a)].centroid[axis];
+                const double cb = scene.patches[static_cast<std::size_t>(b)].centroid[axis];
+                return ca < cb || (ca == cb && a < b);
+            });
+        const int l = build(scene, first, mid - first);
+        const int r = build(scene, mid, first + count - mid);
+        nodes[static_cast<std::size_t>(id)].left = l;
+        nodes[static_cast<std::size_t>(id)].right = r;
+        return id;
+    }
+};
+
+struct PartialPair {
+    int i = 0, j = 0;
+    std::size_t cand_first = 0;
+    int cand_count = 0;
+};
+
+struct NodePair {
+    int ta, a, tb, b;  // tree and node indices
+};
+
+// What one surface pair's classification produced.
+struct PairOutput {
+    std::vector<NodePair> hidden;
+    std::vector<PartialPair> partial;
+    std::vector<int> cand;
+    std::size_t node_pairs = 0;
+    std::size_t visible_patch_pairs = 0, hidden_patch_pairs = 0;
+};
+
+class Classifier {
+  public:
+    Classifier(const std::vector<ClusterTree>& trees, const BlockerSet& blockers, double eps)
+        : trees_(trees), blockers_(blockers), eps_(eps) {}
+
+    void surface_pair(int ta, int tb, PairOutput& out) {
+        pool_.clear();
+        const auto& A = trees_[static_cast<std::size_t>(ta)].nodes[0];
+        const auto& B = trees_[static_cast<std::size_t>(tb)].nodes[0];
+        Shaft sh;
+        sh.build(A.hull.data(), static_cast<int>(A.hull.size()),
+                 trees_[static_cast<std::size_t>(ta)].normal, B.hull.data(),
+                 static_cast<int>(B.hull.size()), trees_[static_cast<std::size_t>(tb)].normal,
+                 eps_);
+        if (sh.facing_away()) return;
+        blockers_.query(sh, trees_[static_cast<std::size_t>(ta)].blocker_id,
+                        trees_[static_cast<std::size_t>(tb)].blocker_id, pool_);
+        recurse(ta, 0, tb, 0, 0, pool_.size(), out);
+    }
+
+  private:
+    const std::vector<ClusterTree>& trees_;
+    const BlockerSet& blockers_;
+    double eps_;
+    std::vector<int> pool_, kept_;
+
+    void recurse(int ta, int a, int tb, int b, std::size_t first, std::size_t count,
+                 PairOutput& out) {
+        const ClusterTree& TA = trees_[static_cast<std::size_t>(ta)];
+        const ClusterTree& TB = trees_[static_cast<std::size_t>(tb)];
+        const auto& A = TA.nodes[static_cast<std::size_t>(a)];
+        const auto& B = TB.nodes[static_cast<std::size_t>(b)];
+        ++out.node_pairs;
+        Shaft sh;
+        sh.build(A.hull.data(), static_cast<int>(A.hull.size()), TA.normal, B.hull.data(),
+                 static_cast<int>(B.hull.size()), TB.normal, eps_);
+        if (sh.facing_away()) return;
+        // The exact (edge-edge) separation test only for patch pairs: above them a false
+        // "partly hidden" costs one more level of recursion, below it an integration.
+        const bool leaves = A.count == 1 && B.count == 1;
+        const ShaftClass cls = detail::classify_shaft(sh, blockers_, pool_.data() + first,
+                                                      static_cast<int>(count), kept_, leaves);
+        const std::size_t pairs =
+            static_cast<std::size_t>(A.count) * static_cast<std::size_t>(B.count);
+        if (cls == ShaftClass::kHidden) {
+            out.hidden.push_back({ta, a, tb, b});
+            out.hidden_patch_pairs += pairs;
+            return;
+        }
+        if (cls == ShaftClass::kVisible) {
+            out.visible_patch_pairs += pairs;
+            return;
+        }
+        if (leaves) {
+            PartialPair p;
+            p.i = TA.order[static_cast<std::size_t>(A.first)];
+            p.j = TB.order[static_cast<std::size_t>(B.first)];
+            p.cand_first = out.cand.size();
+            p.cand_count = static_cast<int>(kept_.size());
+            out.cand.insert(out.cand.end(), kept_.begin(), kept_.end());
+            out.partial.push_back(p);
+            return;
+        }
+        const std::size_t mine = pool_.size();
+        pool_.insert(pool_.end(), kept_.begin(), kept_.end());
+        const std::size_t n = kept_.size();
+        const bool split_a = B.count == 1 || (A.count > 1 && A.area >= B.area);
+        if (split_a) {
+            recurse(ta, A.left, tb, b, mine, n, out);
+            recurse(ta, A.right, tb, b, mine, n, out);
+        } else {
+            recurse(ta, a, tb, B.left, mine, n, out);
+            recurse(ta, a, tb, B.right, mine, n, out);
+        }
+        pool_.resize(mine);
+    }
+};
+
+}  // namespace
+
+bool AnalyticMethod::may_obstruct(const Scene& scene) {
+    for (const Surface& s : scene.surfaces)
+        if (s.obstruction) return true;
+    std::vector<const Polygon*> polys;
+    if (!scene.surfaces.empty()) {
+        for (const Surface& s : scene.surfaces) polys.push_back(&s.polygon);
+    } else {
+        for (const Patch& p : scene.patches) polys.push_back(&p.polygon);
+    }
+    Bounds3 box;
+    for (const Polygon* p : polys)
+        for (const Vec3& v : p->vertices) box.extend(v);
+    if (box.empty()) return false;
+    const double eps = 1e-9 * box.diagonal().norm();
+    // Surface k cannot block any segment between two other surfaces when all their vertices are
+    // in one closed half-space of k's plane.
+    for (std::size_t k = 0; k < polys.size(); ++k) {
+        const Plane pl = plane_of(*polys[k]);
+        bool front = false, behind = false;
+        for (std::size_t m = 0; m < polys.size() && !(front && behind); ++m) {
+            if (m == k) continue;
+            for (const Vec3& v : polys[m]->vertices) {
+                const double s = pl.signed_distance(v);
+                front = front || s > eps;
+                behind = behind || s < -eps;
+            }
+        }
+        if (front && behind) return true;
+    }
+    return false;
+}
+
+void AnalyticMethod::apply_obstructions(const Scene& scene, const MethodOptions& options,
+                                        FormFactors& out, nlohmann::json& details) {
+    using Clock = std::chrono::steady_clock;
+    const auto t_start = Clock::now();
+    auto seconds = [](Clock::time_point a, Clock::time_point b) {
+        return std::chrono::duration<double>(b - a).count();
+    };
+    const double tol = options.obstructed_tolerance;
+    if (!(tol > 0.0) || !std::isfinite(tol))
+        throw OptionError("--tolerance", "must be a positive number (absolute error per entry)");
+    const std::size_t n = scene.patches.size();
+    Bounds3 box = scene.bounds();
+    for (const Patch& p : scene.patches)
+        for (const Vec3& v : p.polygon.vertices) box.extend(v);
+    const double diag = box.empty() ? 1.0 : box.diagonal().norm();
+    // Groups of patches: those in one plane with one orientation (whatever surfaces they came
+    // from: a VS3 file may list every patch as a surface). Nothing in a group can block a pair
+    // involving the group, and a group's patches often tile a convex region, which then blocks
+    // as one piece.
+    std::vector<ClusterTree> trees;
+    {
+        std::map<std::array<long long, 4>, int> key_to_group;
+        for (std::size_t p = 0; p < n; ++p) {
+            const Patch& pt = scene.patches[p];
+            const Vec3 nn = pt.normal;
+            const double d = nn.dot(pt.centroid) / diag;
+            const std::array<long long, 4> key = {
+                std::llround(nn.x() * 1e8), std::llround(nn.y() * 1e8), std::llround(nn.z() * 1e8),
+                std::llround(d * 1e8)};
+            auto it = key_to_group.find(key);
+            if (it == key_to_group.end()) {
+                it = key_to_group.emplace(key, static_cast<int>(trees.size())).first;
+                ClusterTree t;
+                t.normal = nn;
+                t.blocker_id = static_cast<int>(trees.size());
+                trees.push_back(std::move(t));
+            }
+            trees[static_cast<std::size_t>(it->second)].order.push_back(static_cast<int>(p));
+        }
+    }
+    parallel_for(trees.size(), options.threads, [&](std::size_t t) {
+        trees[t].build(scene, 0, static_cast<int>(trees[t].order.size()));
+    });
+    // Blockers: for each group, the largest tree nodes whose patches tile their hull (one convex
+    // piece each), else single patches; every obstruction-only surface.
+    BlockerSet blockers;
+    std::size_t merged_pieces = 0;
+    for (std::size_t t = 0; t < trees.size(); ++t) {
+        const ClusterTree& T = trees[t];
+        std::vector<int> stack = {0};
+        while (!stack.empty()) {
+            const auto& nd = T.nodes[static_cast<std::size_t>(stack.back())];
+            stack.pop_back();
+            double sum = 0.0;
+            for (int k = nd.first; k < nd.first + nd.count; ++k)
+                sum += scene.patches[static_cast<std::size_t>(T.order[static_cast<std::size_t>(k)])]
+                           .area;
+            if (nd.count == 1) {
+                blockers.add(scene
+                                 .patches[static_cast<std::size_t>(
+                                     T.order[static_cast<std::size_t>(nd.first)])]
+                                 .polygon,
+                             T.blocker_id);
+            } else if (std::abs(sum - nd.area) <= 1e-9 * nd.area) {
+                Polygon hp;
+                hp.vertices = nd.hull;
+                blockers.add(hp, T.blocker_id);
+                ++merged_pieces;
+            } else {
+                stack.push_back(nd.left);
+                stack.push_back(nd.right);
+            }
+        }
+    }
+    for (std::size_t s = 0; s < scene.surfaces.size(); ++s)
+        if (scene.surfaces[s].obstruction)
+            blockers.add(scene.surfaces[s].polygon, static_cast<int>(trees.size() + s));
+    blockers.build();
+    {
+        std::vector<std::pair<Vec3, int>> points;
+        for (const ClusterTree& t : trees)
+            for (int p : t.order)
+                for (const Vec3& v : scene.patches[static_cast<std::size_t>(p)].polygon.vertices)
+                    points.emplace_back(v, t.blocker_id);
+        blockers.mark_closed_solids(points, 1e-9 * diag);
+    }
+
+    const double eps = 1e-11 * diag;
+
+    const auto t_setup = Clock::now();
+    // 1. Classification, one task per unordered pair of surfaces.
+    std::vector<std::array<int, 2>> spairs;
+    for (std::size_t a = 0; a < trees.size(); ++a)
+        for (std::size_t b = a + 1; b < trees.size(); ++b)
+            spairs.push_back({static_cast<int>(a), static_cast<int>(b)});
+    std::vector<PairOutput> outputs(spairs.size());
+    parallel_for(spairs.size(), options.threads, [&](std::size_t k) {
+        Classifier c(trees, blockers, eps);
+        c.surface_pair(spairs[k][0], spairs[k][1], outputs[k]);
+    });
+
+    const auto t_classified = Clock::now();
+    // 2. Fully hidden node pairs: zero.
+    double* F = out.F.data();
+    std::vector<NodePair> hidden;
+    std::vector<PartialPair> partial;
+    std::vector<const std::vector<int>*> cand_of;
+    std::vector<std::size_t> cand_task;
+    std::size_t node_pairs = 0, vis = 0, hid = 0;
+    for (std::size_t k = 0; k < outputs.size(); ++k) {
+        hidden.insert(hidden.end(), outputs[k].hidden.begin(), outputs[k].hidden.end());
+        for (const PartialPair& p : outputs[k].partial) {
+            partial.push_back(p);
+            cand_task.push_back(k);
+        }
+        node_pairs += outputs[k].node_pairs;
+        vis += outputs[k].visible_patch_pairs;
+        hid += outputs[k].hidden_patch_pairs;
+    }
+    parallel_for(hidden.size(), options.threads, [&](std::size_t k) {
+        const NodePair& np = hidden[k];
+        const ClusterTree& TA = trees[static_cast<std::size_t>(np.ta)];
+        const ClusterTree& TB = trees[static_cast<std::size_t>(np.tb)];
+        const auto& A = TA.nodes[static_cast<std::size_t>(np.a)];
+        const auto& B = TB.nodes[static_cast<std::size_t>(np.b)];
+        for (int x = A.first; x < A.first + A.count; ++x)
+            for (int y = B.first; y < B.first + B.count; ++y) {
+                const auto i = static_cast<std::size_t>(TA.order[static_cast<std::size_t>(x)]);
+                const auto j = static_cast<std::size_t>(TB.order[static_cast<std::size_t>(y)]);
+                F[i * n + j] = 0.0;
+                F[j * n + i] = 0.0;
+            }
+    });
+
+    // 3. Partly hidden pairs: exact unobstructed value minus the integrated hidden part, over
+    // the smaller patch of the pair (reciprocity gives the other entry, with a smaller error).
+    constexpr int kLevels = 16;
+    struct Stats {
+        std::array<std::size_t, kLevels + 1> levels{};
+        double max_error = 0;
+        std::size_t points = 0, cells = 0, capped = 0, changed = 0;
+    };
+    const int threads = effective_threads(options.threads);
+    std::vector<Stats> stats(partial.size());
+    Progress progress("analytic (obstructed)", partial.size(), options.progress);
+    parallel_for(partial.size(), options.threads, [&](std::size_t k) {
+        const PartialPair& pp = partial[k];
+        const std::vector<int>& cand = outputs[cand_task[k]].cand;
+        std::size_t s = static_cast<std::size_t>(pp.i), r = static_cast<std::size_t>(pp.j);
+        const double as = scene.patches[s].area, ar = scene.patches[r].area;
+        if (ar < as || (ar == as && r < s)) std::swap(s, r);
+        const double a_s = scene.patches[s].area, a_r = scene.patches[r].area;
+        const double unobs = F[s * n + r];
+        Stats st;
+        if (unobs > 0.0) {
+            const Polygon& ps = scene.patches[s].polygon;
+            const std::vector<Polygon> parts = BlockerSet::convex_parts(scene.patches[r].polygon);
+            double hidden_sum = 0.0, err = 0.0;
+            int level = 0;
+            for (const Polygon& pr : parts) {
+                const detail::HiddenIntegral h = detail::hidden_integral(
+                    ps, pr, blockers, cand.data() + pp.cand_first, pp.cand_count,
+                    tol / static_cast<double>(parts.size()), eps);
+                hidden_sum += h.hidden;
+                err += h.error;
+                level = std::max(level, h.max_level);
+                st.points += h.points;
+                st.cells += h.cells;
+                if (h.capped) ++st.capped;
+            }
+            const double f = std::clamp(unobs - hidden_sum, 0.0, unobs);
+            if (f != unobs) ++st.changed;
+            F[s * n + r] = f;
+            F[r * n + s] = a_r > 0.0 ? f * a_s / a_r : 0.0;
+            st.max_error = err;
+            ++st.levels[static_cast<std::size_t>(std::min(level, kLevels))];
+        }
+        stats[k] = st;
+        progress.advance();
+    });
+    progress.finish();
+    const auto t_done = Clock::now();
+    Stats total;
+    for (const Stats& s : stats) {
+        for (std::size_t l = 0; l < total.levels.size(); ++l) total.levels[l] += s.levels[l];
+        total.max_error = std::max(total.max_error, s.max_error);
+        total.points += s.points;
+        total.cells += s.cells;
+        total.capped += s.capped;
+        total.changed += s.changed;
+    }
+    nlohmann::json levels = nlohmann::json::object();
+    for (int l = 0; l <= kLevels; ++l)
+        if (total.levels[static_cast<std::size_t>(l)] > 0)
+            levels[std::to_string(l)] = total.levels[static_cast<std::size_t>(l)];
+    nlohmann::json o;
+    o["blocker_pieces"] = blockers.size();
+    o["plane_groups"] = trees.size();
+    o["merged_blocker_pieces"] = merged_pieces;
+    o["node_pairs_tested"] = node_pairs;
+    o["patch_pairs_visible"] = vis;
+    o["patch_pairs_hidden"] = hid;
+    o["patch_pairs_partly_hidden"] = partial.size();
+    o["partly_hidden_pairs_changed"] = total.changed;
+    o["refinement_levels"] = levels;
+    o["cells"] = total.cells;
+    o["point_evaluations"] = total.points;
+    o["capped_pairs"] = total.capped;
+    o["tolerance"] = tol;
+    o["max_error_estimate"] = total.max_error;
+    o["threads"] = threads;
+    o["seconds_setup"] = seconds(t_start, t_setup);
+    o["seconds_classification"] = seconds(t_setup, t_classified);
+    o["seconds_partly_hidden"] = seconds(t_classified, t_done);
+    details["obstructions"] = o;
+}
+
+}  // namespace formfactor

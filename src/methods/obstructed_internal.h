@@ -1,0 +1,144 @@
+#pragma once
+// Internals of the obstruction-aware analytic method (not public API): convex blocker pieces in
+// a BVH, conservative shaft classification of polygon pairs, and the adaptive integration of
+// the hidden part of a partly hidden pair. See docs/analytic.md, "Obstructed scenes".
+
+#include <cstdint>
+#include <vector>
+
+#include "formfactor/core/types.h"
+#include "formfactor/geometry/polygon.h"
+
+namespace formfactor::detail {
+
+/// Largest vertex count of a convex piece (larger convex polygons are triangulated).
+inline constexpr int kMaxPieceVertices = 12;
+
+/// The convex planar pieces of every blocking polygon (patches' surfaces and obstruction-only
+/// surfaces), with a bounding-volume hierarchy over their boxes. Double precision throughout.
+class BlockerSet {
+  public:
+    struct Piece {
+        int first = 0, count = 0;  ///< vertices [first, first + count) of vertices()
+        Plane plane;               ///< oriented by the piece's own (Newell) normal
+        Bounds3 box;
+        int surface = -1;  ///< the blocking surface it belongs to
+        /// Part of a closed, outward-oriented solid with no other geometry inside: a segment
+        /// from a point x that crosses the solid also crosses a piece with x in front, so the
+        /// pieces with x behind (or in) their plane can be skipped for x.
+        bool cull_back = false;
+    };
+
+    /// Adds polygon p of surface `surface` (split into convex pieces).
+    void add(const Polygon& p, int surface);
+    /// The convex pieces add() makes of p: p itself when convex (≤ kMaxPieceVertices vertices),
+    /// else its triangles.
+    static std::vector<Polygon> convex_parts(const Polygon& p);
+    /// Builds the hierarchy; call once after the last add().
+    void build();
+    /// Finds the closed solids (connected pieces whose every edge is matched by the reversed
+    /// edge of another piece, positive signed volume) and sets Piece::cull_back on their pieces,
+    /// unless one of `points` (with the surface id it belongs to) not on the solid lies inside
+    /// the solid's bounding box. `tol`: length for matching vertices.
+    void mark_closed_solids(const std::vector<std::pair<Vec3, int>>& points, double tol);
+
+    std::size_t size() const { return pieces_.size(); }
+    const Piece& piece(int k) const { return pieces_[static_cast<std::size_t>(k)]; }
+    const Vec3* vertices(int k) const {
+        return verts_.data() + pieces_[static_cast<std::size_t>(k)].first;
+    }
+    /// The piece across edge e (from vertex e to e + 1) of piece k in its closed solid, else −1
+    /// (set by mark_closed_solids()).
+    int neighbor(int k, int e) const {
+        if (neighbor_.empty()) return -1;
+        return neighbor_[static_cast<std::size_t>(pieces_[static_cast<std::size_t>(k)].first + e)];
+    }
+
+    /// Appends to `out` the pieces whose box may meet the shaft, skipping the pieces of
+    /// surfaces skip_a and skip_b.
+    void query(const class Shaft& shaft, int skip_a, int skip_b, std::vector<int>& out) const;
+
+  private:
+    struct Node {
+        Bounds3 box;
+        int left = -1, right = -1;  // children, or −1 for a leaf
+        int first = 0, count = 0;   // leaf: order_[first, first + count)
+    };
+    std::vector<Vec3> verts_;
+    std::vector<int> neighbor_;  // per vertex of verts_: the piece across the edge it starts
+    std::vector<Piece> pieces_;
+    std::vector<Node> nodes_;
+    std::vector<int> order_;
+    int build_node(int first, int count);
+};
+
+/// The shaft of two planar convex polygons a and b: the planes bounding their convex hull (the
+/// union of the segments between them): a's and b's own planes (nothing behind either can block)
+/// and the hull's side faces through an edge of one polygon and a vertex of the other.
+class Shaft {
+  public:
+    /// a, b: vertices of planar convex polygons (counter-clockwise about na, nb, their unit
+    /// front normals); eps: the length below which a blocker's overlap is ignored.
+    void build(const Vec3* a, int na, const Vec3& normal_a, const Vec3* b, int nb,
+               const Vec3& normal_b, double eps);
+    /// True when nothing in the box can meet the shaft.
+    bool box_outside(const Bounds3& box) const;
+    /// True when the convex polygon p (count vertices, plane pl) cannot block a segment of the
+    /// shaft: a separating plane among the shaft's planes and p's own plane, and when `exact`,
+    /// also among the edge-edge axes (then the test is exact: false means p meets the hull).
+    bool piece_outside(const Vec3* p, int count, const Plane& pl, bool exact = true) const;
+    /// True when the convex polygon p blocks every segment between a and b.
+    bool piece_hides(const Vec3* p, int count, const Plane& pl) const;
+    /// Every vertex of b is behind or on a's plane, or every vertex of a behind b's plane: F = 0.
+    bool facing_away() const { return facing_away_; }
+
+  private:
+    const Vec3* a_ = nullptr;
+    const Vec3* b_ = nullptr;
+    int na_ = 0, nb_ = 0;
+    Plane pa_, pb_;
+    Plane side_[2 * kMaxPieceVertices + 2];
+    int sides_ = 0;
+    Vec3 link_[4 * kMaxPieceVertices];  // directions of the hull's edges between a and b
+    int links_ = 0;
+    Vec3 ca_, cb_;  // vertex averages
+    double eps_ = 0;
+    bool facing_away_ = false;
+};
+
+enum class ShaftClass : std::uint8_t { kVisible, kHidden, kPartial };
+
+/// Classifies the pair behind `shaft` against the candidate pieces cand[0..n): kHidden when one
+/// piece hides every segment, kVisible when none can block, else kPartial with `kept` = the
+/// pieces that may block (a subset of cand, in order).
+ShaftClass classify_shaft(const Shaft& shaft, const BlockerSet& blockers, const int* cand, int n,
+                          std::vector<int>& kept, bool exact = true);
+
+/// Convex hull of the planar points (counter-clockwise about the unit normal n), collinear
+/// points dropped.
+std::vector<Vec3> planar_convex_hull(const std::vector<Vec3>& points, const Vec3& n);
+
+/// The result of integrating the hidden part of a partly hidden pair over the sender.
+struct HiddenIntegral {
+    double hidden = 0;       ///< 1/A_s ∫_s F(x → hidden part of r) dA_x
+    double error = 0;        ///< estimated absolute error of `hidden`
+    int max_level = 0;       ///< deepest subdivision of the sender (0 = the whole sender)
+    std::size_t cells = 0;   ///< final cells
+    std::size_t points = 0;  ///< point evaluations
+    bool capped = false;     ///< stopped at the cell limit before meeting the target
+};
+
+/// 1/A_s ∫_s F_{dA_x → (r ∩ shadows of the pieces seen from x)} dA_x: the part of F_sr that the
+/// candidate pieces hide, by adaptive subdivision of the sender (Gauss 2×2 against 3×3 per
+/// cell, cells classified by their own shafts first), until the estimated error ≤ target.
+/// s and r: planar convex polygons (counter-clockwise about their normals).
+HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const BlockerSet& blockers,
+                               const int* cand, int n, double target, double eps);
+
+/// F from a point x (unit normal n) to the part of the convex polygon r hidden by the pieces:
+/// Lambert's formula on the union of the pieces' central projections (shadows) from x onto r's
+/// plane, clipped to the pyramid from x over r. unobstructed, when not null, receives F(x → r).
+double point_hidden(const Vec3& x, const Vec3& n, const Polygon& r, const BlockerSet& blockers,
+                    const int* cand, int count, double eps, double* unobstructed = nullptr);
+
+}  // namespace formfactor::detail
