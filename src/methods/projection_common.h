@@ -9,6 +9,7 @@
 
 #include "formfactor/core/types.h"
 #include "formfactor/geometry/polygon.h"
+#include "formfactor/matrix/form_factors.h"
 #include "formfactor/methods/projection_view.h"
 #include "formfactor/scene/scene.h"
 
@@ -74,6 +75,20 @@ struct Frame {
     Vec3 origin, u, v, w;
 };
 Frame make_frame(const Vec3& point, const Vec3& normal, double rotation);
+
+/// make_frame for a point given by the caller: throws GeometryError("<method>: ...") unless
+/// the point and the normal are finite and the normal non-zero.
+Frame point_frame(const char* method, const Vec3& point, const Vec3& normal, double rotation);
+
+/// The unit front normal of a patch: its stored normal, else the polygon's.
+Vec3 patch_normal(const Patch& p);
+
+/// Throws GeometryError("<method>: patch i is degenerate (no normal)") for the first patch
+/// with fewer than 3 vertices or no normal.
+void check_patch_normals(const Scene& scene, const char* method);
+
+/// An n × n zero matrix with the patches' areas (stored area, else the polygon's).
+FormFactors zero_form_factors(const Scene& scene);
 
 /// A point in local coordinates (a along u, b along v, c along w: the height above the base).
 struct P3 {
