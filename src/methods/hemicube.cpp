@@ -1,16 +1,11 @@
 #include "formfactor/methods/hemicube.h"
 
-#include <tbb/enumerable_thread_specific.h>
-
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <memory>
 #include <string>
 
 #include "formfactor/core/error.h"
-#include "formfactor/core/parallel.h"
-#include "formfactor/core/progress.h"
 #include "methods/hemicube_raster.h"
 #include "methods/projection_common.h"
 
@@ -150,30 +145,16 @@ FormFactors HemicubeMethod::compute(const Scene& scene, const MethodOptions& opt
     const projection::Occluders occ = projection::build_occluders(scene);
     const double near = projection::kRelativeNear * occ.scale;
     const double edge_on = projection::kRelativeEdgeOn * occ.scale;
-    tbb::enumerable_thread_specific<std::unique_ptr<HemicubeRaster>> workers;
-    std::atomic<std::size_t> hemicubes{0};
-    Progress progress("hemicube", n, options.progress);
-    parallel_for(n, options.threads, [&](std::size_t i) {
-        std::unique_ptr<HemicubeRaster>& raster = workers.local();
-        if (!raster) raster = std::make_unique<HemicubeRaster>(R);
-        const Patch& p = scene.patches[i];
-        const Vec3 nrm = projection::patch_normal(p);
-        double* row = out.F.row(static_cast<Eigen::Index>(i)).data();
-        const auto points = projection::patch_points(p.polygon, options.points);
-        for (std::size_t k = 0; k < points.size(); ++k) {
-            const double rotation = 2.0 * kPi * projection::stream_uniform(options.seed, i, k);
-            raster->render(occ, projection::make_frame(points[k].x, nrm, rotation),
-                           static_cast<int>(i), near, edge_on);
-            raster->accumulate(delta, points[k].weight, row, n);
-        }
-        row[i] = 0.0;
-        hemicubes.fetch_add(points.size(), std::memory_order_relaxed);
-        progress.advance();
-    });
-    progress.finish();
+    const std::size_t hemicubes = projection::project_patches<HemicubeRaster>(
+        scene, options, "hemicube", out, [R] { return std::make_unique<HemicubeRaster>(R); },
+        [&](HemicubeRaster& raster, std::size_t i, const projection::Frame& frame, double weight,
+            double* row) {
+            raster.render(occ, frame, static_cast<int>(i), near, edge_on);
+            raster.accumulate(delta, weight, row, n);
+        });
     details["resolution"] = R;
     details["points"] = options.points;
-    details["hemicubes"] = hemicubes.load();
+    details["hemicubes"] = hemicubes;
     details["cells_per_hemicube"] = 3 * R * R;
     details["seed"] = options.seed;
     return out;

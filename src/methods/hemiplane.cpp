@@ -1,17 +1,12 @@
 #include "formfactor/methods/hemiplane.h"
 
-#include <tbb/enumerable_thread_specific.h>
-
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <limits>
 #include <memory>
 #include <string>
 
 #include "formfactor/core/error.h"
-#include "formfactor/core/parallel.h"
-#include "formfactor/core/progress.h"
 #include "methods/projection_common.h"
 
 namespace formfactor {
@@ -389,30 +384,14 @@ FormFactors HemiplaneMethod::compute(const Scene& scene, const MethodOptions& op
     const Occluders occ = projection::build_occluders(scene);
     const double near = projection::kRelativeNear * occ.scale;
     const double edge_on = projection::kRelativeEdgeOn * occ.scale;
-    tbb::enumerable_thread_specific<std::unique_ptr<HemiplaneSolver>> workers;
-    std::vector<double> ambiguous(n, 0.0);
-    std::atomic<std::size_t> planes{0};
-    Progress progress("hemiplane", n, options.progress);
-    parallel_for(n, options.threads, [&](std::size_t i) {
-        std::unique_ptr<HemiplaneSolver>& solver = workers.local();
-        if (!solver) solver = std::make_unique<HemiplaneSolver>(table);
-        const Patch& p = scene.patches[i];
-        const Vec3 nrm = projection::patch_normal(p);
-        double* row = out.F.row(static_cast<Eigen::Index>(i)).data();
-        const auto points = projection::patch_points(p.polygon, options.points);
-        double amb = 0.0;
-        for (std::size_t k = 0; k < points.size(); ++k) {
-            const double rotation = 2.0 * kPi * projection::stream_uniform(options.seed, i, k);
-            solver->project(occ, projection::make_frame(points[k].x, nrm, rotation),
-                            static_cast<int>(i), near, edge_on);
-            amb += points[k].weight * solver->solve(points[k].weight, row, nullptr);
-        }
-        row[i] = 0.0;
-        ambiguous[i] = amb;
-        planes.fetch_add(points.size(), std::memory_order_relaxed);
-        progress.advance();
-    });
-    progress.finish();
+    std::vector<double> ambiguous(n, 0.0);  // entry i: written by row i only
+    const std::size_t planes = projection::project_patches<HemiplaneSolver>(
+        scene, options, "hemiplane", out, [&] { return std::make_unique<HemiplaneSolver>(table); },
+        [&](HemiplaneSolver& solver, std::size_t i, const projection::Frame& frame, double weight,
+            double* row) {
+            solver.project(occ, frame, static_cast<int>(i), near, edge_on);
+            ambiguous[i] += weight * solver.solve(weight, row, nullptr);
+        });
     double amb_max = 0.0, amb_sum = 0.0;
     for (double a : ambiguous) {
         amb_max = std::max(amb_max, a);
@@ -420,7 +399,7 @@ FormFactors HemiplaneMethod::compute(const Scene& scene, const MethodOptions& op
     }
     details["resolution"] = options.resolution;
     details["points"] = options.points;
-    details["hemiplanes"] = planes.load();
+    details["hemiplanes"] = planes;
     details["plane_half_width"] = half_width_;
     details["plane_height"] = 1.0;
     details["neglected_fraction"] = hemiplane_neglected_fraction(half_width_);
