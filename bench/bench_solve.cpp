@@ -3,32 +3,17 @@
 
 #include <benchmark/benchmark.h>
 
-#include <random>
+#include <cmath>
 
 #include "formfactor/matrix/repair.h"
 #include "formfactor/solve/radiosity.h"
 
+// random_open_matrix, shared with the tests.
+#include "../tests/solve_fixtures.h"
+
 using namespace formfactor;
 
 namespace {
-
-FormFactors random_matrix(int n) {
-    std::mt19937 rng(1);
-    std::uniform_real_distribution<double> u(0.0, 1.0);
-    FormFactors ff;
-    ff.areas.resize(static_cast<std::size_t>(n));
-    for (auto& a : ff.areas) a = 0.5 + u(rng);
-    DenseMatrix G = DenseMatrix::Zero(n, n);
-    for (int i = 0; i < n; ++i)
-        for (int j = i + 1; j < n; ++j) G(i, j) = G(j, i) = u(rng);
-    double s = 0.0;
-    for (int i = 0; i < n; ++i) s = std::max(s, G.row(i).sum() / ff.areas[std::size_t(i)]);
-    s /= 0.95;
-    ff.F.resize(n, n);
-    for (int i = 0; i < n; ++i)
-        for (int j = 0; j < n; ++j) ff.F(i, j) = G(i, j) / (s * ff.areas[std::size_t(i)]);
-    return ff;
-}
 
 PatchProperties props(int n) {
     PatchProperties p;
@@ -43,7 +28,7 @@ PatchProperties props(int n) {
 
 void solve(benchmark::State& state, SolverKind kind) {
     const int n = static_cast<int>(state.range(0));
-    const FormFactors ff = random_matrix(n);
+    const FormFactors ff = ff_test::random_open_matrix(n, 1);
     const PatchProperties p = props(n);
     SolverOptions o;
     o.solver = kind;
@@ -63,7 +48,7 @@ void BM_direct(benchmark::State& s) { solve(s, SolverKind::direct); }
 
 void BM_repair_both(benchmark::State& state) {
     const int n = static_cast<int>(state.range(0));
-    const FormFactors ff = random_matrix(n);
+    const FormFactors ff = ff_test::random_open_matrix(n, 1);
     RepairOptions o;
     o.mode = RepairMode::both;
     o.force_closure = true;

@@ -86,13 +86,9 @@ void run_compute(const ComputeArgs& args) {
     const auto method = args.method.resolve(scene);
 
     Stopwatch sw;
-    MethodOptions options = args.method.method_options();
-    options.progress = true;
     nlohmann::json details = nlohmann::json::object();
-    FormFactors ff = method->compute(scene, options, details);
-    times.add("compute", sw.lap());
-    const std::optional<RepairReport> repaired = args.repair.apply(ff, scene);
-    if (repaired) times.add("repair", sw.lap());
+    FormFactors ff = compute_matrix(*method, scene, args.method, details, times, sw);
+    const std::optional<RepairReport> repaired = args.repair.apply(ff, scene, times, sw);
 
     // What -o and --stderr hold: the patch matrix, or the per-surface one (rows = surfaces).
     const bool per_surface = rows_per_surface(args);
@@ -121,19 +117,8 @@ void run_compute(const ComputeArgs& args) {
     info.enclosure = scene.enclosure;
     // F and its standard errors go out in the same formats (-o and --stderr).
     auto stage_matrix = [&](const std::string& path, const DenseMatrix& m) {
-        tx.stage(path, [&](std::ostream& out) {
-            switch (matrix_format_for(path)) {
-                case MatrixFormat::Csv:
-                    write_csv_matrix(out, m);
-                    break;
-                case MatrixFormat::Npy:
-                    write_npy_matrix(out, m);
-                    break;
-                case MatrixFormat::View3dText:
-                    write_view3d_text(out, m, info);
-                    break;
-            }
-        });
+        tx.stage(path,
+                 [&](std::ostream& out) { write_matrix(out, matrix_format_for(path), m, info); });
     };
     stage_matrix(args.output, written.F);
     if (!args.standard_error.empty()) {
@@ -149,7 +134,7 @@ void run_compute(const ComputeArgs& args) {
     }
     times.add("write", sw.lap());
 
-    const int threads = effective_threads(options.threads);
+    const int threads = effective_threads(args.method.options.threads);
     const Diagnostics d = diagnose(ff.F, ff.areas);
     if (!args.report.empty()) {
         ReportContext ctx;

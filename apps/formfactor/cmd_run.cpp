@@ -92,14 +92,10 @@ void run_run(RunArgs args) {
     std::fflush(stdout);
 
     Stopwatch sw;
-    MethodOptions options = args.method.method_options();
-    options.progress = true;
     nlohmann::json details = nlohmann::json::object();
-    FormFactors ff = method->compute(scene, options, details);
-    times.add("compute", sw.lap());
+    FormFactors ff = compute_matrix(*method, scene, args.method, details, times, sw);
     const Diagnostics raw = diagnose(ff.F, ff.areas);
-    const std::optional<RepairReport> repaired = args.repair.apply(ff, scene);
-    if (repaired) times.add("repair", sw.lap());
+    const std::optional<RepairReport> repaired = args.repair.apply(ff, scene, times, sw);
 
     const RadiosityResult solution =
         solve_radiosity(ff, properties_from_scene(scene), solver_options);

@@ -36,21 +36,6 @@ struct SolveArgs {
     std::string report;
 };
 
-void write_matrix_to(std::ostream& out, const std::string& path, const DenseMatrix& F,
-                     const MatrixFileInfo& info) {
-    switch (matrix_format_for(path)) {
-        case MatrixFormat::Csv:
-            write_csv_matrix(out, F);
-            break;
-        case MatrixFormat::Npy:
-            write_npy_matrix(out, F);
-            break;
-        case MatrixFormat::View3dText:
-            write_view3d_text(out, F, info);
-            break;
-    }
-}
-
 void run_solve(const SolveArgs& args) {
     Stopwatch total;
     args.scene.validate();
@@ -106,13 +91,9 @@ void run_solve(const SolveArgs& args) {
     } else {
         const auto method = args.method.resolve(scene);
         method_name = method->name();
-        MethodOptions mo = args.method.method_options();
-        mo.progress = true;
-        ff = method->compute(scene, mo, details);
-        times.add("compute", sw.lap());
+        ff = compute_matrix(*method, scene, args.method, details, times, sw);
     }
-    const std::optional<RepairReport> repaired = args.repair.apply(ff, scene);
-    if (repaired) times.add("repair", sw.lap());
+    const std::optional<RepairReport> repaired = args.repair.apply(ff, scene, times, sw);
 
     OutputTransaction tx;
     nlohmann::json solve_json;
@@ -142,8 +123,9 @@ void run_solve(const SolveArgs& args) {
         info.emissivities = props.emissivity;
         info.enclosure = scene.enclosure;
         info.did_emit = true;
-        tx.stage(args.exchange,
-                 [&](std::ostream& out) { write_matrix_to(out, args.exchange, X, info); });
+        tx.stage(args.exchange, [&](std::ostream& out) {
+            write_matrix(out, matrix_format_for(args.exchange), X, info);
+        });
     }
     times.add("write", sw.lap());
     if (!args.report.empty()) {

@@ -144,6 +144,15 @@ MethodOptions MethodArgs::method_options() const {
     return o;
 }
 
+FormFactors compute_matrix(const Method& method, const Scene& scene, const MethodArgs& args,
+                           nlohmann::json& details, StepTimes& times, Stopwatch& sw) {
+    MethodOptions options = args.method_options();
+    options.progress = true;
+    FormFactors ff = method.compute(scene, options, details);
+    times.add("compute", sw.lap());
+    return ff;
+}
+
 std::unique_ptr<Method> MethodArgs::resolve(const Scene& scene) const {
     const std::string name = method.empty() ? default_method(scene) : method;
     auto m = make_method(name);

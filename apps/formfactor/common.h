@@ -72,6 +72,11 @@ struct MethodArgs {
     nlohmann::json to_json(const std::string& resolved_method) const;
 };
 
+/// Computes F with `method` and args.method_options(), progress shown; fills `details` and
+/// adds the "compute" step (sw.lap()) to `times`.
+FormFactors compute_matrix(const Method& method, const Scene& scene, const MethodArgs& args,
+                           nlohmann::json& details, StepTimes& times, Stopwatch& sw);
+
 /// Loads the scene and subdivides it, timing both steps into `times` ("load", "subdivide").
 Scene load_and_subdivide(const SceneArgs& args, StepTimes& times);
 

@@ -43,6 +43,13 @@ std::optional<RepairReport> RepairArgs::apply(FormFactors& ff, const Scene& scen
     return r;
 }
 
+std::optional<RepairReport> RepairArgs::apply(FormFactors& ff, const Scene& scene, StepTimes& times,
+                                              Stopwatch& sw) const {
+    std::optional<RepairReport> r = apply(ff, scene);
+    if (r) times.add("repair", sw.lap());
+    return r;
+}
+
 void SolverArgs::add_to(CLI::App* cmd) {
     cmd->add_option("--solver", solver,
                     "jacobi, gauss-seidel, shooting (progressive refinement) or "
@@ -94,14 +101,22 @@ void print_warnings(const std::vector<std::string>& warnings) {
     for (const auto& w : warnings) fmt::print(stderr, "formfactor: warning: {}\n", w);
 }
 
-void print_radiosity_summary(const RadiosityResult& r) {
-    const auto& s = r.stats;
+namespace {
+
+// "solve      <problem>, <solver>: <count> <unit>, residual ... (tolerance ...), ... s".
+void print_solve_line(const char* problem, const SolverStats& s) {
     fmt::print(
-        "solve      radiosity, {}: {} {}, residual {:.3g} (tolerance "
+        "solve      {}, {}: {} {}, residual {:.3g} (tolerance "
         "{:.3g}), {:.3f} s\n",
-        s.solver, s.iterations,
+        problem, s.solver, s.iterations,
         s.solver == "shooting" ? "shots" : (s.solver == "direct" ? "LU" : "sweeps"), s.residual,
         s.tolerance, s.seconds);
+}
+
+}  // namespace
+
+void print_radiosity_summary(const RadiosityResult& r) {
+    print_solve_line("radiosity", r.stats);
     const auto& b = r.balance;
     fmt::print(
         "balance    emitted ({:.6g}, {:.6g}, {:.6g}) = absorbed ({:.6g}, "
@@ -109,17 +124,11 @@ void print_radiosity_summary(const RadiosityResult& r) {
         "escaped ({:.6g}, {:.6g}, {:.6g}); relative defect {:.3g}\n",
         b.emitted[0], b.emitted[1], b.emitted[2], b.absorbed[0], b.absorbed[1], b.absorbed[2],
         b.escaped[0], b.escaped[1], b.escaped[2], b.relative_defect);
-    print_warnings(s.warnings);
+    print_warnings(r.stats.warnings);
 }
 
 void print_thermal_summary(const ThermalResult& r) {
-    const auto& s = r.stats;
-    fmt::print(
-        "solve      thermal, {}: {} {}, residual {:.3g} (tolerance "
-        "{:.3g}), {:.3f} s\n",
-        s.solver, s.iterations,
-        s.solver == "shooting" ? "shots" : (s.solver == "direct" ? "LU" : "sweeps"), s.residual,
-        s.tolerance, s.seconds);
+    print_solve_line("thermal", r.stats);
     fmt::print(
         "balance    sum of net power {:.6g} W, to the environment ({} K) "
         "{:.6g} W; relative "

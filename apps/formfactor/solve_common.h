@@ -7,6 +7,7 @@
 #include <optional>
 #include <string>
 
+#include "common.h"
 #include "formfactor/matrix/repair.h"
 #include "formfactor/output/render.h"
 #include "formfactor/scene/scene.h"
@@ -27,6 +28,9 @@ struct RepairArgs {
     /// Repairs ff.F in place when the mode is not none; prints one line; returns
     /// the report (nullopt when nothing was asked).
     std::optional<RepairReport> apply(FormFactors& ff, const Scene& scene) const;
+    /// Same, adding the "repair" step (sw.lap()) to `times` when it repaired.
+    std::optional<RepairReport> apply(FormFactors& ff, const Scene& scene, StepTimes& times,
+                                      Stopwatch& sw) const;
 };
 
 /// --solver, --residual, --max-iterations, --allow-unconverged.

@@ -1,16 +1,11 @@
 #include "formfactor/methods/hemicube.h"
 
-#include <tbb/enumerable_thread_specific.h>
-
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <memory>
 #include <string>
 
 #include "formfactor/core/error.h"
-#include "formfactor/core/parallel.h"
-#include "formfactor/core/progress.h"
 #include "methods/hemicube_raster.h"
 #include "methods/projection_common.h"
 
@@ -50,40 +45,37 @@ std::vector<double> hemicube_delta_form_factors(int resolution) {
 
 namespace {
 
-projection::Frame point_frame(const Vec3& point, const Vec3& normal, double rotation) {
-    if (!(normal.norm() > 0.0) || !point.allFinite() || !normal.allFinite()) {
-        throw GeometryError(
-            "hemicube: the point and its normal must be finite, the normal "
-            "non-zero");
-    }
-    return projection::make_frame(point, normal, rotation);
-}
+// The hemicube of one point, rendered: the start of hemicube_point_row and hemicube_view.
+struct PointHemicube {
+    std::vector<double> delta;
+    HemicubeRaster raster;
 
-Vec3 patch_normal(const Patch& p) {
-    return p.normal.squaredNorm() > 0.0 ? p.normal.normalized() : normal(p.polygon);
-}
+    PointHemicube(const Scene& scene, const Vec3& point, const Vec3& normal, int resolution,
+                  double rotation, int exclude_patch)
+        : delta(hemicube_delta_form_factors(resolution)), raster(resolution) {
+        const projection::Occluders occ = projection::build_occluders(scene);
+        raster.render(occ, projection::point_frame("hemicube", point, normal, rotation),
+                      exclude_patch, projection::kRelativeNear * occ.scale,
+                      projection::kRelativeEdgeOn * occ.scale);
+    }
+};
 
 }  // namespace
 
 std::vector<double> hemicube_point_row(const Scene& scene, const Vec3& point, const Vec3& normal,
                                        int resolution, double rotation, int exclude_patch) {
-    const std::vector<double> delta = hemicube_delta_form_factors(resolution);
-    const projection::Occluders occ = projection::build_occluders(scene);
-    HemicubeRaster raster(resolution);
-    raster.render(occ, point_frame(point, normal, rotation), exclude_patch,
-                  projection::kRelativeNear * occ.scale, projection::kRelativeEdgeOn * occ.scale);
+    PointHemicube h(scene, point, normal, resolution, rotation, exclude_patch);
     std::vector<double> row(scene.patches.size(), 0.0);
-    raster.accumulate(projection::HemicubeDelta(delta, resolution), 1.0, row.data(), row.size());
+    h.raster.accumulate(projection::HemicubeDelta(h.delta, resolution), 1.0, row.data(),
+                        row.size());
     return row;
 }
 
 ProjectionView hemicube_view(const Scene& scene, const Vec3& point, const Vec3& normal,
                              int resolution, double rotation, int exclude_patch) {
-    const std::vector<double> delta = hemicube_delta_form_factors(resolution);
-    const projection::Occluders occ = projection::build_occluders(scene);
-    HemicubeRaster raster(resolution);
-    raster.render(occ, point_frame(point, normal, rotation), exclude_patch,
-                  projection::kRelativeNear * occ.scale, projection::kRelativeEdgeOn * occ.scale);
+    const PointHemicube h(scene, point, normal, resolution, rotation, exclude_patch);
+    const std::vector<double>& delta = h.delta;
+    const HemicubeRaster& raster = h.raster;
     const int R = resolution, H = resolution / 2;
     ProjectionView view;
     view.kind = ProjectionView::Kind::hemicube;
@@ -139,13 +131,7 @@ ProjectionView hemicube_view(const Scene& scene, const Vec3& point, const Vec3& 
 }
 
 void HemicubeMethod::check(const Scene& scene) const {
-    for (std::size_t i = 0; i < scene.patches.size(); ++i) {
-        const Patch& p = scene.patches[i];
-        if (p.polygon.size() < 3 || !(patch_normal(p).squaredNorm() > 0.0)) {
-            throw GeometryError("hemicube: patch " + std::to_string(i) +
-                                " is degenerate (no normal)");
-        }
-    }
+    projection::check_patch_normals(scene, "hemicube");
 }
 
 FormFactors HemicubeMethod::compute(const Scene& scene, const MethodOptions& options,
@@ -153,42 +139,22 @@ FormFactors HemicubeMethod::compute(const Scene& scene, const MethodOptions& opt
     projection::check_projection_options(options.resolution, options.points, false);
     check(scene);
     const std::size_t n = scene.patches.size();
-    FormFactors out;
-    out.F = DenseMatrix::Zero(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
-    out.areas.resize(n);
-    for (std::size_t i = 0; i < n; ++i) {
-        const Patch& p = scene.patches[i];
-        out.areas[i] = p.area > 0.0 ? p.area : area(p.polygon);
-    }
+    FormFactors out = projection::zero_form_factors(scene);
     const int R = options.resolution;
     const projection::HemicubeDelta delta(hemicube_delta_form_factors(R), R);
     const projection::Occluders occ = projection::build_occluders(scene);
     const double near = projection::kRelativeNear * occ.scale;
     const double edge_on = projection::kRelativeEdgeOn * occ.scale;
-    tbb::enumerable_thread_specific<std::unique_ptr<HemicubeRaster>> workers;
-    std::atomic<std::size_t> hemicubes{0};
-    Progress progress("hemicube", n, options.progress);
-    parallel_for(n, options.threads, [&](std::size_t i) {
-        std::unique_ptr<HemicubeRaster>& raster = workers.local();
-        if (!raster) raster = std::make_unique<HemicubeRaster>(R);
-        const Patch& p = scene.patches[i];
-        const Vec3 nrm = patch_normal(p);
-        double* row = out.F.row(static_cast<Eigen::Index>(i)).data();
-        const auto points = projection::patch_points(p.polygon, options.points);
-        for (std::size_t k = 0; k < points.size(); ++k) {
-            const double rotation = 2.0 * kPi * projection::stream_uniform(options.seed, i, k);
-            raster->render(occ, projection::make_frame(points[k].x, nrm, rotation),
-                           static_cast<int>(i), near, edge_on);
-            raster->accumulate(delta, points[k].weight, row, n);
-        }
-        row[i] = 0.0;
-        hemicubes.fetch_add(points.size(), std::memory_order_relaxed);
-        progress.advance();
-    });
-    progress.finish();
+    const std::size_t hemicubes = projection::project_patches<HemicubeRaster>(
+        scene, options, "hemicube", out, [R] { return std::make_unique<HemicubeRaster>(R); },
+        [&](HemicubeRaster& raster, std::size_t i, const projection::Frame& frame, double weight,
+            double* row) {
+            raster.render(occ, frame, static_cast<int>(i), near, edge_on);
+            raster.accumulate(delta, weight, row, n);
+        });
     details["resolution"] = R;
     details["points"] = options.points;
-    details["hemicubes"] = hemicubes.load();
+    details["hemicubes"] = hemicubes;
     details["cells_per_hemicube"] = 3 * R * R;
     details["seed"] = options.seed;
     return out;

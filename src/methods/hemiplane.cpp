@@ -1,17 +1,12 @@
 #include "formfactor/methods/hemiplane.h"
 
-#include <tbb/enumerable_thread_specific.h>
-
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <limits>
 #include <memory>
 #include <string>
 
 #include "formfactor/core/error.h"
-#include "formfactor/core/parallel.h"
-#include "formfactor/core/progress.h"
 #include "methods/projection_common.h"
 
 namespace formfactor {
@@ -306,58 +301,58 @@ double HemiplaneSolver::solve(double weight, double* row, int* ids) {
     return ambiguous_;
 }
 
-projection::Frame point_frame(const Vec3& point, const Vec3& normal, double rotation) {
-    if (!(normal.norm() > 0.0) || !point.allFinite() || !normal.allFinite()) {
-        throw GeometryError(
-            "hemiplane: the point and its normal must be finite, the normal "
-            "non-zero");
-    }
-    return projection::make_frame(point, normal, rotation);
-}
-
 void check_half_width(double W) {
     if (!(W > 0.0) || !std::isfinite(W)) {
         throw OptionError("--half-width", "the hemiplane's half-width must be positive");
     }
 }
 
-Vec3 patch_normal(const Patch& p) {
-    return p.normal.squaredNorm() > 0.0 ? p.normal.normalized() : normal(p.polygon);
-}
+// The hemiplane of one point, projected: the start of hemiplane_point_row and hemiplane_view.
+struct PointHemiplane {
+    CornerTable table;
+    HemiplaneSolver solver;
+
+    PointHemiplane(const Scene& scene, const Vec3& point, const Vec3& normal, int resolution,
+                   double rotation, int exclude_patch, double half_width)
+        : table(checked_table(resolution, half_width)), solver(table) {
+        const Occluders occ = projection::build_occluders(scene);
+        solver.project(occ, projection::point_frame("hemiplane", point, normal, rotation),
+                       exclude_patch, projection::kRelativeNear * occ.scale,
+                       projection::kRelativeEdgeOn * occ.scale);
+    }
+
+    PointHemiplane(const PointHemiplane&) = delete;  // solver refers to table
+    PointHemiplane& operator=(const PointHemiplane&) = delete;
+
+    static CornerTable checked_table(int resolution, double half_width) {
+        projection::check_projection_options(resolution, 1, true);
+        check_half_width(half_width);
+        return CornerTable(resolution, half_width);
+    }
+};
 
 }  // namespace
 
 HemiplaneRow hemiplane_point_row(const Scene& scene, const Vec3& point, const Vec3& normal,
                                  int resolution, double rotation, int exclude_patch,
                                  double half_width) {
-    projection::check_projection_options(resolution, 1, true);
-    check_half_width(half_width);
-    const CornerTable table(resolution, half_width);
-    const Occluders occ = projection::build_occluders(scene);
-    HemiplaneSolver solver(table);
-    solver.project(occ, point_frame(point, normal, rotation), exclude_patch,
-                   projection::kRelativeNear * occ.scale, projection::kRelativeEdgeOn * occ.scale);
+    PointHemiplane h(scene, point, normal, resolution, rotation, exclude_patch, half_width);
     HemiplaneRow out;
     out.F.assign(scene.patches.size(), 0.0);
     out.neglected = hemiplane_neglected_fraction(half_width);
-    out.ambiguous = solver.solve(1.0, out.F.data(), nullptr);
+    out.ambiguous = h.solver.solve(1.0, out.F.data(), nullptr);
     return out;
 }
 
 ProjectionView hemiplane_view(const Scene& scene, const Vec3& point, const Vec3& normal,
                               int resolution, double rotation, int exclude_patch,
                               double half_width) {
-    projection::check_projection_options(resolution, 1, true);
-    check_half_width(half_width);
-    const CornerTable table(resolution, half_width);
-    const Occluders occ = projection::build_occluders(scene);
-    HemiplaneSolver solver(table);
-    solver.project(occ, point_frame(point, normal, rotation), exclude_patch,
-                   projection::kRelativeNear * occ.scale, projection::kRelativeEdgeOn * occ.scale);
+    PointHemiplane h(scene, point, normal, resolution, rotation, exclude_patch, half_width);
+    const CornerTable& table = h.table;
     const int R = resolution;
     std::vector<double> row(scene.patches.size(), 0.0);
     std::vector<int> ids(static_cast<std::size_t>(R) * R, kViewNothing);
-    solver.solve(1.0, row.data(), ids.data());
+    h.solver.solve(1.0, row.data(), ids.data());
     ProjectionView view;
     view.kind = ProjectionView::Kind::hemiplane;
     view.resolution = view.width = view.height = R;
@@ -376,13 +371,7 @@ ProjectionView hemiplane_view(const Scene& scene, const Vec3& point, const Vec3&
 
 void HemiplaneMethod::check(const Scene& scene) const {
     check_half_width(half_width_);
-    for (std::size_t i = 0; i < scene.patches.size(); ++i) {
-        const Patch& p = scene.patches[i];
-        if (p.polygon.size() < 3 || !(patch_normal(p).squaredNorm() > 0.0)) {
-            throw GeometryError("hemiplane: patch " + std::to_string(i) +
-                                " is degenerate (no normal)");
-        }
-    }
+    projection::check_patch_normals(scene, "hemiplane");
 }
 
 FormFactors HemiplaneMethod::compute(const Scene& scene, const MethodOptions& options,
@@ -390,41 +379,19 @@ FormFactors HemiplaneMethod::compute(const Scene& scene, const MethodOptions& op
     projection::check_projection_options(options.resolution, options.points, true);
     check(scene);
     const std::size_t n = scene.patches.size();
-    FormFactors out;
-    out.F = DenseMatrix::Zero(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
-    out.areas.resize(n);
-    for (std::size_t i = 0; i < n; ++i) {
-        const Patch& p = scene.patches[i];
-        out.areas[i] = p.area > 0.0 ? p.area : area(p.polygon);
-    }
+    FormFactors out = projection::zero_form_factors(scene);
     const CornerTable table(options.resolution, half_width_);
     const Occluders occ = projection::build_occluders(scene);
     const double near = projection::kRelativeNear * occ.scale;
     const double edge_on = projection::kRelativeEdgeOn * occ.scale;
-    tbb::enumerable_thread_specific<std::unique_ptr<HemiplaneSolver>> workers;
-    std::vector<double> ambiguous(n, 0.0);
-    std::atomic<std::size_t> planes{0};
-    Progress progress("hemiplane", n, options.progress);
-    parallel_for(n, options.threads, [&](std::size_t i) {
-        std::unique_ptr<HemiplaneSolver>& solver = workers.local();
-        if (!solver) solver = std::make_unique<HemiplaneSolver>(table);
-        const Patch& p = scene.patches[i];
-        const Vec3 nrm = patch_normal(p);
-        double* row = out.F.row(static_cast<Eigen::Index>(i)).data();
-        const auto points = projection::patch_points(p.polygon, options.points);
-        double amb = 0.0;
-        for (std::size_t k = 0; k < points.size(); ++k) {
-            const double rotation = 2.0 * kPi * projection::stream_uniform(options.seed, i, k);
-            solver->project(occ, projection::make_frame(points[k].x, nrm, rotation),
-                            static_cast<int>(i), near, edge_on);
-            amb += points[k].weight * solver->solve(points[k].weight, row, nullptr);
-        }
-        row[i] = 0.0;
-        ambiguous[i] = amb;
-        planes.fetch_add(points.size(), std::memory_order_relaxed);
-        progress.advance();
-    });
-    progress.finish();
+    std::vector<double> ambiguous(n, 0.0);  // entry i: written by row i only
+    const std::size_t planes = projection::project_patches<HemiplaneSolver>(
+        scene, options, "hemiplane", out, [&] { return std::make_unique<HemiplaneSolver>(table); },
+        [&](HemiplaneSolver& solver, std::size_t i, const projection::Frame& frame, double weight,
+            double* row) {
+            solver.project(occ, frame, static_cast<int>(i), near, edge_on);
+            ambiguous[i] += weight * solver.solve(weight, row, nullptr);
+        });
     double amb_max = 0.0, amb_sum = 0.0;
     for (double a : ambiguous) {
         amb_max = std::max(amb_max, a);
@@ -432,7 +399,7 @@ FormFactors HemiplaneMethod::compute(const Scene& scene, const MethodOptions& op
     }
     details["resolution"] = options.resolution;
     details["points"] = options.points;
-    details["hemiplanes"] = planes.load();
+    details["hemiplanes"] = planes;
     details["plane_half_width"] = half_width_;
     details["plane_height"] = 1.0;
     details["neglected_fraction"] = hemiplane_neglected_fraction(half_width_);

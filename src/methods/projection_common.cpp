@@ -245,4 +245,39 @@ void check_projection_options(int resolution, int points, bool power_of_two) {
     }
 }
 
+Frame point_frame(const char* method, const Vec3& point, const Vec3& normal, double rotation) {
+    if (!(normal.norm() > 0.0) || !point.allFinite() || !normal.allFinite()) {
+        throw GeometryError(std::string(method) +
+                            ": the point and its normal must be finite, the normal "
+                            "non-zero");
+    }
+    return make_frame(point, normal, rotation);
+}
+
+Vec3 patch_normal(const Patch& p) {
+    return p.normal.squaredNorm() > 0.0 ? p.normal.normalized() : normal(p.polygon);
+}
+
+void check_patch_normals(const Scene& scene, const char* method) {
+    for (std::size_t i = 0; i < scene.patches.size(); ++i) {
+        const Patch& p = scene.patches[i];
+        if (p.polygon.size() < 3 || !(patch_normal(p).squaredNorm() > 0.0)) {
+            throw GeometryError(std::string(method) + ": patch " + std::to_string(i) +
+                                " is degenerate (no normal)");
+        }
+    }
+}
+
+FormFactors zero_form_factors(const Scene& scene) {
+    const std::size_t n = scene.patches.size();
+    FormFactors out;
+    out.F = DenseMatrix::Zero(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
+    out.areas.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        const Patch& p = scene.patches[i];
+        out.areas[i] = p.area > 0.0 ? p.area : area(p.polygon);
+    }
+    return out;
+}
+
 }  // namespace formfactor::projection

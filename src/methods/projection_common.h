@@ -3,12 +3,20 @@
 /// arrays built once per scene, the points and frames of the projections, the seeded random
 /// streams and convex clipping in the local frame of a point.
 
+#include <tbb/enumerable_thread_specific.h>
+
 #include <array>
+#include <atomic>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
+#include "formfactor/core/parallel.h"
+#include "formfactor/core/progress.h"
 #include "formfactor/core/types.h"
 #include "formfactor/geometry/polygon.h"
+#include "formfactor/matrix/form_factors.h"
+#include "formfactor/methods/method.h"
 #include "formfactor/methods/projection_view.h"
 #include "formfactor/scene/scene.h"
 
@@ -75,6 +83,20 @@ struct Frame {
 };
 Frame make_frame(const Vec3& point, const Vec3& normal, double rotation);
 
+/// make_frame for a point given by the caller: throws GeometryError("<method>: ...") unless
+/// the point and the normal are finite and the normal non-zero.
+Frame point_frame(const char* method, const Vec3& point, const Vec3& normal, double rotation);
+
+/// The unit front normal of a patch: its stored normal, else the polygon's.
+Vec3 patch_normal(const Patch& p);
+
+/// Throws GeometryError("<method>: patch i is degenerate (no normal)") for the first patch
+/// with fewer than 3 vertices or no normal.
+void check_patch_normals(const Scene& scene, const char* method);
+
+/// An n × n zero matrix with the patches' areas (stored area, else the polygon's).
+FormFactors zero_form_factors(const Scene& scene);
+
 /// A point in local coordinates (a along u, b along v, c along w: the height above the base).
 struct P3 {
     double v[3];
@@ -93,6 +115,37 @@ int clip_convex(const P3* in, int n, const ClipPlane& plane, P3* out);
 
 /// Checks --resolution and --points for the projection methods; throws OptionError.
 void check_projection_options(int resolution, int points, bool power_of_two);
+
+/// The loop of a projection method's compute(): in parallel over the patches i (progress bar
+/// `label`), for each of the options.points points of patch i, calls
+/// visit(worker, i, frame, weight, row) with the point's frame (rotated about the normal by
+/// the seeded stream), its weight and row i of out.F; then zeroes F_ii. `worker` is a
+/// per-thread Worker made by make() on first use. Returns the number of projections.
+template <class Worker, class Make, class Visit>
+std::size_t project_patches(const Scene& scene, const MethodOptions& options, const char* label,
+                            FormFactors& out, Make make, Visit visit) {
+    const std::size_t n = scene.patches.size();
+    tbb::enumerable_thread_specific<std::unique_ptr<Worker>> workers;
+    std::atomic<std::size_t> projections{0};
+    Progress progress(label, n, options.progress);
+    parallel_for(n, options.threads, [&](std::size_t i) {
+        std::unique_ptr<Worker>& worker = workers.local();
+        if (!worker) worker = make();
+        const Patch& p = scene.patches[i];
+        const Vec3 nrm = patch_normal(p);
+        double* row = out.F.row(static_cast<Eigen::Index>(i)).data();
+        const auto points = patch_points(p.polygon, options.points);
+        for (std::size_t k = 0; k < points.size(); ++k) {
+            const double rotation = 2.0 * kPi * stream_uniform(options.seed, i, k);
+            visit(*worker, i, make_frame(points[k].x, nrm, rotation), points[k].weight, row);
+        }
+        row[i] = 0.0;
+        projections.fetch_add(points.size(), std::memory_order_relaxed);
+        progress.advance();
+    });
+    progress.finish();
+    return projections.load();
+}
 
 /// The near distance below which nothing is seen, relative to the scene's size.
 inline constexpr double kRelativeNear = 1e-9;

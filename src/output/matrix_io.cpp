@@ -164,23 +164,26 @@ void write_view3d_text(std::ostream& out, const DenseMatrix& F, const MatrixFile
     out.write(buf.data(), static_cast<std::streamsize>(buf.size()));
 }
 
+void write_matrix(std::ostream& out, MatrixFormat format, const DenseMatrix& F,
+                  const MatrixFileInfo& info) {
+    switch (format) {
+        case MatrixFormat::Csv:
+            write_csv_matrix(out, F);
+            break;
+        case MatrixFormat::Npy:
+            write_npy_matrix(out, F);
+            break;
+        case MatrixFormat::View3dText:
+            write_view3d_text(out, F, info);
+            break;
+    }
+}
+
 void write_matrix(const std::string& path, const DenseMatrix& F, const MatrixFileInfo& info) {
     const MatrixFormat format = matrix_format_for(path);
     if (F.rows() != F.cols()) throw Error(path + ": the form-factor matrix is not square");
     check_info(F, info, format == MatrixFormat::View3dText);
-    write_file_atomically(path, [&](std::ostream& out) {
-        switch (format) {
-            case MatrixFormat::Csv:
-                write_csv_matrix(out, F);
-                break;
-            case MatrixFormat::Npy:
-                write_npy_matrix(out, F);
-                break;
-            case MatrixFormat::View3dText:
-                write_view3d_text(out, F, info);
-                break;
-        }
-    });
+    write_file_atomically(path, [&](std::ostream& out) { write_matrix(out, format, F, info); });
 }
 
 void write_matrix(const std::string& path, const FormFactors& ff,

@@ -79,20 +79,14 @@ double relative_residual(const DenseMatrix& F, const Columns& d, const Columns& 
 
 namespace {
 
-// x ← c + D F x until the update (= the residual of the previous iterate) is below tolerance.
-long long run_jacobi(const DenseMatrix& F, const Columns& d, const Columns& c,
-                     const SolverOptions& o, long long max_it, Columns& x, Columns& y,
-                     double& residual) {
+// Runs sweeps (each returns its largest update) until the update is small and the exact
+// relative residual is below o.residual, or max_it sweeps; returns the sweep count.
+template <class Sweep>
+long long iterate(const DenseMatrix& F, const Columns& d, const Columns& c, const SolverOptions& o,
+                  long long max_it, Columns& x, Columns& y, double& residual, Sweep&& sweep) {
     long long it = 0;
     while (it < max_it) {
-        multiply(F, x, y, o.threads);
-        double change = 0.0;
-        for (Eigen::Index k = 0; k < x.cols(); ++k)
-            for (Eigen::Index i = 0; i < x.rows(); ++i) {
-                const double v = c(i, k) + d(i, k) * y(i, k);
-                change = std::max(change, std::abs(v - x(i, k)));
-                x(i, k) = v;
-            }
+        const double change = sweep();
         ++it;
         const double xm = max_abs(x);
         if (change <= o.residual * xm || xm == 0.0) {
@@ -104,14 +98,30 @@ long long run_jacobi(const DenseMatrix& F, const Columns& d, const Columns& c,
     return it;
 }
 
+// x ← c + D F x until the update (= the residual of the previous iterate) is below tolerance.
+long long run_jacobi(const DenseMatrix& F, const Columns& d, const Columns& c,
+                     const SolverOptions& o, long long max_it, Columns& x, Columns& y,
+                     double& residual) {
+    return iterate(F, d, c, o, max_it, x, y, residual, [&] {
+        multiply(F, x, y, o.threads);
+        double change = 0.0;
+        for (Eigen::Index k = 0; k < x.cols(); ++k)
+            for (Eigen::Index i = 0; i < x.rows(); ++i) {
+                const double v = c(i, k) + d(i, k) * y(i, k);
+                change = std::max(change, std::abs(v - x(i, k)));
+                x(i, k) = v;
+            }
+        return change;
+    });
+}
+
 // In-place sweeps. In the ∞-norm the residual after a sweep is at most the largest update
 // (row sums of D F ≤ 1), so a small update triggers the exact residual check.
 long long run_gauss_seidel(const DenseMatrix& F, const Columns& d, const Columns& c,
                            const SolverOptions& o, long long max_it, Columns& x, Columns& y,
                            double& residual) {
     const Eigen::Index n = F.rows();
-    long long it = 0;
-    while (it < max_it) {
+    return iterate(F, d, c, o, max_it, x, y, residual, [&] {
         double change = 0.0;
         for (Eigen::Index i = 0; i < n; ++i) {
             const double fii = F(i, i);
@@ -122,15 +132,8 @@ long long run_gauss_seidel(const DenseMatrix& F, const Columns& d, const Columns
                 x(i, k) = v;
             }
         }
-        ++it;
-        const double xm = max_abs(x);
-        if (change <= o.residual * xm || xm == 0.0) {
-            residual = relative_residual(F, d, c, x, y, o.threads);
-            if (residual <= o.residual) return it;
-        }
-    }
-    residual = relative_residual(F, d, c, x, y, o.threads);
-    return it;
+        return change;
+    });
 }
 
 // Progressive refinement as Southwell iteration: r = c + D F x − x is the unshot quantity;

@@ -276,20 +276,7 @@ class EmbreeVisibility final : public Visibility {
             const Vec3& n = patch_normal_[static_cast<std::size_t>(q.to_patch)];
             b += (d.dot(n) <= 0 ? epsilon_ : -epsilon_) * n;
         }
-        const Vec3 o = a - center_;
-        const Vec3 dir = b - a;
-        ray.org_x = static_cast<float>(o.x());
-        ray.org_y = static_cast<float>(o.y());
-        ray.org_z = static_cast<float>(o.z());
-        ray.dir_x = static_cast<float>(dir.x());
-        ray.dir_y = static_cast<float>(dir.y());
-        ray.dir_z = static_cast<float>(dir.z());
-        ray.tnear = 0.0f;
-        ray.tfar = 1.0f;
-        ray.time = 0.0f;
-        ray.mask = 0xFFFFFFFFu;
-        ray.id = 0;
-        ray.flags = 0;
+        fill_ray(a - center_, b - a, 1.0f, ray);
     }
 
     void make_ray(const RayQuery& q, RTCRay& ray) const {
@@ -300,7 +287,11 @@ class EmbreeVisibility final : public Visibility {
             const Vec3& n = patch_normal_[static_cast<std::size_t>(q.from_patch)];
             a += (dir.dot(n) >= 0 ? epsilon_ : -epsilon_) * n;
         }
-        const Vec3 o = a - center_;
+        fill_ray(a - center_, dir, kInf, ray);
+    }
+
+    // A ray from o (relative to center_) along dir, t in [0, tfar], in single precision.
+    static void fill_ray(const Vec3& o, const Vec3& dir, float tfar, RTCRay& ray) {
         ray.org_x = static_cast<float>(o.x());
         ray.org_y = static_cast<float>(o.y());
         ray.org_z = static_cast<float>(o.z());
@@ -308,7 +299,7 @@ class EmbreeVisibility final : public Visibility {
         ray.dir_y = static_cast<float>(dir.y());
         ray.dir_z = static_cast<float>(dir.z());
         ray.tnear = 0.0f;
-        ray.tfar = kInf;
+        ray.tfar = tfar;
         ray.time = 0.0f;
         ray.mask = 0xFFFFFFFFu;
         ray.id = 0;

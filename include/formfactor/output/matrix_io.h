@@ -48,6 +48,9 @@ void write_matrix(const std::string& path, const FormFactors& ff,
 void write_csv_matrix(std::ostream& out, const DenseMatrix& F);
 void write_npy_matrix(std::ostream& out, const DenseMatrix& F);
 void write_view3d_text(std::ostream& out, const DenseMatrix& F, const MatrixFileInfo& info);
+/// The stream writer of `format`: write_csv_matrix, write_npy_matrix or write_view3d_text.
+void write_matrix(std::ostream& out, MatrixFormat format, const DenseMatrix& F,
+                  const MatrixFileInfo& info = {});
 
 /// The NPY 1.0 header (magic, version, length, dict, padding, newline) for an N×M `<f8`
 /// C-order array; its size is a multiple of 64 bytes.
