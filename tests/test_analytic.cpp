@@ -412,7 +412,7 @@ TEST_CASE(
     }
 }
 
-TEST_CASE("analytic: check() accepts scenes with obstructions; may_obstruct() finds them") {
+TEST_CASE("analytic: check() accepts scenes with obstructions, may_obstruct() finds them") {
     const auto method = make_method("analytic");
     Scene cube = cube_scene(1);
     CHECK_NOTHROW(method->check(cube));

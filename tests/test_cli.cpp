@@ -89,7 +89,7 @@ TEST_CASE("cli: compute on plates gives Howell C-11, with a report") {
     CHECK(cli.dir().entries() == 3);
 }
 
-TEST_CASE("cli: compute on perpendicular gives Howell C-14; OBJ input and subdivision add up") {
+TEST_CASE("cli: compute on perpendicular gives Howell C-14, OBJ input and subdivision add up") {
     Cli cli;
     CliResult r = cli.run("compute perpendicular -o F.npy");
     INFO(describe(r));
@@ -110,7 +110,7 @@ TEST_CASE("cli: compute on perpendicular gives Howell C-14; OBJ input and subdiv
     CHECK(std::abs(G.block(0, 9, 9, 9).sum() / 9.0 - kC11PlatesF12) < kExactTol);
 }
 
-TEST_CASE("cli: compute on cube: every row sums to 1; View3D .txt output") {
+TEST_CASE("cli: compute on cube: every row sums to 1, View3D .txt output") {
     Cli cli;
     CliResult r = cli.run("compute cube --subdivide 2 -o F.txt --report r.json");
     INFO(describe(r));
@@ -192,7 +192,7 @@ TEST_CASE("cli: run writes the main job into out/" * doctest::test_suite("slow")
     const auto report = nlohmann::json::parse(read_text(cli.file("out/report.json")));
     CHECK(report["command"] == "run");
     CHECK(report["scene"]["name"] == "cornell");
-    // default_method picks mc-target for a scene with occlusion; run prefers mc-hemisphere
+    // default_method picks analytic (obstruction-aware); run prefers mc-hemisphere
     // (a whole row per set of rays) for its fine subdivision, and says so.
     CHECK(report["method"] == "mc-hemisphere");
     CHECK(r.out.find("note: cornell occludes") != std::string::npos);
@@ -228,15 +228,22 @@ TEST_CASE("cli: run on an unoccluded scene, into another directory") {
     CHECK(std::filesystem::exists(cli.file("res/plates.png")));
 }
 
-TEST_CASE("cli: the default method handles occlusion; standard errors of Monte-Carlo methods") {
+TEST_CASE("cli: the default method handles occlusion, standard errors of Monte-Carlo methods") {
     Cli cli;
-    CliResult r = cli.run("compute cornell -o F.npy --report r.json --stderr se.csv");
+    // The default is the most accurate method: analytic, obstruction-aware.
+    CliResult r = cli.run("compute cornell -o F0.npy --report r0.json");
     INFO(describe(r));
+    REQUIRE(r.code == 0);
+    const auto report0 = nlohmann::json::parse(read_text(cli.file("r0.json")));
+    CHECK(report0["method"] == "analytic");
+    CHECK(report0["options"]["method_given"] == false);
+    CHECK(report0["details"]["obstructed"] == true);
+
+    r = cli.run("compute cornell --method mc-target -o F.npy --report r.json --stderr se.csv");
     REQUIRE(r.code == 0);
     CHECK(r.out.find("std error") != std::string::npos);
     const auto report = nlohmann::json::parse(read_text(cli.file("r.json")));
     CHECK(report["method"] == "mc-target");
-    CHECK(report["options"]["method_given"] == false);
     CHECK(report["outputs"]["standard_error"] == "se.csv");
     CHECK(read_matrix(cli.file("se.csv")).rows() == 20);
     // Same formats as -o, View3D's text layout included; the old spelling still works.
@@ -246,8 +253,8 @@ TEST_CASE("cli: the default method handles occlusion; standard errors of Monte-C
     r = cli.run("compute plates --method mc-area --samples 256 -o F3.npy --standard-error se3.npy");
     CHECK(r.code == 0);
 
-    r = cli.run("compute cornell --method analytic -o G.npy");
-    CHECK(r.code == 1);  // analytic refuses occlusion, with one line saying why
+    r = cli.run("compute cornell --method hemicube --stderr G.csv -o G.npy");
+    CHECK(r.code == 2);  // an exact-per-point method has no standard errors: nothing written
     CHECK(r.one_error_line());
     CHECK_FALSE(std::filesystem::exists(cli.file("G.npy")));
 

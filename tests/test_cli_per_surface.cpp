@@ -78,7 +78,7 @@ TEST_CASE("cli: compute on a .vs3 writes one row per surface by default (View3D'
     CHECK(read_matrix(cli.file("P.csv")).rows() == 25);
 }
 
-TEST_CASE("cli: --per-surface on a subdivided cube gives the cube; the flags exclude each other") {
+TEST_CASE("cli: --per-surface on a subdivided cube gives the cube, the flags exclude each other") {
     Cli cli;
     CliResult r = cli.run("compute cube --subdivide 4 --per-surface -o F.csv");
     INFO(describe(r));

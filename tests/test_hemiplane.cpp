@@ -43,7 +43,7 @@ FormFactors run(const Scene& s, int R, int K, int threads, nlohmann::json& d) {
 
 }  // namespace
 
-TEST_CASE("hemiplane: the corner term is Howell B-3; the neglected fraction its complement") {
+TEST_CASE("hemiplane: the corner term is Howell B-3, the neglected fraction its complement") {
     CHECK(hemiplane_corner_term(1, 1) == doctest::Approx(kB3_a1_b1_c1).epsilon(1e-14));
     CHECK(hemiplane_corner_term(10, 10) == doctest::Approx(kB3_a10_b10_c1).epsilon(1e-14));
     CHECK(hemiplane_corner_term(-1, 1) == doctest::Approx(-kB3_a1_b1_c1).epsilon(1e-14));

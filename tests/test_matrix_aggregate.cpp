@@ -36,7 +36,7 @@ FormFactors random_reciprocal(std::size_t n, unsigned seed) {
 
 }  // namespace
 
-TEST_CASE("aggregate: group rows are area-weighted means, columns sums; reciprocity kept") {
+TEST_CASE("aggregate: group rows are area-weighted means, columns sums, reciprocity kept") {
     const FormFactors f = random_reciprocal(7, 3);
     PatchGroups g;
     g.group_of_patch = {0, 0, 1, 2, 1, 0, 2};

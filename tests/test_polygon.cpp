@@ -13,7 +13,7 @@ TEST_CASE("polygon: area, normal and centroid of a unit square") {
     CHECK(planarity_defect(sq) == 0.0);
 }
 
-TEST_CASE("polygon: a bow tie is not simple; an L shape is") {
+TEST_CASE("polygon: a bow tie is not simple, an L shape is") {
     Polygon bow{{Vec3(0, 0, 0), Vec3(1, 1, 0), Vec3(1, 0, 0), Vec3(0, 1, 0)}};
     CHECK_FALSE(is_simple(bow));
     Polygon ell{

@@ -103,7 +103,7 @@ TEST_CASE("repair: a larger symmetric-scaled closure, with negatives and a diago
     CHECK(max_reciprocity(F, ff.areas) < 1e-14);
 }
 
-TEST_CASE("repair: an open scene keeps its row sums; closure is refused unless forced") {
+TEST_CASE("repair: an open scene keeps its row sums, closure is refused unless forced") {
     // Two opposed unit squares at distance 1: rows sum to 0.1998.
     FormFactors ff;
     ff.F.resize(2, 2);
@@ -126,7 +126,7 @@ TEST_CASE("repair: an open scene keeps its row sums; closure is refused unless f
     CHECK(F(0, 1) == doctest::Approx(1.0).epsilon(1e-12));
 }
 
-TEST_CASE("repair: none reports diagnostics only; names parse") {
+TEST_CASE("repair: none reports diagnostics only, names parse") {
     FormFactors ff = cube_matrix();
     DenseMatrix F = ff.F;
     const RepairReport r = repair(F, ff.areas, {});

@@ -54,7 +54,7 @@ const std::string kWall =
 
 }  // namespace
 
-TEST_CASE("scene: VS3 subsurfaces are cut out of their base; areas add up exactly") {
+TEST_CASE("scene: VS3 subsurfaces are cut out of their base, areas add up exactly") {
     const Scene s = load_scene(data("room-windows.vs3"));
     REQUIRE(s.surfaces.size() == 12);
     CHECK(s.warnings.empty());

@@ -93,7 +93,7 @@ TEST_CASE("scene: wall minus window plus window gives the whole wall (analytic, 
     CHECK((g3.F - g.F).cwiseAbs().maxCoeff() <= 1e-10);
 }
 
-TEST_CASE("scene: cube with a subsurface in one face; cube subdivided n = 4 (per surface)") {
+TEST_CASE("scene: cube with a subsurface in one face, cube subdivided n = 4 (per surface)") {
     SUBCASE("face z = 1 as a base with a window: rows sum to 1, base + window = the face") {
         const std::string text = kCubeHead +
                                  "V 9 0.2 0.3 1\nV 10 0.7 0.3 1\nV 11 0.7 0.9 1\nV 12 0.2 0.9 1\n"

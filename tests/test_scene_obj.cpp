@@ -96,7 +96,7 @@ TEST_CASE("scene: OBJ warnings for ignored records and a missing material librar
     CHECK(s.materials[static_cast<std::size_t>(s.surfaces[0].material)].name == "default");
 }
 
-TEST_CASE("scene: OBJ faces of one group are numbered; objects named obstruction* block") {
+TEST_CASE("scene: OBJ faces of one group are numbered, objects named obstruction* block") {
     const std::string p = write_file(
         "g.obj", kVerts +
                      "v 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\no Obstruction-lid\nf 5 8 7 6\nf 5 6 7\n"

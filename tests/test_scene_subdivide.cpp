@@ -88,7 +88,7 @@ TEST_CASE("scene: subdivide triangles into n² congruent triangles in a stable o
     CHECK((s.patches[8].polygon[2] - t[2]).norm() == 0.0);
 }
 
-TEST_CASE("scene: subdivide other polygons through triangulation; n = 1 keeps them whole") {
+TEST_CASE("scene: subdivide other polygons through triangulation, n = 1 keeps them whole") {
     Polygon ell{
         {Vec3(0, 0, 0), Vec3(2, 0, 0), Vec3(2, 1, 0), Vec3(1, 1, 0), Vec3(1, 2, 0), Vec3(0, 2, 0)}};
     Scene s = one_surface(ell);

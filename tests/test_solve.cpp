@@ -219,7 +219,7 @@ TEST_CASE("thermal: two-surface enclosure, surface 1 cannot see itself (textbook
     }
 }
 
-TEST_CASE("thermal: cube, face 0 against five black faces; energy balance") {
+TEST_CASE("thermal: cube, face 0 against five black faces, energy balance") {
     // With ε2 = 1 the five faces have uniform radiosity σT2⁴, so the two-surface formula holds
     // patch by patch: q0 = σ(T1⁴ − T2⁴) / (1/ε1) — whatever the individual F's.
     const FormFactors ff = cube_matrix();

@@ -21,12 +21,14 @@ std::unique_ptr<Method> make_method(const std::string& name) {
     throw OptionError("--method", "unknown method '" + name + "'");
 }
 
-std::string default_method(const Scene& scene) {
-    // analytic is exact for unoccluded scenes. With occlusion it is exact-grade too (to
-    // MethodOptions::obstructed_tolerance, docs/analytic.md), but its cost then grows with the
-    // partly hidden pairs; mc-target stays the default there (a per-pair estimate whose cost is
-    // predictable), --method analytic asks for the exact-grade result.
-    return AnalyticMethod::may_obstruct(scene) ? "mc-target" : "analytic";
+std::string default_method(const Scene&) {
+    // The most accurate method that handles the scene: analytic is exact for unoccluded pairs
+    // and exact-grade (MethodOptions::obstructed_tolerance, 1e-6 by default) for partly hidden
+    // ones (docs/analytic.md). Its cost grows with the partly hidden pairs; `run` picks
+    // mc-hemisphere for speed on its fine Cornell subdivision and says so.
+    return "analytic";
 }
+
+bool may_obstruct(const Scene& scene) { return AnalyticMethod::may_obstruct(scene); }
 
 }  // namespace formfactor
