@@ -248,7 +248,7 @@ TEST_CASE("analytic: polygon_to_polygon agrees with integrating point_to_polygon
     check_against_numeric(false);
 }
 
-TEST_CASE("analytic: polygon_to_polygon agrees with the numeric route, slow directions" *
+TEST_CASE("analytic: polygon_to_polygon agrees with the numeric route (slow directions)" *
           doctest::test_suite("slow")) {
     check_against_numeric(true);
 }
