@@ -14,8 +14,8 @@
 #include "formfactor/core/error.h"
 #include "formfactor/methods/analytic.h"
 #include "formfactor/methods/method.h"
-#include "methods/analytic_method.h"
 #include "methods/analytic_internal.h"
+#include "methods/analytic_method.h"
 
 using namespace formfactor;
 

@@ -35,9 +35,8 @@ void parallel_for(std::size_t n, int threads, const std::function<void(std::size
         run_range(tbb::blocked_range<std::size_t>(0, n));
     } else {
         tbb::task_arena arena(t);
-        arena.execute([&] {
-            tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1), run_range);
-        });
+        arena.execute(
+            [&] { tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1), run_range); });
     }
     if (first_error) std::rethrow_exception(first_error);
 }

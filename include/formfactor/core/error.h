@@ -9,13 +9,13 @@ namespace formfactor {
 
 /// Base of every error the library reports on purpose.
 class Error : public std::runtime_error {
-public:
+  public:
     explicit Error(const std::string& message) : std::runtime_error(message) {}
 };
 
 /// Bad input in a file: `what()` is "FILE:LINE: message" (or "FILE: message" when line is 0).
 class InputError : public Error {
-public:
+  public:
     InputError(std::string file, int line, const std::string& message)
         : Error(format(file, line, message)),
           file_(std::move(file)),
@@ -26,7 +26,7 @@ public:
     /// The message without the location.
     const std::string& message() const { return message_; }
 
-private:
+  private:
     static std::string format(const std::string& file, int line, const std::string& message) {
         if (line > 0) return file + ":" + std::to_string(line) + ": " + message;
         return file + ": " + message;
@@ -38,19 +38,19 @@ private:
 
 /// A bad option value or combination: `what()` is "--option: message".
 class OptionError : public Error {
-public:
+  public:
     OptionError(std::string option, const std::string& message)
         : Error(option + ": " + message), option_(std::move(option)) {}
     const std::string& option() const { return option_; }
 
-private:
+  private:
     std::string option_;
 };
 
 /// Geometry the library cannot handle (degenerate, non-planar, ...), found outside a file
 /// (built-in scenes, API callers).
 class GeometryError : public Error {
-public:
+  public:
     using Error::Error;
 };
 

@@ -11,7 +11,7 @@
 namespace formfactor {
 
 class Progress {
-public:
+  public:
     /// `total` units of work labelled `label`; `enabled` false makes every call a no-op.
     Progress(std::string label, std::size_t total, bool enabled = true);
     ~Progress();
@@ -23,7 +23,7 @@ public:
     /// Clears the bar (called by the destructor too).
     void finish();
 
-private:
+  private:
     void draw(std::size_t done);
     std::string label_;
     std::size_t total_;

@@ -3,7 +3,6 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
-
 #include <cstddef>
 #include <cstdint>
 #include <limits>
