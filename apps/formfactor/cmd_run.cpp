@@ -77,7 +77,6 @@ void run_run(RunArgs args) {
     const auto method = args.method.resolve(scene);
     const std::string stem = fs::path(scene.name).stem().string();
     const std::string matrix_npy = (dir / "formfactors.npy").string();
-    const std::string matrix_csv = (dir / "formfactors.csv").string();
     const std::string patches_csv = (dir / "patches.csv").string();
     const std::string report_json = (dir / "report.json").string();
     const std::string se_npy = (dir / "standard_errors.npy").string();
@@ -113,7 +112,6 @@ void run_run(RunArgs args) {
     if (ec) throw InputError(args.out_dir, 0, "cannot create the directory: " + ec.message());
     OutputTransaction tx;
     tx.stage(matrix_npy, [&](std::ostream& out) { write_npy_matrix(out, ff.F); });
-    tx.stage(matrix_csv, [&](std::ostream& out) { write_csv_matrix(out, ff.F); });
     tx.stage(patches_csv, [&](std::ostream& out) { write_patch_table(out, scene); });
     if (ff.standard_error) {
         tx.stage(se_npy, [&](std::ostream& out) { write_npy_matrix(out, *ff.standard_error); });
@@ -138,10 +136,9 @@ void run_run(RunArgs args) {
     ctx.total_seconds = total.seconds();
     ctx.threads = threads;
     ctx.details = details;
-    ctx.outputs = {{"matrix_npy", matrix_npy}, {"matrix_csv", matrix_csv},
-                   {"patches", patches_csv},   {"radiosity", radiosity_csv},
-                   {"image", image_png},       {"mesh", mesh_ply},
-                   {"report", report_json}};
+    ctx.outputs = {{"matrix_npy", matrix_npy},   {"patches", patches_csv},
+                   {"radiosity", radiosity_csv}, {"image", image_png},
+                   {"mesh", mesh_ply},           {"report", report_json}};
     if (ff.standard_error) ctx.outputs["standard_error"] = se_npy;
     nlohmann::json report = make_report(scene, ff, ctx);
     report["solve"] = to_json(solution);
@@ -159,9 +156,9 @@ void run_run(RunArgs args) {
 
     print_matrix_summary(scene, method->name(), threads, ff, raw, times, total.seconds());
     print_radiosity_summary(solution);
-    fmt::print("wrote      {} ({}×{} float64), {}, {}, {}, {}, {}, {}{}\n", matrix_npy, ff.F.rows(),
-               ff.F.cols(), matrix_csv, patches_csv, radiosity_csv, image_png, mesh_ply,
-               report_json, ff.standard_error ? ", " + se_npy : std::string());
+    fmt::print("wrote      {} ({}×{} float64), {}, {}, {}, {}, {}{}\n", matrix_npy, ff.F.rows(),
+               ff.F.cols(), patches_csv, radiosity_csv, image_png, mesh_ply, report_json,
+               ff.standard_error ? ", " + se_npy : std::string());
 }
 
 }  // namespace
@@ -172,7 +169,7 @@ void add_run_command(CLI::App& app) {
         "run",
         fmt::format("The main job: form factors of a scene (default {}, {}×{} patches per "
                     "surface), its radiosity solution and a picture, into a directory: "
-                    "formfactors.npy, formfactors.csv, patches.csv, radiosity.csv, SCENE.png, "
+                    "formfactors.npy, patches.csv, radiosity.csv, SCENE.png, "
                     "SCENE.ply, report.json (and standard_errors.npy for a Monte-Carlo method)",
                     kRunScene, kRunSubdivide, kRunSubdivide));
     args->scene.subdivide = kRunSubdivide;
