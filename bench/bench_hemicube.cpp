@@ -18,16 +18,6 @@ using namespace formfactor;
 
 namespace {
 
-Patch patch_of(const Polygon& poly, int surface) {
-    Patch p;
-    p.polygon = poly;
-    p.surface = surface;
-    p.area = area(poly);
-    p.normal = normal(poly);
-    p.centroid = centroid(poly);
-    return p;
-}
-
 // Quad q split n × n, each cell into two triangles (or kept as a quad).
 std::vector<Polygon> tessellate(const Polygon& q, int n, bool triangles) {
     auto at = [&](double s, double t) {
@@ -63,7 +53,7 @@ void add_surface(Scene& s, const Polygon& q, int n, bool obstruction, bool trian
             o.obstruction = true;
             s.surfaces.push_back(o);
         } else {
-            s.patches.push_back(patch_of(p, index));
+            s.patches.push_back(make_patch(p, index));
         }
     }
     if (obstruction) s.surfaces.erase(s.surfaces.begin() + index);

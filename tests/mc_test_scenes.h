@@ -11,16 +11,6 @@ namespace formfactor::mc_test {
 
 inline Polygon quad(Vec3 a, Vec3 b, Vec3 c, Vec3 d) { return Polygon{{a, b, c, d}}; }
 
-inline Patch patch_of(const Polygon& p, int surface) {
-    Patch out;
-    out.polygon = p;
-    out.surface = surface;
-    out.area = area(p);
-    out.normal = normal(p);
-    out.centroid = centroid(p);
-    return out;
-}
-
 /// A scene whose patches are `patches` (one surface each) plus obstruction-only `blockers`.
 inline Scene scene_of(const std::vector<Polygon>& patches,
                       const std::vector<Polygon>& blockers = {}) {
@@ -32,7 +22,7 @@ inline Scene scene_of(const std::vector<Polygon>& patches,
         sf.name = "s";
         sf.name += std::to_string(s.surfaces.size());
         sf.polygon = p;
-        s.patches.push_back(patch_of(p, static_cast<int>(s.surfaces.size())));
+        s.patches.push_back(formfactor::make_patch(p, static_cast<int>(s.surfaces.size())));
         s.surfaces.push_back(sf);
     }
     for (const Polygon& p : blockers) {

@@ -16,16 +16,6 @@ using formfactor::Scene;
 using formfactor::Surface;
 using formfactor::Vec3;
 
-inline Patch patch_of(const Polygon& poly, int surface) {
-    Patch p;
-    p.polygon = poly;
-    p.surface = surface;
-    p.area = formfactor::area(poly);
-    p.normal = formfactor::normal(poly);
-    p.centroid = formfactor::centroid(poly);
-    return p;
-}
-
 // Quad q (CCW) split n × n by bilinear interpolation, row-major.
 inline std::vector<Polygon> split_quad(const Polygon& q, int n) {
     auto at = [&](double s, double t) {
@@ -55,9 +45,10 @@ inline Scene make_scene(const std::vector<Polygon>& surfaces, int n = 1,
         s.surfaces.push_back(surf);
         const int index = static_cast<int>(s.surfaces.size()) - 1;
         if (p.size() == 4) {
-            for (const Polygon& c : split_quad(p, n)) s.patches.push_back(patch_of(c, index));
+            for (const Polygon& c : split_quad(p, n))
+                s.patches.push_back(formfactor::make_patch(c, index));
         } else {
-            s.patches.push_back(patch_of(p, index));
+            s.patches.push_back(formfactor::make_patch(p, index));
         }
     }
     for (const Polygon& p : obstructions) {

@@ -71,17 +71,6 @@ inline FormFactors random_open_matrix(int n, std::uint32_t seed) {
     return ff;
 }
 
-// A patch from a polygon (local stand-in for scene's make_patch).
-inline Patch patch_of(Polygon p, int surface) {
-    Patch q;
-    q.area = area(p);
-    q.normal = normal(p);
-    q.centroid = centroid(p);
-    q.polygon = std::move(p);
-    q.surface = surface;
-    return q;
-}
-
 // Axis-aligned quad: corner o, edges e1, e2 (front = e1 × e2).
 inline Polygon quad(const Vec3& o, const Vec3& e1, const Vec3& e2) {
     return Polygon{{o, o + e1, o + e1 + e2, o + e2}};
@@ -112,7 +101,7 @@ inline Scene cube_scene() {
         sf.polygon = faces[f];
         sf.material = f;
         s.surfaces.push_back(sf);
-        s.patches.push_back(patch_of(faces[f], f));
+        s.patches.push_back(formfactor::make_patch(faces[f], f));
     }
     return s;
 }
@@ -155,7 +144,7 @@ inline Scene open_box_scene(int n, std::vector<Rgb>& radiance) {
         sf.material = w;
         s.surfaces.push_back(sf);
         for (Polygon& p : grid(walls[w].o, walls[w].e1, walls[w].e2, n)) {
-            s.patches.push_back(patch_of(std::move(p), w));
+            s.patches.push_back(formfactor::make_patch(std::move(p), w));
             radiance.push_back(walls[w].value);
         }
     }

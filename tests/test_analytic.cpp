@@ -157,18 +157,6 @@ std::vector<Config> configurations() {
     return c;
 }
 
-// A Scene of patches only (the scene module builds patches with make_patch; a local copy
-// keeps this test independent of it).
-Patch local_patch(Polygon p, int surface) {
-    Patch q;
-    q.area = area(p);
-    q.normal = normal(p);
-    q.centroid = centroid(p);
-    q.polygon = std::move(p);
-    q.surface = surface;
-    return q;
-}
-
 // Unit cube, inward faces, each split n × n; surfaces and patches.
 Scene cube_scene(int n) {
     Scene s;
@@ -187,8 +175,8 @@ Scene cube_scene(int n) {
         s.surfaces.push_back(sf);
         for (int i = 0; i < n; ++i)
             for (int j = 0; j < n; ++j)
-                s.patches.push_back(
-                    local_patch(quad(o[f] + (u[f] * j + v[f] * i) / n, u[f] / n, v[f] / n), f));
+                s.patches.push_back(formfactor::make_patch(
+                    quad(o[f] + (u[f] * j + v[f] * i) / n, u[f] / n, v[f] / n), f));
     }
     return s;
 }
@@ -424,7 +412,8 @@ TEST_CASE("analytic: check() accepts scenes with obstructions, may_obstruct() fi
         s.name = "plate";
         s.polygon = p;
         plates.surfaces.push_back(s);
-        plates.patches.push_back(local_patch(p, static_cast<int>(plates.surfaces.size()) - 1));
+        plates.patches.push_back(
+            formfactor::make_patch(p, static_cast<int>(plates.surfaces.size()) - 1));
     }
     CHECK_NOTHROW(method->check(plates));
     // An obstruction-only surface.
