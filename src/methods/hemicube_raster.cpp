@@ -89,6 +89,7 @@ void HemicubeRaster::render(const Occluders& occ, const Frame& frame, int exclud
     const double vx = frame.v.x(), vy = frame.v.y(), vz = frame.v.z();
     const double wx = frame.w.x(), wy = frame.w.y(), wz = frame.w.z();
     const std::size_t np = occ.size();
+    const double twin_offset = kRelativeTwinOffset * occ.scale;
     P3 loc[kMaxPrimitiveVertices];
     P3 buf[2][kMaxClippedVertices];
     for (std::size_t p = 0; p < np; ++p) {
@@ -112,7 +113,8 @@ void HemicubeRaster::render(const Occluders& occ, const Frame& frame, int exclud
         const double nl[3] = {ux * occ.nx[p] + uy * occ.ny[p] + uz * occ.nz[p],
                               vx * occ.nx[p] + vy * occ.ny[p] + vz * occ.nz[p],
                               wx * occ.nx[p] + wy * occ.ny[p] + wz * occ.nz[p]};
-        const double dl = -s;  // n·(vertex − origin)
+        // n·(vertex − origin); back faces and obstructions pushed back (twin faces).
+        const double dl = occluder_plane_offset(-s, item, twin_offset);
         // Fast path: every vertex in one face's frustum (its largest coordinate along that
         // face's axis, above the base and the near plane) → the whole primitive is there.
         {

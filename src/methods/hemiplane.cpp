@@ -102,6 +102,7 @@ void HemiplaneSolver::project(const Occluders& occ, const projection::Frame& fra
     const ClipPlane planes[5] = {
         {-1, 0, W_, 0}, {1, 0, W_, 0}, {0, -1, W_, 0}, {0, 1, W_, 0}, {0, 0, 1, near}};
     const Vec3& o = frame.origin;
+    const double twin_offset = projection::kRelativeTwinOffset * occ.scale;
     P3 loc[projection::kMaxPrimitiveVertices];
     P3 buf[2][projection::kMaxClippedVertices];
     for (std::size_t p = 0; p < occ.size(); ++p) {
@@ -138,7 +139,8 @@ void HemiplaneSolver::project(const Occluders& occ, const projection::Frame& fra
         }
         if (cnt < 3) continue;
         const double nl[3] = {frame.u.dot(n), frame.v.dot(n), frame.w.dot(n)};
-        add_polygon(poly, cnt, nl, -s, item);
+        // Back faces and obstructions pushed back: a coincident front face wins (twin faces).
+        add_polygon(poly, cnt, nl, projection::occluder_plane_offset(-s, item, twin_offset), item);
     }
 }
 

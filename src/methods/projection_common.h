@@ -7,6 +7,7 @@
 
 #include <array>
 #include <atomic>
+#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <vector>
@@ -145,6 +146,20 @@ std::size_t project_patches(const Scene& scene, const MethodOptions& options, co
     });
     progress.finish();
     return projections.load();
+}
+
+/// Twin faces (as Visibility's rule, visibility.h): what cannot take a view — the back of a
+/// patch, an obstruction — is drawn as if its plane were this much (relative to the scene's size)
+/// farther from the point. The front of a patch coincident with it (a one-sided face modelled
+/// back to back with another, a patch lying on an obstruction) then wins the depth test in any
+/// drawing order, and is credited; with nothing coincident the back face or obstruction still
+/// hides what lies behind it. The same relative offset as VisibilityOptions' ray-end epsilon.
+inline constexpr double kRelativeTwinOffset = 1e-5;
+
+/// The offset from the point to an occluder's plane along its unit normal (dl = n·(x − o) for x
+/// on the plane), pushed farther by `twin_offset` unless the occluder is the front of a patch.
+inline double occluder_plane_offset(double dl, int item, double twin_offset) {
+    return item >= 0 ? dl : dl + std::copysign(twin_offset, dl);
 }
 
 /// The near distance below which nothing is seen, relative to the scene's size.

@@ -136,8 +136,11 @@ class EmbreeVisibility final : public Visibility {
                         error_name(rtcGetDeviceError(nullptr)));
         rtcSetDeviceErrorFunction(device_.get(), &ErrorSink::callback, &errors_);
         scene_.reset(rtcNewScene(device_.get()));
+        // The context filter serves only the re-queries of the twin rule (first_hit); queries
+        // without a filter in their context do not call it.
         rtcSetSceneFlags(scene_.get(),
-                         options.robust ? RTC_SCENE_FLAG_ROBUST : RTC_SCENE_FLAG_NONE);
+                         (options.robust ? RTC_SCENE_FLAG_ROBUST : RTC_SCENE_FLAG_NONE) |
+                             RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION);
         rtcSetSceneBuildQuality(scene_.get(), RTC_BUILD_QUALITY_HIGH);
         RTCGeometry geom = rtcNewGeometry(device_.get(), RTC_GEOMETRY_TYPE_TRIANGLE);
         errors_.check("geometry");
@@ -258,12 +261,62 @@ class EmbreeVisibility final : public Visibility {
                 out.front =
                     n[0] * rh[k].ray.dir_x + n[1] * rh[k].ray.dir_y + n[2] * rh[k].ray.dir_z < 0.0f;
                 out.distance = rh[k].ray.tfar;
+                if (!out.front || out.patch < 0) resolve_twin(rh[k].ray, prim, out);
             }
         }
         errors_.check("intersection query");
     }
 
   private:
+    // An intersection context whose filter accepts only hits on the front of a patch.
+    struct FrontOnlyContext {
+        RTCIntersectContext context;  // first: Embree passes a pointer to it to the filter
+        const EmbreeVisibility* self;
+    };
+
+    static void front_only_filter(const RTCFilterFunctionNArguments* args) {
+        const auto* self = reinterpret_cast<const FrontOnlyContext*>(args->context)->self;
+        const unsigned N = args->N;
+        for (unsigned i = 0; i < N; ++i) {
+            if (args->valid[i] != -1) continue;
+            const unsigned prim = RTCHitN_primID(args->hit, N, i);
+            const auto& n = self->tri_normal_[prim];
+            const float c = n[0] * RTCRayN_dir_x(args->ray, N, i) +
+                            n[1] * RTCRayN_dir_y(args->ray, N, i) +
+                            n[2] * RTCRayN_dir_z(args->ray, N, i);
+            if (self->tri_owner_[prim] < 0 || !(c < 0.0f)) args->valid[i] = 0;
+        }
+    }
+
+    // The twin rule (visibility.h): `ray` first met triangle `prim`, the back of a patch or an
+    // obstruction, at ray.tfar. If the ray meets the front of a patch within epsilon() of that
+    // triangle's plane (a one-sided face modelled back to back with this one, or a patch lying
+    // on an obstruction), that front face takes the hit. Only these rays pay for the re-query:
+    // in a closed scene they are rare.
+    void resolve_twin(const RTCRay& ray, unsigned prim, RayHit& out) const {
+        const auto& n = tri_normal_[prim];
+        const float c = std::abs(n[0] * ray.dir_x + n[1] * ray.dir_y + n[2] * ray.dir_z);
+        // The slab |distance to the plane| ≤ epsilon() along the ray (grazing rays: at most
+        // 1e6 epsilon() long).
+        const float half = static_cast<float>(epsilon_) / std::max(c, 1e-6f);
+        RTCRayHit rh;
+        rh.ray = ray;
+        rh.ray.tnear = std::max(0.0f, ray.tfar - half);
+        rh.ray.tfar = ray.tfar + half;
+        rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+        rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
+        rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+        FrontOnlyContext ctx;
+        rtcInitIntersectContext(&ctx.context);
+        ctx.context.filter = &front_only_filter;
+        ctx.self = this;
+        rtcIntersect1(scene_.get(), &ctx.context, &rh);
+        if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return;
+        out.patch = tri_owner_[rh.hit.primID];
+        out.front = true;
+        out.distance = rh.ray.tfar;
+    }
+
     // Segment: both ends moved off their own patch's plane, towards the side the segment lies.
     void make_segment(const SegmentQuery& q, RTCRay& ray) const {
         Vec3 a = q.from, b = q.to;

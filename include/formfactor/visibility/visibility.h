@@ -13,8 +13,16 @@
 /// box diagonal (default 1e-5; float resolution is ~6e-8 of the diagonal), along the patch normal
 /// towards the side the ray leaves from (or arrives at). A patch is planar, so a ray that starts
 /// (ends) off its plane on the side it travels into can never hit it: no patch shadows itself,
-/// coplanar neighbours cannot catch grazing rays, and no hit-filter callbacks are needed. The
+/// coplanar neighbours cannot catch grazing rays, and queries need no hit-filter callbacks. The
 /// price: a blocker closer than epsilon() to a ray end is missed (a relative 1e-5 sliver).
+///
+/// Twin faces. A thin plate is often modelled as two one-sided patches back to back (one facing
+/// each way, on one plane). A segment ending on either is not blocked by the other (its end is
+/// moved off the plane, towards the side it comes from). A first hit follows the same rule: when
+/// a ray first meets the back of a patch or an obstruction, and meets the front of a patch
+/// within epsilon() of that surface's plane, the front face takes the hit. A back face with no
+/// front face coincident stays a blocker (patches are opaque), and so does an obstruction: it
+/// blocks from both sides, and only a patch lying on it is seen before it.
 
 #include <cstddef>
 #include <cstdint>
@@ -82,7 +90,8 @@ class Visibility {
     /// (ends moved off their own patches, see above), else 0. Sizes must match.
     virtual void occluded(std::span<const SegmentQuery> queries,
                           std::span<std::uint8_t> blocked) const = 0;
-    /// hits[k] = the first surface along queries[k] (ray start moved off its patch).
+    /// hits[k] = the first surface along queries[k] (ray start moved off its patch); the front
+    /// of a patch coincident with a back face or an obstruction comes first (see "Twin faces").
     virtual void first_hit(std::span<const RayQuery> queries, std::span<RayHit> hits) const = 0;
 
     /// Ray-end offset in scene length units.
