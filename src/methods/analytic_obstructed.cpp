@@ -25,8 +25,16 @@ using detail::BlockerSet;
 using detail::Shaft;
 using detail::ShaftClass;
 
-// A hierarchy of the patches of one surface: nodes bound their patches by the planar convex
-// hull of their vertices (a superset of their union, so every shaft test stays conservative).
+// A polygon that a cluster tree holds: a patch, or an obstruction-only surface.
+struct TreeItem {
+    const Polygon* polygon = nullptr;
+    Vec3 centroid = Vec3::Zero();
+    double area = 0.0;
+};
+
+// A hierarchy of coplanar polygons (the patches of one plane group, or its obstruction-only
+// surfaces): nodes bound their polygons by the planar convex hull of their vertices (a superset
+// of their union, so every shaft test stays conservative).
 struct ClusterTree {
     struct Node {
         std::vector<Vec3> hull;
@@ -35,18 +43,18 @@ struct ClusterTree {
         int first = 0, count = 0;  // order[first, first + count)
     };
     std::vector<Node> nodes;
-    std::vector<int> order;  // patch indices
+    std::vector<int> order;  // indices into the items the tree was built on
     Vec3 normal = Vec3::UnitZ();
-    int blocker_id = -1;  // the id of this surface's pieces in the BlockerSet
+    int blocker_id = -1;  // the id of this group's pieces in the BlockerSet
 
-    int build(const Scene& scene, int first, int count) {
+    int build(const std::vector<TreeItem>& items, int first, int count) {
         const int id = static_cast<int>(nodes.size());
         nodes.push_back({});
         std::vector<Vec3> pts;
         Bounds3 cbox;
         for (int k = first; k < first + count; ++k) {
-            const Patch& p = scene.patches[static_cast<std::size_t>(order[k])];
-            for (const Vec3& v : p.polygon.vertices) pts.push_back(v);
+            const TreeItem& p = items[static_cast<std::size_t>(order[static_cast<std::size_t>(k)])];
+            for (const Vec3& v : p.polygon->vertices) pts.push_back(v);
             cbox.extend(p.centroid);
         }
         std::vector<Vec3> hull = detail::planar_convex_hull(pts, normal);
@@ -77,15 +85,14 @@ struct ClusterTree {
         if (ext.y() > ext[axis]) axis = 1;
         if (ext.z() > ext[axis]) axis = 2;
         const int mid = first + count / 2;
-        std::nth_element(
-            order.begin() + first, order.begin() + mid, order.begin() + first + count,
-            [&](int a, int b) {
-                const double ca = scene.patches[static_cast<std::size_t>(a)].centroid[axis];
-                const double cb = scene.patches[static_cast<std::size_t>(b)].centroid[axis];
-                return ca < cb || (ca == cb && a < b);
-            });
-        const int l = build(scene, first, mid - first);
-        const int r = build(scene, mid, first + count - mid);
+        std::nth_element(order.begin() + first, order.begin() + mid, order.begin() + first + count,
+                         [&](int a, int b) {
+                             const double ca = items[static_cast<std::size_t>(a)].centroid[axis];
+                             const double cb = items[static_cast<std::size_t>(b)].centroid[axis];
+                             return ca < cb || (ca == cb && a < b);
+                         });
+        const int l = build(items, first, mid - first);
+        const int r = build(items, mid, first + count - mid);
         nodes[static_cast<std::size_t>(id)].left = l;
         nodes[static_cast<std::size_t>(id)].right = r;
         return id;
@@ -241,51 +248,61 @@ void AnalyticMethod::apply_obstructions(const Scene& scene, const MethodOptions&
     // Groups of patches: those in one plane with one orientation (whatever surfaces they came
     // from: a VS3 file may list every patch as a surface). Nothing in a group can block a pair
     // involving the group, and a group's patches often tile a convex region, which then blocks
-    // as one piece.
-    std::vector<ClusterTree> trees;
-    {
+    // as one piece. Obstruction-only surfaces are grouped the same way (apart from the
+    // patches), so that a box given as many small obstruction records blocks as the same
+    // few pieces as the box given as whole faces.
+    std::vector<TreeItem> items;
+    items.reserve(n);
+    for (const Patch& p : scene.patches) items.push_back({&p.polygon, p.centroid, p.area});
+    std::vector<ClusterTree> trees, otrees;
+    auto group = [&](std::vector<ClusterTree>& dst, std::size_t first, std::size_t last,
+                     int id_base) {
         std::map<std::array<long long, 4>, int> key_to_group;
-        for (std::size_t p = 0; p < n; ++p) {
-            const Patch& pt = scene.patches[p];
-            const Vec3 nn = pt.normal;
-            const double d = nn.dot(pt.centroid) / diag;
+        for (std::size_t p = first; p < last; ++p) {
+            const TreeItem& it = items[p];
+            const Vec3 nn = normal(*it.polygon);
+            const double d = nn.dot(it.centroid) / diag;
             const std::array<long long, 4> key = {
                 std::llround(nn.x() * 1e8), std::llround(nn.y() * 1e8), std::llround(nn.z() * 1e8),
                 std::llround(d * 1e8)};
-            auto it = key_to_group.find(key);
-            if (it == key_to_group.end()) {
-                it = key_to_group.emplace(key, static_cast<int>(trees.size())).first;
+            auto g = key_to_group.find(key);
+            if (g == key_to_group.end()) {
+                g = key_to_group.emplace(key, static_cast<int>(dst.size())).first;
                 ClusterTree t;
                 t.normal = nn;
-                t.blocker_id = static_cast<int>(trees.size());
-                trees.push_back(std::move(t));
+                t.blocker_id = id_base + static_cast<int>(dst.size());
+                dst.push_back(std::move(t));
             }
-            trees[static_cast<std::size_t>(it->second)].order.push_back(static_cast<int>(p));
+            dst[static_cast<std::size_t>(g->second)].order.push_back(static_cast<int>(p));
         }
-    }
-    parallel_for(trees.size(), options.threads, [&](std::size_t t) {
-        trees[t].build(scene, 0, static_cast<int>(trees[t].order.size()));
+    };
+    group(trees, 0, n, 0);
+    for (const Surface& s : scene.surfaces)
+        if (s.obstruction && area(s.polygon) > 0.0)
+            items.push_back({&s.polygon, centroid(s.polygon), area(s.polygon)});
+    group(otrees, n, items.size(), static_cast<int>(trees.size()));
+    parallel_for(trees.size() + otrees.size(), options.threads, [&](std::size_t t) {
+        ClusterTree& T = t < trees.size() ? trees[t] : otrees[t - trees.size()];
+        T.build(items, 0, static_cast<int>(T.order.size()));
     });
-    // Blockers: for each group, the largest tree nodes whose patches tile their hull (one convex
-    // piece each), else single patches; every obstruction-only surface.
+    // Blockers: for each group, the largest tree nodes whose polygons tile their hull (one
+    // convex piece each), else single polygons.
     BlockerSet blockers;
     std::size_t merged_pieces = 0;
-    for (std::size_t t = 0; t < trees.size(); ++t) {
-        const ClusterTree& T = trees[t];
+    for (std::size_t t = 0; t < trees.size() + otrees.size(); ++t) {
+        const ClusterTree& T = t < trees.size() ? trees[t] : otrees[t - trees.size()];
         std::vector<int> stack = {0};
         while (!stack.empty()) {
             const auto& nd = T.nodes[static_cast<std::size_t>(stack.back())];
             stack.pop_back();
             double sum = 0.0;
             for (int k = nd.first; k < nd.first + nd.count; ++k)
-                sum += scene.patches[static_cast<std::size_t>(T.order[static_cast<std::size_t>(k)])]
-                           .area;
+                sum += items[static_cast<std::size_t>(T.order[static_cast<std::size_t>(k)])].area;
             if (nd.count == 1) {
-                blockers.add(scene
-                                 .patches[static_cast<std::size_t>(
-                                     T.order[static_cast<std::size_t>(nd.first)])]
-                                 .polygon,
-                             T.blocker_id);
+                blockers.add(
+                    *items[static_cast<std::size_t>(T.order[static_cast<std::size_t>(nd.first)])]
+                         .polygon,
+                    T.blocker_id);
             } else if (std::abs(sum - nd.area) <= 1e-9 * nd.area) {
                 Polygon hp;
                 hp.vertices = nd.hull;
@@ -297,9 +314,6 @@ void AnalyticMethod::apply_obstructions(const Scene& scene, const MethodOptions&
             }
         }
     }
-    for (std::size_t s = 0; s < scene.surfaces.size(); ++s)
-        if (scene.surfaces[s].obstruction)
-            blockers.add(scene.surfaces[s].polygon, static_cast<int>(trees.size() + s));
     blockers.build();
     {
         std::vector<std::pair<Vec3, int>> points;
@@ -421,6 +435,7 @@ void AnalyticMethod::apply_obstructions(const Scene& scene, const MethodOptions&
     nlohmann::json o;
     o["blocker_pieces"] = blockers.size();
     o["plane_groups"] = trees.size();
+    o["obstruction_plane_groups"] = otrees.size();
     o["merged_blocker_pieces"] = merged_pieces;
     o["node_pairs_tested"] = node_pairs;
     o["patch_pairs_visible"] = vis;
