@@ -1127,9 +1127,16 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
         };
         rule(rules.g2, kLowOrder, q2);
         rule(rules.g3, kMidOrder, q3);
-        rule(rules.g4, kHighOrder, q4);
-        c.value = q4 * scale;
-        c.error = std::max(std::abs(q4 - q3), std::abs(q3 - q2)) * scale;
+        if (std::abs(q3 - q2) * scale > target) {
+            // The cell alone exceeds the pair's target: it will be split whatever order 4
+            // says, and its estimate is at least this difference.
+            c.value = q3 * scale;
+            c.error = std::abs(q3 - q2) * scale;
+        } else {
+            rule(rules.g4, kHighOrder, q4);
+            c.value = q4 * scale;
+            c.error = std::max(std::abs(q4 - q3), std::abs(q3 - q2)) * scale;
+        }
         // Partly hidden by its shaft, yet no sample point sees a shadow: the shadow may fall
         // between the points; what it can hide is at most the cell's unobstructed part.
         if (!hidden && !any_hidden && c.level < kSuspiciousLevels) {
