@@ -1030,25 +1030,40 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
     // Sender pieces: the sender cut along the lines where the integrand has kinks, then
     // triangles (or the sender's own quad when nothing cuts it).
     const std::vector<Polygon> pieces = split_by_events(s, ns, rc, blockers, cand, n, eps);
+    // Each convex piece is mapped from the unit square by quads (0, k, k+1, k+2) of its fan
+    // (convex, as parts of a convex polygon) and a last triangle when the count is odd: half
+    // the maps, so half the cells, of a fan of triangles. Slivers below 1e-12 of the sender
+    // (rounding pieces of the cut) are not integrated: F(x → r) ≤ 1 bounds what they hold,
+    // and that bound goes into the error.
     std::vector<SenderMap> maps;
+    double sliver_error = 0.0;
+    auto add_map = [&](const SenderMap& m, double a) {
+        if (a <= 1e-12 * area_s) {
+            sliver_error += a / area_s;
+            return;
+        }
+        maps.push_back(m);
+    };
     for (const Polygon& pc : pieces) {
-        if (pc.size() == 4 && is_convex(pc, ns)) {
+        const std::size_t nv = pc.size();
+        std::size_t k = 1;
+        for (; k + 2 < nv; k += 2) {
             SenderMap m;
             m.quad = true;
             m.p0 = pc[0];
-            m.p1 = pc[1];
-            m.p2 = pc[2];
-            m.p3 = pc[3];
-            maps.push_back(m);
-        } else {
-            for (std::size_t k = 1; k + 1 < pc.size(); ++k) {
-                SenderMap m;
-                m.p0 = pc[0];
-                m.p1 = pc[k];
-                m.p2 = pc[k + 1];
-                m.tri_j = (m.p1 - m.p0).cross(m.p2 - m.p1).norm();
-                if (m.tri_j > 0.0) maps.push_back(m);
-            }
+            m.p1 = pc[k];
+            m.p2 = pc[k + 1];
+            m.p3 = pc[k + 2];
+            const double a = 0.5 * ((m.p2 - m.p0).cross(m.p3 - m.p1)).norm();
+            add_map(m, a);
+        }
+        if (k + 1 < nv) {
+            SenderMap m;
+            m.p0 = pc[0];
+            m.p1 = pc[k];
+            m.p2 = pc[k + 1];
+            m.tri_j = (m.p1 - m.p0).cross(m.p2 - m.p1).norm();
+            add_map(m, 0.5 * m.tri_j);
         }
     }
     const CellRules rules;
@@ -1112,9 +1127,16 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
         };
         rule(rules.g2, kLowOrder, q2);
         rule(rules.g3, kMidOrder, q3);
-        rule(rules.g4, kHighOrder, q4);
-        c.value = q4 * scale;
-        c.error = std::max(std::abs(q4 - q3), std::abs(q3 - q2)) * scale;
+        if (std::abs(q3 - q2) * scale > target) {
+            // The cell alone exceeds the pair's target: it will be split whatever order 4
+            // says, and its estimate is at least this difference.
+            c.value = q3 * scale;
+            c.error = std::abs(q3 - q2) * scale;
+        } else {
+            rule(rules.g4, kHighOrder, q4);
+            c.value = q4 * scale;
+            c.error = std::max(std::abs(q4 - q3), std::abs(q3 - q2)) * scale;
+        }
         // Partly hidden by its shaft, yet no sample point sees a shadow: the shadow may fall
         // between the points; what it can hide is at most the cell's unobstructed part.
         if (!hidden && !any_hidden && c.level < kSuspiciousLevels) {
@@ -1194,7 +1216,7 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
         err += c.error;
         out.max_level = std::max(out.max_level, c.level);
     }
-    out.error = err;
+    out.error = err + sliver_error;
     out.cells = done.size();
     return out;
 }
