@@ -399,9 +399,12 @@ Geometry random_geometry(std::uint64_t seed, const GeneratorOptions& options) {
 }
 
 std::vector<Form> all_forms() {
-    return {Form::kScene,    Form::kSceneObstruction,   Form::kObj,      Form::kObjObstruction,
-            Form::kVs3,      Form::kVs3Obstruction,     Form::kSavedObj, Form::kSavedObjObstruction,
-            Form::kSavedVs3, Form::kSavedVs3Obstruction};
+    return {Form::kScene,         Form::kSceneObstruction,
+            Form::kObj,           Form::kObjObstruction,
+            Form::kVs3,           Form::kVs3Obstruction,
+            Form::kSavedObj,      Form::kSavedObjObstruction,
+            Form::kSavedVs3,      Form::kSavedVs3Obstruction,
+            Form::kScenePermuted, Form::kSceneObstructionPermuted};
 }
 
 std::string form_name(Form f) {
@@ -426,13 +429,39 @@ std::string form_name(Form f) {
             return "save_vs3-S";
         case Form::kSavedVs3Obstruction:
             return "save_vs3-O";
+        case Form::kScenePermuted:
+            return "scene-perm";
+        case Form::kSceneObstructionPermuted:
+            return "scene-O-perm";
     }
     return "?";
 }
 
 bool blockers_radiate(Form f) {
     return f == Form::kScene || f == Form::kObj || f == Form::kVs3 || f == Form::kSavedObj ||
-           f == Form::kSavedVs3;
+           f == Form::kSavedVs3 || f == Form::kScenePermuted;
+}
+
+namespace {
+
+// A shuffle of 0..n-1 from a seed (Fisher–Yates).
+std::vector<std::size_t> shuffled(std::size_t n, std::uint64_t seed) {
+    std::vector<std::size_t> v(n);
+    for (std::size_t k = 0; k < n; ++k) v[k] = k;
+    for (std::size_t k = n; k > 1; --k) std::swap(v[k - 1], v[splitmix64(seed + k) % k]);
+    return v;
+}
+
+bool permuted(Form f) { return f == Form::kScenePermuted || f == Form::kSceneObstructionPermuted; }
+
+}  // namespace
+
+std::vector<std::size_t> patch_order(const Geometry& g, Form f) {
+    const std::size_t n = g.room.size() + (blockers_radiate(f) ? g.blockers.size() : 0);
+    if (permuted(f)) return shuffled(n, g.style ^ 0x9e3779b97f4a7c15ULL);
+    std::vector<std::size_t> v(n);
+    for (std::size_t k = 0; k < n; ++k) v[k] = k;
+    return v;
 }
 
 Scene sub_scene(const std::vector<Polygon>& patches, const std::vector<Polygon>& others) {
@@ -566,6 +595,18 @@ Scene load_form(const Geometry& g, Form f, const std::string& dir) {
         case Form::kScene:
         case Form::kSceneObstruction:
             return make_scene(g, radiate);
+        case Form::kScenePermuted:
+        case Form::kSceneObstructionPermuted: {
+            std::vector<Polygon> canonical = g.room, patches, others;
+            if (radiate) canonical.insert(canonical.end(), g.blockers.begin(), g.blockers.end());
+            for (std::size_t k : patch_order(g, f)) patches.push_back(canonical[k]);
+            if (!radiate)
+                for (std::size_t k : shuffled(g.obstructions.size(), g.style + 5))
+                    others.push_back(g.obstructions[k]);
+            Scene s = sub_scene(patches, others);
+            s.enclosure = g.closed && radiate;
+            return s;
+        }
         case Form::kObj:
         case Form::kObjObstruction:
             return load_scene(write(tag + ".obj", obj_text(g, radiate)));

@@ -54,16 +54,18 @@ Geometry room_with_blockers(int n, const std::vector<std::vector<Polygon>>& bloc
 
 /// The forms a geometry is written in.
 enum class Form {
-    kScene,                ///< in-memory Scene, blockers radiating (the reference form)
-    kSceneObstruction,     ///< in-memory Scene, blockers obstruction-only
-    kObj,                  ///< OBJ text, blockers as faces
-    kObjObstruction,       ///< OBJ text, blockers in an `obstruction*` group or object
-    kVs3,                  ///< VS3 text, blockers as S records
-    kVs3Obstruction,       ///< VS3 text, blockers as O records
-    kSavedObj,             ///< save_obj() of kScene
-    kSavedObjObstruction,  ///< save_obj() of kSceneObstruction
-    kSavedVs3,             ///< save_vs3() of kScene
-    kSavedVs3Obstruction,  ///< save_vs3() of kSceneObstruction
+    kScene,                     ///< in-memory Scene, blockers radiating (the reference form)
+    kSceneObstruction,          ///< in-memory Scene, blockers obstruction-only
+    kObj,                       ///< OBJ text, blockers as faces
+    kObjObstruction,            ///< OBJ text, blockers in an `obstruction*` group or object
+    kVs3,                       ///< VS3 text, blockers as S records
+    kVs3Obstruction,            ///< VS3 text, blockers as O records
+    kSavedObj,                  ///< save_obj() of kScene
+    kSavedObjObstruction,       ///< save_obj() of kSceneObstruction
+    kSavedVs3,                  ///< save_vs3() of kScene
+    kSavedVs3Obstruction,       ///< save_vs3() of kSceneObstruction
+    kScenePermuted,             ///< kScene with its patches in a shuffled order
+    kSceneObstructionPermuted,  ///< kSceneObstruction, patches and obstructions shuffled
 };
 
 /// Every form, in the order above.
@@ -72,6 +74,9 @@ std::vector<Form> all_forms();
 std::string form_name(Form f);
 /// True when the blockers are patches (rows and columns) in this form.
 bool blockers_radiate(Form f);
+/// order[k] = the index, in the kScene numbering (room, then blockers), of patch k of form f:
+/// the identity except for the permuted forms.
+std::vector<std::size_t> patch_order(const Geometry& g, Form f);
 
 /// The in-memory Scene: one surface per patch (room, then blockers when radiating, else
 /// obstruction-only surfaces), patches = surfaces.

@@ -185,7 +185,7 @@ void check_room_obstruction_hidden_pairs(int n) {
 }  // namespace
 
 TEST_SUITE("issue9") {
-    TEST_CASE("issue9: room4_box_surfaces.vs3, the built-in room-4 written as VS3 S records") {
+    TEST_CASE("issue9: room4_box_surfaces.vs3 - the built-in room-4 written as VS3 S records") {
         const Scene s = load_scene(repro("room4_box_surfaces.vs3"));
         REQUIRE(s.patches.size() == 120);
         const AnalyticRun a = run_analytic(s);
@@ -203,7 +203,7 @@ TEST_SUITE("issue9") {
         referee(s, a, "vs3", builtin, b, "room-4");
     }
 
-    TEST_CASE("issue9: room4_box_obstruction.vs3, the box as O records") {
+    TEST_CASE("issue9: room4_box_obstruction.vs3 - the box as O records") {
         const Scene s = load_scene(repro("room4_box_obstruction.vs3"));
         REQUIRE(s.patches.size() == 96);
         const AnalyticRun a = run_analytic(s);
@@ -219,11 +219,11 @@ TEST_SUITE("issue9") {
         referee(s, a, "vs3", builtin, b, "room-4-obstruction");
     }
 
-    TEST_CASE("issue9: room n = 8 with the box as O records, fully hidden pairs are 0") {
+    TEST_CASE("issue9: room n = 8 with the box as O records - fully hidden pairs are 0") {
         check_room_obstruction_hidden_pairs(8);
     }
 
-    TEST_CASE("issue9: hidden_pair.obj, light through a closed sphere is exactly 0") {
+    TEST_CASE("issue9: hidden_pair.obj - light through a closed sphere is exactly 0") {
         const Scene s = load_scene(repro("hidden_pair.obj"));
         REQUIRE(s.patches.size() == 2);
         const AnalyticRun a = run_analytic(s);
@@ -237,7 +237,7 @@ TEST_SUITE("issue9") {
         CHECK(a.ff.F(0, 1) <= a.bound);
     }
 
-    TEST_CASE("issue9: lshaped_zone.obj, vertex jitter where edges nearly meet") {
+    TEST_CASE("issue9: lshaped_zone.obj - vertex jitter where edges nearly meet") {
         const Scene s = load_scene(repro("lshaped_zone.obj"));
         REQUIRE(s.patches.size() == 10);
         const AnalyticRun a = run_analytic(s);
@@ -261,7 +261,7 @@ TEST_SUITE("issue9") {
     }
 }
 
-TEST_CASE("issue9: room n = 16 with the box as O records, fully hidden pairs are 0" *
+TEST_CASE("issue9: room n = 16 with the box as O records - fully hidden pairs are 0" *
           doctest::test_suite("slow")) {
     check_room_obstruction_hidden_pairs(16);
 }
