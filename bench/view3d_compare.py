@@ -5,7 +5,8 @@ Writes the obstructed benchmark scenes as View3D 3.2 input (`F 3`, every patch i
 so that both programs report the same matrix):
   room-N-S   the unit room, faces N x N inward, with the floating box [0.3,0.7]^2 x [0.1,0.5] as
              radiating S records (faces (N/2) x (N/2)): the built-in `room-N`;
-  room-N-O   the same room with the box as six whole O records: `room-N-obstruction`;
+  room-N-O   the same room with the box as six whole O records: `room-N-obstruction`
+             (--o-split: (N/2) x (N/2) O records per face, as issue 9's reproducers);
   cornell-M  the Cornell box (formfactor's built-in `cornell`, 20 surfaces) M x M per surface.
 runs `view3d IN.vs3 OUT` (list=0, out=1: its binary float32 matrix; encl=0: no enclosure
 adjustment, the raw matrix) and `formfactor compute IN.vs3 -o F.npy --threads 1` on each, and
@@ -52,8 +53,9 @@ def grid_quads(o, e1, e2, m):
     return out
 
 
-def room(n, box):
-    """(S polygons, O polygons) of the room n x n with the box as 'S', 'O' or None."""
+def room(n, box, o_split=False):
+    """(S polygons, O polygons) of the room n x n with the box as 'S', 'O' or None; O records
+    are the six whole faces, or (n/2) x (n/2) pieces each with o_split."""
     faces = [((0, 0, 0), (0, 1, 0), (0, 0, 1)), ((1, 0, 0), (0, 0, 1), (0, 1, 0)),
              ((0, 0, 0), (0, 0, 1), (1, 0, 0)), ((0, 1, 0), (1, 0, 0), (0, 0, 1)),
              ((0, 0, 0), (1, 0, 0), (0, 1, 0)), ((0, 0, 1), (0, 1, 0), (1, 0, 0))]
@@ -67,7 +69,7 @@ def room(n, box):
         bf = [(lo, (0, 0, e), (0, e, 0)), (add(lo, (e, 0, 0)), (0, e, 0), (0, 0, e)),
               (lo, (e, 0, 0), (0, 0, e)), (add(lo, (0, e, 0)), (0, 0, e), (e, 0, 0)),
               (lo, (0, e, 0), (e, 0, 0)), (add(lo, (0, 0, e)), (e, 0, 0), (0, e, 0))]
-        m = n // 2 if box == 'S' else 1
+        m = n // 2 if box == 'S' or o_split else 1
         pieces = [q for p, e1, e2 in bf for q in grid_quads(p, e1, e2, m)]
         (s if box == 'S' else o).extend(pieces)
     return s, o
@@ -241,6 +243,9 @@ def main():
     ap.add_argument("--rooms", type=int, nargs="*", default=[16, 32], help="room sizes n")
     ap.add_argument("--cornell", type=int, default=12, help="Cornell box M x M (0: skip)")
     ap.add_argument("--box", choices=["S", "O", "both"], default="both")
+    ap.add_argument("--o-split", action="store_true",
+                    help="O records split (n/2) x (n/2) per box face (as issue 9's reproducers)"
+                    " instead of six whole faces")
     ap.add_argument("--threads", type=int, default=1, help="formfactor --threads")
     ap.add_argument("--workdir", help="keep the files here (default: a temporary folder)")
     ap.add_argument("--json", help="also write the results as JSON to this file")
@@ -258,7 +263,7 @@ def main():
     cases = []
     for n in args.rooms:
         for box in (["S", "O"] if args.box == "both" else [args.box]):
-            cases.append((f"room-{n}-{box}", lambda n=n, box=box: room(n, box),
+            cases.append((f"room-{n}-{box}", lambda n=n, box=box: room(n, box, args.o_split),
                           f"room n={n} box={box}"))
     if args.cornell > 0:
         m = args.cornell
