@@ -1,0 +1,321 @@
+#!/usr/bin/python3
+"""formfactor against View3D 3.2, side by side on the same VS3 files.
+
+Writes the obstructed benchmark scenes as View3D 3.2 input (`F 3`, every patch its own surface,
+so that both programs report the same matrix):
+  room-N-S   the unit room, faces N x N inward, with the floating box [0.3,0.7]^2 x [0.1,0.5] as
+             radiating S records (faces (N/2) x (N/2)): the built-in `room-N`;
+  room-N-O   the same room with the box as six whole O records: `room-N-obstruction`
+             (--o-split: (N/2) x (N/2) O records per face, as issue 9's reproducers);
+  cornell-M  the Cornell box (formfactor's built-in `cornell`, 20 surfaces) M x M per surface.
+runs `view3d IN.vs3 OUT` (list=0, out=1: its binary float32 matrix; encl=0: no enclosure
+adjustment, the raw matrix) and `formfactor compute IN.vs3 -o F.npy --threads 1` on each, and
+prints wall and CPU times, peak memory and the differences between the two matrices (every
+surface pair: both programs compute the same rows and columns).
+
+View3D is not part of this project's build: pass its binary with --view3d or $VIEW3D. NREL's
+View3D 3.2 (github.com/NREL/View3D-3.2) ships only a Visual Studio project; on Linux the sources
+that project lists (src/*.c except readvf.c) build with
+  cc -O2 -D_MAX_PATH=260 -Dstrcmpi=strcasecmp -include strings.h -o view3d \
+     $(ls src/*.c | grep -v readvf.c) -lm
+View3D writes VIEW3D.LOG into its working directory: each case runs in the work folder.
+
+Usage: bench/view3d_compare.py --view3d PATH [--rooms 16 32] [--cornell 12] [--workdir DIR]
+Needs numpy (/usr/bin/python3 on Debian).
+"""
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+# --- geometry -------------------------------------------------------------------------------
+
+
+def grid_quads(o, e1, e2, m):
+    """The m x m quads of the parallelogram o + [0,1] e1 + [0,1] e2 (front e1 x e2), row-major,
+    as formfactor's room_scene() and subdivide() number them."""
+    out = []
+    for j in range(m):
+        for i in range(m):
+            def at(a, b):
+                return tuple(o[k] + (a * e1[k] + b * e2[k]) / m for k in range(3))
+            out.append([at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)])
+    return out
+
+
+def room(n, box, o_split=False):
+    """(S polygons, O polygons) of the room n x n with the box as 'S', 'O' or None; O records
+    are the six whole faces, or (n/2) x (n/2) pieces each with o_split."""
+    faces = [((0, 0, 0), (0, 1, 0), (0, 0, 1)), ((1, 0, 0), (0, 0, 1), (0, 1, 0)),
+             ((0, 0, 0), (0, 0, 1), (1, 0, 0)), ((0, 1, 0), (1, 0, 0), (0, 0, 1)),
+             ((0, 0, 0), (1, 0, 0), (0, 1, 0)), ((0, 0, 1), (0, 1, 0), (1, 0, 0))]
+    s = [q for o, e1, e2 in faces for q in grid_quads(o, e1, e2, n)]
+    o = []
+    if box:
+        lo, e = (0.3, 0.3, 0.1), 0.4
+
+        def add(v, w):
+            return tuple(a + b for a, b in zip(v, w))
+        bf = [(lo, (0, 0, e), (0, e, 0)), (add(lo, (e, 0, 0)), (0, e, 0), (0, 0, e)),
+              (lo, (e, 0, 0), (0, 0, e)), (add(lo, (0, e, 0)), (0, 0, e), (e, 0, 0)),
+              (lo, (0, e, 0), (e, 0, 0)), (add(lo, (0, 0, e)), (e, 0, 0), (0, e, 0))]
+        m = n // 2 if box == 'S' or o_split else 1
+        pieces = [q for p, e1, e2 in bf for q in grid_quads(p, e1, e2, m)]
+        (s if box == 'S' else o).extend(pieces)
+    return s, o
+
+
+# formfactor's built-in Cornell box (src/scene/builtin_scenes.cpp), millimetres.
+Y = 548.8
+CORNELL = [
+    [(552.8, 0, 0), (0, 0, 0), (0, 0, 559.2), (549.6, 0, 559.2)],
+    [(556, Y, 0), (556, Y, 227), (0, Y, 227), (0, Y, 0)],
+    [(556, Y, 332), (556, Y, 559.2), (0, Y, 559.2), (0, Y, 332)],
+    [(556, Y, 227), (556, Y, 332), (343, Y, 332), (343, Y, 227)],
+    [(213, Y, 227), (213, Y, 332), (0, Y, 332), (0, Y, 227)],
+    [(343, Y, 227), (343, Y, 332), (213, Y, 332), (213, Y, 227)],
+    [(549.6, 0, 559.2), (0, 0, 559.2), (0, 548.8, 559.2), (556, 548.8, 559.2)],
+    [(0, 0, 559.2), (0, 0, 0), (0, 548.8, 0), (0, 548.8, 559.2)],
+    [(552.8, 0, 0), (549.6, 0, 559.2), (556, 548.8, 559.2)],
+    [(552.8, 0, 0), (556, 548.8, 559.2), (556, 548.8, 0)],
+    [(130, 165, 65), (82, 165, 225), (240, 165, 272), (290, 165, 114)],
+    [(290, 0, 114), (290, 165, 114), (240, 165, 272), (240, 0, 272)],
+    [(130, 0, 65), (130, 165, 65), (290, 165, 114), (290, 0, 114)],
+    [(82, 0, 225), (82, 165, 225), (130, 165, 65), (130, 0, 65)],
+    [(240, 0, 272), (240, 165, 272), (82, 165, 225), (82, 0, 225)],
+    [(423, 330, 247), (265, 330, 296), (314, 330, 456), (472, 330, 406)],
+    [(423, 0, 247), (423, 330, 247), (472, 330, 406), (472, 0, 406)],
+    [(472, 0, 406), (472, 330, 406), (314, 330, 456), (314, 0, 456)],
+    [(314, 0, 456), (314, 330, 456), (265, 330, 296), (265, 0, 296)],
+    [(265, 0, 296), (265, 330, 296), (423, 330, 247), (423, 0, 247)],
+]
+
+
+def split(poly, m):
+    """formfactor's subdivide(): a quad into m x m bilinear children (row r along v0->v3,
+    column c along v0->v1), a triangle into m^2 on the barycentric grid."""
+    def lerp(a, b, t):
+        return tuple(a[k] + t * (b[k] - a[k]) for k in range(3))
+    if len(poly) == 4:
+        v0, v1, v2, v3 = poly
+
+        def P(c, r):
+            return lerp(lerp(v0, v1, c / m), lerp(v3, v2, c / m), r / m)
+        return [[P(c, r), P(c + 1, r), P(c + 1, r + 1), P(c, r + 1)]
+                for r in range(m) for c in range(m)]
+    v0, v1, v2 = poly
+
+    def P(i, j):
+        return tuple(v0[k] + i / m * (v1[k] - v0[k]) + j / m * (v2[k] - v0[k]) for k in range(3))
+    out = []
+    for j in range(m):
+        for i in range(m - j):
+            out.append([P(i, j), P(i + 1, j), P(i, j + 1)])
+            if i < m - 1 - j:
+                out.append([P(i + 1, j), P(i + 1, j + 1), P(i, j + 1)])
+    return out
+
+
+def cornell(m):
+    return [q for p in CORNELL for q in split(p, m)], []
+
+
+def write_vs3(path, title, s_polys, o_polys):
+    """View3D 3.2 input: shared vertices, S records then O records (View3D's order)."""
+    index, verts = {}, []
+
+    def vid(v):
+        key = tuple(float(x) for x in v)
+        if key not in index:
+            verts.append(key)
+            index[key] = len(verts)
+        return index[key]
+    recs = [('S', [vid(v) for v in p]) for p in s_polys] + \
+           [('O', [vid(v) for v in p]) for p in o_polys]
+    lines = [f"T {title}", "C encl=0 list=0 eps=1e-4 out=1", "F 3"]
+    lines += [f"V {k + 1} {v[0]!r} {v[1]!r} {v[2]!r}" for k, v in enumerate(verts)]
+    for k, (kind, vs) in enumerate(recs):
+        vs = vs + [0] * (4 - len(vs))
+        tail = f" 0 0 0.9 s{k + 1}" if kind == 'S' else ""
+        lines.append(f"{kind} {k + 1} " + " ".join(map(str, vs)) + tail)
+    lines.append("End of data")
+    Path(path).write_text("\n".join(lines) + "\n")
+
+
+# --- running --------------------------------------------------------------------------------
+
+
+def run(cmd, cwd, timeout=None):
+    """Runs cmd; returns (wall s, user+sys s, peak RSS MB, returncode, stderr tail)."""
+    log = Path(cwd) / (Path(cmd[0]).name + ".stderr")
+    with open(log, "wb") as err_file:
+        t0 = time.perf_counter()
+        p = subprocess.Popen(cmd, cwd=cwd, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                             stderr=err_file)
+        # Peak memory: the program's VmHWM, sampled until it exits (wait4's ru_maxrss would
+        # include the memory of this Python process, which the child inherits at fork).
+        hwm_kb = 0
+        try:
+            while True:
+                pid, status, ru = os.wait4(p.pid, os.WNOHANG)
+                if pid == p.pid:
+                    break
+                try:
+                    for line in Path(f"/proc/{p.pid}/status").read_text().splitlines():
+                        if line.startswith("VmHWM:"):
+                            hwm_kb = max(hwm_kb, int(line.split()[1]))
+                except (OSError, ValueError):
+                    pass
+                time.sleep(0.02)
+        except KeyboardInterrupt:
+            p.kill()
+            raise
+        wall = time.perf_counter() - t0
+    p.returncode = rc = os.waitstatus_to_exitcode(status)
+    err = log.read_text(errors="replace")
+    return wall, ru.ru_utime + ru.ru_stime, hwm_kb / 1024.0, rc, err[-400:]
+
+
+def read_view3d_binary(path, n):
+    """View3D 3.2's out=1 file (savevf.c SaveF1): 32-byte header, areas, n rows, emissivities,
+    all float32."""
+    raw = Path(path).read_bytes()
+    header = raw[:32].decode(errors="replace").split()
+    if int(header[5]) != n:
+        raise RuntimeError(f"View3D wrote {header[5]} surfaces, expected {n}")
+    data = np.frombuffer(raw[32:], dtype="<f4")
+    return data[n:n + n * n].reshape(n, n).astype(np.float64)
+
+
+def compare(name, vs3, n, args, work):
+    out = {"case": name, "surfaces": n}
+    v3_out = work / f"{name}.view3d.bin"
+    wall, cpu, mem, rc, err = run([args.view3d, vs3.name, v3_out.name], work)
+    out["view3d"] = {"wall": wall, "cpu": cpu, "peak_mb": mem, "rc": rc}
+    if rc != 0 or not v3_out.exists():
+        print(f"{name}: View3D failed (exit {rc}): {err.strip()}", file=sys.stderr)
+        V = None
+    else:
+        V = read_view3d_binary(v3_out, n)
+    F_path = work / f"{name}.formfactor.npy"
+    rep = work / f"{name}.report.json"
+    cmd = [args.formfactor, "compute", vs3.name, "-o", F_path.name, "--threads",
+           str(args.threads), "--report", rep.name] + args.formfactor_args
+    wall, cpu, mem, rc, err = run(cmd, work)
+    out["formfactor"] = {"wall": wall, "cpu": cpu, "peak_mb": mem, "rc": rc}
+    if rc != 0:
+        print(f"{name}: formfactor failed (exit {rc}): {err.strip()}", file=sys.stderr)
+        return out
+    F = np.load(F_path)
+    try:
+        details = json.loads(rep.read_text()).get("details", {})
+        ob = details.get("obstructions", {})
+        out["formfactor"]["error_bound"] = details.get("error_bound_per_entry")
+        out["formfactor"]["partly_hidden_pairs"] = ob.get("patch_pairs_partly_hidden")
+    except (OSError, ValueError):
+        pass
+    if V is not None:
+        D = np.abs(F - V)
+        i, j = np.unravel_index(np.argmax(D), D.shape)
+        out["diff"] = {"max": float(D.max()), "at": [int(i), int(j)], "ff": float(F[i, j]),
+                       "view3d": float(V[i, j]), "mean": float(D.mean()),
+                       "above_1e-4": int((D > 1e-4).sum()), "above_1e-6": int((D > 1e-6).sum()),
+                       "rows_ff": [float(F.sum(1).min()), float(F.sum(1).max())],
+                       "rows_view3d": [float(V.sum(1).min()), float(V.sum(1).max())]}
+    return out
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--view3d", default=os.environ.get("VIEW3D"),
+                    help="View3D 3.2 binary (default $VIEW3D)")
+    ap.add_argument("--formfactor", default=str(REPO / "build" / "bin" / "formfactor"))
+    ap.add_argument("--rooms", type=int, nargs="*", default=[16, 32], help="room sizes n")
+    ap.add_argument("--cornell", type=int, default=12, help="Cornell box M x M (0: skip)")
+    ap.add_argument("--box", choices=["S", "O", "both"], default="both")
+    ap.add_argument("--o-split", action="store_true",
+                    help="O records split (n/2) x (n/2) per box face (as issue 9's reproducers)"
+                    " instead of six whole faces")
+    ap.add_argument("--threads", type=int, default=1, help="formfactor --threads")
+    ap.add_argument("--workdir", help="keep the files here (default: a temporary folder)")
+    ap.add_argument("--json", help="also write the results as JSON to this file")
+    ap.add_argument("formfactor_args", nargs="*",
+                    help="more formfactor compute options (after --)")
+    args = ap.parse_args()
+    if not args.view3d:
+        ap.error("give the View3D binary with --view3d or $VIEW3D")
+    args.view3d = str(Path(args.view3d).resolve())
+    args.formfactor = str(Path(args.formfactor).resolve())
+    for exe in (args.view3d, args.formfactor):
+        if not os.access(exe, os.X_OK):
+            ap.error(f"not executable: {exe}")
+
+    cases = []
+    for n in args.rooms:
+        for box in (["S", "O"] if args.box == "both" else [args.box]):
+            cases.append((f"room-{n}-{box}", lambda n=n, box=box: room(n, box, args.o_split),
+                          f"room n={n} box={box}"))
+    if args.cornell > 0:
+        m = args.cornell
+        cases.append((f"cornell-{m}", lambda m=m: cornell(m), f"Cornell box {m}x{m}"))
+
+    tmp = None
+    if args.workdir:
+        work = Path(args.workdir)
+        work.mkdir(parents=True, exist_ok=True)
+    else:
+        tmp = tempfile.TemporaryDirectory(prefix="view3d_compare_")
+        work = Path(tmp.name)
+
+    print(f"View3D: {args.view3d}\nformfactor: {args.formfactor} --threads {args.threads}"
+          f" {' '.join(args.formfactor_args)}\nfiles: {work}\n")
+    hdr = (f"{'case':<14} {'N':>5} | {'View3D wall':>11} {'cpu':>8} {'MB':>6} | "
+           f"{'formfactor wall':>15} {'cpu':>8} {'MB':>6} | {'cpu ratio':>9} | "
+           f"{'max |dF|':>9} {'at':>11} {'mean |dF|':>9} {'>1e-4':>6}")
+    print(hdr)
+    print("-" * len(hdr))
+    results = []
+    for name, make, title in cases:
+        s, o = make()
+        vs3 = work / f"{name}.vs3"
+        write_vs3(vs3, title, s, o)
+        r = compare(name, vs3, len(s), args, work)
+        results.append(r)
+        v, f = r["view3d"], r["formfactor"]
+        ratio = v["cpu"] / f["cpu"] if f.get("cpu") else float("nan")
+        line = (f"{name:<14} {len(s):>5} | {v['wall']:>10.2f}s {v['cpu']:>7.2f}s "
+                f"{v['peak_mb']:>6.0f} | {f['wall']:>14.2f}s {f['cpu']:>7.2f}s "
+                f"{f['peak_mb']:>6.0f} | {ratio:>8.1f}x |")
+        d = r.get("diff")
+        if d:
+            line += (f" {d['max']:>9.2e} {str(tuple(d['at'])):>11} {d['mean']:>9.2e}"
+                     f" {d['above_1e-4']:>6}")
+        print(line, flush=True)
+    print()
+    for r in results:
+        d = r.get("diff")
+        if d:
+            print(f"{r['case']}: at {tuple(d['at'])} formfactor {d['ff']:.7g}, View3D "
+                  f"{d['view3d']:.7g}; entries differing > 1e-6: {d['above_1e-6']}; row sums "
+                  f"formfactor [{d['rows_ff'][0]:.6f}, {d['rows_ff'][1]:.6f}], View3D "
+                  f"[{d['rows_view3d'][0]:.6f}, {d['rows_view3d'][1]:.6f}]; formfactor's "
+                  f"bound {r['formfactor'].get('error_bound')}, partly hidden pairs "
+                  f"{r['formfactor'].get('partly_hidden_pairs')}")
+    if args.json:
+        Path(args.json).write_text(json.dumps(results, indent=2) + "\n")
+    if tmp:
+        tmp.cleanup()
+
+
+if __name__ == "__main__":
+    main()
