@@ -170,7 +170,11 @@ void check_room_obstruction_hidden_pairs(int n) {
                       << worst << " at [" << wi << "," << wj << "], " << nonzero
                       << " of them non-zero; the report counts " << hidden_count
                       << " hidden patch pairs; bound " << a.bound << "; " << a.seconds << " s");
-    CHECK(worst == 0.0);
+    // Pairs that one face of the box hides are exactly 0; pairs hidden only by the box as a
+    // whole (entering and leaving through different faces) are integrated, to 0 within the
+    // quadrature's rounding (~1e-11), far inside the reported bound.
+    CHECK(worst <= 1e-10);
+    CHECK(worst <= a.bound);
     CHECK(hidden_count >= hidden.size());
     // Same matrix as the built-in room with the box as six whole obstructions.
     const Scene builtin = room_scene(n, RoomBox::kObstruction);
@@ -223,7 +227,7 @@ TEST_SUITE("issue9") {
         check_room_obstruction_hidden_pairs(8);
     }
 
-    TEST_CASE("issue9: hidden_pair.obj - light through a closed sphere is exactly 0") {
+    TEST_CASE("issue9: hidden_pair.obj - light through a closed sphere is 0") {
         const Scene s = load_scene(repro("hidden_pair.obj"));
         REQUIRE(s.patches.size() == 2);
         const AnalyticRun a = run_analytic(s);
@@ -231,8 +235,10 @@ TEST_SUITE("issue9") {
         MESSAGE("F_ab: analytic " << a.ff.F(0, 1) << " (bound " << a.bound << "), mc-target "
                                   << mc.F(0, 1) << " ± " << mc.se(0, 1));
         CHECK(mc.F(0, 1) == 0.0);  // every ray blocked
-        CHECK(a.ff.F(0, 1) == 0.0);
-        CHECK(a.ff.F(1, 0) == 0.0);
+        // No single facet of the sphere hides the pair: it is integrated, to 0 within the
+        // quadrature's rounding (issue 9 reported 6.4e-4 under a 1e-7 estimate).
+        CHECK(a.ff.F(0, 1) <= 1e-10);
+        CHECK(a.ff.F(1, 0) <= 1e-10);
         // Whatever the value, the reported bound must cover it.
         CHECK(a.ff.F(0, 1) <= a.bound);
     }

@@ -170,3 +170,55 @@ TEST_CASE("obstructed roots: a box as obstruction records blocks like the box as
     CHECK(d2["obstructions"]["patch_pairs_hidden"] == d1["obstructions"]["patch_pairs_hidden"]);
     CHECK(d2["obstructions"]["blocker_pieces"] == d1["obstructions"]["blocker_pieces"]);
 }
+
+TEST_CASE("obstructed roots: a patch in contact with a closed solid does not see through it") {
+    // A closed box resting on a 4x4 floor (its bottom face on the floor), under a 2x2 ceiling.
+    // The floor's four middle patches lie wholly under the box: every segment from them enters
+    // the solid without crossing a face they are in front of, so back-face culling must be off
+    // for them; they see nothing (F = 0 exactly: every pair is hidden by the box's top face
+    // or integrated to 0 within the tolerance).
+    std::vector<Polygon> patches;
+    for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 4; ++j) {
+            const double x0 = i / 4.0, y0 = j / 4.0, d = 0.25;
+            patches.push_back(poly({Vec3(x0, y0, 0), Vec3(x0 + d, y0, 0), Vec3(x0 + d, y0 + d, 0),
+                                    Vec3(x0, y0 + d, 0)}));
+        }
+    for (int i = 0; i < 2; ++i)
+        for (int j = 0; j < 2; ++j) {
+            const double x0 = i / 2.0, y0 = j / 2.0, d = 0.5;
+            patches.push_back(poly({Vec3(x0, y0, 1), Vec3(x0, y0 + d, 1), Vec3(x0 + d, y0 + d, 1),
+                                    Vec3(x0 + d, y0, 1)}));
+        }
+    BlockerSet faces;
+    int id = 0;
+    add_box(faces, Vec3(.25, .25, 0), Vec3(.75, .75, .5), 1, id);
+    Scene scene;
+    scene.name = "box on the floor";
+    scene.materials.push_back(Material{});
+    auto add = [&](const Polygon& p, bool obstruction) {
+        Surface sf;
+        sf.name = "s" + std::to_string(scene.surfaces.size());
+        sf.polygon = p;
+        sf.obstruction = obstruction;
+        scene.surfaces.push_back(std::move(sf));
+    };
+    for (const Polygon& p : patches) add(p, false);
+    for (std::size_t k = 0; k < faces.size(); ++k) {
+        Polygon p;
+        p.vertices.assign(
+            faces.vertices(static_cast<int>(k)),
+            faces.vertices(static_cast<int>(k)) + faces.piece(static_cast<int>(k)).count);
+        add(p, true);
+    }
+    subdivide(scene, SubdivisionOptions{});
+    MethodOptions opt;
+    nlohmann::json details;
+    const FormFactors F = make_method("analytic")->compute(scene, opt, details);
+    for (int i : {5, 6, 9, 10}) {  // the floor patches [.25,.75]² under the box
+        CAPTURE(i);
+        for (std::size_t j = 16; j < 20; ++j) CHECK(F.F(i, static_cast<Eigen::Index>(j)) <= 1e-6);
+    }
+    // A floor patch outside the box still sees the ceiling.
+    CHECK(F.F(0, 16) > 0.01);
+}

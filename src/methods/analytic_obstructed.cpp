@@ -316,12 +316,15 @@ void AnalyticMethod::apply_obstructions(const Scene& scene, const MethodOptions&
     }
     blockers.build();
     {
-        std::vector<std::pair<Vec3, int>> points;
+        std::vector<std::pair<Bounds3, int>> patch_boxes;
         for (const ClusterTree& t : trees)
-            for (int p : t.order)
+            for (int p : t.order) {
+                Bounds3 b;
                 for (const Vec3& v : scene.patches[static_cast<std::size_t>(p)].polygon.vertices)
-                    points.emplace_back(v, t.blocker_id);
-        blockers.mark_closed_solids(points, 1e-9 * diag);
+                    b.extend(v);
+                patch_boxes.emplace_back(b, t.blocker_id);
+            }
+        blockers.mark_closed_solids(patch_boxes, 1e-9 * diag);
     }
 
     const double eps = 1e-11 * diag;

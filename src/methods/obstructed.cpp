@@ -579,7 +579,8 @@ void BlockerSet::build() {
     if (!pieces_.empty()) build_node(0, static_cast<int>(pieces_.size()));
 }
 
-void BlockerSet::mark_closed_solids(const std::vector<std::pair<Vec3, int>>& points, double tol) {
+void BlockerSet::mark_closed_solids(const std::vector<std::pair<Bounds3, int>>& patches,
+                                    double tol) {
     const std::size_t np = pieces_.size();
     auto key = [&](const Vec3& v) {
         return std::array<long long, 3>{std::llround(v.x() / tol), std::llround(v.y() / tol),
@@ -638,10 +639,10 @@ void BlockerSet::mark_closed_solids(const std::vector<std::pair<Vec3, int>>& poi
         if (!closed || !(volume > 0.0)) continue;
         std::sort(ids.begin(), ids.end());
         bool empty_inside = true;
-        for (const auto& [x, id] : points) {
+        for (const auto& [pb, id] : patches) {
             if (std::binary_search(ids.begin(), ids.end(), id)) continue;
-            if ((x.array() > box.lo.array() + tol).all() &&
-                (x.array() < box.hi.array() - tol).all()) {
+            if ((pb.lo.array() <= box.hi.array() + tol).all() &&
+                (pb.hi.array() >= box.lo.array() - tol).all()) {
                 empty_inside = false;
                 break;
             }

@@ -38,9 +38,12 @@ class BlockerSet {
     void build();
     /// Finds the closed solids (connected pieces whose every edge is matched by the reversed
     /// edge of another piece, positive signed volume) and sets Piece::cull_back on their pieces,
-    /// unless one of `points` (with the surface id it belongs to) not on the solid lies inside
-    /// the solid's bounding box. `tol`: length for matching vertices.
-    void mark_closed_solids(const std::vector<std::pair<Vec3, int>>& points, double tol);
+    /// unless the bounding box of one of `patches` (with the surface id it belongs to) not on
+    /// the solid meets or touches the solid's bounding box: a point on the solid's surface (a
+    /// floor under a box resting on it, a face in contact with the solid's face) starts segments
+    /// that enter the solid without crossing a face it is in front of. `tol`: length for
+    /// matching vertices and for touching.
+    void mark_closed_solids(const std::vector<std::pair<Bounds3, int>>& patches, double tol);
 
     std::size_t size() const { return pieces_.size(); }
     const Piece& piece(int k) const { return pieces_[static_cast<std::size_t>(k)]; }
