@@ -25,11 +25,12 @@ for t in "${targets[@]}"; do
     mkdir -p "$build/fuzz-corpus/$t"
     log="$build/fuzz-logs/$t.log"
     start=$(date +%s)
-    # -timeout: one input taking 10 s is a hang; -rss_limit_mb / -malloc_limit_mb: an input that
-    # makes a reader allocate 2 GB (a size field it believed) is a bug.
+    # -timeout: one input taking FUZZ_TIMEOUT s (default 30; wall time, so generous for a loaded
+    # machine) is a hang; -rss_limit_mb / -malloc_limit_mb: an input that makes a reader
+    # allocate 2 GB (a size field it believed) is a bug.
     ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1} \
     UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1} \
-        "$build/fuzz/fuzz_$t" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
+        "$build/fuzz/fuzz_$t" -max_total_time="$seconds" -timeout="${FUZZ_TIMEOUT:-30}" -rss_limit_mb=2048 \
         -malloc_limit_mb=2048 -print_final_stats=1 \
         -artifact_prefix="$build/fuzz-artifacts/$t-" \
         "$build/fuzz-corpus/$t" "$build/fuzz-seeds/$t" >"$log" 2>&1
