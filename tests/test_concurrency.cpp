@@ -21,8 +21,8 @@ using namespace formfactor;
 namespace {
 
 Scene scene(const std::string& name, int n) {
-    Scene s = name.rfind("room", 0) == 0 ? room_scene(n, RoomBox::kObstruction)
-                                         : builtin_scene(name);
+    Scene s =
+        name.rfind("room", 0) == 0 ? room_scene(n, RoomBox::kObstruction) : builtin_scene(name);
     if (name.rfind("room", 0) != 0) {
         SubdivisionOptions o;
         o.n = n;
@@ -107,7 +107,7 @@ TEST_CASE("threads: the same scene computed twice at once" * doctest::test_suite
     check_concurrent({job("analytic", room), job("analytic", room)});
 }
 
-TEST_CASE("threads: every method at once, each on its own scene" *
+TEST_CASE("threads: every method at once and each on its own scene" *
           doctest::test_suite("threads")) {
     const Scene cube = scene("cube", 3);
     const Scene room = scene("room", 2);
@@ -135,11 +135,14 @@ TEST_CASE("threads: a cancellation request stops parallel_for with Cancelled" *
     CHECK(ran.load() < 1000);
     flag.reset();
     ran = 0;
-    parallel_for(100, 2, [&](std::size_t) { ++ran; }, flag);
+    parallel_for(
+        100, 2, [&](std::size_t) { ++ran; }, flag);
     CHECK(ran.load() == 100);
     // A flag requested before the loop: nothing runs.
     flag.request();
     ran = 0;
-    CHECK_THROWS_AS(parallel_for(100, 1, [&](std::size_t) { ++ran; }, flag), Cancelled);
+    CHECK_THROWS_AS(parallel_for(
+                        100, 1, [&](std::size_t) { ++ran; }, flag),
+                    Cancelled);
     CHECK(ran.load() == 0);
 }
