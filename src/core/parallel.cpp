@@ -43,7 +43,13 @@ void parallel_for(std::size_t n, int threads, const std::function<void(std::size
         arena.execute(
             [&] { tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1), run_range); });
     }
-    if (first_error) std::rethrow_exception(first_error);
+    // Read under the lock the workers wrote it under (ThreadSanitizer cannot see TBB's join).
+    std::exception_ptr error;
+    {
+        std::lock_guard<std::mutex> lock(error_mutex);
+        error = first_error;
+    }
+    if (error) std::rethrow_exception(error);
 }
 
 }  // namespace formfactor
