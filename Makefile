@@ -1,19 +1,31 @@
 # formfactor: the README's two set-up commands, `make run` and `make test`, on a fresh Debian 12.
 # Each installs the Debian packages that are missing (apt-get, only when something is missing),
 # configures and builds Release into build/, then runs the main job or every test.
+# The machines that look for bugs (CI runs them, .ci/run): `make test-sanitize` (ASan + UBSan,
+# build-sanitize/), `make test-tsan` (ThreadSanitizer on the concurrency tests, build-tsan/),
+# `make fuzz` (libFuzzer with clang, build-fuzz/, FUZZ_SECONDS per target), `make format-check`.
 
 BUILD_DIR ?= build
 JOBS ?= 2
 CMAKE_FLAGS ?=
+SANITIZE_DIR ?= build-sanitize
+TSAN_DIR ?= build-tsan
+FUZZ_DIR ?= build-fuzz
+FUZZ_SECONDS ?= 60
+FUZZ_TARGETS ?=
+# ccache when the machine has it (it is not a dependency).
+LAUNCHER := $(if $(shell command -v ccache),-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
 
 DEB_PACKAGES := cmake g++ make pkg-config \
 	libembree-dev libtbb-dev libeigen3-dev libcli11-dev nlohmann-json3-dev libfmt-dev \
 	libtinyobjloader-dev libstb-dev doctest-dev libbenchmark-dev pybind11-dev \
-	python3-dev python3-numpy python3-pytest
+	python3-dev python3-numpy python3-pytest \
+	clang libclang-rt-14-dev clang-format
 
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: all deps configure build run test bench format clean
+.PHONY: all deps configure build run test bench format format-check clean \
+	test-sanitize test-tsan fuzz fuzz-build
 
 all: build
 
@@ -44,8 +56,44 @@ test: build
 bench: build
 	@for b in $(BUILD_DIR)/bench/bench_*; do echo "== $$b"; $$b; done
 
+# AddressSanitizer + UndefinedBehaviorSanitizer on the library, the CLI and the whole suite except
+# the `slow` label (they take minutes even unsanitized). Any report fails the run.
+test-sanitize: deps
+	@if [ ! -f $(SANITIZE_DIR)/CMakeCache.txt ]; then \
+		cmake -S . -B $(SANITIZE_DIR) -DCMAKE_BUILD_TYPE=RelWithDebInfo $(LAUNCHER) \
+			-DFF_SANITIZE=address,undefined -DFF_BUILD_BENCH=OFF $(CMAKE_FLAGS); \
+	fi
+	cmake --build $(SANITIZE_DIR) -j$(JOBS)
+	ASAN_OPTIONS=detect_leaks=1:strict_string_checks=1:detect_stack_use_after_return=1 \
+	UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+		ctest --test-dir $(SANITIZE_DIR) --output-on-failure -j$(JOBS) -LE slow
+
+# ThreadSanitizer on the tests that run computations concurrently (tests labelled `threads`).
+test-tsan: deps
+	@if [ ! -f $(TSAN_DIR)/CMakeCache.txt ]; then \
+		cmake -S . -B $(TSAN_DIR) -DCMAKE_BUILD_TYPE=RelWithDebInfo $(LAUNCHER) \
+			-DFF_SANITIZE=thread -DFF_BUILD_BENCH=OFF $(CMAKE_FLAGS); \
+	fi
+	cmake --build $(TSAN_DIR) -j$(JOBS) --target formfactor_tests
+	TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1 suppressions=$(CURDIR)/tests/tsan.supp" \
+		$(TSAN_DIR)/formfactor_tests -ts=threads
+
+fuzz-build: deps
+	@if [ ! -f $(FUZZ_DIR)/CMakeCache.txt ]; then \
+		cmake -S . -B $(FUZZ_DIR) -DCMAKE_BUILD_TYPE=RelWithDebInfo $(LAUNCHER) \
+			-DCMAKE_CXX_COMPILER=clang++ -DFF_BUILD_FUZZ=ON $(CMAKE_FLAGS); \
+	fi
+	cmake --build $(FUZZ_DIR) -j$(JOBS) --target fuzz_all
+
+# Every reader's fuzzer for FUZZ_SECONDS (default 60), one after another (FUZZ_TARGETS: a subset).
+fuzz: fuzz-build
+	fuzz/run.sh $(FUZZ_DIR) $(FUZZ_SECONDS) $(FUZZ_TARGETS)
+
 format:
 	git ls-files '*.h' '*.cpp' | xargs clang-format -i
 
+format-check: deps
+	git ls-files '*.h' '*.cpp' | xargs clang-format --dry-run -Werror
+
 clean:
-	rm -rf $(BUILD_DIR)
+	rm -rf $(BUILD_DIR) $(SANITIZE_DIR) $(TSAN_DIR) $(FUZZ_DIR)

@@ -1,6 +1,7 @@
 // The `formfactor` command line: parses arguments, calls the library, and maps errors to one
 // line on stderr and an exit code (0 success, 1 bad input, 2 bad usage or option, 3 internal
-// error).
+// error). SIGINT / SIGTERM stop the work cleanly (signals.h): one line, no output file, and the
+// process then dies of that signal (exit status 130 / 143 in a shell).
 
 #include <fmt/format.h>
 
@@ -10,7 +11,9 @@
 #include <string>
 
 #include "commands.h"
+#include "formfactor/core/cancel.h"
 #include "formfactor/core/error.h"
+#include "signals.h"
 
 namespace {
 
@@ -60,6 +63,7 @@ int main(int argc, char** argv) {
             return 2;
         }
     }
+    formfactor::cli::install_signal_handlers();
     try {
         app.parse(argc, argv);
         return 0;
@@ -73,6 +77,15 @@ int main(int argc, char** argv) {
         if (e.get_exit_code() == 0) return app.exit(e);
         print_error(e.what());
         return 2;
+    } catch (const formfactor::Cancelled& e) {
+        const int sig = formfactor::cli::received_signal();
+        if (sig == 0) {
+            print_error(e.what());
+            return 1;
+        }
+        print_error(fmt::format("interrupted by {}: stopped, no output written",
+                                formfactor::cli::signal_name(sig)));
+        return formfactor::cli::die_of_signal(sig);
     } catch (const formfactor::OptionError& e) {
         print_error(e.what());
         return 2;

@@ -15,7 +15,9 @@ int effective_threads(int threads) {
     return hw > 0 ? hw : 1;
 }
 
-void parallel_for(std::size_t n, int threads, const std::function<void(std::size_t)>& body) {
+void parallel_for(std::size_t n, int threads, const std::function<void(std::size_t)>& body,
+                  const CancellationFlag& cancel) {
+    cancel.throw_if_requested();
     if (n == 0) return;
     std::exception_ptr first_error;
     std::mutex error_mutex;
@@ -23,7 +25,10 @@ void parallel_for(std::size_t n, int threads, const std::function<void(std::size
     auto run_range = [&](const tbb::blocked_range<std::size_t>& r) {
         if (failed.load(std::memory_order_relaxed)) return;
         try {
-            for (std::size_t i = r.begin(); i != r.end(); ++i) body(i);
+            for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                cancel.throw_if_requested();
+                body(i);
+            }
         } catch (...) {
             std::lock_guard<std::mutex> lock(error_mutex);
             if (!first_error) first_error = std::current_exception();
@@ -38,7 +43,13 @@ void parallel_for(std::size_t n, int threads, const std::function<void(std::size
         arena.execute(
             [&] { tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1), run_range); });
     }
-    if (first_error) std::rethrow_exception(first_error);
+    // Read under the lock the workers wrote it under (ThreadSanitizer cannot see TBB's join).
+    std::exception_ptr error;
+    {
+        std::lock_guard<std::mutex> lock(error_mutex);
+        error = first_error;
+    }
+    if (error) std::rethrow_exception(error);
 }
 
 }  // namespace formfactor

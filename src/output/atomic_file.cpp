@@ -9,6 +9,7 @@
 #include <fstream>
 #include <system_error>
 
+#include "formfactor/core/cancel.h"
 #include "formfactor/core/error.h"
 
 namespace formfactor {
@@ -40,9 +41,11 @@ void remove_quietly(const std::string& path) noexcept {
     fs::remove(path, ec);
 }
 
-/// Writes `write`'s output to `temporary`; on any failure removes it and throws.
+/// Writes `write`'s output to `temporary`; on any failure, or when the process was asked to
+/// stop meanwhile (process_cancellation()), removes it and throws.
 void write_temporary(const std::string& target, const std::string& temporary,
                      const std::function<void(std::ostream&)>& write) {
+    process_cancellation().throw_if_requested();
     if (fs::is_directory(target)) throw InputError(target, 0, "is a directory");
     std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
     if (!out) {
@@ -56,6 +59,7 @@ void write_temporary(const std::string& target, const std::string& temporary,
         if (!out) throw InputError(target, 0, "write failed (disk full?)");
         out.close();
         if (out.fail()) throw InputError(target, 0, "write failed when closing the file");
+        process_cancellation().throw_if_requested();
     } catch (...) {
         out.close();
         remove_quietly(temporary);
@@ -95,6 +99,10 @@ void OutputTransaction::stage(const std::string& path,
 }
 
 void OutputTransaction::commit() {
+    if (process_cancellation().requested()) {
+        abort();
+        throw Cancelled();
+    }
     std::vector<Staged> todo;
     todo.swap(staged_);
     for (std::size_t k = 0; k < todo.size(); ++k) {

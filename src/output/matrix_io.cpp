@@ -41,7 +41,10 @@ bool parse_double(const std::string& token, double& value) {
     if (token.empty()) return false;
     const char* first = token.data();
     const char* last = first + token.size();
-    if (*first == '+') ++first;  // from_chars refuses a leading '+'
+    if (*first == '+') {  // from_chars refuses a leading '+'
+        ++first;
+        if (first != last && *first == '-') return false;
+    }
     const auto [ptr, ec] = std::from_chars(first, last, value);
     return ec == std::errc() && ptr == last;
 }
@@ -349,11 +352,21 @@ DenseMatrix read_npy_matrix(std::istream& in, const std::string& name) {
         throw InputError(name, 0, "NPY array too large");
     }
     const std::size_t count = rows * cols;
-    std::vector<char> bytes(count * item);
-    if (!in.read(bytes.data(), static_cast<std::streamsize>(bytes.size()))) {
-        throw InputError(
-            name, 0,
-            fmt::format("truncated NPY data: expected {} values of {} bytes", count, item));
+    // The shape is only the header's claim: read the data in pieces, so that a header claiming
+    // 10^12 values costs no more memory than the file really holds before it is found short.
+    std::vector<char> bytes;
+    constexpr std::size_t kPiece = std::size_t(1) << 20;
+    while (bytes.size() < count * item) {
+        const std::size_t old = bytes.size();
+        const std::size_t step = std::min(kPiece, count * item - old);
+        bytes.resize(old + step);
+        if (!in.read(bytes.data() + old, static_cast<std::streamsize>(step))) {
+            throw InputError(
+                name, 0,
+                fmt::format("truncated NPY data: the header says {}×{} values of {} bytes, the "
+                            "file holds {} bytes of data",
+                            rows, cols, item, old + static_cast<std::size_t>(in.gcount())));
+        }
     }
     if (in.peek() != std::char_traits<char>::eof()) {
         throw InputError(name, 0, "unexpected data after the NPY array");
@@ -388,10 +401,11 @@ View3dFile read_view3d_text(std::istream& in, const std::string& name) {
     View3dFile f;
     std::string line;
     if (!std::getline(in, line)) throw InputError(name, 1, "empty file (expected a View3D header)");
+    long long header_n = -1;
     {
         std::istringstream hs(line);
-        long long n = -1;
-        if (!(hs >> f.program >> f.version >> f.format >> f.encl >> f.didemit >> n) || n < 0) {
+        if (!(hs >> f.program >> f.version >> f.format >> f.encl >> f.didemit >> header_n) ||
+            header_n < 0) {
             throw InputError(name, 1,
                              "malformed View3D header (expected 'View3D 3.2 format encl didemit "
                              "nsrf')");
@@ -400,15 +414,18 @@ View3dFile read_view3d_text(std::istream& in, const std::string& name) {
             throw InputError(name, 1,
                              fmt::format("View3D format {} is not the text format 0", f.format));
         }
-        f.areas.resize(static_cast<std::size_t>(n));
-        f.emissivities.resize(static_cast<std::size_t>(n));
-        f.F.resize(n, n);
+        // n + n² + n must not overflow; the values themselves are read before anything of the
+        // header's size is allocated, so a header claiming 10^9 surfaces costs nothing.
+        if (header_n > (1LL << 30)) {
+            throw InputError(name, 1,
+                             fmt::format("the header claims {} surfaces (too many)", header_n));
+        }
     }
-    const std::size_t n = f.areas.size();
+    const auto n = static_cast<std::size_t>(header_n);
     const std::size_t total = n + n * n + n;
-    std::size_t k = 0;
+    std::vector<double> values;
     int line_no = 1;
-    while (k < total && std::getline(in, line)) {
+    while (values.size() < total && std::getline(in, line)) {
         ++line_no;
         std::istringstream ls(line);
         std::string token;
@@ -417,21 +434,25 @@ View3dFile read_view3d_text(std::istream& in, const std::string& name) {
             if (!parse_double(token, v)) {
                 throw InputError(name, line_no, "malformed number '" + token + "'");
             }
-            if (k >= total) throw InputError(name, line_no, "more values than the header says");
-            if (k < n) {
-                f.areas[k] = v;
-            } else if (k < n + n * n) {
-                const std::size_t m = k - n;
-                f.F(static_cast<Eigen::Index>(m / n), static_cast<Eigen::Index>(m % n)) = v;
-            } else {
-                f.emissivities[k - n - n * n] = v;
+            if (!std::isfinite(v)) {
+                throw InputError(name, line_no, "non-finite value '" + token + "'");
             }
-            ++k;
+            if (values.size() >= total) {
+                throw InputError(name, line_no, "more values than the header says");
+            }
+            values.push_back(v);
         }
     }
-    if (k < total) {
-        throw InputError(name, line_no, fmt::format("file ends after {} of {} values", k, total));
+    if (values.size() < total) {
+        throw InputError(name, line_no,
+                         fmt::format("file ends after {} of {} values", values.size(), total));
     }
+    const auto first = values.begin();
+    const auto nn = static_cast<std::ptrdiff_t>(n);
+    f.areas.assign(first, first + nn);
+    f.F.resize(nn, nn);
+    std::copy(first + nn, first + nn + nn * nn, f.F.data());
+    f.emissivities.assign(first + nn + nn * nn, first + nn + nn * nn + nn);
     return f;
 }
 

@@ -80,6 +80,11 @@ SolutionTable read_solution_csv(const std::string& path,
                                 std::optional<std::size_t> expected_patches) {
     std::ifstream in(path);
     if (!in) throw InputError(path, 0, "cannot open the solution file");
+    return read_solution_csv(in, path, expected_patches);
+}
+
+SolutionTable read_solution_csv(std::istream& in, const std::string& path,
+                                std::optional<std::size_t> expected_patches) {
     std::string line;
     int line_no = 0;
     SolutionTable t;

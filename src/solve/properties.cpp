@@ -136,6 +136,11 @@ std::string check_value(int column, double v) {
 void apply_properties_csv(const std::string& path, const Scene& scene, PatchProperties& props) {
     std::ifstream in(path);
     if (!in) throw InputError(path, 0, "cannot open the properties file");
+    apply_properties_csv(in, path, scene, props);
+}
+
+void apply_properties_csv(std::istream& in, const std::string& path, const Scene& scene,
+                          PatchProperties& props) {
     const std::size_t n = props.size();
     std::string line;
     int line_no = 0;

@@ -14,7 +14,9 @@ namespace formfactor {
 /// `PATH.tmp.<pid>` in the same directory (binary mode, so what is written is what ends up in
 /// the file), which is renamed to `path` on success. When `write` throws, or the stream fails
 /// (disk full, ...), or the rename fails, the temporary is removed, `path` is left as it was, and
-/// the exception propagates (an I/O failure becomes InputError(path, 0, reason)).
+/// the exception propagates (an I/O failure becomes InputError(path, 0, reason)). When
+/// process_cancellation() is requested before the rename, nothing is written and Cancelled is
+/// thrown.
 void write_file_atomically(const std::string& path,
                            const std::function<void(std::ostream&)>& write);
 
@@ -33,7 +35,9 @@ class OutputTransaction {
     /// Staging the same path twice is an error (formfactor::Error).
     void stage(const std::string& path, const std::function<void(std::ostream&)>& write);
     /// Renames every staged temporary to its target, in staging order. When a rename fails,
-    /// the remaining temporaries are removed and InputError(path, 0, reason) is thrown.
+    /// the remaining temporaries are removed and InputError(path, 0, reason) is thrown. When
+    /// process_cancellation() is requested, every temporary is removed, nothing renamed, and
+    /// Cancelled is thrown.
     void commit();
     /// Removes every staged temporary (idempotent).
     void abort() noexcept;

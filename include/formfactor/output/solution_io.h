@@ -7,6 +7,7 @@
 /// Thermal CSV: header `patch,area,emissivity,temperature,radiosity,net_flux,net_power`
 /// (m², –, K, W/m², W/m², W): net_flux and net_power are positive when the patch loses heat.
 
+#include <iosfwd>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -39,6 +40,9 @@ struct SolutionTable {
 /// exactly once; `expected_patches` (when given) must equal N. Throws InputError("FILE",
 /// LINE, ...) on a bad header, number, index, or count.
 SolutionTable read_solution_csv(const std::string& path,
+                                std::optional<std::size_t> expected_patches = std::nullopt);
+/// The same, from a stream; `path` names it in error messages.
+SolutionTable read_solution_csv(std::istream& in, const std::string& path,
                                 std::optional<std::size_t> expected_patches = std::nullopt);
 
 /// JSON sections of the run report.

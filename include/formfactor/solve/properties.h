@@ -4,6 +4,7 @@
 /// materials (MTL Kd → reflectance, Ke → emission) and can be overridden per patch or per
 /// surface from a CSV file (`--properties P.csv`).
 
+#include <iosfwd>
 #include <string>
 #include <vector>
 
@@ -41,6 +42,9 @@ PatchProperties properties_from_scene(const Scene& scene);
 /// ε outside (0, 1], T < 0, reflectance outside [0, 1), negative emission, or a row giving both
 /// temperature and net_flux.
 void apply_properties_csv(const std::string& path, const Scene& scene, PatchProperties& props);
+/// The same, from a stream; `path` names it in error messages.
+void apply_properties_csv(std::istream& in, const std::string& path, const Scene& scene,
+                          PatchProperties& props);
 
 /// Checks every value's range (as above); throws GeometryError naming the patch otherwise.
 void validate_properties(const PatchProperties& props);
