@@ -20,6 +20,7 @@
 #include "formfactor/visibility/visibility.h"
 #include "mc_common.h"
 #include "methods/analytic_internal.h"
+#include "visibility/shaft_culler.h"
 
 namespace formfactor {
 namespace {
@@ -80,6 +81,8 @@ class McTargetMethod final : public Method {
                         nlohmann::json& details) const override {
         check(scene);
         const auto t0 = mc::Clock::now();
+        mc::PhaseTimer phase_timer;
+        nlohmann::json phases = nlohmann::json::object();
         const SamplerKind kind = parse_sampler(options.sampler);
         const std::uint64_t N = mc::sample_count(options, 64);
         const std::uint32_t R = replicate_count(kind, N);
@@ -88,6 +91,7 @@ class McTargetMethod final : public Method {
         std::vector<PolygonSampler> senders;
         senders.reserve(n);
         for (const Patch& p : scene.patches) senders.emplace_back(p.polygon);
+        phase_timer.lap(phases, "visibility");
 
         FormFactors ff;
         std::atomic<std::uint64_t> rays{0}, unblocked_pairs{0}, pairs{0};
@@ -101,6 +105,60 @@ class McTargetMethod final : public Method {
         const detail::UnobstructedStats unocc = detail::unobstructed_form_factors(
             polys, kUnoccludedTolerance, options.threads, nullptr, ff.F, ff.areas);
         ff.standard_error = DenseMatrix::Zero(ff.F.rows(), ff.F.cols());
+        phase_timer.lap(phases, "unobstructed");
+
+        // Pass 1b: pairs that nothing can block (a conservative shaft test, independent of the
+        // analytic method's) are settled without rays: F = F_unocc, standard error 0 — what
+        // their rays would give. Surfaces are tested whole first when they average two patches
+        // or more (a clear surface pair clears all its patch pairs). One bit per unordered
+        // patch pair (bit j of row i, j > i).
+        const ShaftCuller culler(scene);
+        const std::size_t S = scene.surfaces.size();
+        std::vector<int> surface_of(n, -1);
+        std::vector<std::size_t> patches_of(S, 0);
+        for (std::size_t p = 0; p < n; ++p) {
+            const int sp = scene.patches[p].surface;
+            if (sp >= 0 && static_cast<std::size_t>(sp) < S) {
+                surface_of[p] = sp;
+                ++patches_of[static_cast<std::size_t>(sp)];
+            }
+        }
+        const bool by_surface = 2 * S <= n;
+        std::vector<std::uint8_t> surface_clear(by_surface ? S * S : 0, 0);
+        if (by_surface) {
+            parallel_for(S, options.threads, [&](std::size_t a) {
+                if (patches_of[a] == 0) return;
+                for (std::size_t b = a + 1; b < S; ++b)
+                    if (patches_of[b] > 0 && patches_of[a] + patches_of[b] > 2)
+                        surface_clear[a * S + b] =
+                            culler.unoccluded(scene.surfaces[a].polygon, scene.surfaces[b].polygon);
+            });
+        }
+        const std::size_t words = (n + 63) / 64;
+        std::vector<std::uint64_t> clear_bits(n * words, 0);
+        std::atomic<std::uint64_t> cleared_pairs{0};
+        parallel_for(n, options.threads, [&](std::size_t i) {
+            std::uint64_t count = 0;
+            for (std::size_t j = i + 1; j < n; ++j) {
+                if (!(ff.F(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) > 0))
+                    continue;
+                const int a = surface_of[i], b = surface_of[j];
+                const bool whole = by_surface && a >= 0 && b >= 0 && a != b &&
+                                   surface_clear[static_cast<std::size_t>(std::min(a, b)) * S +
+                                                 static_cast<std::size_t>(std::max(a, b))];
+                if (!whole && !culler.unoccluded(static_cast<int>(i), static_cast<int>(j)))
+                    continue;
+                clear_bits[i * words + j / 64] |= std::uint64_t(1) << (j % 64);
+                ++count;
+            }
+            cleared_pairs += count;
+        });
+        auto cleared = [&](std::size_t i, std::size_t j) {
+            const std::size_t a = std::min(i, j), b = std::max(i, j);
+            return (clear_bits[a * words + b / 64] >> (b % 64)) & 1;
+        };
+
+        phase_timer.lap(phases, "shaft_culling");
         Progress progress("mc-target", n, options.progress);
         const std::uint32_t K = kDirectionsPerSender;
         parallel_for(n, options.threads, [&](std::size_t i) {
@@ -143,7 +201,7 @@ class McTargetMethod final : public Method {
                 if (j == i) continue;
                 const double f_unocc =
                     ff.F(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j));
-                if (!(f_unocc > 0)) continue;
+                if (!(f_unocc > 0) || cleared(i, j)) continue;
                 const Patch& pj = scene.patches[j];
                 ProjectedPolygonSampler& target = buf.target;
                 target.reset(pj.polygon);
@@ -194,6 +252,10 @@ class McTargetMethod final : public Method {
                     j == i ? 0.0 : ff.F(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j));
                 if (!(f_unocc > 0)) continue;
                 ++row_pairs;
+                if (cleared(i, j)) {  // F_ij = F_unocc, standard error 0, as set
+                    ++row_unblocked;
+                    continue;
+                }
                 const auto ii = static_cast<Eigen::Index>(i), jj = static_cast<Eigen::Index>(j);
                 double w_sum = 0, v_sum = 0;
                 std::uint32_t used = 0;
@@ -232,9 +294,12 @@ class McTargetMethod final : public Method {
             progress.advance();
         });
         progress.finish();
+        phase_timer.lap(phases, "rays");
         mc::report(details, ff, kind, N, R, rays.load(), mc::seconds_since(t0), vis->description(),
                    "rays per patch pair");
         details["pairs"] = pairs.load();
+        details["phases"] = phases;
+        details["pairs_without_rays"] = cleared_pairs.load() * 2;  // both orders of each pair
         details["unoccluded_far_field_pairs"] = unocc.far;
         details["unoccluded_contour_pairs"] = unocc.exact;
         details["unblocked_pairs"] = unblocked_pairs.load();
