@@ -64,8 +64,8 @@ void run_method(benchmark::State& state, const std::string& method, std::uint64_
     MethodOptions o;
     o.samples = samples;
     o.progress = false;
-    std::uint64_t rays = 0;
-    double seconds = 0, se_max = 0, se_mean = 0, cpu = 0;
+    std::uint64_t rays = 0, pair_rays = 0;
+    double seconds = 0, se_max = 0, se_mean = 0, cpu = 0, ray_pass_cpu = 0;
     for (auto _ : state) {
         nlohmann::json d;
         const double c0 = process_cpu_seconds();
@@ -75,7 +75,21 @@ void run_method(benchmark::State& state, const std::string& method, std::uint64_
         seconds += d["seconds"].get<double>();
         se_max = d["standard_error_max"].get<double>();
         se_mean = d["standard_error_mean"].get<double>();
+        if (d.contains("phases")) {
+            // mc-target: the CPU of its ray pass alone, and the rays its pairs stand for
+            // (samples per pair, also for the pairs that the shaft test settled without rays).
+            ray_pass_cpu += d["phases"]["rays"]["process_cpu_seconds"].get<double>();
+            pair_rays += d["pairs"].get<std::uint64_t>() * samples;
+        }
     }
+    if (ray_pass_cpu > 0) {
+        state.counters["ray_pass_fraction_of_raw_cpu"] =
+            raw_cpu > 0 ? rays / ray_pass_cpu / raw_cpu : 0.0;
+        state.counters["pair_rays_per_cpu_s"] = pair_rays / cpu;
+        state.counters["pair_rays_fraction_of_raw_cpu"] =
+            raw_cpu > 0 ? pair_rays / cpu / raw_cpu : 0.0;
+    }
+    state.counters["cpu_s"] = cpu;
     state.SetItemsProcessed(static_cast<std::int64_t>(rays));
     state.counters["rays_per_s"] = rays / seconds;
     state.counters["fraction_of_raw"] = raw > 0 ? rays / seconds / raw : 0.0;

@@ -128,3 +128,26 @@ TEST_CASE("mc-target: hidden receiver, additivity and thread independence") {
     CHECK(t1.F == t2.F);
     CHECK(*t1.standard_error == *t2.standard_error);
 }
+
+TEST_CASE("mc-target: pairs that nothing can block are settled without rays") {
+    // The closed cube: every pair is clear (shaft test), so no ray is cast, F = F_unocc and the
+    // standard errors are 0.
+    Scene cube = load_scene("cube");
+    subdivide(cube, SubdivisionOptions{3, 0.0});
+    MethodOptions o;
+    o.samples = 16;
+    o.progress = false;
+    nlohmann::json d;
+    const FormFactors ff = make_method("mc-target")->compute(cube, o, d);
+    CHECK(d["rays_cast"].get<std::uint64_t>() == 0);
+    CHECK(d["pairs_without_rays"] == d["pairs"]);
+    CHECK(ff.standard_error->maxCoeff() == 0.0);
+    for (Eigen::Index i = 0; i < ff.F.rows(); ++i)
+        CHECK(ff.F.row(i).sum() == doctest::Approx(1.0).epsilon(1e-12));
+    // A blocker inside the shaft: rays are cast for the pair, none settled by the shaft test.
+    nlohmann::json d2;
+    const ShadowCase c = shadow_case();
+    make_method("mc-target")->compute(c.scene, o, d2);
+    CHECK(d2["rays_cast"].get<std::uint64_t>() > 0);
+    CHECK(d2["pairs_without_rays"].get<std::uint64_t>() == 0);
+}

@@ -14,6 +14,7 @@
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/patch_table.h"
 #include "formfactor/output/report.h"
+#include "output/text_numbers.h"
 #include "temp_dir.h"
 
 using namespace formfactor;
@@ -328,6 +329,141 @@ TEST_CASE("output: View3D 3.2 text layout (SaveVF/SaveF0) and read back") {
     FormFactors ff{F, {1.0, 2.5}, std::nullopt};
     write_matrix(dir.file("F.txt"), ff);
     CHECK(read_matrix(dir.file("F.txt"))(1, 0) == 0.199825);
+}
+
+TEST_CASE("output: the text of awkward values, byte for byte (.txt and .csv)") {
+    // Ties rounded to even (0.0078125, 0.0625, 0.8125), signed zeros, values that round to a
+    // signed zero, a value past the fast path (1e10), subnormals, 1e-300; expected texts are
+    // C's printf conversions (%.6f, %.17g, %g, %.3f).
+    DenseMatrix F(4, 4);
+    F << 0.0078125, -0.0, -1e-9, 0.9999995,                                  //
+        1e10, 2.5e-7, 0.5, 1.0000005,                                        //
+        123456789.1234565, 1e-300, 0.19982489569838746, 3.0000000000000004,  //
+        5e-324, -0.0625, 1e-5, 0.1;
+    MatrixFileInfo info;
+    info.areas = {1.0, 2.5, 1e-5, 123456789.0};
+    info.emissivities = {0.9, 0.0625, 0.8125, 1.0};
+    info.enclosure = true;
+    std::ostringstream txt;
+    write_view3d_text(txt, F, info);
+    CHECK(txt.str() ==
+          "View3D 3.2 0 1 0 4            \n"
+          "1 2.5 1e-05 1.23457e+08\n"
+          "0.007812 -0.000000 -0.000000 1.000000\n"
+          "10000000000.000000 0.000000 0.500000 1.000001\n"
+          "123456789.123456 0.000000 0.199825 3.000000\n"
+          "0.000000 -0.062500 0.000010 0.100000\n"
+          "0.900 0.062 0.812 1.000\n");
+    std::ostringstream csv;
+    write_csv_matrix(csv, F);
+    CHECK(csv.str() ==
+          "0.0078125,-0,-1.0000000000000001e-09,0.99999950000000004\n"
+          "10000000000,2.4999999999999999e-07,0.5,1.0000005000000001\n"
+          "123456789.12345649,1e-300,0.19982489569838746,3.0000000000000004\n"
+          "4.9406564584124654e-324,-0.0625,1.0000000000000001e-05,0.10000000000000001\n");
+}
+
+TEST_CASE("output: numbers are printf's conversions on 300,000 values") {
+    // The writers' formatter (output/text_numbers.h) against snprintf: values spread over every
+    // exponent, random bit patterns, values rounded to 7 decimals (ties and near-ties of %.6f),
+    // neighbours of powers of ten (where %.17g changes its exponent).
+    std::mt19937_64 rng(2024);
+    std::vector<double> values = {0.0,
+                                  -0.0,
+                                  0.0078125,
+                                  0.0625,
+                                  1e17,
+                                  1e-5,
+                                  9.9999999999999995e-5,
+                                  1e16,
+                                  1e-300,
+                                  5e-324,
+                                  1e300,
+                                  0.5,
+                                  999999.9999995,
+                                  1e9,
+                                  -1e9,
+                                  999999999.9999995,
+                                  0.1,
+                                  1e-4,
+                                  123456789012345678.0};
+    for (int k = 0; k < 300000; ++k) {
+        double x = 0;
+        switch (k % 5) {
+            case 0:
+                x = std::uniform_real_distribution<double>(0, 1)(rng);
+                break;
+            case 1:
+                x = std::bit_cast<double>(rng());
+                break;
+            case 2:
+                x = std::ldexp(static_cast<double>(rng() >> 11), -static_cast<int>(rng() % 140));
+                break;
+            case 3:
+                x = std::round(std::uniform_real_distribution<double>(-2, 2)(rng) * 1e7) / 1e7;
+                break;
+            default:
+                x = std::nextafter(std::pow(10.0, static_cast<int>(rng() % 60) - 30),
+                                   (rng() & 1) ? 0.0 : 1e300);
+                break;
+        }
+        if (std::isfinite(x)) values.push_back(x);
+    }
+    std::size_t bad_g17 = 0, bad_f6 = 0, bad_f3 = 0, bad_g = 0;
+    char expected[400], got[400];
+    auto differs = [&](const char* end) {
+        return std::string_view(got, static_cast<std::size_t>(end - got)) != expected;
+    };
+    for (const double x : values) {
+        std::snprintf(expected, sizeof expected, "%.17g", x);
+        if (differs(detail::print_g17(got, x)) && bad_g17++ < 3) MESSAGE("%.17g of " << expected);
+        std::snprintf(expected, sizeof expected, "%.6f", x);
+        if (differs(detail::print_fixed(got, x, 6)) && bad_f6++ < 3) MESSAGE("%.6f: " << expected);
+        std::snprintf(expected, sizeof expected, "%.3f", x);
+        if (differs(detail::print_fixed(got, x, 3)) && bad_f3++ < 3) MESSAGE("%.3f: " << expected);
+        std::snprintf(expected, sizeof expected, "%g", x);
+        if (differs(detail::print_g(got, x)) && bad_g++ < 3) MESSAGE("%g: " << expected);
+    }
+    CHECK(bad_g17 == 0);
+    CHECK(bad_f6 == 0);
+    CHECK(bad_f3 == 0);
+    CHECK(bad_g == 0);
+}
+
+TEST_CASE("output: large text matrices (many blocks, formatted in parallel) are printf's text") {
+    // 700 columns: a CSV row is ~16 kB, so the 2 MB blocks hold ~120 rows and the matrix takes
+    // several blocks and waves; every line must still come out in order, value by value.
+    const int n = 700;
+    std::mt19937_64 rng(99);
+    DenseMatrix F(n, n);
+    for (Eigen::Index k = 0; k < F.size(); ++k)
+        F.data()[k] = std::uniform_real_distribution<double>(0, 1)(rng) *
+                      std::pow(10.0, -static_cast<int>(rng() % 9));
+    MatrixFileInfo info;
+    info.areas.assign(n, 0.25);
+    std::ostringstream csv, txt;
+    write_csv_matrix(csv, F);
+    write_view3d_text(txt, F, info);
+    std::string expected_csv, expected_txt = "View3D 3.2 0 0 0 700";
+    expected_txt += std::string(30 - expected_txt.size(), ' ') + '\n';
+    char buf[64];
+    for (int k = 0; k < n; ++k) expected_txt += k ? " 0.25" : "0.25";
+    expected_txt += '\n';
+    for (int i = 0; i < n; ++i) {
+        for (int j = 0; j < n; ++j) {
+            std::snprintf(buf, sizeof buf, j ? ",%.17g" : "%.17g", F(i, j));
+            expected_csv += buf;
+            std::snprintf(buf, sizeof buf, j ? " %.6f" : "%.6f", F(i, j));
+            expected_txt += buf;
+        }
+        expected_csv += '\n';
+        expected_txt += '\n';
+    }
+    for (int k = 0; k < n; ++k) expected_txt += k ? " 0.900" : "0.900";
+    expected_txt += '\n';
+    CHECK(csv.str().size() == expected_csv.size());
+    CHECK(csv.str() == expected_csv);
+    CHECK(txt.str() == expected_txt);
 }
 
 // ---- patch table and report -------------------------------------------------------------------

@@ -5,6 +5,7 @@
 #include "formfactor/core/error.h"
 #include "formfactor/core/random.h"
 #include "formfactor/geometry/sampling.h"
+#include "formfactor/methods/analytic.h"
 #include "mc_test_scenes.h"
 
 using namespace formfactor;
@@ -76,11 +77,14 @@ namespace {
 
 // Fraction of projected-solid-angle samples towards `target` from (x, n) that land in `part`
 // (a sub-polygon of target, same plane), against F(part)/F(target).
+// With `rejection`, directions come from sample(u, v, rng), by rejection from the proposal
+// polygon (which set_origin() must have prepared), else from the inverse map sample(u, v).
 void check_distribution(const Vec3& x, const Vec3& n, const Polygon& target, const Polygon& part,
-                        double expected_f = -1) {
+                        double expected_f = -1, bool rejection = false) {
     ProjectedPolygonSampler whole(target), sub(part);
     const double F = whole.set_origin(x, n);
     const double Fp = sub.set_origin(x, n);
+    if (rejection) CHECK(whole.uses_rejection());
     if (expected_f >= 0) CHECK(F == doctest::Approx(expected_f).epsilon(1e-12));
     REQUIRE(F > 0);
     const Vec3 nt = normal(target);
@@ -90,7 +94,8 @@ void check_distribution(const Vec3& x, const Vec3& n, const Polygon& target, con
     int hits = 0;
     for (std::uint32_t k = 0; k < N; ++k) {
         const auto u = set(k);
-        const Vec3 d = whole.sample(u[0], u[1]);
+        std::uint64_t rng = k;
+        const Vec3 d = rejection ? whole.sample(u[0], u[1], rng) : whole.sample(u[0], u[1]);
         REQUIRE(std::abs(d.norm() - 1) < 1e-12);
         REQUIRE(d.dot(n) >= 0);
         const double t = nt.dot(p0 - x) / nt.dot(d);
@@ -134,6 +139,12 @@ TEST_CASE("sampling: projected-solid-angle samples are distributed by projected 
         check_distribution(Vec3(3, 0.5, 0.2), Vec3(0, 0, 1), sq, corner);
         check_distribution(Vec3(3, 0.5, 0.2), Vec3(-0.6, 0, 0.8), sq, corner);
     }
+    SUBCASE("zenith outside the target (rejection from the proposal polygon)") {
+        check_distribution(Vec3(2, 0.5, 0.2), Vec3(0, 0, 1), sq, corner, -1, true);
+        check_distribution(Vec3(2, 0.5, 0.2), Vec3(-0.6, 0, 0.8), sq, corner, -1, true);
+        check_distribution(Vec3(3, 2, -2), Vec3(0, 0, 1), sq, corner, -1, true);
+        check_distribution(Vec3(1.2, 0, 0.5), Vec3(0, 0, 1), sq, corner, -1, true);
+    }
     SUBCASE("target clipped by the sender's plane") {
         const Polygon wall = quad(Vec3(0, 1, -1), Vec3(2, 1, -1), Vec3(2, 1, 1), Vec3(0, 1, 1));
         const Polygon top = quad(Vec3(0, 1, 0.5), Vec3(1, 1, 0.5), Vec3(1, 1, 1), Vec3(0, 1, 1));
@@ -146,6 +157,38 @@ TEST_CASE("sampling: projected-solid-angle samples are distributed by projected 
         check_distribution(Vec3(0.5, 0.5, 0), Vec3(0, 0, 1), ell, part);
         check_distribution(Vec3(-1, 3, 0.3), Vec3(0, 0, 1), ell, part);
     }
+}
+
+TEST_CASE("sampling: the rejection sampler is used where it pays, with Lambert's weight") {
+    // A square seen from the side (zenith outside, one convex piece): set_origin() prepares
+    // the rejection sampler (acceptance ≥ 1/2) and returns Lambert's form factor, and the
+    // directions of sample(u, v, rng) hit the target. Low over its plane, the projected region
+    // is a thin curved band that polygons bound poorly: the inverse map is kept there.
+    const Polygon sq = quad(Vec3(-1, 1, 1), Vec3(1, 1, 1), Vec3(1, -1, 1), Vec3(-1, -1, 1));
+    {
+        ProjectedPolygonSampler low(sq);
+        CHECK(low.set_origin(Vec3(9, -4, 0.5), Vec3(0, 0, 1)) > 0);
+        CHECK(!low.uses_rejection());
+    }
+    int rejecting = 0;
+    for (const Vec3& x : {Vec3(2, 0.5, 0.2), Vec3(3, 2, -2), Vec3(4, -3, -3)}) {
+        ProjectedPolygonSampler s(sq);
+        const Vec3 n(0, 0, 1);
+        const double F = s.set_origin(x, n);
+        CHECK(F == doctest::Approx(point_to_polygon(x, n, sq)).epsilon(1e-13));
+        std::uint64_t rng = 7;
+        for (int k = 0; k < 1000; ++k) {
+            const Vec3 d = s.sample((k + 0.5) / 1000, std::fmod(k * 0.618034, 1.0), rng);
+            REQUIRE(std::abs(d.norm() - 1) < 1e-12);
+            const double t = (1 - x.z()) / d.z();
+            REQUIRE(t > 0);
+            const Vec3 y = x + t * d;
+            CHECK(std::abs(y.x()) <= 1 + 1e-9);
+            CHECK(std::abs(y.y()) <= 1 + 1e-9);
+        }
+        if (s.uses_rejection()) ++rejecting;
+    }
+    CHECK(rejecting == 3);
 }
 
 TEST_CASE("sampling: PointSet4::generate equals operator() bit for bit") {
@@ -166,6 +209,11 @@ TEST_CASE("sampling: PointSet4::generate equals operator() bit for bit") {
                     for (int d = 0; d < 4; ++d)
                         same = same && p[static_cast<std::size_t>(d)] == u[d][k];
                 }
+                // A null output skips its coordinate; the others are unchanged.
+                std::vector<double> w(count, -1.0);
+                double* const only2[4] = {nullptr, nullptr, w.data(), nullptr};
+                set.generate(first, count, only2);
+                for (std::uint32_t k = 0; k < count; ++k) same = same && w[k] == u[2][k];
                 CAPTURE(sampler_name(kind));
                 CAPTURE(n);
                 CAPTURE(first);

@@ -223,7 +223,8 @@ void PointSet4::generate(std::uint32_t first, std::uint32_t count, double* const
     if (kind_ != SamplerKind::sobol) {
         for (std::uint32_t k = 0; k < count; ++k) {
             const auto u = (*this)(first + k);
-            for (int d = 0; d < 4; ++d) out[d][k] = u[static_cast<std::size_t>(d)];
+            for (int d = 0; d < 4; ++d)
+                if (out[d]) out[d][k] = u[static_cast<std::size_t>(d)];
         }
         return;
     }
@@ -233,6 +234,7 @@ void PointSet4::generate(std::uint32_t first, std::uint32_t count, double* const
     constexpr std::uint32_t kChunk = 256;
     std::uint32_t raw[kChunk];
     for (int d = 0; d < 4; ++d) {
+        if (!out[d]) continue;
         std::uint32_t x = reverse_bits(sobol(first, d));
         const std::uint32_t* pre = kSobol.prefix[d];
         const std::uint32_t seed = scramble_[d];

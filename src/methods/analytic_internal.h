@@ -1,10 +1,13 @@
 #pragma once
 // Internals of the analytic method shared by its source files (not public API).
 
+#include <array>
 #include <vector>
 
 #include "formfactor/core/error.h"
+#include "formfactor/core/progress.h"
 #include "formfactor/core/types.h"
+#include "formfactor/matrix/form_factors.h"
 #include "formfactor/methods/analytic.h"
 
 namespace formfactor::detail {
@@ -56,6 +59,23 @@ double far_field_kernel_sum(const RuleView& ra, const Vec3& na, const RuleView& 
 /// polygon_to_polygon; with allow_far_field false always by the double contour integral (for
 /// tests and calibration).
 double polygon_to_polygon_contour(const Polygon& a, const Polygon& b, bool allow_far_field);
+
+/// Counts of unobstructed_form_factors(): pairs (j > i) facing away (zero), by the far-field
+/// rule (far) and by the contour integral (exact); kernel evaluations of the far-field rule and
+/// pairs per far-field order.
+struct UnobstructedStats {
+    std::size_t zero = 0, far = 0, exact = 0;
+    std::size_t points = 0;
+    std::array<std::size_t, kMaxFarFieldOrder + 1> order_hist{};
+};
+
+/// The unobstructed form factors of every ordered pair of the polygons into F (n×n, row i from
+/// polys[i]) and their areas: each unordered pair once, by the double contour integral when
+/// near, by the far-field rule when its a-priori error bound is ≤ tol; the lower triangle by
+/// reciprocity A_j F_ji = A_i F_ij. progress (may be null) advances once per row.
+UnobstructedStats unobstructed_form_factors(const std::vector<const Polygon*>& polys, double tol,
+                                            int threads, Progress* progress, DenseMatrix& F,
+                                            std::vector<double>& areas);
 
 /// Relative error factor of an order-n Gauss rule over a polygon of circumradius R seen from a
 /// point at distance D ≥ R from its centroid, q = R/D < 1 (see docs/analytic.md).

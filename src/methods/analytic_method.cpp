@@ -101,38 +101,17 @@ Side side_of(const Vec3& n, double d, const Vec3& c, double r, const Polygon& q,
     return behind ? Side::kStraddles : Side::kFront;
 }
 
-struct RowStats {
-    std::size_t zero = 0, far = 0, exact = 0;
-    std::size_t points = 0;  // kernel evaluations of the far-field path
-    std::array<std::size_t, kMaxFarFieldOrder + 1> order_hist{};
-};
+using RowStats = detail::UnobstructedStats;
 
 }  // namespace
 
-std::string AnalyticMethod::name() const { return "analytic"; }
-
-void AnalyticMethod::check(const Scene&) const {
-    // Every scene: obstructed ones go through the obstruction pass of compute().
-}
-
-FormFactors AnalyticMethod::compute(const Scene& scene, const MethodOptions& options,
-                                    nlohmann::json& details) const {
-    if (!(options.tolerance > 0.0) || !std::isfinite(options.tolerance))
-        throw OptionError("--tolerance", "must be a positive number (absolute error per entry)");
-    // In an obstructed scene the unobstructed values (kept for the fully visible pairs, the
-    // reference of the partly hidden ones) stay at ≤ 1e-10: they are cheap, and the closure of
-    // the rows rests on them; options.obstructed_tolerance governs the partly hidden pairs.
-    const bool obstructed = may_obstruct(scene);
-    const double tol =
-        obstructed ? std::min(options.tolerance, kVisibleTolerance) : options.tolerance;
-    const std::size_t n = scene.patches.size();
-    FormFactors out;
-    out.F = DenseMatrix::Zero(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
-    out.areas.resize(n);
-    std::vector<const Polygon*> polys(n);
-    for (std::size_t p = 0; p < n; ++p) polys[p] = &scene.patches[p].polygon;
-    const PatchTable t = build_table(polys, options.threads);
-    for (std::size_t p = 0; p < n; ++p) out.areas[p] = t.area[p];
+detail::UnobstructedStats detail::unobstructed_form_factors(
+    const std::vector<const Polygon*>& polys, double tol, int threads, Progress* progress,
+    DenseMatrix& out_F, std::vector<double>& areas) {
+    const std::size_t n = polys.size();
+    out_F = DenseMatrix::Zero(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
+    const PatchTable t = build_table(polys, threads);
+    areas = t.area;
 
     Bounds3 box;
     for (const Polygon* p : polys)
@@ -140,10 +119,9 @@ FormFactors AnalyticMethod::compute(const Scene& scene, const MethodOptions& opt
     const double eps = box.empty() ? 0.0 : 1e-12 * box.diagonal().norm();
 
     std::vector<RowStats> stats(n);
-    Progress progress("analytic", n, options.progress);
-    double* F = out.F.data();
+    double* F = out_F.data();
     // Upper triangle: row i computes F_ij for j > i (each entry written by one task).
-    parallel_for(n, options.threads, [&](std::size_t i) {
+    parallel_for(n, threads, [&](std::size_t i) {
         RowStats& st = stats[i];
         const Vec3& ni = t.normal[i];
         const Vec3& ci = t.centroid[i];
@@ -188,13 +166,12 @@ FormFactors AnalyticMethod::compute(const Scene& scene, const MethodOptions& opt
         }
         batch.run([&](int order) { return t.rule(i, order); }, ni, ci, 1.0 / t.area[i],
                   [&](std::size_t j, double fij) { F[i * n + j] = std::max(0.0, fij); });
-        progress.advance();
+        if (progress) progress->advance();
     });
-    progress.finish();
     // Lower triangle by reciprocity, A_j F_ji = A_i F_ij, in cache-friendly tiles.
     constexpr std::size_t kTile = 64;
     const std::size_t tiles = (n + kTile - 1) / kTile;
-    parallel_for(tiles, options.threads, [&](std::size_t bj) {
+    parallel_for(tiles, threads, [&](std::size_t bj) {
         for (std::size_t bi = 0; bi <= bj; ++bi)
             for (std::size_t j = bj * kTile; j < std::min(n, (bj + 1) * kTile); ++j)
                 for (std::size_t i = bi * kTile; i < std::min(j, (bi + 1) * kTile); ++i)
@@ -210,6 +187,33 @@ FormFactors AnalyticMethod::compute(const Scene& scene, const MethodOptions& opt
         for (std::size_t o = 0; o < total.order_hist.size(); ++o)
             total.order_hist[o] += s.order_hist[o];
     }
+    return total;
+}
+
+std::string AnalyticMethod::name() const { return "analytic"; }
+
+void AnalyticMethod::check(const Scene&) const {
+    // Every scene: obstructed ones go through the obstruction pass of compute().
+}
+
+FormFactors AnalyticMethod::compute(const Scene& scene, const MethodOptions& options,
+                                    nlohmann::json& details) const {
+    if (!(options.tolerance > 0.0) || !std::isfinite(options.tolerance))
+        throw OptionError("--tolerance", "must be a positive number (absolute error per entry)");
+    // In an obstructed scene the unobstructed values (kept for the fully visible pairs, the
+    // reference of the partly hidden ones) stay at ≤ 1e-10: they are cheap, and the closure of
+    // the rows rests on them; options.obstructed_tolerance governs the partly hidden pairs.
+    const bool obstructed = may_obstruct(scene);
+    const double tol =
+        obstructed ? std::min(options.tolerance, kVisibleTolerance) : options.tolerance;
+    const std::size_t n = scene.patches.size();
+    FormFactors out;
+    std::vector<const Polygon*> polys(n);
+    for (std::size_t p = 0; p < n; ++p) polys[p] = &scene.patches[p].polygon;
+    Progress progress("analytic", n, options.progress);
+    const RowStats total =
+        detail::unobstructed_form_factors(polys, tol, options.threads, &progress, out.F, out.areas);
+    progress.finish();
     nlohmann::json hist = nlohmann::json::object();
     for (int o = 1; o <= kMaxFarFieldOrder; ++o)
         if (total.order_hist[static_cast<std::size_t>(o)] > 0)

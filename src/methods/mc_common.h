@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <ctime>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -85,6 +86,28 @@ using Clock = std::chrono::steady_clock;
 inline double seconds_since(Clock::time_point t0) {
     return std::chrono::duration<double>(Clock::now() - t0).count();
 }
+
+/// CPU seconds of the whole process so far (all threads; std::clock).
+inline double process_cpu_seconds() { return static_cast<double>(std::clock()) / CLOCKS_PER_SEC; }
+
+/// Wall and process-CPU time of the phases of a method, for its details.
+class PhaseTimer {
+  public:
+    PhaseTimer() : wall_(Clock::now()), cpu_(process_cpu_seconds()) {}
+    /// Records the time since the previous lap (or construction) under `name`.
+    void lap(nlohmann::json& phases, const std::string& name) {
+        const auto now = Clock::now();
+        const double cpu = process_cpu_seconds();
+        phases[name] = {{"seconds", std::chrono::duration<double>(now - wall_).count()},
+                        {"process_cpu_seconds", cpu - cpu_}};
+        wall_ = now;
+        cpu_ = cpu;
+    }
+
+  private:
+    Clock::time_point wall_;
+    double cpu_;
+};
 
 }  // namespace mc
 }  // namespace formfactor

@@ -4,8 +4,8 @@
 // For each pair (i, j): N rays from N/2 sender points x_g uniform on A_i; from each, two shadow
 // rays towards directions drawn from the projected solid angle of A_j (ProjectedPolygonSampler:
 // exact, no rejection; one set-up per sender point), so that every ray from x_g carries the same
-// weight w_g = F_{dA(x_g)→A_j}. The estimate is the exact unoccluded F_ij (polygon_to_polygon,
-// once per unordered pair, the other by reciprocity) times the visible fraction
+// weight w_g = F_{dA(x_g)→A_j}. The estimate is the exact unoccluded F_ij (the analytic method's
+// unobstructed pass, once per unordered pair, the other by reciprocity) times the visible fraction
 //     ρ = Σ_rays w V / Σ_rays w,
 // a ratio estimator: exact when nothing blocks (ρ = 1) or everything does (ρ = 0), consistent
 // with O(1/N) bias otherwise. --samples = rays per patch pair. Standard error: F_unocc × the
@@ -19,6 +19,8 @@
 #include "formfactor/methods/analytic.h"
 #include "formfactor/visibility/visibility.h"
 #include "mc_common.h"
+#include "methods/analytic_internal.h"
+#include "visibility/shaft_culler.h"
 
 namespace formfactor {
 namespace {
@@ -28,6 +30,10 @@ namespace {
 constexpr std::uint32_t kDirectionsPerSender = 2;
 constexpr std::size_t kBatch = 256;
 constexpr std::uint32_t kGroupChunk = 128;  // sender points whose coordinates are made at once
+// Absolute error of F_unocc from the far-field rule: that of the contour integral (~1e-12), so
+// "exact when nothing blocks" means what it meant with the contour integral for every pair.
+constexpr double kUnoccludedTolerance = 1e-12;
+constexpr std::uint64_t kRetryStream = 0x7265747279ULL;  // "retry"
 
 // One sender point's rays in the batch: queries [first, first + count), each of weight `weight`
 // (F_{dA(x)→A_j}), for slot j·R + r.
@@ -44,7 +50,7 @@ struct RowBuffers {
     std::vector<SegmentQuery> queries;
     std::vector<Group> groups;
     std::vector<std::uint8_t> blocked = std::vector<std::uint8_t>(kBatch);
-    std::vector<double> sender_u[4], direction_u[4];  // one chunk of groups
+    std::vector<double> sender_u[2], direction_u[4];  // one chunk of groups (direction_u[2, 3])
     ProjectedPolygonSampler target;
     void prepare(std::size_t n, std::uint32_t R) {
         W.assign(n * R, 0.0);
@@ -60,16 +66,9 @@ struct RowBuffers {
     }
     RowBuffers() {
         for (auto& v : sender_u) v.resize(kGroupChunk);
-        for (auto& v : direction_u) v.resize(kGroupChunk * kDirectionsPerSender);
+        for (int d = 2; d < 4; ++d) direction_u[d].resize(kGroupChunk * kDirectionsPerSender);
     }
 };
-
-bool behind(const Patch& p, const Patch& q) {
-    const double tol = 1e-12 * diameter(p.polygon);
-    for (const Vec3& v : q.polygon.vertices)
-        if (p.normal.dot(v - p.centroid) > tol) return false;
-    return true;
-}
 
 class McTargetMethod final : public Method {
   public:
@@ -82,6 +81,8 @@ class McTargetMethod final : public Method {
                         nlohmann::json& details) const override {
         check(scene);
         const auto t0 = mc::Clock::now();
+        mc::PhaseTimer phase_timer;
+        nlohmann::json phases = nlohmann::json::object();
         const SamplerKind kind = parse_sampler(options.sampler);
         const std::uint64_t N = mc::sample_count(options, 64);
         const std::uint32_t R = replicate_count(kind, N);
@@ -90,29 +91,74 @@ class McTargetMethod final : public Method {
         std::vector<PolygonSampler> senders;
         senders.reserve(n);
         for (const Patch& p : scene.patches) senders.emplace_back(p.polygon);
+        phase_timer.lap(phases, "visibility");
 
         FormFactors ff;
-        ff.F = DenseMatrix::Zero(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
-        ff.standard_error = DenseMatrix::Zero(ff.F.rows(), ff.F.cols());
-        for (const Patch& p : scene.patches) ff.areas.push_back(p.area);
         std::atomic<std::uint64_t> rays{0}, unblocked_pairs{0}, pairs{0};
 
-        // Pass 1: the exact unobstructed F_ij (polygon_to_polygon, the dominant cost per pair)
-        // once per unordered pair, j > i; F_ji by reciprocity A_j F_ji = A_i F_ij. Entries are
-        // written by one task each; ff.F holds F_unocc until pass 2 scales its own row.
-        parallel_for(n, options.threads, [&](std::size_t i) {
-            const Patch& pi = scene.patches[i];
-            for (std::size_t j = i + 1; j < n; ++j) {
-                const Patch& pj = scene.patches[j];
-                if (behind(pi, pj) || behind(pj, pi)) continue;
-                const double f = polygon_to_polygon(pi.polygon, pj.polygon);
-                if (!(f > 0)) continue;
-                const auto ii = static_cast<Eigen::Index>(i), jj = static_cast<Eigen::Index>(j);
-                ff.F(ii, jj) = f;
-                ff.F(jj, ii) = pj.area > 0 ? f * pi.area / pj.area : 0.0;
-            }
-        });
+        // Pass 1: the unobstructed F_ij of every pair (the analytic method's unobstructed pass:
+        // the double contour integral for near pairs, the far-field rule where its a-priori
+        // bound is ≤ kUnoccludedTolerance, once per unordered pair and the other entry by
+        // reciprocity). ff.F holds F_unocc until pass 2 scales its own row.
+        std::vector<const Polygon*> polys(n);
+        for (std::size_t p = 0; p < n; ++p) polys[p] = &scene.patches[p].polygon;
+        const detail::UnobstructedStats unocc = detail::unobstructed_form_factors(
+            polys, kUnoccludedTolerance, options.threads, nullptr, ff.F, ff.areas);
+        ff.standard_error = DenseMatrix::Zero(ff.F.rows(), ff.F.cols());
+        phase_timer.lap(phases, "unobstructed");
 
+        // Pass 1b: pairs that nothing can block (a conservative shaft test, independent of the
+        // analytic method's) are settled without rays: F = F_unocc, standard error 0 — what
+        // their rays would give. Surfaces are tested whole first when they average two patches
+        // or more (a clear surface pair clears all its patch pairs). One bit per unordered
+        // patch pair (bit j of row i, j > i).
+        const ShaftCuller culler(scene);
+        const std::size_t S = scene.surfaces.size();
+        std::vector<int> surface_of(n, -1);
+        std::vector<std::size_t> patches_of(S, 0);
+        for (std::size_t p = 0; p < n; ++p) {
+            const int sp = scene.patches[p].surface;
+            if (sp >= 0 && static_cast<std::size_t>(sp) < S) {
+                surface_of[p] = sp;
+                ++patches_of[static_cast<std::size_t>(sp)];
+            }
+        }
+        const bool by_surface = 2 * S <= n;
+        std::vector<std::uint8_t> surface_clear(by_surface ? S * S : 0, 0);
+        if (by_surface) {
+            parallel_for(S, options.threads, [&](std::size_t a) {
+                if (patches_of[a] == 0) return;
+                for (std::size_t b = a + 1; b < S; ++b)
+                    if (patches_of[b] > 0 && patches_of[a] + patches_of[b] > 2)
+                        surface_clear[a * S + b] =
+                            culler.unoccluded(scene.surfaces[a].polygon, scene.surfaces[b].polygon);
+            });
+        }
+        const std::size_t words = (n + 63) / 64;
+        std::vector<std::uint64_t> clear_bits(n * words, 0);
+        std::atomic<std::uint64_t> cleared_pairs{0};
+        parallel_for(n, options.threads, [&](std::size_t i) {
+            std::uint64_t count = 0;
+            for (std::size_t j = i + 1; j < n; ++j) {
+                if (!(ff.F(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) > 0))
+                    continue;
+                const int a = surface_of[i], b = surface_of[j];
+                const bool whole = by_surface && a >= 0 && b >= 0 && a != b &&
+                                   surface_clear[static_cast<std::size_t>(std::min(a, b)) * S +
+                                                 static_cast<std::size_t>(std::max(a, b))];
+                if (!whole && !culler.unoccluded(static_cast<int>(i), static_cast<int>(j)))
+                    continue;
+                clear_bits[i * words + j / 64] |= std::uint64_t(1) << (j % 64);
+                ++count;
+            }
+            cleared_pairs += count;
+        });
+        auto cleared = [&](std::size_t i, std::size_t j) {
+            const std::size_t a = std::min(i, j), b = std::max(i, j);
+            return (clear_bits[a * words + b / 64] >> (b % 64)) & 1;
+        };
+
+        phase_timer.lap(phases, "shaft_culling");
         Progress progress("mc-target", n, options.progress);
         const std::uint32_t K = kDirectionsPerSender;
         parallel_for(n, options.threads, [&](std::size_t i) {
@@ -127,10 +173,11 @@ class McTargetMethod final : public Method {
             std::vector<SegmentQuery>& queries = buf.queries;
             std::vector<Group>& groups = buf.groups;
             std::uint8_t* blocked = buf.blocked.data();
-            double* const us[4] = {buf.sender_u[0].data(), buf.sender_u[1].data(),
-                                   buf.sender_u[2].data(), buf.sender_u[3].data()};
-            double* const ud[4] = {buf.direction_u[0].data(), buf.direction_u[1].data(),
-                                   buf.direction_u[2].data(), buf.direction_u[3].data()};
+            // Sender points use coordinates 0, 1 of their points, directions 2, 3.
+            double* const us[4] = {buf.sender_u[0].data(), buf.sender_u[1].data(), nullptr,
+                                   nullptr};
+            double* const ud[4] = {nullptr, nullptr, buf.direction_u[2].data(),
+                                   buf.direction_u[3].data()};
             std::uint64_t row_rays = 0, row_pairs = 0, row_unblocked = 0;
             auto flush = [&] {
                 vis->occluded(queries, std::span<std::uint8_t>(blocked, queries.size()));
@@ -154,7 +201,7 @@ class McTargetMethod final : public Method {
                 if (j == i) continue;
                 const double f_unocc =
                     ff.F(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j));
-                if (!(f_unocc > 0)) continue;
+                if (!(f_unocc > 0) || cleared(i, j)) continue;
                 const Patch& pj = scene.patches[j];
                 ProjectedPolygonSampler& target = buf.target;
                 target.reset(pj.polygon);
@@ -162,7 +209,10 @@ class McTargetMethod final : public Method {
                 const double plane = pj.normal.dot(pj.centroid);
                 for (std::uint32_t r = 0; r < R; ++r) {
                     const auto nr = static_cast<std::uint32_t>(replicate_size(N, R, r));
-                    const PointSet4 set(kind, stream_key(options.seed, i, j, r), nr);
+                    const std::uint64_t key = stream_key(options.seed, i, j, r);
+                    const PointSet4 set(kind, key, nr);
+                    // Further candidates of the rejection sampler: their own counter stream.
+                    std::uint64_t retry = splitmix64(key ^ kRetryStream);
                     // Group g: the sender point of point g (dimensions 0, 1: the first points of
                     // the set, so the sender points stay stratified), directions from points
                     // gK … gK+K−1 (dimensions 2, 3). Each ray is still (x uniform on A_i,
@@ -184,7 +234,7 @@ class McTargetMethod final : public Method {
                                       static_cast<std::uint32_t>(j * R + r)};
                             const double h = plane - pj.normal.dot(x);  // < 0: x in front
                             for (std::uint32_t k = g * K; k < g * K + m; ++k) {
-                                const Vec3 d = target.sample(ud[2][k], ud[3][k]);
+                                const Vec3 d = target.sample(ud[2][k], ud[3][k], retry);
                                 const double den = pj.normal.dot(d);
                                 if (!(den < 0)) continue;  // grazing: measure zero
                                 queries.push_back({x, x + (h / den) * d, from, to});
@@ -202,6 +252,10 @@ class McTargetMethod final : public Method {
                     j == i ? 0.0 : ff.F(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j));
                 if (!(f_unocc > 0)) continue;
                 ++row_pairs;
+                if (cleared(i, j)) {  // F_ij = F_unocc, standard error 0, as set
+                    ++row_unblocked;
+                    continue;
+                }
                 const auto ii = static_cast<Eigen::Index>(i), jj = static_cast<Eigen::Index>(j);
                 double w_sum = 0, v_sum = 0;
                 std::uint32_t used = 0;
@@ -240,9 +294,14 @@ class McTargetMethod final : public Method {
             progress.advance();
         });
         progress.finish();
+        phase_timer.lap(phases, "rays");
         mc::report(details, ff, kind, N, R, rays.load(), mc::seconds_since(t0), vis->description(),
                    "rays per patch pair");
         details["pairs"] = pairs.load();
+        details["phases"] = phases;
+        details["pairs_without_rays"] = cleared_pairs.load() * 2;  // both orders of each pair
+        details["unoccluded_far_field_pairs"] = unocc.far;
+        details["unoccluded_contour_pairs"] = unocc.exact;
         details["unblocked_pairs"] = unblocked_pairs.load();
         return ff;
     }

@@ -11,12 +11,15 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <future>
 #include <istream>
 #include <ostream>
 #include <sstream>
 
 #include "formfactor/core/error.h"
+#include "formfactor/core/parallel.h"
 #include "formfactor/output/atomic_file.h"
+#include "output/text_numbers.h"
 
 namespace formfactor {
 
@@ -90,17 +93,66 @@ MatrixFormat matrix_format_for(const std::string& path, const std::string& optio
 
 // ---- writers ------------------------------------------------------------------------------
 
-void write_csv_matrix(std::ostream& out, const DenseMatrix& F) {
-    fmt::memory_buffer line;
-    for (Eigen::Index i = 0; i < F.rows(); ++i) {
-        line.clear();
-        for (Eigen::Index j = 0; j < F.cols(); ++j) {
-            if (j > 0) line.push_back(',');
-            fmt::format_to(std::back_inserter(line), "{:.17g}", F(i, j));
-        }
-        line.push_back('\n');
-        out.write(line.data(), static_cast<std::streamsize>(line.size()));
+namespace {
+
+// Text matrices are formatted a block of rows at a time, a wave of blocks in parallel
+// (parallel_for, each block into its own buffer), and written in order, one write per block,
+// by a second thread while the next wave is formatted: the file system's time hides behind the
+// formatting. The bytes are those of a serial loop.
+constexpr std::size_t kBlockBytes = std::size_t(1) << 21;
+
+template <class FormatRow>
+void write_rows(std::ostream& out, std::size_t rows, std::size_t row_bytes, FormatRow format_row) {
+    if (rows == 0) return;
+    const std::size_t per_block =
+        std::clamp<std::size_t>(kBlockBytes / std::max<std::size_t>(row_bytes, 1), 1, rows);
+    const std::size_t blocks = (rows + per_block - 1) / per_block;
+    const int threads = blocks > 1 ? effective_threads(0) : 1;
+    const std::size_t wave = std::min(blocks, 2 * static_cast<std::size_t>(threads));
+    std::vector<detail::TextBuffer> buffers[2] = {std::vector<detail::TextBuffer>(wave),
+                                                  std::vector<detail::TextBuffer>(wave)};
+    std::future<void> writing;
+    for (std::size_t b0 = 0, w = 0; b0 < blocks; b0 += wave, w ^= 1) {
+        const std::size_t count = std::min(wave, blocks - b0);
+        std::vector<detail::TextBuffer>& bufs = buffers[w];
+        parallel_for(count, threads, [&](std::size_t k) {
+            detail::TextBuffer& buf = bufs[k];
+            buf.clear();
+            const std::size_t first = (b0 + k) * per_block;
+            for (std::size_t i = first; i < std::min(rows, first + per_block); ++i)
+                format_row(i, buf);
+        });
+        if (writing.valid()) writing.get();
+        if (!out) return;  // the caller reports the stream's failure
+        writing = std::async(std::launch::async, [&out, &bufs, count] {
+            for (std::size_t k = 0; k < count && out; ++k)
+                out.write(bufs[k].data(), static_cast<std::streamsize>(bufs[k].size()));
+        });
     }
+    writing.get();
+}
+
+// One line of values separated by `sep`, each printed by print(p, value).
+template <class Print>
+void format_line(detail::TextBuffer& buf, const double* values, std::size_t count, char sep,
+                 Print print) {
+    for (std::size_t j = 0; j < count; ++j) {
+        char* p = buf.room(detail::kMaxNumberChars + 2);
+        if (j > 0) *p++ = sep;
+        buf.commit(print(p, values[j]));
+    }
+    buf.put('\n');
+}
+
+}  // namespace
+
+void write_csv_matrix(std::ostream& out, const DenseMatrix& F) {
+    // DenseMatrix is row-major: row i is contiguous.
+    const auto cols = static_cast<std::size_t>(F.cols());
+    write_rows(out, static_cast<std::size_t>(F.rows()), 24 * cols,
+               [&](std::size_t i, detail::TextBuffer& buf) {
+                   format_line(buf, F.data() + i * cols, cols, ',', detail::print_g17);
+               });
 }
 
 std::string npy_header(std::size_t rows, std::size_t cols) {
@@ -133,37 +185,28 @@ void write_npy_matrix(std::ostream& out, const DenseMatrix& F) {
 void write_view3d_text(std::ostream& out, const DenseMatrix& F, const MatrixFileInfo& info) {
     check_info(F, info, true);
     const auto n = static_cast<std::size_t>(F.rows());
+    const auto cols = static_cast<std::size_t>(F.cols());
     // SaveVF(): "program version format encl didemit nSrf", padded with spaces to 30 characters,
     // then '\n' (format 0 = text).
     std::string header =
         fmt::format("View3D 3.2 0 {} {} {}", info.enclosure ? 1 : 0, info.did_emit ? 1 : 0, n);
     if (header.size() < 30) header.append(30 - header.size(), ' ');
     header.push_back('\n');
-    fmt::memory_buffer buf;
-    buf.append(header);
     // SaveF0(): areas "%g", rows "%.6f", emissivities "%.3f", one space between values.
-    for (std::size_t k = 0; k < n; ++k) {
-        if (k) buf.push_back(' ');
-        fmt::format_to(std::back_inserter(buf), "{:g}", info.areas[k]);
-    }
-    buf.push_back('\n');
+    detail::TextBuffer buf;
+    buf.append(header);
+    format_line(buf, info.areas.data(), n, ' ', detail::print_g);
     out.write(buf.data(), static_cast<std::streamsize>(buf.size()));
-    for (Eigen::Index i = 0; i < F.rows(); ++i) {
-        buf.clear();
-        for (Eigen::Index j = 0; j < F.cols(); ++j) {
-            if (j) buf.push_back(' ');
-            fmt::format_to(std::back_inserter(buf), "{:.6f}", F(i, j));
-        }
-        buf.push_back('\n');
-        out.write(buf.data(), static_cast<std::streamsize>(buf.size()));
-    }
+    write_rows(out, n, 9 * cols, [&](std::size_t i, detail::TextBuffer& row) {
+        format_line(row, F.data() + i * cols, cols, ' ',
+                    [](char* p, double x) { return detail::print_fixed(p, x, 6); });
+    });
+    const std::vector<double> default_emissivities(info.emissivities.empty() ? n : 0, 0.9);
+    const std::vector<double>& e =
+        info.emissivities.empty() ? default_emissivities : info.emissivities;
     buf.clear();
-    for (std::size_t k = 0; k < n; ++k) {
-        const double e = info.emissivities.empty() ? 0.9 : info.emissivities[k];
-        if (k) buf.push_back(' ');
-        fmt::format_to(std::back_inserter(buf), "{:.3f}", e);
-    }
-    buf.push_back('\n');
+    format_line(buf, e.data(), n, ' ',
+                [](char* p, double x) { return detail::print_fixed(p, x, 3); });
     out.write(buf.data(), static_cast<std::streamsize>(buf.size()));
 }
 

@@ -53,7 +53,8 @@ class PointSet4 {
     std::array<double, 4> operator()(std::uint32_t index) const;
     /// Points first, first+1, …, first+count−1 at once, coordinate d of point first+k in
     /// out[d][k]: the same values as operator() bit for bit, cheaper per point (Sobol points
-    /// follow from their predecessor with one XOR per dimension; loops vectorise).
+    /// follow from their predecessor with one XOR per dimension; loops vectorise). A null
+    /// out[d] skips coordinate d.
     void generate(std::uint32_t first, std::uint32_t count, double* const out[4]) const;
     SamplerKind kind() const { return kind_; }
 

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <vector>
 
 #include "formfactor/core/types.h"
@@ -91,46 +92,87 @@ class ProjectedPolygonSampler {
     /// sample() must not be called).
     double set_origin(const Vec3& x, const Vec3& n);
     /// A unit direction (world coordinates) from x into the polygon's solid angle, density
-    /// cosθ / (π F_{dA→A}) when (u, v) is uniform on [0,1)².
-    Vec3 sample(double u, double v) const;
+    /// cosθ / (π F_{dA→A}) when (u, v) is uniform on [0,1)²: the inverse of the cells'
+    /// cumulative area (measure-preserving, so stratified (u, v) stay stratified). Builds the
+    /// cells on its first call after set_origin() when sample(u, v, rng) did not need them.
+    Vec3 sample(double u, double v);
+    /// A direction with the same density, cheaper: by rejection from a polygon Q around the
+    /// projected region R (Q: the projected vertices and the apexes of the far arcs' tangent
+    /// triangles) when set_origin() found one with area(R) ≥ kMinAcceptance·area(Q) (a convex
+    /// target, wholly above the sender's plane, zenith outside it), else sample(u, v). The first
+    /// candidate comes from (u, v), further ones from SplitMix64 of the counter `rng` (advanced),
+    /// so the result is a pure function of (u, v, rng).
+    Vec3 sample(double u, double v, std::uint64_t& rng);
+    /// True when the last set_origin() prepared the rejection sampler.
+    bool uses_rejection() const { return reject_ready_; }
+    /// Smallest acceptance area(R)/area(Q) for which sample(u, v, rng) uses rejection.
+    static constexpr double kMinAcceptance = 0.5;
     /// F_{dA→A} of the last set_origin().
     double form_factor() const { return total_ * kInvPi; }
 
   private:
-    /// An edge's ellipse in polar form about the disk centre: with θ = φ − β,
-    /// r²(φ) = a²/(a² + ρ² cos²θ) and sector area S(φ) = ½ a · atan2(a sin θ, cos θ) + const,
-    /// where a = |m_z|, ρ = |m_xy| and β = atan2(m_y, m_x) for the great circle's normal m.
+    /// A projected great-circle arc (unit normal m) inside a wedge whose polar directions run
+    /// along v(t) = (1−t)·d0 + t·d1, t ∈ [0, 1]. The great circle meets the vertical plane
+    /// through v(t) at P(t) = (−m_z v(t), m_xy·v(t)), linear in t, so the arc angle from P(0)
+    /// is γ(t) = atan2(t·S, (1−t)·C0 + t·C1) (S = |P(0) × P(1)|, C0 = |P(0)|², C1 = P(0)·P(1)),
+    /// the elliptic sector it sweeps on the base disk has area ½|m_z|·γ(t), and the arc lies at
+    /// r² = m_z²|v|²/(m_z²|v|² + (m_xy·v)²) along direction v. With unit d0, d1:
+    /// S = |m_z|·(d0 × d1), C0 = m_z² + (m_xy·d0)², C1 = m_z² d0·d1 + (m_xy·d0)(m_xy·d1).
     struct Arc {
-        double a = 0, rho = 0, cb = 1, sb = 0;
-        double e0 = 0;  // E(φ0) = atan2(a sin θ0, cos θ0) at the wedge's start
-        void set(const Vec3& m);
-        double E(double c, double s) const;   // at direction (cos φ, sin φ) = (c, s)
-        double r2(double c, double s) const;  // r² there
+        double half_mz = 0, mz2 = 0, mx = 0, my = 0;
+        double S = 0, C0 = 1, C1 = 1;
+        /// m: the unit normal; d0, d1: the wedge's unit directions; cross = d0 × d1 (> 0).
+        void set(const Vec3& m, const Vec2& d0, const Vec2& d1, double cross);
+        double area(double t) const;
+        /// d/dt and d²/dt² of area(t).
+        void slopes(double t, double& d1, double& d2) const;
+        double r2(const Vec2& v) const;
     };
     struct Cell {
         double area = 0;   // projected area on the base disk
         bool fan = false;  // true: elliptic sector of a great-circle arc (zenith inside)
-        // fan: arc start a, in-plane unit b ⟂ a, angle gamma. wedge: polar angles [phi0, phi1],
-        // far and near arcs; a, b rotate the wedge frame back.
+        // fan: arc start a, in-plane unit b ⟂ a, angle gamma (local frame).
         Vec3 a = Vec3::Zero(), b = Vec3::Zero();
         double gamma = 0;
-        double phi0 = 0, phi1 = 0;
-        double c0 = 1, s0 = 0, c1 = 1, s1 = 0;  // cos, sin of phi0 and phi1
+        // wedge: between the polar directions d0 and d1 (unit, in the wedge frame, which is the
+        // local frame turned by (rc, rs)), bounded by the far and the near arc.
+        Vec2 d0 = Vec2::Zero(), d1 = Vec2::Zero();
+        double rc = 1, rs = 0;
         Arc far, near;
     };
     void add_piece(std::vector<Vec3>& local);
-    double sample_wedge_angle(const Cell& c, double s) const;
+    void build_cells();
+    bool prepare_rejection(std::vector<Vec3>& unit);
+    double sample_wedge(const Cell& c, double s) const;
+    static constexpr std::size_t kMaxRejectionVertices = 8;
 
     std::vector<std::vector<Vec3>> pieces_;  // convex pieces of the target, world coordinates
     std::size_t piece_count_ = 0;            // pieces_[0, piece_count_) are in use
     Vec3 target_normal_ = Vec3::Zero();
     Vec3 target_point_ = Vec3::Zero();
     Vec3 t_ = Vec3::UnitX(), b_ = Vec3::UnitY(), n_ = Vec3::UnitZ();
-    double total_ = 0.0;
+    double total_ = 0.0;  // π F_{dA→A}
+    // Directions of each clipped piece on the unit sphere (local frame), from set_origin().
+    std::vector<std::vector<Vec3>> unit_pieces_;
+    std::size_t unit_count_ = 0;
+    // The inverse-map cells (built by set_origin(), or on demand in rejection mode).
+    bool cells_ready_ = false;
+    double cell_total_ = 0.0;
     std::vector<Cell> cells_;
     std::vector<double> cdf_;
+    // Rejection: the proposal polygon's boundary, fan centre and cumulative triangle areas;
+    // u_k × u_{k+1} of the target's edges.
+    bool reject_ready_ = false;
+    std::size_t unit_vertices_ = 0;
+    std::vector<Vec2> proposal_;
+    Vec2 proposal_centre_ = Vec2::Zero();
+    std::vector<double> proposal_cdf_;
+    double proposal_total_ = 0.0;
+    std::vector<Vec3> edge_cross_;
     std::vector<Vec3> scratch_, local_;
     std::vector<double> psi_;
+    std::vector<Vec2> dir_;
+    std::vector<Vec3> edge_normal_;
     std::vector<std::size_t> far_, near_;
 };
 

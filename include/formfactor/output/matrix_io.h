@@ -44,7 +44,9 @@ void write_matrix(const std::string& path, const DenseMatrix& F, const MatrixFil
 void write_matrix(const std::string& path, const FormFactors& ff,
                   const std::vector<double>& emissivities = {}, bool enclosure = false);
 
-/// Stream writers behind write_matrix (the stream should be binary for NPY).
+/// Stream writers behind write_matrix (the stream should be binary for NPY). The text formats
+/// are formatted in blocks of rows on all cores and written in order, a block per write; the
+/// numbers are exactly C's printf conversions named above.
 void write_csv_matrix(std::ostream& out, const DenseMatrix& F);
 void write_npy_matrix(std::ostream& out, const DenseMatrix& F);
 void write_view3d_text(std::ostream& out, const DenseMatrix& F, const MatrixFileInfo& info);
