@@ -319,7 +319,8 @@ void run_harness(const std::vector<std::uint64_t>& seeds, const gen::GeneratorOp
 }
 
 // The slow slice: rooms n = 2..4, up to three blockers split 1×1 or 2×2, every form,
-// mc-target on 24 patches, and the three entries furthest from it estimated again with 2^20 samples.
+// mc-target on 24 patches, and the three entries furthest from it estimated again with 2^20
+// samples.
 void long_settings(gen::GeneratorOptions& go, HarnessOptions& h) {
     go.room_n = {2, 3, 4};
     go.max_blockers = 3;
