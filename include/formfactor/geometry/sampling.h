@@ -86,6 +86,9 @@ class ProjectedPolygonSampler {
     explicit ProjectedPolygonSampler(const Polygon& target);
     /// Prepares for another target, reusing the memory (no allocation once warm).
     void reset(const Polygon& target);
+    /// Same, given the target's unit normal, a point of its plane and whether it is convex
+    /// (is_convex), when the caller has them.
+    void reset(const Polygon& target, const Vec3& unit_normal, const Vec3& point, bool convex);
 
     /// Sets the sending point x with unit normal n. Returns F_{dA→A}, the unoccluded form
     /// factor from x to the front of the polygon (0 when x does not see the front; then
