@@ -101,10 +101,10 @@ class ProjectedPolygonSampler {
     Vec3 sample(double u, double v);
     /// A direction with the same density, cheaper: by rejection from a polygon Q around the
     /// projected region R (Q: the projected vertices and the apexes of the far arcs' tangent
-    /// triangles) when set_origin() found one with area(R) ≥ kMinAcceptance·area(Q) (a convex
-    /// target, wholly above the sender's plane, zenith outside it), else sample(u, v). The first
-    /// candidate comes from (u, v), further ones from SplitMix64 of the counter `rng` (advanced),
-    /// so the result is a pure function of (u, v, rng).
+    /// triangles) when set_origin() found one with area(R) ≥ kMinAcceptance·area(Q) (a target
+    /// that is one convex piece after clipping by the sender's plane, zenith outside it), else
+    /// sample(u, v). The first candidate comes from (u, v), further ones from SplitMix64 of
+    /// the counter `rng` (advanced), so the result is a pure function of (u, v, rng).
     Vec3 sample(double u, double v, std::uint64_t& rng);
     /// True when the last set_origin() prepared the rejection sampler.
     bool uses_rejection() const { return reject_ready_; }
