@@ -42,6 +42,37 @@ inline std::vector<SegmentQuery> random_segments(const Scene& s, std::size_t cou
     return q;
 }
 
+/// Segments as mc-target casts them: `per_pair` consecutive segments between uniform points of
+/// one random pair of patches that face each other, pair after pair (coherent batches).
+inline std::vector<SegmentQuery> pair_segments(const Scene& s, std::size_t count,
+                                               std::uint32_t per_pair) {
+    std::vector<PolygonSampler> samplers;
+    for (const Patch& p : s.patches) samplers.emplace_back(p.polygon);
+    std::vector<SegmentQuery> q;
+    q.reserve(count);
+    PointSet4 rnd(SamplerKind::random, 4242, 0);
+    std::uint32_t k = 0;
+    while (q.size() < count) {
+        const auto v = rnd(k++);
+        const std::size_t i = static_cast<std::size_t>(v[0] * s.patches.size());
+        const std::size_t j = static_cast<std::size_t>(v[1] * s.patches.size());
+        if (i == j) continue;
+        const Patch &pi = s.patches[i], &pj = s.patches[j];
+        if (pi.normal.dot(pj.centroid - pi.centroid) <= 0 ||
+            pj.normal.dot(pi.centroid - pj.centroid) <= 0)
+            continue;
+        for (std::uint32_t m = 0, tries = 0; m < per_pair && tries < 64 * per_pair; ++tries) {
+            const auto u = rnd(k++);
+            const Vec3 x = samplers[i](u[0], u[1]), y = samplers[j](u[2], u[3]);
+            if (pi.normal.dot(y - x) <= 0 || pj.normal.dot(x - y) <= 0) continue;
+            q.push_back({x, y, static_cast<int>(i), static_cast<int>(j)});
+            ++m;
+        }
+    }
+    q.resize(count);
+    return q;
+}
+
 /// Cosine-distributed rays from uniform points of random patches (mc-hemisphere's rays).
 inline std::vector<RayQuery> random_rays(const Scene& s, std::size_t count) {
     std::vector<PolygonSampler> samplers;

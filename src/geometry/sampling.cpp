@@ -173,10 +173,19 @@ ProjectedPolygonSampler::ProjectedPolygonSampler(const Polygon& target) { reset(
 
 void ProjectedPolygonSampler::reset(const Polygon& target) {
     FF_ASSERT(target.size() >= 3);
-    target_normal_ = normal(target);
-    target_point_ = centroid(target);
+    reset(target, normal(target), centroid(target), is_convex(target));
+}
+
+void ProjectedPolygonSampler::reset(const Polygon& target, const Vec3& unit_normal,
+                                    const Vec3& point, bool convex) {
+    FF_ASSERT(target.size() >= 3);
+    target_normal_ = unit_normal;
+    target_point_ = point;
     cells_.clear();
     cdf_.clear();
+    cells_ready_ = false;
+    reject_ready_ = false;
+    unit_count_ = 0;
     total_ = 0.0;
     piece_count_ = 0;
     auto next_piece = [&]() -> std::vector<Vec3>& {
@@ -185,7 +194,7 @@ void ProjectedPolygonSampler::reset(const Polygon& target) {
         piece.clear();
         return piece;
     };
-    if (is_convex(target)) {
+    if (convex) {
         next_piece() = target.vertices;
     } else {
         for (const auto& t : triangulate(target)) {

@@ -52,12 +52,18 @@ struct RowBuffers {
     std::vector<std::uint8_t> blocked = std::vector<std::uint8_t>(kBatch);
     std::vector<double> sender_u[2], direction_u[4];  // one chunk of groups (direction_u[2, 3])
     ProjectedPolygonSampler target;
+    // The accumulators are zero between rows: each row clears the slots it used (clean), and
+    // a row that did not finish (an exception) leaves them to be cleared whole.
+    bool clean = false;
     void prepare(std::size_t n, std::uint32_t R) {
-        W.assign(n * R, 0.0);
-        V.assign(n * R, 0.0);
-        A2.assign(n, 0.0);
-        B2.assign(n, 0.0);
-        C2.assign(n, 0.0);
+        if (!clean || W.size() != n * R || A2.size() != n) {
+            W.assign(n * R, 0.0);
+            V.assign(n * R, 0.0);
+            A2.assign(n, 0.0);
+            B2.assign(n, 0.0);
+            C2.assign(n, 0.0);
+        }
+        clean = false;
         rho.resize(R);
         queries.clear();
         groups.clear();
@@ -90,7 +96,12 @@ class McTargetMethod final : public Method {
         auto vis = make_visibility(scene);
         std::vector<PolygonSampler> senders;
         senders.reserve(n);
-        for (const Patch& p : scene.patches) senders.emplace_back(p.polygon);
+        std::vector<char> convex(n);
+        for (std::size_t p = 0; p < n; ++p) {
+            const Patch& patch = scene.patches[p];
+            senders.emplace_back(patch.polygon);
+            convex[p] = is_convex(patch.polygon) ? 1 : 0;
+        }
         phase_timer.lap(phases, "visibility");
 
         FormFactors ff;
@@ -204,7 +215,7 @@ class McTargetMethod final : public Method {
                 if (!(f_unocc > 0) || cleared(i, j)) continue;
                 const Patch& pj = scene.patches[j];
                 ProjectedPolygonSampler& target = buf.target;
-                target.reset(pj.polygon);
+                target.reset(pj.polygon, pj.normal, pj.centroid, convex[j] != 0);
                 const int to = static_cast<int>(j);
                 const double plane = pj.normal.dot(pj.centroid);
                 for (std::uint32_t r = 0; r < R; ++r) {
@@ -263,7 +274,10 @@ class McTargetMethod final : public Method {
                     w_sum += W[j * R + r];
                     v_sum += V[j * R + r];
                     if (W[j * R + r] > 0) rho[used++] = V[j * R + r] / W[j * R + r];
+                    W[j * R + r] = V[j * R + r] = 0.0;  // zero for the next row
                 }
+                const double a2 = A2[j], b2 = B2[j], c2 = C2[j];
+                A2[j] = B2[j] = C2[j] = 0.0;
                 if (!(w_sum > 0)) {
                     // No sender point saw j (a sliver of visibility): unknown, and said so.
                     ff.F(ii, jj) = f_unocc;
@@ -283,11 +297,12 @@ class McTargetMethod final : public Method {
                     }
                 } else {
                     // Σ_g w_g²(v_g − ρ m_g)² over the groups (sender points).
-                    const double v = A2[j] - 2 * ratio * B2[j] + ratio * ratio * C2[j];
+                    const double v = a2 - 2 * ratio * b2 + ratio * ratio * c2;
                     se = std::sqrt(std::max(0.0, v)) / w_sum;
                 }
                 (*ff.standard_error)(ii, jj) = f_unocc * se;
             }
+            buf.clean = true;
             rays += row_rays;
             pairs += row_pairs;
             unblocked_pairs += row_unblocked;

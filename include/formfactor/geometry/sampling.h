@@ -86,6 +86,9 @@ class ProjectedPolygonSampler {
     explicit ProjectedPolygonSampler(const Polygon& target);
     /// Prepares for another target, reusing the memory (no allocation once warm).
     void reset(const Polygon& target);
+    /// Same, given the target's unit normal, a point of its plane and whether it is convex
+    /// (is_convex), when the caller has them.
+    void reset(const Polygon& target, const Vec3& unit_normal, const Vec3& point, bool convex);
 
     /// Sets the sending point x with unit normal n. Returns F_{dA→A}, the unoccluded form
     /// factor from x to the front of the polygon (0 when x does not see the front; then
@@ -98,10 +101,10 @@ class ProjectedPolygonSampler {
     Vec3 sample(double u, double v);
     /// A direction with the same density, cheaper: by rejection from a polygon Q around the
     /// projected region R (Q: the projected vertices and the apexes of the far arcs' tangent
-    /// triangles) when set_origin() found one with area(R) ≥ kMinAcceptance·area(Q) (a convex
-    /// target, wholly above the sender's plane, zenith outside it), else sample(u, v). The first
-    /// candidate comes from (u, v), further ones from SplitMix64 of the counter `rng` (advanced),
-    /// so the result is a pure function of (u, v, rng).
+    /// triangles) when set_origin() found one with area(R) ≥ kMinAcceptance·area(Q) (a target
+    /// that is one convex piece after clipping by the sender's plane, zenith outside it), else
+    /// sample(u, v). The first candidate comes from (u, v), further ones from SplitMix64 of
+    /// the counter `rng` (advanced), so the result is a pure function of (u, v, rng).
     Vec3 sample(double u, double v, std::uint64_t& rng);
     /// True when the last set_origin() prepared the rejection sampler.
     bool uses_rejection() const { return reject_ready_; }
