@@ -387,8 +387,11 @@ TEST_CASE("differential: analytic against mc-target and itself on random scenes 
     run_harness({1, 5, 8, 24, 29}, go, h);
 }
 
+// Not in `make test`: with vertex jitter a geometry takes up to half an hour in every form (the
+// obstructed method's cost on jittered scenes is issue 9's open speed work). Run it with
+// `build/formfactor_tests -tc='*random scenes (long)*' --no-skip`.
 TEST_CASE("differential: analytic against mc-target and itself on random scenes (long)" *
-          doctest::test_suite("slow")) {
+          doctest::test_suite("slow") * doctest::skip()) {
     gen::GeneratorOptions go;
     HarnessOptions h;
     long_settings(go, h);
