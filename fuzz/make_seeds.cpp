@@ -5,8 +5,8 @@
 // seeds are made here, at build or run time.
 
 #include <cmath>
-#include <cstring>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
