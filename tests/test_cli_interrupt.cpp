@@ -68,7 +68,8 @@ Interrupted interrupt(const TempDir& work, const TempDir& capture,
     const auto sent = std::chrono::steady_clock::now();
     REQUIRE(::kill(pid, sig) == 0);
     REQUIRE(::waitpid(pid, &status, 0) == pid);
-    r.seconds_after = std::chrono::duration<double>(std::chrono::steady_clock::now() - sent).count();
+    r.seconds_after =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - sent).count();
     r.status = status;
     r.err = read_text(err);
     for (const auto& entry : std::filesystem::directory_iterator(work.path()))
@@ -84,16 +85,16 @@ std::string listing(const std::vector<std::string>& names) {
 
 // A computation of ~30 s or more (720 patches × 10⁶ rays), so the signal always comes mid-way.
 const std::vector<std::string> kLongCompute = {
-    "compute", "cornell",   "--subdivide", "6",       "--method", "mc-hemisphere", "--samples",
-    "1000000", "--threads", "2",           "-o",      "F.npy",    "--stderr",      "SE.npy",
-    "--report", "report.json", "--patches", "patches.csv"};
+    "compute",   "cornell", "--subdivide", "6",           "--method",  "mc-hemisphere",
+    "--samples", "1000000", "--threads",   "2",           "-o",        "F.npy",
+    "--stderr",  "SE.npy",  "--report",    "report.json", "--patches", "patches.csv"};
 
 }  // namespace
 
 TEST_CASE("cli interrupt: SIGINT during compute leaves no output and no temporary") {
     TempDir work, capture;
-    const Interrupted r = interrupt(work, capture, kLongCompute, SIGINT,
-                                    std::chrono::milliseconds(1500));
+    const Interrupted r =
+        interrupt(work, capture, kLongCompute, SIGINT, std::chrono::milliseconds(1500));
     INFO("stderr: " << r.err);
     CHECK(WIFSIGNALED(r.status));
     if (WIFSIGNALED(r.status)) CHECK(WTERMSIG(r.status) == SIGINT);
@@ -105,11 +106,11 @@ TEST_CASE("cli interrupt: SIGINT during compute leaves no output and no temporar
 
 TEST_CASE("cli interrupt: SIGTERM during solve leaves no output and no temporary") {
     TempDir work, capture;
-    const Interrupted r = interrupt(
-        work, capture,
-        {"solve", "cornell", "--subdivide", "6", "--method", "mc-hemisphere", "--samples",
-         "1000000", "--threads", "2", "-o", "B.csv", "--report", "report.json"},
-        SIGTERM, std::chrono::milliseconds(1500));
+    const Interrupted r =
+        interrupt(work, capture,
+                  {"solve", "cornell", "--subdivide", "6", "--method", "mc-hemisphere", "--samples",
+                   "1000000", "--threads", "2", "-o", "B.csv", "--report", "report.json"},
+                  SIGTERM, std::chrono::milliseconds(1500));
     INFO("stderr: " << r.err);
     CHECK(WIFSIGNALED(r.status));
     if (WIFSIGNALED(r.status)) CHECK(WTERMSIG(r.status) == SIGTERM);

@@ -71,15 +71,16 @@ TEST_CASE("fuzz regressions: the seeds of every target are accepted") {
                     "mtllib fuzz.mtl\nusemtl a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n#%mtl\n"
                     "newmtl a\nKd 0.5\n"));
     CHECK(run_bytes(fuzz::Target::properties, "surface,emissivity\nx0,0.5\n"));
-    CHECK(run_bytes(fuzz::Target::solution, "patch,radiosity_r,radiosity_g,radiosity_b\n0,1,2,3\n"));
+    CHECK(
+        run_bytes(fuzz::Target::solution, "patch,radiosity_r,radiosity_g,radiosity_b\n0,1,2,3\n"));
     CHECK_FALSE(run_bytes(fuzz::Target::vs3, "T too few numbers\nV 1 0 0\n"));
 }
 
 TEST_CASE("fuzz regressions: an NPY header claiming 10^12 values is an input error") {
     const std::string npy = npy_with_shape("(1000000, 1000000)", 64);
     std::istringstream in(npy);
-    CHECK_THROWS_WITH_AS(read_npy_matrix(in, "big.npy"),
-                         doctest::Contains("truncated NPY data"), InputError);
+    CHECK_THROWS_WITH_AS(read_npy_matrix(in, "big.npy"), doctest::Contains("truncated NPY data"),
+                         InputError);
     CHECK_FALSE(run_bytes(fuzz::Target::matrix_npy, npy));
     // Just under the 2^40 limit on values and far above memory: the same answer, at once.
     std::istringstream in2(npy_with_shape("(1048576, 1048575)", 0));
