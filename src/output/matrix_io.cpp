@@ -344,7 +344,11 @@ DenseMatrix read_npy_matrix(std::istream& in, const std::string& name) {
     } else {
         throw InputError(name, 0, fmt::format("unsupported NPY version {}", major));
     }
-    if (header_len > (1u << 24)) throw InputError(name, 0, "NPY header too long");
+    // NumPy's own reader refuses headers over 10,000 bytes; a 2-D float array needs < 200.
+    if (header_len > (1u << 16)) {
+        throw InputError(name, 0,
+                         fmt::format("NPY header too long ({} bytes, at most 65536)", header_len));
+    }
     std::string dict(header_len, '\0');
     if (!in.read(dict.data(), static_cast<std::streamsize>(header_len))) {
         throw InputError(name, 0, "truncated NPY header");
