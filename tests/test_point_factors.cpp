@@ -122,3 +122,22 @@ TEST_CASE("point factors: bad points are errors, an empty list an empty matrix")
     CHECK(F.rows() == 0);
     CHECK(F.cols() == 1);
 }
+
+TEST_CASE("point factors: back-to-back twin faces, the back of one does not hide the other") {
+    // A floor and, 0.5 above it, a thin plate as two one-sided faces (shared/repro/twin_faces.obj).
+    const Polygon floor = quad(Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0));
+    const Polygon up = quad(Vec3(0, 0, 0.5), Vec3(1, 0, 0.5), Vec3(1, 1, 0.5), Vec3(0, 1, 0.5));
+    const Polygon down = quad(Vec3(0, 0, 0.5), Vec3(0, 1, 0.5), Vec3(1, 1, 0.5), Vec3(1, 0, 0.5));
+    const Scene s = scene_of({floor, up, down});
+    // Under the plate's centre, facing up: the unit square at height 0.5 (closed form).
+    const double centre = 0.5541264239795719;
+    const DenseMatrix below = point_form_factors(s, {Vec3(0.5, 0.5, 0)}, {Vec3(0, 0, 1)});
+    CHECK(below(0, 0) == 0.0);
+    CHECK(below(0, 1) == 0.0);
+    CHECK(std::abs(below(0, 2) - centre) < 1e-14);
+    // Above, facing down: the plate's top; the floor is hidden behind it.
+    const DenseMatrix above = point_form_factors(s, {Vec3(0.5, 0.5, 1)}, {Vec3(0, 0, -1)});
+    CHECK(std::abs(above(0, 1) - centre) < 1e-14);
+    CHECK(std::abs(above(0, 0)) < 1e-15);
+    CHECK(above(0, 2) == 0.0);
+}
