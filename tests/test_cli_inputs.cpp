@@ -7,9 +7,11 @@
 #include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 #include "cli_runner.h"
 #include "formfactor/output/matrix_io.h"
+#include "formfactor/scene/points.h"
 
 using namespace formfactor;
 using formfactor::testing::Cli;
@@ -266,4 +268,21 @@ TEST_CASE("cli inputs: reciprocity is reported as measures and a verdict, not on
     REQUIRE(r.code == 0);
     CHECK(r.out.find("reciprocity area-weighted") != std::string::npos);
     CHECK(r.out.find("no promise to compare with") != std::string::npos);
+}
+
+TEST_CASE("cli inputs: the point file reader, line by line") {
+    std::istringstream in(
+        "# sensors\r\nX, Y, Z, NX, NY, NZ\r\n1,2,3, 0,0,1e-200\n\n4 5 6 3 0 4 # spaces\n");
+    const PointElements p = parse_points_csv(in, "p.csv");
+    REQUIRE(p.positions.size() == 2u);
+    CHECK(p.positions[0] == Vec3(1, 2, 3));
+    CHECK(p.normals[0] == Vec3(0, 0, 1));
+    CHECK(p.lines[0] == 3);
+    CHECK(p.positions[1] == Vec3(4, 5, 6));
+    CHECK((p.normals[1] - Vec3(0.6, 0, 0.8)).norm() < 1e-16);
+    CHECK(p.lines[1] == 5);
+    // A header only counts as the first line with content.
+    std::istringstream late("1,2,3,0,0,1\nx,y,z,nx,ny,nz\n");
+    CHECK_THROWS_WITH_AS(parse_points_csv(late, "late.csv"), "late.csv:2: malformed number 'x' (x)",
+                         InputError);
 }

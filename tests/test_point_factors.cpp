@@ -141,3 +141,13 @@ TEST_CASE("point factors: back-to-back twin faces, the back of one does not hide
     CHECK(std::abs(above(0, 0)) < 1e-15);
     CHECK(above(0, 2) == 0.0);
 }
+
+TEST_CASE("point factors: normals of any magnitude are normalised without underflow") {
+    const Scene s = square_and_blocker(0.15, 0.5);
+    const double ref = at_origin_up(s);
+    for (const double scale : {1e-200, 1e-160, 1.0, 1e150, 1e300}) {
+        CAPTURE(scale);
+        const DenseMatrix F = point_form_factors(s, {Vec3(0.5, 0.5, 0)}, {Vec3(0, 0, scale)});
+        CHECK(F(0, 0) == ref);
+    }
+}

@@ -69,11 +69,12 @@ void run_point(const PointArgs& args) {
     if (single) {
         const Vec3 x(args.at[0], args.at[1], args.at[2]);
         if (!x.allFinite()) throw OptionError("--at", "coordinates must be finite numbers");
-        Vec3 n(args.normal[0], args.normal[1], args.normal[2]);
+        const Vec3 n(args.normal[0], args.normal[1], args.normal[2]);
         if (!n.allFinite()) throw OptionError("--normal", "components must be finite numbers");
-        if (!(n.norm() > 0.0)) throw OptionError("--normal", "must not be the zero vector");
+        const double big = n.cwiseAbs().maxCoeff();
+        if (!(big > 0.0)) throw OptionError("--normal", "must not be the zero vector");
         positions.push_back(x);
-        normals.push_back(n.normalized());
+        normals.push_back((n / big).normalized());
     }
 
     StepTimes times;

@@ -134,9 +134,10 @@ DenseMatrix point_form_factors(const Scene& scene, const std::vector<Vec3>& posi
     for (std::size_t m = 0; m < positions.size(); ++m) {
         if (!positions[m].allFinite())
             throw Error(fmt::format("point {}: position is not finite", m));
-        if (!normals[m].allFinite() || !(normals[m].norm() > 0.0))
+        const double big = normals[m].cwiseAbs().maxCoeff();
+        if (!normals[m].allFinite() || !(big > 0.0))
             throw Error(fmt::format("point {}: the normal must be a finite non-zero vector", m));
-        unit[m] = normals[m].normalized();
+        unit[m] = (normals[m] / big).normalized();  // scaled first: no underflow, no overflow
     }
     const std::size_t M = positions.size(), N = scene.patches.size();
     DenseMatrix F = DenseMatrix::Zero(static_cast<Eigen::Index>(M), static_cast<Eigen::Index>(N));

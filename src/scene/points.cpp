@@ -64,12 +64,14 @@ PointElements parse_points_csv(std::istream& in, const std::string& name) {
                                  std::string(kNames[k]) + " = '" + f[static_cast<std::size_t>(k)] +
                                      "' is not finite");
         }
+        // Scaled by its largest component first, so that tiny or huge components normalise
+        // without underflow or overflow.
         const Vec3 n(v[3], v[4], v[5]);
-        const double len = n.norm();
-        if (!(len > 0.0) || !std::isfinite(len))
+        const double big = n.cwiseAbs().maxCoeff();
+        if (!(big > 0.0))
             throw InputError(name, ln, "the normal (nx, ny, nz) must not be the zero vector");
         out.positions.emplace_back(v[0], v[1], v[2]);
-        out.normals.push_back(n / len);
+        out.normals.push_back((n / big).normalized());
         out.lines.push_back(ln);
     }
     if (in.bad()) throw InputError(name, 0, "cannot read file");
