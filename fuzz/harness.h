@@ -27,6 +27,7 @@
 #include "formfactor/matrix/aggregate.h"
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/solution_io.h"
+#include "formfactor/scene/points.h"
 #include "formfactor/scene/scene.h"
 #include "formfactor/solve/properties.h"
 
@@ -41,6 +42,7 @@ enum class Target {
     matrix_npy,  ///< read_npy_matrix
     matrix_txt,  ///< read_view3d_text
     solution,    ///< read_solution_csv (radiosity and thermal tables)
+    points,      ///< parse_points_csv (the point elements of `formfactor point --points`)
 };
 
 struct TargetName {
@@ -49,7 +51,7 @@ struct TargetName {
 };
 
 /// Every target with the name of its fuzzer (`fuzz_NAME`) and corpus folder.
-inline constexpr std::array<TargetName, 7> kTargets = {{
+inline constexpr std::array<TargetName, 8> kTargets = {{
     {"obj", Target::obj},
     {"vs3", Target::vs3},
     {"properties", Target::properties},
@@ -57,6 +59,7 @@ inline constexpr std::array<TargetName, 7> kTargets = {{
     {"matrix_npy", Target::matrix_npy},
     {"matrix_txt", Target::matrix_txt},
     {"solution", Target::solution},
+    {"points", Target::points},
 }};
 
 /// The line that separates the OBJ text from the MTL text in an `obj` input. The MTL part is
@@ -213,6 +216,21 @@ inline bool run(Target target, const std::uint8_t* data, std::size_t size) {
                 if (t.thermal)
                     require(t.area.size() == t.size() && t.net_power.size() == t.size(),
                             "thermal columns sized");
+                break;
+            }
+            case Target::points: {
+                std::istringstream in{std::string(bytes)};
+                const PointElements p = parse_points_csv(in, "fuzz.csv");
+                require(!p.positions.empty() && p.normals.size() == p.positions.size() &&
+                            p.lines.size() == p.positions.size(),
+                        "one normal and one line per point");
+                for (std::size_t k = 0; k < p.positions.size(); ++k) {
+                    require(p.positions[k].allFinite(), "positions finite");
+                    require(p.normals[k].allFinite() && std::abs(p.normals[k].norm() - 1.0) < 1e-12,
+                            "normals finite and unit");
+                    require(p.lines[k] >= 1 && (k == 0 || p.lines[k] > p.lines[k - 1]),
+                            "lines increasing");
+                }
                 break;
             }
         }

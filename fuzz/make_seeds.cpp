@@ -184,6 +184,11 @@ int main(int argc, char** argv) {
         seeds.add("solution", "thermal.csv", thermal_csv_text(r));
     }
 
+    // Point elements (`formfactor point --points`).
+    seeds.add("points", "header.csv",
+              "x,y,z,nx,ny,nz\n# sensors\n0.5, 0.5, 0, 0, 0, 1\n\n1 2 3 0 1 0  # spaces\n");
+    seeds.add("points", "plain.csv", "0,0,0,0,0,1\n1e-3,-2.5e+2,7,1,1,1\r\n");
+
     // The regression inputs: every input that once crashed stays in the corpus.
     const fs::path regressions = data / "fuzz_regressions";
     for (const auto& t : fuzz::kTargets) {

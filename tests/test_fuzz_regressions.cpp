@@ -74,6 +74,8 @@ TEST_CASE("fuzz regressions: the seeds of every target are accepted") {
     CHECK(
         run_bytes(fuzz::Target::solution, "patch,radiosity_r,radiosity_g,radiosity_b\n0,1,2,3\n"));
     CHECK_FALSE(run_bytes(fuzz::Target::vs3, "T too few numbers\nV 1 0 0\n"));
+    CHECK(run_bytes(fuzz::Target::points, "x,y,z,nx,ny,nz\n0,0,0,0,0,2\n"));
+    CHECK_FALSE(run_bytes(fuzz::Target::points, "0,0,0,0,0,0\n"));
 }
 
 TEST_CASE("fuzz regressions: an NPY header claiming 10^12 values is an input error") {

@@ -149,3 +149,12 @@ TEST_CASE("scene: OBJ round trip keeps surfaces, flags and materials") {
         CHECK(b.warnings.empty());
     }
 }
+
+TEST_CASE("scene: an OBJ without faces, or with obstruction faces only, is an input error") {
+    CHECK(obj_error("none.obj", kVerts) ==
+          "none.obj: the scene is empty: no faces (f records), nothing to compute");
+    CHECK(obj_error("blocks.obj", kVerts + "o obstruction_box\nf 1 2 3 4\n") ==
+          "blocks.obj: all 1 surfaces are obstructions: there are no surfaces to compute form "
+          "factors between (faces outside groups and objects named obstruction* have rows)");
+    CHECK(obj_error("ok.obj", kVerts + "g obstruction\nf 1 2 3 4\ng floor\nf 4 3 2 1\n").empty());
+}

@@ -184,3 +184,11 @@ TEST_CASE("scene: VS3 writer puts obstructions last and splits what View3D canno
     CHECK(area(b.surfaces[2].polygon) + area(b.surfaces[3].polygon) + area(b.surfaces[4].polygon) ==
           doctest::Approx(area(pent.polygon)).epsilon(1e-14));
 }
+
+TEST_CASE("scene: a VS3 file without S records is an input error") {
+    CHECK(vs3_error("none.vs3", kHead + "End of data\n") ==
+          "none.vs3: the scene is empty: no surfaces (S records), nothing to compute");
+    CHECK(vs3_error("only_o.vs3", kHead + "O 1 1 2 3 4 0 0 0 panel\nEnd of data\n") ==
+          "only_o.vs3: all 1 surfaces are obstructions: there are no surfaces to compute form "
+          "factors between (S records have rows, O records only block)");
+}

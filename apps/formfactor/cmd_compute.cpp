@@ -12,6 +12,8 @@
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
 #include "formfactor/matrix/aggregate.h"
+#include "formfactor/matrix/memory.h"
+#include "formfactor/methods/traits.h"
 #include "formfactor/output/atomic_file.h"
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/patch_table.h"
@@ -82,8 +84,20 @@ void run_compute(const ComputeArgs& args) {
     }
 
     StepTimes times;
-    Scene scene = load_and_subdivide(args.scene, times);
+    Scene scene = load_scene_step(args.scene, times);
+    {
+        // The memory a dense run needs, checked before the patches and F exist.
+        DenseRunNeeds needs;
+        needs.standard_errors =
+            method_traits(args.method.resolved_name(scene), args.method.method_options(), &scene)
+                .standard_errors;
+        needs.repair = parse_repair_mode(args.repair.mode) != RepairMode::none;
+        check_dense_memory(scene, args.scene, needs);
+    }
+    subdivide_step(scene, args.scene, times);
+    warn_single_patch(scene);
     const auto method = args.method.resolve(scene);
+    const MethodTraits traits = method_traits(method->name(), args.method.method_options(), &scene);
 
     Stopwatch sw;
     nlohmann::json details = nlohmann::json::object();
@@ -135,7 +149,7 @@ void run_compute(const ComputeArgs& args) {
     times.add("write", sw.lap());
 
     const int threads = effective_threads(args.method.options.threads);
-    const Diagnostics d = diagnose(ff.F, ff.areas);
+    const Diagnostics d = diagnose(ff);
     if (!args.report.empty()) {
         ReportContext ctx;
         ctx.command = "compute";
@@ -150,6 +164,7 @@ void run_compute(const ComputeArgs& args) {
         ctx.total_seconds = total.seconds();
         ctx.threads = threads;
         ctx.details = details;
+        ctx.reciprocity = traits.reciprocity;
         ctx.outputs["matrix"] = args.output;
         if (!args.patches.empty()) ctx.outputs["patches"] = args.patches;
         if (!args.standard_error.empty()) ctx.outputs["standard_error"] = args.standard_error;
@@ -171,10 +186,10 @@ void run_compute(const ComputeArgs& args) {
                                 {"area", per_surface_ff.areas[g]},
                                 {"surfaces", members}});
             }
-            report["per_surface"] = {{"N", per_surface_ff.size()},
-                                     {"rows", rows},
-                                     {"diagnostics", diagnostics_json(diagnose(
-                                                         per_surface_ff.F, per_surface_ff.areas))}};
+            report["per_surface"] = {
+                {"N", per_surface_ff.size()},
+                {"rows", rows},
+                {"diagnostics", diagnostics_json(diagnose(per_surface_ff), traits.reciprocity)}};
         }
         const std::string text = json_text(report);
         tx.stage(args.report, [&](std::ostream& out) {
@@ -183,9 +198,10 @@ void run_compute(const ComputeArgs& args) {
     }
     tx.commit();
 
-    print_matrix_summary(scene, method->name(), threads, ff, d, times, total.seconds());
+    print_matrix_summary(scene, method->name(), threads, ff, d, traits.reciprocity, times,
+                         total.seconds());
     if (per_surface) {
-        const Diagnostics ds = diagnose(per_surface_ff.F, per_surface_ff.areas);
+        const Diagnostics ds = diagnose(per_surface_ff);
         fmt::print(
             "per surface {} rows (surfaces, subsurfaces cut out, cmb combined); row sums "
             "min {:.10g}, max {:.10g}\n",

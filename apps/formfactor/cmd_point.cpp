@@ -1,4 +1,4 @@
-// `formfactor point SCENE --at X Y Z --normal NX NY NZ [-o OUT.csv]`
+// `formfactor point SCENE (--at X Y Z --normal NX NY NZ | --points FILE.csv) [-o OUT]`
 
 #include <fmt/format.h>
 
@@ -6,12 +6,17 @@
 #include <cstdio>
 #include <memory>
 #include <ostream>
+#include <sstream>
 
 #include "commands.h"
 #include "common.h"
 #include "formfactor/core/error.h"
-#include "formfactor/methods/analytic.h"
+#include "formfactor/core/parallel.h"
+#include "formfactor/matrix/memory.h"
+#include "formfactor/methods/point_factors.h"
 #include "formfactor/output/atomic_file.h"
+#include "formfactor/output/matrix_io.h"
+#include "formfactor/scene/points.h"
 
 namespace formfactor::cli {
 
@@ -21,56 +26,115 @@ struct PointArgs {
     SceneArgs scene;
     std::vector<double> at;
     std::vector<double> normal;
+    std::string points;
     std::string output;
+    int threads = 0;
+    CLI::Option* at_opt = nullptr;
+    CLI::Option* normal_opt = nullptr;
 };
 
-void write_point_csv(std::FILE* out, const std::vector<double>& F) {
-    fmt::print(out, "patch,F\n");
-    for (std::size_t j = 0; j < F.size(); ++j) fmt::print(out, "{},{:.17g}\n", j, F[j]);
+// One element: `patch,F`, one line per patch.
+void write_row_csv(std::ostream& out, const DenseMatrix& F) {
+    out << "patch,F\n";
+    for (Eigen::Index j = 0; j < F.cols(); ++j) out << fmt::format("{},{:.17g}\n", j, F(0, j));
 }
 
 void run_point(const PointArgs& args) {
     Stopwatch total;
     args.scene.validate();
-    const Vec3 x(args.at[0], args.at[1], args.at[2]);
-    if (!x.allFinite()) throw OptionError("--at", "coordinates must be finite numbers");
-    Vec3 n(args.normal[0], args.normal[1], args.normal[2]);
-    if (!n.allFinite()) throw OptionError("--normal", "components must be finite numbers");
-    if (!(n.norm() > 0.0)) throw OptionError("--normal", "must not be the zero vector");
-    n.normalize();
+    const bool single = args.points.empty();
+    const bool has_at = args.at_opt->count() > 0, has_normal = args.normal_opt->count() > 0;
+    if (!single && (has_at || has_normal))
+        throw OptionError(has_at ? "--at" : "--normal",
+                          "cannot be combined with --points (one point, or a file of points)");
+    if (single && !has_at) throw OptionError("--at", "is required (or --points FILE.csv)");
+    if (single && !has_normal) throw OptionError("--normal", "is required with --at");
+    if (args.threads < 0 || args.threads > 4096)
+        throw OptionError("--threads", fmt::format("must be 0..4096, got {}", args.threads));
+    MatrixFormat format = MatrixFormat::Csv;
     if (!args.output.empty()) {
-        require_extension(args.output, ".csv", "-o");
+        if (single) {
+            require_extension(args.output, ".csv", "-o");
+        } else {
+            format = matrix_format_for(args.output, "-o");
+            if (format == MatrixFormat::View3dText)
+                throw OptionError("-o",
+                                  "use .csv or .npy for a matrix of points (.txt is "
+                                  "View3D's square patch matrix)");
+        }
         check_output_directory(args.output);
     }
 
-    StepTimes times;
-    Scene scene = load_and_subdivide(args.scene, times);
-    make_method("analytic")->check(scene);  // the point form is exact only without occlusion
-
-    Stopwatch sw;
-    std::vector<double> F(scene.patches.size());
-    double sum = 0.0;
-    for (std::size_t j = 0; j < F.size(); ++j) {
-        F[j] = point_to_polygon(x, n, scene.patches[j].polygon);
-        sum += F[j];
+    std::vector<Vec3> positions, normals;
+    if (single) {
+        const Vec3 x(args.at[0], args.at[1], args.at[2]);
+        if (!x.allFinite()) throw OptionError("--at", "coordinates must be finite numbers");
+        const Vec3 n(args.normal[0], args.normal[1], args.normal[2]);
+        if (!n.allFinite()) throw OptionError("--normal", "components must be finite numbers");
+        const double big = n.cwiseAbs().maxCoeff();
+        if (!(big > 0.0)) throw OptionError("--normal", "must not be the zero vector");
+        positions.push_back(x);
+        normals.push_back((n / big).normalized());
     }
+
+    StepTimes times;
+    Stopwatch sw;
+    if (!single) {
+        PointElements pts = read_points_csv(args.points);
+        positions = std::move(pts.positions);
+        normals = std::move(pts.normals);
+        times.add("read points", sw.lap());
+    }
+    Scene scene = load_scene_step(args.scene, times);
+    {
+        DenseRunNeeds needs;
+        needs.matrix = false;
+        needs.output_rows = positions.size();
+        check_dense_memory(scene, args.scene, needs);
+    }
+    subdivide_step(scene, args.scene, times);
+
+    sw.lap();
+    const DenseMatrix F = point_form_factors(scene, positions, normals, args.threads);
     times.add("compute", sw.lap());
 
     if (args.output.empty()) {
-        write_point_csv(stdout, F);
+        std::ostringstream text;
+        if (single)
+            write_row_csv(text, F);
+        else
+            write_csv_matrix(text, F);
+        fmt::print("{}", text.str());
         return;
     }
     write_file_atomically(args.output, [&](std::ostream& out) {
-        out << "patch,F\n";
-        for (std::size_t j = 0; j < F.size(); ++j) out << fmt::format("{},{:.17g}\n", j, F[j]);
+        if (single)
+            write_row_csv(out, F);
+        else
+            write_matrix(out, format, F);
     });
     times.add("write", sw.lap());
-    fmt::print("point      ({}, {}, {}), normal ({:.6g}, {:.6g}, {:.6g})\n", x.x(), x.y(), x.z(),
-               n.x(), n.y(), n.z());
-    fmt::print("scene      {}: {} patches\n", scene.name, scene.patches.size());
-    fmt::print("sum of F   {:.10g}\n", sum);
+    if (single) {
+        fmt::print("point      ({}, {}, {}), normal ({:.6g}, {:.6g}, {:.6g})\n", positions[0].x(),
+                   positions[0].y(), positions[0].z(), normals[0].x(), normals[0].y(),
+                   normals[0].z());
+    } else {
+        fmt::print("points     {} from {}\n", positions.size(), args.points);
+    }
+    const std::size_t obstructions = scene.obstruction_count();
+    fmt::print("scene      {}: {} patches{}\n", scene.name, scene.patches.size(),
+               obstructions ? fmt::format(", {} obstructions", obstructions) : std::string());
+    if (single) {
+        fmt::print("sum of F   {:.10g}\n", F.sum());
+    } else {
+        const Eigen::VectorXd sums = F.rowwise().sum();
+        fmt::print("sums of F  min {:.10g}, max {:.10g} (per point)\n", sums.minCoeff(),
+                   sums.maxCoeff());
+    }
     fmt::print("time       {}\n", format_timings(times, total.seconds()));
-    fmt::print("wrote      {}\n", args.output);
+    fmt::print("wrote      {}{}\n", args.output,
+               single ? std::string()
+                      : fmt::format(" ({}×{}: row = point, column = patch)", F.rows(), F.cols()));
 }
 
 }  // namespace
@@ -79,20 +143,28 @@ void add_point_command(CLI::App& app) {
     auto args = std::make_shared<PointArgs>();
     CLI::App* cmd = app.add_subcommand(
         "point",
-        "Form factors F(dA → patch j) from a differential element at a point to every patch "
-        "(exact, Lambert's formula; scenes without occlusion)");
+        "Form factors F(dA → patch j) from differential elements (a point with a normal, or a "
+        "file of them) to every patch: exact, with obstructions (the blockers' shadows clipped "
+        "out of each patch)");
     args->scene.add_to(cmd);
-    cmd->add_option("--at", args->at, "Position of the element")
-        ->required()
-        ->expected(3)
-        ->type_name("X Y Z");
-    cmd->add_option("--normal", args->normal, "Front normal of the element (normalised here)")
-        ->required()
-        ->expected(3)
-        ->type_name("NX NY NZ");
+    args->at_opt = cmd->add_option("--at", args->at, "Position of the element")
+                       ->expected(3)
+                       ->type_name("X Y Z");
+    args->normal_opt =
+        cmd->add_option("--normal", args->normal, "Front normal of the element (normalised here)")
+            ->expected(3)
+            ->type_name("NX NY NZ");
+    cmd->add_option("--points", args->points,
+                    "Many elements: a CSV file, one line x,y,z,nx,ny,nz per point (an optional "
+                    "header line, # comments); gives an M×N matrix (row = point, column = patch)")
+        ->type_name("FILE.csv");
     cmd->add_option("-o,--output", args->output,
-                    "CSV file (`patch,F`, one line per patch); default: standard output")
-        ->type_name("OUT.csv");
+                    "With --at: CSV `patch,F`, one line per patch. With --points: the M×N matrix, "
+                    ".csv (no header, %.17g) or .npy (float64). Default: standard output (CSV)")
+        ->type_name("OUT");
+    cmd->add_option("--threads", args->threads, "Worker threads (0 = all cores)")
+        ->type_name("T")
+        ->capture_default_str();
     cmd->callback([args] { run_point(*args); });
 }
 

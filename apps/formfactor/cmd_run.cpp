@@ -12,6 +12,8 @@
 #include "common.h"
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
+#include "formfactor/matrix/memory.h"
+#include "formfactor/methods/traits.h"
 #include "formfactor/output/atomic_file.h"
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/patch_table.h"
@@ -64,7 +66,7 @@ void run_run(RunArgs args) {
     parse_repair_mode(args.repair.mode);
 
     StepTimes times;
-    Scene scene = load_and_subdivide(args.scene, times);
+    Scene scene = load_scene_step(args.scene, times);
     std::string note;
     if (args.method.method.empty() && may_obstruct(scene)) {
         note = fmt::format(
@@ -74,7 +76,23 @@ void run_run(RunArgs args) {
             scene.name, kRunOcclusionMethod, default_method(scene));
         args.method.method = kRunOcclusionMethod;
     }
+    {
+        // The memory of F, its standard errors, the repair copy and the solver, checked before
+        // the patches and F exist.
+        DenseRunNeeds needs;
+        needs.standard_errors =
+            method_traits(args.method.resolved_name(scene), args.method.method_options(), &scene)
+                .standard_errors;
+        needs.repair = parse_repair_mode(args.repair.mode) != RepairMode::none;
+        needs.extra_matrices = solver_dense_matrices(
+            solver_options.solver,
+            static_cast<std::size_t>(subdivision_patch_count(scene, args.scene.subdivision())));
+        check_dense_memory(scene, args.scene, needs);
+    }
+    subdivide_step(scene, args.scene, times);
+    warn_single_patch(scene);
     const auto method = args.method.resolve(scene);
+    const MethodTraits traits = method_traits(method->name(), args.method.method_options(), &scene);
     const std::string stem = fs::path(scene.name).stem().string();
     const std::string matrix_npy = (dir / "formfactors.npy").string();
     const std::string patches_csv = (dir / "patches.csv").string();
@@ -91,7 +109,7 @@ void run_run(RunArgs args) {
     Stopwatch sw;
     nlohmann::json details = nlohmann::json::object();
     FormFactors ff = compute_matrix(*method, scene, args.method, details, times, sw);
-    const Diagnostics raw = diagnose(ff.F, ff.areas);
+    const Diagnostics raw = diagnose(ff);
     const std::optional<RepairReport> repaired = args.repair.apply(ff, scene, times, sw);
 
     const RadiosityResult solution =
@@ -136,6 +154,7 @@ void run_run(RunArgs args) {
     ctx.total_seconds = total.seconds();
     ctx.threads = threads;
     ctx.details = details;
+    ctx.reciprocity = traits.reciprocity;
     ctx.outputs = {{"matrix_npy", matrix_npy},   {"patches", patches_csv},
                    {"radiosity", radiosity_csv}, {"image", image_png},
                    {"mesh", mesh_ply},           {"report", report_json}};
@@ -154,7 +173,8 @@ void run_run(RunArgs args) {
     });
     tx.commit();
 
-    print_matrix_summary(scene, method->name(), threads, ff, raw, times, total.seconds());
+    print_matrix_summary(scene, method->name(), threads, ff, raw, traits.reciprocity, times,
+                         total.seconds());
     print_radiosity_summary(solution);
     fmt::print("wrote      {} ({}×{} float64), {}, {}, {}, {}, {}{}\n", matrix_npy, ff.F.rows(),
                ff.F.cols(), patches_csv, radiosity_csv, image_png, mesh_ply, report_json,

@@ -12,6 +12,8 @@
 #include "common.h"
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
+#include "formfactor/matrix/memory.h"
+#include "formfactor/methods/traits.h"
 #include "formfactor/output/atomic_file.h"
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/report.h"
@@ -67,7 +69,26 @@ void run_solve(const SolveArgs& args) {
         args.solver.options(args.thermal ? SolverKind::direct : SolverKind::gauss_seidel, threads);
 
     StepTimes times;
-    Scene scene = load_and_subdivide(args.scene, times);
+    Scene scene = load_scene_step(args.scene, times);
+    {
+        // The memory of F (computed or read), its standard errors, the repair copy, the solver
+        // and the exchange factors, checked before the patches and F exist.
+        DenseRunNeeds needs;
+        if (args.matrix.empty())
+            needs.standard_errors = method_traits(args.method.resolved_name(scene),
+                                                  args.method.method_options(), &scene)
+                                        .standard_errors;
+        needs.repair = parse_repair_mode(args.repair.mode) != RepairMode::none;
+        const auto n =
+            static_cast<std::size_t>(subdivision_patch_count(scene, args.scene.subdivision()));
+        needs.extra_matrices = solver_dense_matrices(solver_options.solver, n);
+        if (!args.exchange.empty())
+            for (const std::string& m : exchange_factor_dense_matrices())
+                needs.extra_matrices.push_back(m);
+        check_dense_memory(scene, args.scene, needs);
+    }
+    subdivide_step(scene, args.scene, times);
+    warn_single_patch(scene);
     Stopwatch sw;
     // Properties first: a bad CSV fails before the expensive part.
     PatchProperties props = properties_from_scene(scene);
@@ -76,6 +97,7 @@ void run_solve(const SolveArgs& args) {
 
     FormFactors ff;
     std::string method_name;
+    ReciprocityPromise promise;  // unknown for a matrix read from a file
     nlohmann::json details = nlohmann::json::object();
     if (!args.matrix.empty()) {
         ff.F = read_matrix(args.matrix, "--matrix");
@@ -91,8 +113,10 @@ void run_solve(const SolveArgs& args) {
     } else {
         const auto method = args.method.resolve(scene);
         method_name = method->name();
+        promise = method_traits(method_name, args.method.method_options(), &scene).reciprocity;
         ff = compute_matrix(*method, scene, args.method, details, times, sw);
     }
+    const Diagnostics diagnostics = diagnose(ff);
     const std::optional<RepairReport> repaired = args.repair.apply(ff, scene, times, sw);
 
     OutputTransaction tx;
@@ -148,6 +172,7 @@ void run_solve(const SolveArgs& args) {
         ctx.total_seconds = total.seconds();
         ctx.threads = threads;
         ctx.details = details;
+        ctx.reciprocity = promise;
         ctx.outputs["result"] = args.output;
         if (!args.exchange.empty()) ctx.outputs["exchange_factors"] = args.exchange;
         ctx.outputs["report"] = args.report;
@@ -160,6 +185,7 @@ void run_solve(const SolveArgs& args) {
     tx.commit();
     fmt::print("scene      {}: N = {} patches, F from {}\n", scene.name, scene.patches.size(),
                method_name);
+    print_reciprocity(diagnostics, promise);
     fmt::print("time       {}\n", format_timings(times, total.seconds()));
     std::string wrote = args.output;
     if (!args.exchange.empty()) wrote += ", " + args.exchange;

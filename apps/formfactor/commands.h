@@ -9,8 +9,8 @@ namespace formfactor::cli {
 
 /// `formfactor compute SCENE -o OUT [...]`: the form-factor matrix of a scene.
 void add_compute_command(CLI::App& app);
-/// `formfactor point SCENE --at X Y Z --normal NX NY NZ [-o OUT.csv]`: F from a differential
-/// element to every patch.
+/// `formfactor point SCENE (--at X Y Z --normal NX NY NZ | --points FILE.csv) [-o OUT]`: F from
+/// differential elements to every patch, with obstructions.
 void add_point_command(CLI::App& app);
 /// `formfactor info SCENE [--json]`: what a scene holds.
 void add_info_command(CLI::App& app);

@@ -10,6 +10,7 @@
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
 #include "formfactor/core/random.h"
+#include "formfactor/output/report.h"
 
 namespace formfactor::cli {
 
@@ -153,9 +154,12 @@ FormFactors compute_matrix(const Method& method, const Scene& scene, const Metho
     return ff;
 }
 
+std::string MethodArgs::resolved_name(const Scene& scene) const {
+    return method.empty() ? default_method(scene) : method;
+}
+
 std::unique_ptr<Method> MethodArgs::resolve(const Scene& scene) const {
-    const std::string name = method.empty() ? default_method(scene) : method;
-    auto m = make_method(name);
+    auto m = make_method(resolved_name(scene));
     m->check(scene);
     return m;
 }
@@ -177,12 +181,49 @@ nlohmann::json MethodArgs::to_json(const std::string& resolved_method) const {
 }
 
 Scene load_and_subdivide(const SceneArgs& args, StepTimes& times) {
+    Scene scene = load_scene_step(args, times);
+    subdivide_step(scene, args, times);
+    return scene;
+}
+
+Scene load_scene_step(const SceneArgs& args, StepTimes& times) {
     Stopwatch sw;
     Scene scene = load_scene(args.scene);
     times.add("load", sw.lap());
+    return scene;
+}
+
+void subdivide_step(Scene& scene, const SceneArgs& args, StepTimes& times) {
+    Stopwatch sw;
     subdivide(scene, args.subdivision());
     times.add("subdivide", sw.lap());
-    return scene;
+}
+
+void check_dense_memory(const Scene& scene, const SceneArgs& args, DenseRunNeeds needs) {
+    const double count = subdivision_patch_count(scene, args.subdivision());
+    // Beyond size_t's reach the estimate is absurd anyway; clamp so the message can say so.
+    needs.patches = count < 1e18 ? static_cast<std::size_t>(count) : std::size_t(1e18);
+    std::size_t surfaces = 0;
+    for (const Surface& s : scene.surfaces) surfaces += s.obstruction ? 0 : 1;
+    const bool subdivided = needs.patches > surfaces;
+    std::string advice = subdivided
+                             ? fmt::format(
+                                   "use a coarser --subdivide or a larger --max-edge (without "
+                                   "either, one patch per surface: N = {})",
+                                   surfaces)
+                             : std::string("use a scene with fewer surfaces");
+    advice += "; sparse storage for scenes this large is not implemented yet";
+    check_memory(needs, available_memory(), advice);
+}
+
+void warn_single_patch(Scene& scene) {
+    if (scene.patches.size() != 1) return;
+    const std::string w =
+        "the scene has one patch: F is the 1×1 matrix [0] (a planar patch does not see itself; "
+        "there is nothing to exchange with)";
+    scene.warnings.push_back(w);
+    std::fflush(stdout);
+    fmt::print(stderr, "formfactor: warning: {}\n", w);
 }
 
 std::vector<double> patch_emissivities(const Scene& scene) {
@@ -218,9 +259,17 @@ std::string format_timings(const StepTimes& times, double total) {
     return out;
 }
 
+void print_reciprocity(const Diagnostics& d, const ReciprocityPromise& promise) {
+    fmt::print("reciprocity {}\n", reciprocity_summary(d, promise));
+    if (d.max_reciprocity_defect > 0.0) {
+        fmt::print("            worst pair ({}, {}): |A_i F_ij - A_j F_ji| / max(...) = {:.3g}\n",
+                   d.reciprocity_i, d.reciprocity_j, d.max_reciprocity_defect);
+    }
+}
+
 void print_matrix_summary(const Scene& scene, const std::string& method, int threads,
-                          const FormFactors& ff, const Diagnostics& d, const StepTimes& times,
-                          double total) {
+                          const FormFactors& ff, const Diagnostics& d,
+                          const ReciprocityPromise& promise, const StepTimes& times, double total) {
     std::size_t obstructions = 0;
     for (const auto& s : scene.surfaces) obstructions += s.obstruction ? 1 : 0;
     fmt::print("scene      {}: {} surfaces, {} obstructions, N = {} patches\n", scene.name,
@@ -228,12 +277,7 @@ void print_matrix_summary(const Scene& scene, const std::string& method, int thr
     fmt::print("method     {} ({} thread{})\n", method, threads, threads == 1 ? "" : "s");
     fmt::print("row sums   min {:.10g}, max {:.10g}, mean {:.10g}\n", d.row_sum_min, d.row_sum_max,
                d.row_sum_mean);
-    fmt::print("reciprocity max |A_i F_ij - A_j F_ji| / max(...) = {:.3g}",
-               d.max_reciprocity_defect);
-    if (d.max_reciprocity_defect > 0.0) {
-        fmt::print(" (patches {}, {})", d.reciprocity_i, d.reciprocity_j);
-    }
-    fmt::print("\n");
+    print_reciprocity(d, promise);
     if (ff.standard_error && ff.standard_error->size() > 0) {
         fmt::print("std error  max {:.3g}, mean {:.3g} (per entry)\n",
                    ff.standard_error->maxCoeff(), ff.standard_error->mean());

@@ -9,6 +9,8 @@
 #include <string>
 
 #include "formfactor/matrix/form_factors.h"
+#include "formfactor/matrix/memory.h"
+#include "formfactor/matrix/reciprocity.h"
 #include "formfactor/methods/method.h"
 #include "formfactor/output/report.h"
 #include "formfactor/scene/scene.h"
@@ -68,6 +70,8 @@ struct MethodArgs {
     MethodOptions method_options() const;
     /// The method: --method, else default_method(scene). Checks that it can handle the scene.
     std::unique_ptr<Method> resolve(const Scene& scene) const;
+    /// The name resolve() would give (without the check).
+    std::string resolved_name(const Scene& scene) const;
     /// Every option as JSON for the report (with the resolved method name).
     nlohmann::json to_json(const std::string& resolved_method) const;
 };
@@ -79,6 +83,22 @@ FormFactors compute_matrix(const Method& method, const Scene& scene, const Metho
 
 /// Loads the scene and subdivides it, timing both steps into `times` ("load", "subdivide").
 Scene load_and_subdivide(const SceneArgs& args, StepTimes& times);
+/// The first half of load_and_subdivide(): loads (timed "load").
+Scene load_scene_step(const SceneArgs& args, StepTimes& times);
+/// The second half: subdivides (timed "subdivide").
+void subdivide_step(Scene& scene, const SceneArgs& args, StepTimes& times);
+
+/// Refuses a dense run that will not fit in memory, before anything big exists: counts the
+/// patches `args` will make of `scene` (not yet subdivided), estimates the run's peak with
+/// `needs` (its patch count is filled in here) and throws ResourceError naming what it needs,
+/// what is available and what to do instead.
+void check_dense_memory(const Scene& scene, const SceneArgs& args, DenseRunNeeds needs);
+
+/// For the commands that make F (compute, solve, run): a scene of one patch has the 1×1 matrix
+/// [0] (a planar patch does not see itself: there is nothing to exchange with). When the scene
+/// has one patch, prints that as a warning on stderr and adds it to scene.warnings (the report's
+/// scene block).
+void warn_single_patch(Scene& scene);
 
 /// Per-patch emissivities from the scene's materials (for View3D's .txt).
 std::vector<double> patch_emissivities(const Scene& scene);
@@ -88,10 +108,15 @@ std::string format_seconds(double s);
 /// "load 0.001 s, compute 1.2 s, ..., total 1.3 s".
 std::string format_timings(const StepTimes& times, double total);
 
-/// Prints the compute summary (N, method, row sums, reciprocity, timings) to stdout.
+/// Prints the compute summary (N, method, row sums, reciprocity measured against `promise`,
+/// timings) to stdout.
 void print_matrix_summary(const Scene& scene, const std::string& method, int threads,
-                          const FormFactors& ff, const Diagnostics& d, const StepTimes& times,
-                          double total);
+                          const FormFactors& ff, const Diagnostics& d,
+                          const ReciprocityPromise& promise, const StepTimes& times, double total);
+
+/// The reciprocity lines of the summaries: "reciprocity area-weighted …: verdict" and, when the
+/// worst pair is not 0, "            worst pair (i, j): |A_i F_ij - A_j F_ji| / max(...) = x".
+void print_reciprocity(const Diagnostics& d, const ReciprocityPromise& promise);
 
 /// True when the two paths name the same file (after normalisation; they need not exist).
 bool same_file(const std::string& a, const std::string& b);

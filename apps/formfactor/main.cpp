@@ -8,6 +8,7 @@
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <exception>
+#include <new>
 #include <string>
 
 #include "commands.h"
@@ -91,6 +92,13 @@ int main(int argc, char** argv) {
         return 2;
     } catch (const formfactor::Error& e) {
         print_error(e.what());
+        return 1;
+    } catch (const std::bad_alloc&) {
+        // The estimate before the run (formfactor/matrix/memory.h) let it start: a part it does
+        // not count grew too large. Still one clear line, not "internal error: std::bad_alloc".
+        print_error(
+            "out of memory: the run needed more memory than the machine could give (use fewer "
+            "patches, or free memory)");
         return 1;
     } catch (const std::exception& e) {
         print_error(std::string("internal error: ") + e.what());

@@ -128,6 +128,8 @@ nlohmann::json diagnostics_json(const Diagnostics& d) {
             {"row_sum_mean", d.row_sum_mean},
             {"max_reciprocity_defect", d.max_reciprocity_defect},
             {"reciprocity_pair", {d.reciprocity_i, d.reciprocity_j}},
+            {"reciprocity_area_weighted", d.reciprocity_area_weighted},
+            {"reciprocity_row_max", d.reciprocity_row_max},
             {"negative_entries", d.negative_entries},
             {"entries_above_one", d.entries_above_one},
             {"nonfinite_entries", d.nonfinite_entries},

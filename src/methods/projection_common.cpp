@@ -165,6 +165,72 @@ Occluders build_occluders(const Scene& scene) {
     return occ;
 }
 
+namespace {
+
+// K points of a polygon with more triangles than K (a disk of hundreds of vertices): the polygon
+// is cut in two by a plane across its longer extent, at the place that splits its area in the
+// ratio ⌊K/2⌋ : ⌈K/2⌉, and each part gets its share of the points, down to one point per part:
+// the part's area centroid (the centroid of its largest triangle when that falls outside a
+// non-convex part), weighted by the part's share of the area. K compact cells, one point each: a
+// midpoint rule that converges as K grows, whatever the vertex count.
+void bisection_points(const Polygon& p, int K, double total, std::vector<WeightedPoint>& out) {
+    const double a = area(p);
+    if (!(a > 0.0)) return;
+    const PlaneFrame f = frame_of(p);
+    if (K <= 1) {
+        Vec3 c = centroid(p);
+        std::vector<Vec2> q;
+        for (const Vec3& v : p.vertices) q.push_back(f.to_local(v));
+        const Vec2 x = f.to_local(c);
+        bool in = false;  // even-odd rule in the polygon's plane
+        for (std::size_t i = 0, j = q.size() - 1; i < q.size(); j = i++)
+            if ((q[i].y() > x.y()) != (q[j].y() > x.y()) &&
+                x.x() <
+                    (q[j].x() - q[i].x()) * (x.y() - q[i].y()) / (q[j].y() - q[i].y()) + q[i].x())
+                in = !in;
+        if (!in) {
+            double best = 0.0;
+            for (const auto& t : triangulate(p)) {
+                const Vec3& u = p[static_cast<std::size_t>(t[0])];
+                const Vec3& v = p[static_cast<std::size_t>(t[1])];
+                const Vec3& w = p[static_cast<std::size_t>(t[2])];
+                const double at = (v - u).cross(w - u).norm();
+                if (at > best) {
+                    best = at;
+                    c = (u + v + w) / 3.0;
+                }
+            }
+        }
+        out.push_back({c, a / total});
+        return;
+    }
+    // The longer in-plane extent, and the cut along it by bisection on the area.
+    double lo_u = std::numeric_limits<double>::infinity(), hi_u = -lo_u, lo_v = lo_u, hi_v = -lo_u;
+    for (const Vec3& v : p.vertices) {
+        const Vec2 x = f.to_local(v);
+        lo_u = std::min(lo_u, x.x());
+        hi_u = std::max(hi_u, x.x());
+        lo_v = std::min(lo_v, x.y());
+        hi_v = std::max(hi_v, x.y());
+    }
+    const bool along_u = hi_u - lo_u >= hi_v - lo_v;
+    const Vec3 dir = along_u ? f.u : f.v;
+    const double o = dir.dot(f.origin);
+    double lo = o + (along_u ? lo_u : lo_v), hi = o + (along_u ? hi_u : hi_v);
+    const int k1 = K / 2;
+    const double want = a * k1 / K;
+    auto below = [&](double t) { return clip_to_front(p, Plane{-dir, -t}); };
+    for (int it = 0; it < 60; ++it) {
+        const double mid = 0.5 * (lo + hi);
+        (area(below(mid)) < want ? lo : hi) = mid;
+    }
+    const double t = 0.5 * (lo + hi);
+    bisection_points(below(t), k1, total, out);
+    bisection_points(clip_to_front(p, Plane{dir, t}), K - k1, total, out);
+}
+
+}  // namespace
+
 std::vector<WeightedPoint> patch_points(const Polygon& polygon, int K) {
     std::vector<WeightedPoint> out;
     if (K <= 1 || polygon.size() < 3) {
@@ -177,13 +243,18 @@ std::vector<WeightedPoint> patch_points(const Polygon& polygon, int K) {
         quad_points({polygon[0], polygon[1], polygon[2], polygon[3]}, K, 1.0, out);
     } else {
         const double A = area(polygon);
-        for (const auto& t : triangulate(polygon)) {
-            const Vec3& a = polygon[static_cast<std::size_t>(t[0])];
-            const Vec3& b = polygon[static_cast<std::size_t>(t[1])];
-            const Vec3& c = polygon[static_cast<std::size_t>(t[2])];
-            const double At = 0.5 * (b - a).cross(c - a).norm();
-            const int k = std::max(1, static_cast<int>(std::lround(K * At / A)));
-            quad_points({a, b, c, c}, k, At / A, out);
+        const auto tris = triangulate(polygon);
+        if (tris.size() <= static_cast<std::size_t>(K)) {
+            for (const auto& t : tris) {
+                const Vec3& a = polygon[static_cast<std::size_t>(t[0])];
+                const Vec3& b = polygon[static_cast<std::size_t>(t[1])];
+                const Vec3& c = polygon[static_cast<std::size_t>(t[2])];
+                const double At = 0.5 * (b - a).cross(c - a).norm();
+                const int k = std::max(1, static_cast<int>(std::lround(K * At / A)));
+                quad_points({a, b, c, c}, k, At / A, out);
+            }
+        } else {
+            bisection_points(polygon, K, A, out);
         }
     }
     return out;

@@ -74,7 +74,9 @@ struct WeightedPoint {
 /// factors are those whose ratio is closest to the quad's aspect ratio (a 4 × 1 strip gets
 /// 8 × 2 of K = 16). The point-to-area average is a smooth integral: for the C-11 plates the
 /// 4 × 4 rule is off by 1.5e-6 where 4 × 4 cell centres are off by 1.9e-3. Polygons of more
-/// than 4 vertices are triangulated and the points shared out by area.
+/// than 4 vertices are triangulated and the points shared out by area; when there are more
+/// triangles than K (a many-sided disk), the polygon is cut by recursive area bisection into K
+/// compact cells, one point each (the cell's centroid): K points whatever the vertex count.
 std::vector<WeightedPoint> patch_points(const Polygon& polygon, int K);
 
 /// The local frame of a projection: origin at the point, w the unit normal of the base plane,

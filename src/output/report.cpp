@@ -1,5 +1,7 @@
 #include "formfactor/output/report.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <ctime>
 #include <limits>
@@ -27,13 +29,51 @@ double StepTimes::sum() const {
     return s;
 }
 
-json diagnostics_json(const Diagnostics& d) {
+namespace {
+
+const char* promise_name(ReciprocityPromise::Kind k) {
+    switch (k) {
+        case ReciprocityPromise::Kind::exact:
+            return "exact";
+        case ReciprocityPromise::Kind::statistical:
+            return "statistical";
+        case ReciprocityPromise::Kind::approximate:
+            return "approximate";
+        default:
+            return "unknown";
+    }
+}
+
+}  // namespace
+
+json diagnostics_json(const Diagnostics& d, const ReciprocityPromise& promise) {
+    const ReciprocityVerdict v = assess_reciprocity(d, promise);
+    json verdict{{"promise", promise_name(promise.kind)}, {"text", v.text}};
+    verdict["within"] = v.within ? json(*v.within) : json(nullptr);
+    if (promise.kind == ReciprocityPromise::Kind::exact) verdict["tolerance"] = promise.tolerance;
+    if (promise.kind == ReciprocityPromise::Kind::statistical && d.has_z) {
+        verdict["z_max_limit"] = v.z_max_limit;
+        verdict["z_rms_limit"] = v.z_rms_limit;
+    }
+    json z = nullptr;
+    if (d.has_z)
+        z = json{{"max", d.z_max},
+                 {"rms", d.z_rms},
+                 {"pairs", d.z_pairs},
+                 {"i", d.z_i},
+                 {"j", d.z_j},
+                 {"zero_se_pairs", d.z_undefined},
+                 {"zero_entries", d.z_zero_entries}};
     return json{
         {"row_sum", {{"min", d.row_sum_min}, {"max", d.row_sum_max}, {"mean", d.row_sum_mean}}},
         {"reciprocity",
          {{"max_defect", d.max_reciprocity_defect},
           {"i", d.reciprocity_i},
-          {"j", d.reciprocity_j}}},
+          {"j", d.reciprocity_j},
+          {"area_weighted", d.reciprocity_area_weighted},
+          {"row_relative", {{"max", d.reciprocity_row_max}, {"row", d.reciprocity_row}}},
+          {"z", z},
+          {"verdict", verdict}}},
         {"negative_entries", d.negative_entries},
         {"entries_above_one", d.entries_above_one},
         {"nonfinite_entries", d.nonfinite_entries},
@@ -98,8 +138,17 @@ json standard_error_json(const FormFactors& ff) {
     return json{{"max", se.maxCoeff()}, {"mean", se.mean()}};
 }
 
+std::string reciprocity_summary(const Diagnostics& d, const ReciprocityPromise& promise) {
+    const ReciprocityVerdict v = assess_reciprocity(d, promise);
+    std::string s =
+        fmt::format("area-weighted {:.2g}, worst row {:.2g} (patch {})",
+                    d.reciprocity_area_weighted, d.reciprocity_row_max, d.reciprocity_row);
+    if (d.has_z) s += fmt::format(", z max {:.3g} RMS {:.3g}", d.z_max, d.z_rms);
+    return s + ": " + v.text;
+}
+
 json make_report(const Scene& scene, const FormFactors& ff, const ReportContext& ctx) {
-    json diagnostics = diagnostics_json(diagnose(ff.F, ff.areas));
+    json diagnostics = diagnostics_json(diagnose(ff), ctx.reciprocity);
     diagnostics["standard_error"] = standard_error_json(ff);
     json timings = json::object();
     for (const auto& [name, seconds] : ctx.timings.steps) timings[name] = seconds;

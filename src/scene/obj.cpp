@@ -55,7 +55,15 @@ struct FaceInfo {
     std::string key;  // group, else object, else "face"
     bool obstruction = false;
     std::vector<int> v;  // 0-based vertex indices
+    // tinyobjloader counts a face's vertices in an unsigned char: a face with more than
+    // kTinyObjMaxFaceVertices vertices is handed to it as its first three (this line), and its
+    // polygon is built from `v`.
+    std::string stand_in;
 };
+
+// Most vertices per face that tinyobjloader can count (mesh_t::num_face_vertices is unsigned
+// char); longer faces bypass it (FaceInfo::stand_in), so no limit reaches the user.
+constexpr std::size_t kTinyObjMaxFaceVertices = 255;
 
 class ObjReader {
   public:
@@ -67,7 +75,18 @@ class ObjReader {
         scan(lines);
 
         std::string text;
-        for (const std::string& l : lines) (text += l) += '\n';
+        {
+            std::size_t next_face = 0;
+            for (std::size_t i = 0; i < lines.size(); ++i) {
+                while (next_face < faces_.size() &&
+                       faces_[next_face].line < static_cast<int>(i) + 1)
+                    ++next_face;
+                const bool stand_in = next_face < faces_.size() &&
+                                      faces_[next_face].line == static_cast<int>(i) + 1 &&
+                                      !faces_[next_face].stand_in.empty();
+                (text += stand_in ? faces_[next_face].stand_in : lines[i]) += '\n';
+            }
+        }
         std::istringstream in(text);
         Reader mtl(*this);
         tinyobj::attrib_t attrib;
@@ -105,15 +124,20 @@ class ObjReader {
                 if (f >= faces_.size())
                     throw InputError(path_, 0, "tinyobjloader read more faces than the file has");
                 const FaceInfo& fi = faces_[f];
-                if (nv != fi.v.size())
+                const bool stand_in = !fi.stand_in.empty();
+                if (nv != (stand_in ? 3 : fi.v.size()))
                     throw InputError(path_, fi.line, "tinyobjloader read this face differently");
-                Surface s;
-                for (std::size_t j = 0; j < nv; ++j) {
-                    const int vi = sh.mesh.indices[offset + j].vertex_index;
-                    if (vi != fi.v[j])
+                for (std::size_t j = 0; j < nv; ++j)
+                    if (sh.mesh.indices[offset + j].vertex_index != fi.v[j])
                         throw InputError(path_, fi.line,
                                          "tinyobjloader read this face differently");
+                Surface s;
+                s.polygon.vertices.reserve(fi.v.size());
+                for (const int vi : fi.v) {
                     const std::size_t b = 3 * static_cast<std::size_t>(vi);
+                    if (b + 2 >= attrib.vertices.size())
+                        throw InputError(path_, fi.line,
+                                         "tinyobjloader read this face differently");
                     s.polygon.vertices.emplace_back(attrib.vertices[b], attrib.vertices[b + 1],
                                                     attrib.vertices[b + 2]);
                 }
@@ -228,11 +252,9 @@ class ObjReader {
                     fail(path_, ln,
                          "face has " + std::to_string(t.size() - 1) +
                              " vertices (at least 3 needed)");
-                if (t.size() - 1 > 255)
-                    fail(path_, ln,
-                         "face has " + std::to_string(t.size() - 1) +
-                             " vertices (at most 255 supported)");
                 FaceInfo fi;
+                if (t.size() - 1 > kTinyObjMaxFaceVertices)
+                    fi.stand_in = t[0] + " " + t[1] + " " + t[2] + " " + t[3];
                 fi.line = ln;
                 fi.key = !group.empty() ? group : !object.empty() ? object : "face";
                 fi.obstruction = starts_with_obstruction(group) || starts_with_obstruction(object);
@@ -393,6 +415,8 @@ std::string obj_name(const std::string& name, std::size_t k) {
 
 Scene load_obj(const std::string& path) {
     Scene scene = ObjReader(path).read();
+    detail::require_surfaces(scene, path, "no faces (f records)",
+                             "faces outside groups and objects named obstruction* have rows");
     subdivide(scene, SubdivisionOptions{});
     return scene;
 }

@@ -117,9 +117,7 @@ void split_triangle(const Polygon& t, int n, int surface, std::vector<Patch>& ou
         }
 }
 
-}  // namespace
-
-void subdivide(Scene& scene, const SubdivisionOptions& options) {
+void check_options(const SubdivisionOptions& options) {
     if (options.n < 1)
         throw OptionError("--subdivide",
                           "must be at least 1 (got " + std::to_string(options.n) + ")");
@@ -128,6 +126,22 @@ void subdivide(Scene& scene, const SubdivisionOptions& options) {
                                             detail::exact(options.max_edge) + ")");
     if (options.max_edge > 0.0 && options.n > 1)
         throw OptionError("--max-edge", "cannot be combined with --subdivide");
+}
+
+}  // namespace
+
+double subdivision_patch_count(const Scene& scene, const SubdivisionOptions& options) {
+    check_options(options);
+    double total = 0.0;
+    for (const Surface& s : scene.surfaces) {
+        if (s.obstruction) continue;
+        for (const auto& g : plan_for(s, options).grid) total += g[0] * g[1];
+    }
+    return total;
+}
+
+void subdivide(Scene& scene, const SubdivisionOptions& options) {
+    check_options(options);
     const char* option = options.max_edge > 0.0 ? "--max-edge" : "--subdivide";
 
     // Count first, in floating point, so that absurd values are refused before anything is built.

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "formfactor/core/error.h"
+#include "formfactor/scene/scene.h"
 
 namespace formfactor::detail {
 
@@ -99,6 +100,23 @@ inline void write_atomically(const std::string& path, const std::string& text) {
         std::filesystem::remove(tmp, ec);
         throw InputError(path, 0, "cannot write file (rename failed)");
     }
+}
+
+/// Throws InputError(path, 0, ...) when the scene read from `path` has no surface with a row
+/// (no faces at all, or only obstruction-only ones): there is nothing to compute. `none`: what
+/// the format lacks ("no faces (f records)"); `hint`: which of its surfaces have rows.
+inline void require_surfaces(const Scene& scene, const std::string& path, const std::string& none,
+                             const std::string& hint) {
+    std::size_t obstructions = 0;
+    for (const Surface& s : scene.surfaces) obstructions += s.obstruction ? 1 : 0;
+    if (scene.surfaces.size() > obstructions) return;
+    if (scene.surfaces.empty())
+        throw InputError(path, 0, "the scene is empty: " + none + ", nothing to compute");
+    throw InputError(path, 0,
+                     "all " + std::to_string(obstructions) +
+                         " surfaces are obstructions: there are no surfaces to compute form "
+                         "factors between (" +
+                         hint + ")");
 }
 
 /// A short form of a number for messages ("2.1e-03").

@@ -553,6 +553,8 @@ bool convex_quad_or_triangle(const Polygon& p) {
 
 Scene load_vs3(const std::string& path) {
     Scene scene = Vs3Reader(path).read();
+    detail::require_surfaces(scene, path, "no surfaces (S records)",
+                             "S records have rows, O records only block");
     subdivide(scene, SubdivisionOptions{});
     return scene;
 }

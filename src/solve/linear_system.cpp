@@ -335,4 +335,23 @@ void check_sizes(const FormFactors& ff, std::size_t properties) {
 }
 
 }  // namespace detail
+
+std::vector<std::string> solver_dense_matrices(SolverKind kind, std::size_t n) {
+    switch (kind) {
+        case SolverKind::direct:
+            return {"direct solve: system matrix", "direct solve: LU factors"};
+        case SolverKind::shooting:
+            if (n <= static_cast<std::size_t>(detail::kShootingTransposeMax))
+                return {"shooting: F transposed"};
+            return {};
+        default:
+            return {};
+    }
+}
+
+std::vector<std::string> exchange_factor_dense_matrices() {
+    return {"exchange factors: system matrix", "exchange factors: LU factors",
+            "exchange factors: result"};
+}
+
 }  // namespace formfactor

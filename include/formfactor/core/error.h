@@ -54,6 +54,13 @@ class GeometryError : public Error {
     using Error::Error;
 };
 
+/// A run that needs more of the machine than it has (memory), found before it starts: the
+/// message says what is needed, what is available and what to do instead.
+class ResourceError : public Error {
+  public:
+    using Error::Error;
+};
+
 [[noreturn]] void assertion_failed(const char* expr, const char* file, int line);
 
 }  // namespace formfactor

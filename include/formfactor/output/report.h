@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "formfactor/matrix/form_factors.h"
+#include "formfactor/matrix/reciprocity.h"
 #include "formfactor/scene/scene.h"
 
 namespace formfactor {
@@ -39,13 +40,26 @@ struct ReportContext {
     int threads = 0;             ///< threads actually used
     nlohmann::json details = nlohmann::json::object();  ///< Method::compute()'s details
     nlohmann::json outputs = nlohmann::json::object();  ///< role → path of each file written
+    /// What the method promises about reciprocity (method_traits()); unknown by default.
+    ReciprocityPromise reciprocity;
 };
 
-/// The diagnostics as JSON: {"row_sum": {"min", "max", "mean"}, "reciprocity": {"max_defect",
-/// "i", "j"}, "negative_entries", "entries_above_one", "nonfinite_entries", "max_abs_diagonal"}.
-/// The reciprocity defect is max |A_i F_ij − A_j F_ji| / max(A_i F_ij, A_j F_ji), at (i, j),
-/// 0-based patch indices.
-nlohmann::json diagnostics_json(const Diagnostics& d);
+/// The diagnostics as JSON: {"row_sum": {"min", "max", "mean"}, "reciprocity": {...},
+/// "negative_entries", "entries_above_one", "nonfinite_entries", "max_abs_diagonal"}, with
+/// "reciprocity": {"max_defect", "i", "j": the worst pair, max |A_i F_ij − A_j F_ji| /
+/// max(A_i F_ij, A_j F_ji) at (i, j), 0-based patch indices; "area_weighted": Σ_ij |A_i F_ij −
+/// A_j F_ji| / Σ_ij A_i F_ij; "row_relative": {"max", "row"}: max_i Σ_j |A_i F_ij − A_j F_ji| /
+/// (A_i Σ_j F_ij); "z": null, or with standard errors {"max", "rms", "pairs", "i", "j",
+/// "zero_se_pairs", "zero_entries"}: the defect in units of its standard error (see
+/// Diagnostics); "verdict": {"promise": "exact" |
+/// "statistical" | "approximate" | "unknown", "within": true | false | null, "text", and
+/// "tolerance" (exact) or "z_max_limit", "z_rms_limit" (statistical)}}. The verdict compares with
+/// `promise` (assess_reciprocity()).
+nlohmann::json diagnostics_json(const Diagnostics& d, const ReciprocityPromise& promise = {});
+
+/// The one-line reciprocity summary the CLI prints: "area-weighted 1.2e-03, worst row 3.4e-03
+/// (patch 7), z max 3.1 RMS 0.98: consistent with chance (...)".
+std::string reciprocity_summary(const Diagnostics& d, const ReciprocityPromise& promise);
 
 /// The per-entry standard errors of a Monte-Carlo estimate: {"max", "mean"} over the matrix, or
 /// null when the method gives none (exact methods).
@@ -56,7 +70,8 @@ nlohmann::json standard_error_json(const FormFactors& ff);
 /// "max"}, "bounds": {"min": [x,y,z], "max": [x,y,z]}, "warnings": [...]}.
 nlohmann::json scene_summary_json(const Scene& scene);
 
-/// The full report for F computed on `scene` (diagnose() is run here; "diagnostics" also gets
+/// The full report for F computed on `scene` (diagnose(ff) is run here, with the standard errors
+/// when ff has them; the reciprocity verdict against ctx.reciprocity; "diagnostics" also gets
 /// "standard_error": standard_error_json(ff)).
 nlohmann::json make_report(const Scene& scene, const FormFactors& ff, const ReportContext& ctx);
 

@@ -155,6 +155,11 @@ Scene builtin_scene(const std::string& name);
 /// > 0), or more than kMaxPatches patches.
 void subdivide(Scene& scene, const SubdivisionOptions& options);
 
+/// The number of patches subdivide(scene, options) would make, counted without making them (a
+/// double: absurd options must not overflow). Throws OptionError like subdivide() for bad
+/// options.
+double subdivision_patch_count(const Scene& scene, const SubdivisionOptions& options);
+
 /// Upper limit on the number of patches subdivide() makes.
 inline constexpr double kMaxPatches = 50e6;
 

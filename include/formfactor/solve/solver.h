@@ -12,6 +12,7 @@
 /// Residual: the relative residual of x is ‖c + diag(d) F x − x‖_∞ / ‖x‖_∞, the largest
 /// absolute entry over patches and channels divided by the largest |x| (0 when x = 0).
 
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -49,6 +50,14 @@ struct SolverOptions {
     /// estimate (a preview of the still-unshot light). Off for exact answers.
     bool add_ambient = false;
 };
+
+/// The N × N double matrices a solve with `kind` allocates besides F, named (for the memory
+/// estimate, formfactor/matrix/memory.h): direct: the system matrix and its LU factors;
+/// shooting: the transposed copy of F (up to 8192 patches); jacobi, gauss-seidel: none.
+std::vector<std::string> solver_dense_matrices(SolverKind kind, std::size_t n);
+
+/// The N × N matrices total_exchange_factors() allocates besides F (system, LU, result).
+std::vector<std::string> exchange_factor_dense_matrices();
 
 /// What a solve reports.
 struct SolverStats {

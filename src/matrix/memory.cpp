@@ -1,0 +1,125 @@
+#include "formfactor/matrix/memory.h"
+
+#include <fmt/format.h>
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include "formfactor/core/error.h"
+
+namespace formfactor {
+
+double MemoryEstimate::total() const {
+    double t = 0.0;
+    for (const Item& i : items) t += i.bytes;
+    return t;
+}
+
+double dense_matrix_bytes(double rows, double cols) { return rows * cols * sizeof(double); }
+
+std::string format_count(double x) {
+    const std::string digits = fmt::format("{:.0f}", x);
+    std::string out;
+    const std::size_t n = digits.size();
+    for (std::size_t k = 0; k < n; ++k) {
+        if (k > 0 && digits[k - 1] != '-' && (n - k) % 3 == 0) out += ',';
+        out += digits[k];
+    }
+    return out;
+}
+
+MemoryEstimate estimate_dense_memory(const DenseRunNeeds& needs) {
+    MemoryEstimate e;
+    const double n = static_cast<double>(needs.patches);
+    const double nn = dense_matrix_bytes(n, n);
+    const std::string square = format_count(n) + "² doubles";
+    if (needs.matrix) e.add("F (" + square + ")", nn);
+    if (needs.standard_errors) e.add("standard errors (" + square + ")", nn);
+    if (needs.repair) e.add("repair copy of F (" + square + ")", nn);
+    for (const std::string& what : needs.extra_matrices) e.add(what + " (" + square + ")", nn);
+    if (needs.output_rows > 0)
+        e.add(fmt::format("output ({} × {} doubles)", format_count(double(needs.output_rows)),
+                          format_count(n)),
+              dense_matrix_bytes(double(needs.output_rows), n));
+    e.add("patches and per-patch tables", n * kBytesPerPatch);
+    return e;
+}
+
+double available_memory() {
+    double avail = 0.0;
+    {
+        std::ifstream in("/proc/meminfo");
+        std::string line;
+        while (std::getline(in, line)) {
+            if (line.rfind("MemAvailable:", 0) != 0) continue;
+            std::istringstream s(line.substr(13));
+            double kb = 0.0;
+            std::string unit;
+            if (s >> kb) avail = kb * 1024.0;
+            break;
+        }
+    }
+    if (!(avail > 0.0)) {
+        const long pages = sysconf(_SC_AVPHYS_PAGES), size = sysconf(_SC_PAGESIZE);
+        if (pages > 0 && size > 0) avail = static_cast<double>(pages) * static_cast<double>(size);
+    }
+    struct rlimit rl {};
+    if (getrlimit(RLIMIT_AS, &rl) == 0 && rl.rlim_cur != RLIM_INFINITY) {
+        const double limit = static_cast<double>(rl.rlim_cur);
+        avail = avail > 0.0 ? std::min(avail, limit) : limit;
+    }
+    return avail;
+}
+
+std::size_t max_dense_patches(const DenseRunNeeds& needs, double available) {
+    // total(N) = a N² + b N with a = bytes per N² (the square matrices), b = kBytesPerPatch
+    // plus the M × N output's M doubles.
+    double a = 0.0;
+    {
+        DenseRunNeeds one = needs;
+        one.patches = 1;
+        one.output_rows = 0;
+        a = estimate_dense_memory(one).total() - kBytesPerPatch;
+    }
+    const double b = kBytesPerPatch + static_cast<double>(needs.output_rows) * sizeof(double);
+    if (!(available > 0.0)) return 0;
+    const double n =
+        a > 0.0 ? (-b + std::sqrt(b * b + 4.0 * a * available)) / (2.0 * a) : available / b;
+    return n > 0.0 ? static_cast<std::size_t>(std::floor(n)) : 0;
+}
+
+void check_memory(const DenseRunNeeds& needs, double available, const std::string& advice) {
+    if (!(available > 0.0)) return;
+    const MemoryEstimate e = estimate_dense_memory(needs);
+    const double total = e.total();
+    if (total <= available) return;
+    std::string parts;
+    for (const MemoryEstimate::Item& i : e.items) {
+        if (i.bytes < 0.01 * total) continue;
+        parts += (parts.empty() ? "" : ", ") + i.what + " " + format_bytes(i.bytes);
+    }
+    std::string msg = fmt::format(
+        "not enough memory: {} patches need about {} ({}), this machine has {} available",
+        format_count(double(needs.patches)), format_bytes(total), parts, format_bytes(available));
+    const std::size_t fit = max_dense_patches(needs, available);
+    msg += fmt::format("; at most about {} patches fit", format_count(double(fit)));
+    if (!advice.empty()) msg += ": " + advice;
+    throw ResourceError(msg);
+}
+
+std::string format_bytes(double bytes) {
+    const char* units[] = {"bytes", "kB", "MB", "GB", "TB", "PB", "EB"};
+    int u = 0;
+    double x = bytes;
+    while (std::abs(x) >= 1000.0 && u < 6) {
+        x /= 1000.0;
+        ++u;
+    }
+    if (u == 0) return fmt::format("{:.0f} bytes", x);
+    return fmt::format("{:.{}f} {}", x, x < 10.0 ? 1 : 0, units[u]);
+}
+
+}  // namespace formfactor
