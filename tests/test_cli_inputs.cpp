@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "cli_runner.h"
+#include "formfactor/core/error.h"
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/scene/points.h"
 
