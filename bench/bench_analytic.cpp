@@ -10,10 +10,10 @@
 #include <memory>
 #include <random>
 
-#include "formfactor/methods/analytic.h"
+#include "formfactor/kernels/analytic.h"
 #include "formfactor/methods/method.h"
 #include "formfactor/scene/scene.h"
-#include "methods/analytic_internal.h"
+#include "kernels/analytic_internal.h"
 
 using namespace formfactor;
 

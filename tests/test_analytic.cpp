@@ -12,10 +12,10 @@
 #include <vector>
 
 #include "formfactor/core/error.h"
-#include "formfactor/methods/analytic.h"
+#include "formfactor/kernels/analytic.h"
 #include "formfactor/methods/method.h"
-#include "methods/analytic_internal.h"
-#include "methods/analytic_method.h"
+#include "kernels/analytic_internal.h"
+#include "methods/analytic/analytic_method.h"
 
 using namespace formfactor;
 

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "formfactor/methods/analytic.h"
+#include "formfactor/kernels/analytic.h"
 
 using namespace formfactor;
 

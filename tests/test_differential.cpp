@@ -22,7 +22,7 @@
 #include <vector>
 
 #include "formfactor/core/random.h"
-#include "formfactor/methods/analytic.h"
+#include "formfactor/kernels/analytic.h"
 #include "formfactor/methods/method.h"
 #include "obstructed_checks.h"
 #include "obstructed_scenes.h"

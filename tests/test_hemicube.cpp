@@ -6,7 +6,7 @@
 #include <set>
 
 #include "formfactor/core/error.h"
-#include "formfactor/methods/analytic.h"
+#include "formfactor/kernels/analytic.h"
 #include "formfactor/methods/hemicube.h"
 #include "projection_test_scenes.h"
 

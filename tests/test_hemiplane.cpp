@@ -5,7 +5,7 @@
 
 #include "formfactor/core/error.h"
 #include "formfactor/methods/hemiplane.h"
-#include "methods/projection_common.h"
+#include "methods/projection/projection_common.h"
 #include "projection_test_scenes.h"
 
 using namespace formfactor;

@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "formfactor/methods/analytic.h"
+#include "formfactor/kernels/analytic.h"
 #include "formfactor/scene/room.h"
 #include "obstructed_checks.h"
 #include "obstructed_scenes.h"

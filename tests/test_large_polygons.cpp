@@ -7,7 +7,7 @@
 #include <cmath>
 #include <string>
 
-#include "formfactor/methods/analytic.h"
+#include "formfactor/kernels/analytic.h"
 #include "formfactor/methods/method.h"
 #include "formfactor/methods/point_factors.h"
 #include "formfactor/scene/scene.h"

@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "formfactor/core/error.h"
-#include "formfactor/methods/analytic.h"
+#include "formfactor/kernels/analytic.h"
 #include "formfactor/methods/method.h"
 #include "mc_test_scenes.h"
 
@@ -45,7 +45,7 @@ std::vector<CatalogCase> catalog() {
             {"C-11 0.2x0.2x1", mc_test::parallel_rects(0.2, 0.2, 1), 0.01240397731324307}};
 }
 
-// F(dA → polygon), exact (Lambert's contour formula, methods/analytic.h).
+// F(dA → polygon), exact (Lambert's contour formula, kernels/analytic.h).
 double point_ff(const Vec3& x, const Vec3& n, const Polygon& p) {
     return point_to_polygon(x, n, p);
 }

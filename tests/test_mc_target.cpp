@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "formfactor/methods/analytic.h"
+#include "formfactor/kernels/analytic.h"
 #include "formfactor/methods/method.h"
 #include "mc_test_scenes.h"
 

@@ -18,13 +18,13 @@
 #include <functional>
 #include <vector>
 
-#include "formfactor/methods/analytic.h"
+#include "formfactor/kernels/analytic.h"
 #include "formfactor/methods/method.h"
 #include "formfactor/methods/obstructed.h"
 #include "formfactor/scene/room.h"
 #include "formfactor/scene/scene.h"
 #include "formfactor/scene/scene_io.h"
-#include "methods/analytic_internal.h"
+#include "kernels/analytic_internal.h"
 #include "scene_test_util.h"
 
 using namespace formfactor;

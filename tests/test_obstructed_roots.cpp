@@ -11,7 +11,7 @@
 #include "formfactor/methods/method.h"
 #include "formfactor/scene/room.h"
 #include "formfactor/scene/scene.h"
-#include "methods/obstructed_internal.h"
+#include "methods/analytic/obstructed_internal.h"
 
 using namespace formfactor;
 using namespace formfactor::detail;

@@ -7,7 +7,7 @@
 #include <string>
 
 #include "formfactor/core/error.h"
-#include "formfactor/methods/analytic.h"
+#include "formfactor/kernels/analytic.h"
 #include "formfactor/methods/obstructed.h"
 #include "formfactor/methods/point_factors.h"
 #include "formfactor/scene/room.h"

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "formfactor/matrix/aggregate.h"
-#include "formfactor/methods/analytic.h"
+#include "formfactor/kernels/analytic.h"
 #include "formfactor/methods/method.h"
 #include "formfactor/scene/scene.h"
 #include "scene_test_util.h"

@@ -5,7 +5,7 @@
 
 #include "formfactor/core/random.h"
 #include "formfactor/geometry/sampling.h"
-#include "formfactor/methods/analytic.h"
+#include "formfactor/kernels/analytic.h"
 #include "formfactor/visibility/visibility.h"
 #include "mc_test_scenes.h"
 #include "visibility/shaft_culler.h"

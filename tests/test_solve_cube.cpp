@@ -1,11 +1,11 @@
 // Radiosity and thermal solves on the subdivided unit cube with exact form
-// factors (methods/analytic.h, Schröder & Hanrahan's closed form for every
+// factors (kernels/analytic.h, Schröder & Hanrahan's closed form for every
 // pair).
 
 #include <doctest/doctest.h>
 
 #include "formfactor/matrix/repair.h"
-#include "formfactor/methods/analytic.h"
+#include "formfactor/kernels/analytic.h"
 #include "formfactor/scene/scene.h"
 #include "formfactor/solve/radiosity.h"
 #include "formfactor/solve/thermal.h"

@@ -2,8 +2,8 @@
 #include "formfactor/methods/hemicube.h"
 #include "formfactor/methods/hemiplane.h"
 #include "formfactor/methods/method.h"
-#include "mc_common.h"
-#include "methods/analytic_method.h"
+#include "methods/monte_carlo/mc_common.h"
+#include "methods/analytic/analytic_method.h"
 
 namespace formfactor {
 

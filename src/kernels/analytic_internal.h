@@ -8,7 +8,7 @@
 #include "formfactor/core/progress.h"
 #include "formfactor/core/types.h"
 #include "formfactor/matrix/form_factors.h"
-#include "formfactor/methods/analytic.h"
+#include "formfactor/kernels/analytic.h"
 
 namespace formfactor::detail {
 

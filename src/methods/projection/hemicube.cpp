@@ -6,8 +6,8 @@
 #include <string>
 
 #include "formfactor/core/error.h"
-#include "methods/hemicube_raster.h"
-#include "methods/projection_common.h"
+#include "methods/projection/hemicube_raster.h"
+#include "methods/projection/projection_common.h"
 
 namespace formfactor {
 

@@ -1,4 +1,4 @@
-#include "methods/projection_common.h"
+#include "methods/projection/projection_common.h"
 
 #include <algorithm>
 #include <cmath>

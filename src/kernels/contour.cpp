@@ -1,14 +1,14 @@
 // Exact unobstructed form factors: Lambert's formula (point → polygon) and the double contour
 // integral of Stokes' theorem (polygon → polygon). See docs/analytic.md.
 
-#include "formfactor/methods/analytic.h"
+#include "formfactor/kernels/analytic.h"
 
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <vector>
 
-#include "methods/analytic_internal.h"
+#include "kernels/analytic_internal.h"
 
 namespace formfactor {
 

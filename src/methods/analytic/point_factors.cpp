@@ -12,7 +12,7 @@
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
 #include "formfactor/geometry/polygon.h"
-#include "formfactor/methods/analytic.h"
+#include "formfactor/kernels/analytic.h"
 #include "formfactor/methods/obstructed.h"
 
 namespace formfactor {

@@ -11,7 +11,7 @@
 #include "formfactor/core/progress.h"
 #include "formfactor/geometry/sampling.h"
 #include "formfactor/visibility/visibility.h"
-#include "mc_common.h"
+#include "methods/monte_carlo/mc_common.h"
 
 namespace formfactor {
 namespace {

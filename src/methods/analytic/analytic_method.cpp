@@ -3,7 +3,7 @@
 // entry of the pair by reciprocity. In obstructed scenes the obstruction pass
 // (analytic_obstructed.cpp) then corrects the pairs that something may block.
 
-#include "methods/analytic_method.h"
+#include "methods/analytic/analytic_method.h"
 
 #include <algorithm>
 #include <array>
@@ -15,8 +15,8 @@
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
 #include "formfactor/core/progress.h"
-#include "formfactor/methods/analytic.h"
-#include "methods/analytic_internal.h"
+#include "formfactor/kernels/analytic.h"
+#include "kernels/analytic_internal.h"
 
 namespace formfactor {
 

@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "methods/projection_common.h"
+#include "methods/projection/projection_common.h"
 
 namespace formfactor::projection {
 

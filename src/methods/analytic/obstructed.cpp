@@ -15,9 +15,9 @@
 #include <vector>
 
 #include "formfactor/core/error.h"
-#include "formfactor/methods/analytic.h"
-#include "methods/analytic_internal.h"
-#include "methods/obstructed_internal.h"
+#include "formfactor/kernels/analytic.h"
+#include "kernels/analytic_internal.h"
+#include "methods/analytic/obstructed_internal.h"
 
 namespace formfactor {
 namespace detail {

@@ -8,8 +8,8 @@
 #include <limits>
 #include <mutex>
 
-#include "formfactor/methods/analytic.h"
-#include "methods/analytic_internal.h"
+#include "formfactor/kernels/analytic.h"
+#include "kernels/analytic_internal.h"
 
 namespace formfactor {
 

@@ -7,7 +7,7 @@
 #include <string>
 
 #include "formfactor/core/error.h"
-#include "methods/projection_common.h"
+#include "methods/projection/projection_common.h"
 
 namespace formfactor {
 

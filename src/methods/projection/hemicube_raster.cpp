@@ -1,4 +1,4 @@
-#include "methods/hemicube_raster.h"
+#include "methods/projection/hemicube_raster.h"
 
 #include <algorithm>
 #include <cmath>

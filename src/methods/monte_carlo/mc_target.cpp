@@ -16,10 +16,10 @@
 #include "formfactor/core/parallel.h"
 #include "formfactor/core/progress.h"
 #include "formfactor/geometry/sampling.h"
-#include "formfactor/methods/analytic.h"
+#include "formfactor/kernels/analytic.h"
 #include "formfactor/visibility/visibility.h"
-#include "mc_common.h"
-#include "methods/analytic_internal.h"
+#include "methods/monte_carlo/mc_common.h"
+#include "kernels/analytic_internal.h"
 #include "visibility/shaft_culler.h"
 
 namespace formfactor {

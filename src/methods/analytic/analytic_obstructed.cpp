@@ -14,8 +14,8 @@
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
 #include "formfactor/core/progress.h"
-#include "methods/analytic_method.h"
-#include "methods/obstructed_internal.h"
+#include "methods/analytic/analytic_method.h"
+#include "methods/analytic/obstructed_internal.h"
 
 namespace formfactor {
 
