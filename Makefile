@@ -3,14 +3,13 @@
 # configures and builds Release into build/, then runs the main job or every test.
 # The machines that look for bugs (CI runs them, .ci/run): `make test-sanitize` (ASan + UBSan,
 # build-sanitize/), `make test-tsan` (ThreadSanitizer on the concurrency tests, build-tsan/),
-# `make fuzz` (libFuzzer with clang, build-fuzz/, FUZZ_SECONDS per target), `make format-check`.
+# `make fuzz` (libFuzzer, the same clang tree, FUZZ_SECONDS per target), `make format-check`.
 
 BUILD_DIR ?= build
 JOBS ?= 2
 CMAKE_FLAGS ?=
 SANITIZE_DIR ?= build-sanitize
 TSAN_DIR ?= build-tsan
-FUZZ_DIR ?= build-fuzz
 FUZZ_SECONDS ?= 60
 FUZZ_TARGETS ?=
 # ccache when the machine has it (it is not a dependency).
@@ -25,7 +24,7 @@ DEB_PACKAGES := cmake g++ make pkg-config \
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: all deps configure build run test bench format format-check clean \
-	test-sanitize test-tsan fuzz fuzz-build
+	test-sanitize test-tsan fuzz fuzz-build sanitize-configure
 
 all: build
 
@@ -58,11 +57,20 @@ bench: build
 
 # AddressSanitizer + UndefinedBehaviorSanitizer on the library, the CLI and the whole suite except
 # the `slow` label (they take minutes even unsanitized). Any report fails the run.
-test-sanitize: deps
+# One clang tree serves the sanitized suite and the fuzzers: -O1 with line tables only compiles
+# about five times faster than GCC's -O2 -g under ASan + UBSan (measured: 14 s against 67 s for
+# the largest file), and the library is built once for both.
+SANITIZE_FLAGS := -DCMAKE_BUILD_TYPE=Sanitize \
+	-DCMAKE_CXX_FLAGS_SANITIZE="-O1 -gline-tables-only" -DCMAKE_C_FLAGS_SANITIZE="-O1" \
+	-DCMAKE_CXX_COMPILER=clang++ -DCMAKE_C_COMPILER=clang \
+	-DFF_SANITIZE=address,undefined -DFF_BUILD_FUZZ=ON -DFF_BUILD_BENCH=OFF
+
+sanitize-configure: deps
 	@if [ ! -f $(SANITIZE_DIR)/CMakeCache.txt ]; then \
-		cmake -S . -B $(SANITIZE_DIR) -DCMAKE_BUILD_TYPE=RelWithDebInfo $(LAUNCHER) \
-			-DFF_SANITIZE=address,undefined -DFF_BUILD_BENCH=OFF $(CMAKE_FLAGS); \
+		cmake -S . -B $(SANITIZE_DIR) $(SANITIZE_FLAGS) $(LAUNCHER) $(CMAKE_FLAGS); \
 	fi
+
+test-sanitize: sanitize-configure
 	cmake --build $(SANITIZE_DIR) -j$(JOBS)
 	ASAN_OPTIONS=detect_leaks=1:strict_string_checks=1:detect_stack_use_after_return=1 \
 	UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
@@ -78,16 +86,12 @@ test-tsan: deps
 	TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1" \
 		$(TSAN_DIR)/formfactor_tests -ts=threads
 
-fuzz-build: deps
-	@if [ ! -f $(FUZZ_DIR)/CMakeCache.txt ]; then \
-		cmake -S . -B $(FUZZ_DIR) -DCMAKE_BUILD_TYPE=RelWithDebInfo $(LAUNCHER) \
-			-DCMAKE_CXX_COMPILER=clang++ -DFF_BUILD_FUZZ=ON $(CMAKE_FLAGS); \
-	fi
-	cmake --build $(FUZZ_DIR) -j$(JOBS) --target fuzz_all
+fuzz-build: sanitize-configure
+	cmake --build $(SANITIZE_DIR) -j$(JOBS) --target fuzz_all
 
-# Every reader's fuzzer for FUZZ_SECONDS (default 60), one after another (FUZZ_TARGETS: a subset).
+# Every reader's fuzzer for FUZZ_SECONDS (default 60), JOBS at a time (FUZZ_TARGETS: a subset).
 fuzz: fuzz-build
-	fuzz/run.sh $(FUZZ_DIR) $(FUZZ_SECONDS) $(FUZZ_TARGETS)
+	FUZZ_JOBS=$(JOBS) fuzz/run.sh $(SANITIZE_DIR) $(FUZZ_SECONDS) $(FUZZ_TARGETS)
 
 format:
 	git ls-files '*.h' '*.cpp' | xargs clang-format -i
@@ -96,4 +100,4 @@ format-check: deps
 	git ls-files '*.h' '*.cpp' | xargs clang-format --dry-run -Werror
 
 clean:
-	rm -rf $(BUILD_DIR) $(SANITIZE_DIR) $(TSAN_DIR) $(FUZZ_DIR)
+	rm -rf $(BUILD_DIR) $(SANITIZE_DIR) $(TSAN_DIR)

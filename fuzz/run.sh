@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Runs every fuzz target (or those named) for SECONDS each, one after another:
+# Runs every fuzz target (or those named) for SECONDS each, FUZZ_JOBS (2) at a time:
 #   fuzz/run.sh BUILD_DIR SECONDS [TARGET...]
 # Seeds are written fresh into BUILD_DIR/fuzz-seeds/<target> (fuzz_seeds, from tests/data); new
 # inputs that libFuzzer finds accumulate in BUILD_DIR/fuzz-corpus/<target>, crashing inputs go to
@@ -20,10 +20,11 @@ fi
 "$build/fuzz/fuzz_seeds" "$data" "$build/fuzz-seeds" || exit 1
 mkdir -p "$build/fuzz-corpus" "$build/fuzz-artifacts" "$build/fuzz-logs"
 
-failed=()
-for t in "${targets[@]}"; do
+# One target: its libFuzzer run, then a line of figures in fuzz-logs/<target>.summary and its exit
+# status in fuzz-logs/<target>.rc.
+run_one() {
+    local t=$1 log="$build/fuzz-logs/$1.log" start rc runs cov
     mkdir -p "$build/fuzz-corpus/$t"
-    log="$build/fuzz-logs/$t.log"
     start=$(date +%s)
     # -timeout: one input taking FUZZ_TIMEOUT s (default 30; wall time, so generous for a loaded
     # machine) is a hang; -rss_limit_mb / -malloc_limit_mb: an input that makes a reader
@@ -37,11 +38,32 @@ for t in "${targets[@]}"; do
     rc=$?
     runs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' | tail -1)
     cov=$(grep -o 'cov: [0-9]*' "$log" | tail -1)
-    echo "fuzz_$t: ${runs:-?} executions in $(($(date +%s) - start)) s, ${cov:-cov: ?}, exit $rc"
-    if [ $rc -ne 0 ]; then
+    echo "fuzz_$t: ${runs:-?} executions in $(($(date +%s) - start)) s, ${cov:-cov: ?}, exit $rc" \
+        >"$build/fuzz-logs/$t.summary"
+    echo $rc >"$build/fuzz-logs/$t.rc"
+}
+
+# FUZZ_JOBS targets at a time (default 2: CI's two cores).
+jobs=${FUZZ_JOBS:-2}
+running=0
+for t in "${targets[@]}"; do
+    if [ "$running" -ge "$jobs" ]; then
+        wait -n
+        running=$((running - 1))
+    fi
+    run_one "$t" &
+    running=$((running + 1))
+done
+wait
+
+failed=()
+for t in "${targets[@]}"; do
+    cat "$build/fuzz-logs/$t.summary"
+    rc=$(cat "$build/fuzz-logs/$t.rc")
+    if [ "$rc" -ne 0 ]; then
         failed+=("$t")
         grep -m1 -A3 'ERROR:\|==ERROR\|runtime error\|deadly signal\|Timeout\|out-of-memory' \
-            "$log" | head -20
+            "$build/fuzz-logs/$t.log" | head -20
         ls "$build/fuzz-artifacts/" | grep "^$t-" | head -5
     fi
 done

@@ -103,8 +103,9 @@ void check_mc(const std::string& method, std::uint64_t samples) {
     REQUIRE(ff.standard_error);
     const DenseMatrix& se = *ff.standard_error;
     check_twin_physics(ff.F);
-    for (auto [i, j] : {std::pair{kFloor, kFinDown}, std::pair{kFinDown, kFloor}}) {
-        CAPTURE(i);
+    for (const auto& pair : {std::pair{kFloor, kFinDown}, std::pair{kFinDown, kFloor}}) {
+        const auto i = pair.first, j = pair.second;  // no structured binding: clang 14 cannot
+        CAPTURE(i);                                   // capture one in CAPTURE's lambda
         CAPTURE(j);
         const double f = ff.F(i, j), e = se(i, j);
         CAPTURE(f);
