@@ -10,10 +10,13 @@
 #include <memory>
 #include <random>
 
+#include "../tests/method_runner.h"
 #include "formfactor/kernels/analytic.h"
 #include "formfactor/methods/method.h"
 #include "formfactor/scene/scene.h"
 #include "kernels/analytic_internal.h"
+
+using formfactor::testing::run_method;
 
 using namespace formfactor;
 
@@ -34,13 +37,12 @@ void BM_CubeFullMatrix(benchmark::State& state) {
     const auto method = make_method("analytic");
     MethodOptions opt;
     opt.threads = static_cast<int>(state.range(1));
-    opt.progress = false;
     opt.tolerance = std::pow(10.0, -static_cast<double>(state.range(3)));
     nlohmann::json details;
     std::unique_ptr<FormFactors> result;
     for (auto _ : state) {
         details = nlohmann::json::object();
-        result = std::make_unique<FormFactors>(method->compute(scene, opt, details));
+        result = std::make_unique<FormFactors>(run_method(*method, scene, opt, details));
         benchmark::DoNotOptimize(result->F.data());
     }
     const FormFactors& ff = *result;

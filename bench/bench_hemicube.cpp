@@ -10,9 +10,12 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
+#include "../tests/method_runner.h"
 #include "formfactor/methods/hemicube.h"
 #include "formfactor/methods/hemiplane.h"
 #include "formfactor/scene/scene.h"
+
+using formfactor::testing::run_method;
 
 using namespace formfactor;
 
@@ -141,12 +144,11 @@ void Speed(benchmark::State& state) {
     MethodOptions o;
     o.resolution = static_cast<int>(state.range(1));
     o.threads = static_cast<int>(state.range(2));
-    o.progress = false;
     std::size_t projections = 0;
     const double cpu0 = process_cpu_seconds();
     for (auto _ : state) {
         nlohmann::json details;
-        FormFactors F = method->compute(s, o, details);
+        FormFactors F = run_method(*method, s, o, details);
         benchmark::DoNotOptimize(F.F.data());
         projections += s.patches.size();
     }
@@ -183,11 +185,10 @@ void Accuracy(benchmark::State& state) {
     o.resolution = R;
     o.points = cube ? 4 : 16;
     o.threads = 2;
-    o.progress = false;
     nlohmann::json details;
     DenseMatrix M;
     for (auto _ : state) {
-        FormFactors F = method->compute(s, o, details);
+        FormFactors F = run_method(*method, s, o, details);
         benchmark::DoNotOptimize(F.F.data());
         M = std::move(F.F);
     }

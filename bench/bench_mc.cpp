@@ -9,8 +9,11 @@
 #include <cmath>
 #include <ctime>
 
+#include "../tests/method_runner.h"
 #include "bench_common.h"
 #include "formfactor/methods/method.h"
+
+using formfactor::testing::run_method;
 
 using namespace formfactor;
 
@@ -72,17 +75,16 @@ void BM_RawFirstHit(benchmark::State& state) {
     state.SetItemsProcessed(static_cast<std::int64_t>(rays));
 }
 
-void run_method(benchmark::State& state, const std::string& method, std::uint64_t samples,
-                double raw, double raw_cpu) {
+void bench_method(benchmark::State& state, const std::string& method, std::uint64_t samples,
+                  double raw, double raw_cpu) {
     MethodOptions o;
     o.samples = samples;
-    o.progress = false;
     std::uint64_t rays = 0, pair_rays = 0;
     double seconds = 0, se_max = 0, se_mean = 0, cpu = 0, ray_pass_cpu = 0;
     for (auto _ : state) {
         nlohmann::json d;
         const double c0 = process_cpu_seconds();
-        benchmark::DoNotOptimize(make_method(method)->compute(scene(), o, d));
+        benchmark::DoNotOptimize(run_method(*make_method(method), scene(), o, d));
         cpu += process_cpu_seconds() - c0;
         rays += d["rays_cast"].get<std::uint64_t>();
         seconds += d["seconds"].get<double>();
@@ -113,13 +115,13 @@ void run_method(benchmark::State& state, const std::string& method, std::uint64_
 }
 
 void BM_McArea(benchmark::State& state) {
-    run_method(state, "mc-area", 16, raw_occlusion, raw_occlusion_cpu);
+    bench_method(state, "mc-area", 16, raw_occlusion, raw_occlusion_cpu);
 }
 void BM_McHemisphere(benchmark::State& state) {
-    run_method(state, "mc-hemisphere", 10000, raw_first_hit, raw_first_hit_cpu);
+    bench_method(state, "mc-hemisphere", 10000, raw_first_hit, raw_first_hit_cpu);
 }
 void BM_McTarget(benchmark::State& state) {
-    run_method(state, "mc-target", 16, raw_occlusion, raw_occlusion_cpu);
+    bench_method(state, "mc-target", 16, raw_occlusion, raw_occlusion_cpu);
 }
 
 // Cornell box (with blocks) at 22×22 per surface = 9680 patches, 10⁴ rays per patch.
@@ -127,11 +129,10 @@ void BM_Cornell10kHemisphere(benchmark::State& state) {
     const Scene s = bench::cornell(22);
     MethodOptions o;
     o.samples = 10000;
-    o.progress = false;
     for (auto _ : state) {
         nlohmann::json d;
         const double c0 = process_cpu_seconds();
-        const FormFactors ff = make_method("mc-hemisphere")->compute(s, o, d);
+        const FormFactors ff = run_method(*make_method("mc-hemisphere"), s, o, d);
         const double cpu = process_cpu_seconds() - c0;
         state.counters["fraction_of_raw_cpu"] =
             raw_first_hit_cpu > 0 ? d["rays_cast"].get<double>() / cpu / raw_first_hit_cpu : 0.0;

@@ -18,10 +18,13 @@
 #include <memory>
 #include <string>
 
+#include "../tests/method_runner.h"
 #include "formfactor/matrix/form_factors.h"
 #include "formfactor/methods/method.h"
 #include "formfactor/scene/room.h"
 #include "formfactor/scene/scene_io.h"
+
+using formfactor::testing::run_method;
 
 using namespace formfactor;
 
@@ -51,7 +54,6 @@ void BM_Room(benchmark::State& state) {
     }
     const auto method = make_method("analytic");
     MethodOptions opt;
-    opt.progress = false;
     opt.tolerance = 1e-6;  // what --tolerance 1e-6 sets; visible pairs stay at ≤ 1e-10
     opt.obstructed_tolerance = 1e-6;
     nlohmann::json details;
@@ -60,7 +62,7 @@ void BM_Room(benchmark::State& state) {
     for (auto _ : state) {
         details = nlohmann::json::object();
         const double c0 = process_cpu_seconds();
-        result = std::make_unique<FormFactors>(method->compute(scene, opt, details));
+        result = std::make_unique<FormFactors>(run_method(*method, scene, opt, details));
         cpu += process_cpu_seconds() - c0;
     }
     const Diagnostics d = diagnose(result->F, result->areas);
@@ -91,15 +93,14 @@ void BM_RoomAccuracy(benchmark::State& state) {
     const Scene scene = room_scene(8, RoomBox::kPatches);
     const auto method = make_method("analytic");
     MethodOptions coarse, fine;
-    coarse.progress = fine.progress = false;
     coarse.tolerance = coarse.obstructed_tolerance = 1e-6;
     fine.tolerance = 1e-12;
     fine.obstructed_tolerance = 1e-9;
     nlohmann::json d1, d2;
     double diff = 0;
     for (auto _ : state) {
-        const FormFactors a = method->compute(scene, coarse, d1);
-        const FormFactors b = method->compute(scene, fine, d2);
+        const FormFactors a = run_method(*method, scene, coarse, d1);
+        const FormFactors b = run_method(*method, scene, fine, d2);
         diff = (a.F - b.F).cwiseAbs().maxCoeff();
     }
     state.counters["max_abs_diff_1e-6_vs_1e-9"] = diff;

@@ -11,10 +11,13 @@
 #include <streambuf>
 #include <string>
 
+#include "../tests/method_runner.h"
 #include "formfactor/methods/method.h"
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/patch_table.h"
 #include "formfactor/scene/scene.h"
+
+using formfactor::testing::run_method;
 
 using namespace formfactor;
 
@@ -32,9 +35,8 @@ const Scene& cube() {
 const FormFactors& matrix() {
     static const FormFactors ff = [] {
         MethodOptions o;
-        o.progress = false;
         nlohmann::json d;
-        return make_method("analytic")->compute(cube(), o, d);
+        return run_method(*make_method("analytic"), cube(), o, d);
     }();
     return ff;
 }

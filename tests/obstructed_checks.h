@@ -14,7 +14,10 @@
 #include "formfactor/matrix/form_factors.h"
 #include "formfactor/methods/method.h"
 #include "formfactor/scene/scene.h"
+#include "method_runner.h"
 #include "obstructed_scenes.h"
+
+using formfactor::testing::run_method;
 
 namespace formfactor::test {
 
@@ -38,11 +41,10 @@ inline double reported_bound(const nlohmann::json& d, double tolerance) {
 /// `analytic` with its default tolerances (1e-10 unobstructed, 1e-6 partly hidden).
 inline AnalyticRun run_analytic(const Scene& s, int threads = 0) {
     MethodOptions o;
-    o.progress = false;
     o.threads = threads;
     AnalyticRun r;
     const auto t0 = std::chrono::steady_clock::now();
-    r.ff = make_method("analytic")->compute(s, o, r.details);
+    r.ff = run_method(*make_method("analytic"), s, o, r.details);
     r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     r.bound = reported_bound(r.details, o.obstructed_tolerance);
     return r;
@@ -72,12 +74,11 @@ inline McReference mc_reference(const std::vector<Polygon>& all,
     for (std::size_t k = 0; k < all.size(); ++k) (in[k] ? patches : others).push_back(all[k]);
     const Scene s = gen::sub_scene(patches, others);
     MethodOptions o;
-    o.progress = false;
     o.samples = samples;
     o.seed = seed;
     nlohmann::json d;
     const auto t0 = std::chrono::steady_clock::now();
-    FormFactors ff = make_method("mc-target")->compute(s, o, d);
+    FormFactors ff = run_method(*make_method("mc-target"), s, o, d);
     McReference r;
     r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     r.patches = chosen;

@@ -15,7 +15,10 @@
 #include "formfactor/kernels/analytic.h"
 #include "formfactor/methods/method.h"
 #include "kernels/analytic_internal.h"
+#include "method_runner.h"
 #include "methods/analytic/analytic_method.h"
+
+using formfactor::testing::run_method;
 
 using namespace formfactor;
 
@@ -367,13 +370,12 @@ TEST_CASE(
     CHECK(method->name() == "analytic");
     method->check(scene);
     MethodOptions opt;
-    opt.progress = false;
     opt.tolerance = 1e-12;
     opt.threads = 1;
     nlohmann::json d1, d2;
-    const FormFactors f1 = method->compute(scene, opt, d1);
+    const FormFactors f1 = run_method(*method, scene, opt, d1);
     opt.threads = 2;
-    const FormFactors f2 = method->compute(scene, opt, d2);
+    const FormFactors f2 = run_method(*method, scene, opt, d2);
     const std::size_t n = scene.patches.size();
     REQUIRE(f1.size() == n);
     CHECK(f1.F == f2.F);
@@ -443,8 +445,8 @@ TEST_CASE("analytic: check() accepts scenes with obstructions, may_obstruct() fi
     MethodOptions bad;
     bad.tolerance = -1.0;
     nlohmann::json d;
-    CHECK_THROWS_AS(method->compute(cube, bad, d), OptionError);
-    CHECK(default_method(cube) == "analytic");
+    CHECK_THROWS_AS(run_method(*method, cube, bad, d), OptionError);
+    CHECK(default_method(cube) == MethodKind::analytic);
     const std::vector<std::string> names = method_names();
     CHECK(std::find(names.begin(), names.end(), "analytic") != names.end());
 }

@@ -15,6 +15,9 @@
 #include "formfactor/methods/method.h"
 #include "formfactor/scene/room.h"
 #include "formfactor/scene/scene.h"
+#include "method_runner.h"
+
+using formfactor::testing::run_method;
 
 using namespace formfactor;
 
@@ -50,7 +53,6 @@ struct Job {
 Job job(const std::string& method, const Scene& s, std::uint64_t samples = 0) {
     Job j{method, &s, {}};
     j.options.threads = kInnerThreads;
-    j.options.progress = false;
     j.options.samples = samples;
     j.options.resolution = 64;
     j.options.seed = 7;
@@ -59,7 +61,7 @@ Job job(const std::string& method, const Scene& s, std::uint64_t samples = 0) {
 
 FormFactors compute(const Job& j) {
     nlohmann::json details;
-    return make_method(j.method)->compute(*j.scene, j.options, details);
+    return run_method(*make_method(j.method), *j.scene, j.options, details);
 }
 
 // Same bits: F, and the standard errors when the method gives them.

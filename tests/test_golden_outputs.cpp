@@ -41,9 +41,11 @@ const std::vector<GoldenCase>& cases() {
         {"cube_analytic",
          "compute cube --subdivide 2 -o F.csv --patches patches.csv --report report.json",
          {"F.csv", "patches.csv", "report.json"}},
-        {"cornell_analytic", "compute cornell --subdivide 2 -o F.npy --report report.json",
+        {"cornell_analytic",
+         "compute cornell --subdivide 2 -o F.npy --report report.json",
          {"F.npy", "report.json"}},
-        {"room_vs3_per_surface", "compute DATA/room-4-obstruction.vs3 -o F.txt --report report.json",
+        {"room_vs3_per_surface",
+         "compute DATA/room-4-obstruction.vs3 -o F.txt --report report.json",
          {"F.txt", "report.json"}},
         {"cube_mc_hemisphere",
          "compute cube --subdivide 2 --method mc-hemisphere --samples 2000 -o F.npy --stderr "
@@ -53,7 +55,8 @@ const std::vector<GoldenCase>& cases() {
          "compute cornell --subdivide 1 --method mc-target --samples 256 -o F.npy --stderr se.npy "
          "--report report.json",
          {"F.npy", "se.npy", "report.json"}},
-        {"cube_mc_area", "compute cube --method mc-area --samples 512 -o F.csv --report report.json",
+        {"cube_mc_area",
+         "compute cube --method mc-area --samples 512 -o F.csv --report report.json",
          {"F.csv", "report.json"}},
         {"cornell_hemicube",
          "compute cornell --method hemicube --resolution 64 -o F.csv --report report.json",
@@ -61,16 +64,19 @@ const std::vector<GoldenCase>& cases() {
         {"cornell_hemiplane",
          "compute cornell --method hemiplane --resolution 64 -o F.csv --report report.json",
          {"F.csv", "report.json"}},
-        {"cube_repair", "compute cube --subdivide 2 --method mc-area --samples 64 --repair both "
-                        "-o F.csv --report report.json",
+        {"cube_repair",
+         "compute cube --subdivide 2 --method mc-area --samples 64 --repair both "
+         "-o F.csv --report report.json",
          {"F.csv", "report.json"}},
-        {"cornell_solve", "solve cornell --subdivide 2 -o B.csv --report report.json",
+        {"cornell_solve",
+         "solve cornell --subdivide 2 -o B.csv --report report.json",
          {"B.csv", "report.json"}},
         {"cube_thermal",
          "solve cube --subdivide 2 --thermal --properties thermal.csv -o T.csv "
          "--exchange-factors X.csv --report report.json",
          {"T.csv", "X.csv", "report.json"}},
-        {"cornell_run", "run cornell --subdivide 2 --image-size 48 --out-dir out",
+        {"cornell_run",
+         "run cornell --subdivide 2 --image-size 48 --out-dir out",
          {"out/formfactors.npy", "out/patches.csv", "out/radiosity.csv", "out/cornell.png",
           "out/cornell.ply", "out/report.json"}},
         {"cornell_points", "point cornell --points points.csv -o P.csv", {"P.csv"}},
@@ -91,8 +97,9 @@ void strip_volatile(nlohmann::json& j) {
         for (auto it = j.begin(); it != j.end();) {
             const std::string& k = it.key();
             if (k == "timestamp" || k == "timings" || k == "formfactor_version" ||
-                k.find("seconds") != std::string::npos || k.find("per_second") != std::string::npos ||
-                k == "peak_memory_bytes" || k == "memory") {
+                k.find("seconds") != std::string::npos ||
+                k.find("per_second") != std::string::npos || k == "peak_memory_bytes" ||
+                k == "memory") {
                 it = j.erase(it);
             } else {
                 strip_volatile(*it);

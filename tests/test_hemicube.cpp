@@ -8,7 +8,10 @@
 #include "formfactor/core/error.h"
 #include "formfactor/kernels/analytic.h"
 #include "formfactor/methods/hemicube.h"
+#include "method_runner.h"
 #include "projection_test_scenes.h"
+
+using formfactor::testing::run_method;
 
 using namespace formfactor;
 using namespace projection_test;
@@ -28,9 +31,8 @@ FormFactors run(const Scene& s, int R, int K = 1, int threads = 0, std::uint64_t
     o.points = K;
     o.threads = threads;
     o.seed = seed;
-    o.progress = false;
     nlohmann::json details;
-    return HemicubeMethod().compute(s, o, details);
+    return run_method(HemicubeMethod(), s, o, details);
 }
 
 Polygon rect_b3(double a, double b, double c) {
@@ -244,18 +246,17 @@ TEST_CASE("hemicube: the thread count never changes a result") {
 TEST_CASE("hemicube: options are checked") {
     const Scene pl = load_scene("plates");
     MethodOptions o;
-    o.progress = false;
     nlohmann::json d;
     HemicubeMethod m;
     o.resolution = 255;
-    CHECK_THROWS_AS(m.compute(pl, o, d), OptionError);
+    CHECK_THROWS_AS(run_method(m, pl, o, d), OptionError);
     o.resolution = 32;
-    CHECK_THROWS_AS(m.compute(pl, o, d), OptionError);
+    CHECK_THROWS_AS(run_method(m, pl, o, d), OptionError);
     o.resolution = 64;
     o.points = 0;
-    CHECK_THROWS_AS(m.compute(pl, o, d), OptionError);
+    CHECK_THROWS_AS(run_method(m, pl, o, d), OptionError);
     o.points = 1;
-    CHECK_NOTHROW(m.compute(pl, o, d));
+    CHECK_NOTHROW(run_method(m, pl, o, d));
     CHECK(d["resolution"] == 64);
     CHECK(make_method("hemicube")->name() == "hemicube");
 }
@@ -335,9 +336,8 @@ TEST_CASE("hemicube: the subdivided cube against the analytic method, entry by e
     Scene cube = load_scene("cube");
     subdivide(cube, SubdivisionOptions{3, 0.0});
     MethodOptions o;
-    o.progress = false;
     nlohmann::json d;
-    const auto exact = make_method("analytic")->compute(cube, o, d).F;
+    const auto exact = run_method(*make_method("analytic"), cube, o, d).F;
     const auto F = run(cube, 256, 9).F;
     const double worst = (F - exact).cwiseAbs().maxCoeff();
     MESSAGE("cube 3×3 per face, R = 256, 9 points: max |F − exact| = " << worst);

@@ -5,8 +5,11 @@
 
 #include "formfactor/core/error.h"
 #include "formfactor/methods/hemiplane.h"
+#include "method_runner.h"
 #include "methods/projection/projection_common.h"
 #include "projection_test_scenes.h"
+
+using formfactor::testing::run_method;
 
 using namespace formfactor;
 using namespace projection_test;
@@ -37,8 +40,7 @@ FormFactors run(const Scene& s, int R, int K, int threads, nlohmann::json& d) {
     o.resolution = R;
     o.points = K;
     o.threads = threads;
-    o.progress = false;
-    return HemiplaneMethod().compute(s, o, d);
+    return run_method(HemiplaneMethod(), s, o, d);
 }
 
 }  // namespace

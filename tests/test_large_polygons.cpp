@@ -11,7 +11,10 @@
 #include "formfactor/methods/method.h"
 #include "formfactor/methods/point_factors.h"
 #include "formfactor/scene/scene.h"
+#include "method_runner.h"
 #include "scene_test_util.h"
+
+using formfactor::testing::run_method;
 
 using namespace formfactor;
 
@@ -61,9 +64,8 @@ Scene load_disks(int sides, bool blocker = false, double blocker_radius = 0.5) {
 }
 
 FormFactors compute(const std::string& method, const Scene& scene, MethodOptions o = {}) {
-    o.progress = false;
     nlohmann::json details;
-    return make_method(method)->compute(scene, o, details);
+    return run_method(*make_method(method), scene, o, details);
 }
 
 }  // namespace
@@ -163,7 +165,6 @@ TEST_CASE("large polygons: hemicube and hemiplane on 1000-gon disks, K points pe
     const Scene s = load_disks(1000);
     MethodOptions o;
     o.resolution = 256;
-    o.progress = false;
     for (const std::string m : {"hemicube", "hemiplane"}) {
         CAPTURE(m);
         double previous = 1.0;
@@ -171,7 +172,7 @@ TEST_CASE("large polygons: hemicube and hemiplane on 1000-gon disks, K points pe
             CAPTURE(points);
             o.points = points;
             nlohmann::json details;
-            const FormFactors ff = make_method(m)->compute(s, o, details);
+            const FormFactors ff = run_method(*make_method(m), s, o, details);
             // K projections per patch, not one per triangle of the 998 of each disk.
             CHECK(details[m == "hemicube" ? "hemicubes" : "hemiplanes"] == 2 * points);
             // The point-to-area error (the centroid sees 0.447 of the other disk) falls with K;

@@ -9,6 +9,9 @@
 #include "formfactor/kernels/analytic.h"
 #include "formfactor/methods/method.h"
 #include "mc_test_scenes.h"
+#include "method_runner.h"
+
+using formfactor::testing::run_method;
 
 using namespace formfactor;
 using mc_test::quad;
@@ -22,11 +25,10 @@ FormFactors run(const std::string& method, const Scene& s, std::uint64_t samples
     MethodOptions o;
     o.samples = samples;
     o.seed = seed;
-    o.sampler = sampler;
+    o.sampler = parse_sampler(sampler);
     o.threads = threads;
-    o.progress = false;
     nlohmann::json details;
-    FormFactors ff = make_method(method)->compute(s, o, details);
+    FormFactors ff = run_method(*make_method(method), s, o, details);
     if (details_out) *details_out = details;
     return ff;
 }
@@ -226,10 +228,11 @@ TEST_CASE("mc: splitting a receiver into pieces adds up") {
 TEST_CASE("mc: bad options are reported") {
     const Scene s = mc_test::parallel_rects(1, 1, 1);
     MethodOptions o;
-    o.sampler = "qmc";
-    o.progress = false;
+    CHECK_THROWS_AS(parse_sampler("qmc"), OptionError);
+    o.samples = std::uint64_t(1) << 33;  // more than a stream holds
     nlohmann::json d;
     for (const std::string& method : kMethods)
-        CHECK_THROWS_AS(make_method(method)->compute(s, o, d), OptionError);
-    CHECK_THROWS_AS(make_method(kMethods[0])->compute(Scene{}, MethodOptions{}, d), GeometryError);
+        CHECK_THROWS_AS(run_method(*make_method(method), s, o, d), OptionError);
+    CHECK_THROWS_AS(run_method(*make_method(kMethods[0]), Scene{}, MethodOptions{}, d),
+                    GeometryError);
 }

@@ -8,6 +8,9 @@
 #include "formfactor/kernels/analytic.h"
 #include "formfactor/methods/method.h"
 #include "mc_test_scenes.h"
+#include "method_runner.h"
+
+using formfactor::testing::run_method;
 
 using namespace formfactor;
 using mc_test::quad;
@@ -20,11 +23,10 @@ FormFactors run_target(const Scene& s, std::uint64_t samples, std::uint64_t seed
     MethodOptions o;
     o.samples = samples;
     o.seed = seed;
-    o.sampler = sampler;
+    o.sampler = parse_sampler(sampler);
     o.threads = threads;
-    o.progress = false;
     nlohmann::json details;
-    return make_method("mc-target")->compute(s, o, details);
+    return run_method(*make_method("mc-target"), s, o, details);
 }
 
 double k_sigma(const std::string& sampler) { return sampler == "random" ? 4.0 : 5.0; }
@@ -136,9 +138,8 @@ TEST_CASE("mc-target: pairs that nothing can block are settled without rays") {
     subdivide(cube, SubdivisionOptions{3, 0.0});
     MethodOptions o;
     o.samples = 16;
-    o.progress = false;
     nlohmann::json d;
-    const FormFactors ff = make_method("mc-target")->compute(cube, o, d);
+    const FormFactors ff = run_method(*make_method("mc-target"), cube, o, d);
     CHECK(d["rays_cast"].get<std::uint64_t>() == 0);
     CHECK(d["pairs_without_rays"] == d["pairs"]);
     CHECK(ff.standard_error->maxCoeff() == 0.0);
@@ -147,7 +148,7 @@ TEST_CASE("mc-target: pairs that nothing can block are settled without rays") {
     // A blocker inside the shaft: rays are cast for the pair, none settled by the shaft test.
     nlohmann::json d2;
     const ShadowCase c = shadow_case();
-    make_method("mc-target")->compute(c.scene, o, d2);
+    run_method(*make_method("mc-target"), c.scene, o, d2);
     CHECK(d2["rays_cast"].get<std::uint64_t>() > 0);
     CHECK(d2["pairs_without_rays"].get<std::uint64_t>() == 0);
 }

@@ -25,7 +25,10 @@
 #include "formfactor/scene/scene.h"
 #include "formfactor/scene/scene_io.h"
 #include "kernels/analytic_internal.h"
+#include "method_runner.h"
 #include "scene_test_util.h"
+
+using formfactor::testing::run_method;
 
 using namespace formfactor;
 
@@ -307,10 +310,9 @@ TEST_CASE("obstructed: analytic method on plates with obstructions, against exac
     const auto m = make_method("analytic");
     CHECK_NOTHROW(m->check(s));
     MethodOptions o;
-    o.progress = false;
     o.threads = 2;
     nlohmann::json d;
-    const FormFactors f = m->compute(s, o, d);
+    const FormFactors f = run_method(*m, s, o, d);
     const std::size_t n = s.patches.size();
     REQUIRE(n == 18);
     double worst = 0.0;
@@ -354,12 +356,11 @@ TEST_CASE("obstructed: analytic method on plates with obstructions, against exac
 TEST_CASE("obstructed: fully hidden and fully visible pairs are settled without integration") {
     const auto m = make_method("analytic");
     MethodOptions o;
-    o.progress = false;
     // A plate wider than everything: every pair hidden, exactly 0.
     {
         const Scene s = plates_scene(4, {{{-1, 2, -1, 2}, 0.5}});
         nlohmann::json d;
-        const FormFactors f = m->compute(s, o, d);
+        const FormFactors f = run_method(*m, s, o, d);
         CHECK(f.F.cwiseAbs().maxCoeff() == 0.0);
         CHECK(d["obstructions"]["patch_pairs_hidden"].get<std::size_t>() == 256);
         CHECK(d["obstructions"]["patch_pairs_partly_hidden"].get<std::size_t>() == 0);
@@ -368,10 +369,10 @@ TEST_CASE("obstructed: fully hidden and fully visible pairs are settled without 
     {
         const Scene s = plates_scene(4, {{{1.5, 2.5, 0, 1}, 0.5}});
         nlohmann::json d;
-        const FormFactors f = m->compute(s, o, d);
+        const FormFactors f = run_method(*m, s, o, d);
         Scene free = plates_scene(4, {});
         nlohmann::json d2;
-        const FormFactors g = m->compute(free, o, d2);
+        const FormFactors g = run_method(*m, free, o, d2);
         CHECK((f.F - g.F).cwiseAbs().maxCoeff() == 0.0);
         CHECK(d["obstructions"]["patch_pairs_visible"].get<std::size_t>() == 256);
         CHECK(d2["obstructed"] == false);
@@ -381,20 +382,19 @@ TEST_CASE("obstructed: fully hidden and fully visible pairs are settled without 
 TEST_CASE("obstructed: room scene, box as patches or as obstructions, VS3 round trip") {
     const auto m = make_method("analytic");
     MethodOptions o;
-    o.progress = false;
     o.tolerance = 1e-6;
     const Scene with_patches = room_scene(4, RoomBox::kPatches);
     const Scene with_obstruction = room_scene(4, RoomBox::kObstruction);
     REQUIRE(with_patches.patches.size() == 96 + 24);
     REQUIRE(with_obstruction.patches.size() == 96);
     nlohmann::json d1, d2;
-    const FormFactors a = m->compute(with_patches, o, d1);
-    const FormFactors b = m->compute(with_obstruction, o, d2);
+    const FormFactors a = run_method(*m, with_patches, o, d1);
+    const FormFactors b = run_method(*m, with_obstruction, o, d2);
     // The thread count changes nothing.
     MethodOptions one = o;
     one.threads = 1;
     nlohmann::json d0;
-    CHECK((m->compute(with_patches, one, d0).F - a.F).cwiseAbs().maxCoeff() == 0.0);
+    CHECK((run_method(*m, with_patches, one, d0).F - a.F).cwiseAbs().maxCoeff() == 0.0);
     // The walls see each other past the same box either way.
     const double diff = (a.F.topLeftCorner(96, 96) - b.F).cwiseAbs().maxCoeff();
     CHECK(diff <= 2e-6);
@@ -410,12 +410,12 @@ TEST_CASE("obstructed: room scene, box as patches or as obstructions, VS3 round 
     REQUIRE(back.patches.size() == 96);
     REQUIRE(back.obstruction_count() == 6);
     nlohmann::json d3;
-    const FormFactors c = m->compute(back, o, d3);
+    const FormFactors c = run_method(*m, back, o, d3);
     CHECK((c.F - b.F).cwiseAbs().maxCoeff() <= 1e-12);
     // The committed fixtures (tests/data/room-4*.vs3, written by save_vs3) give the same.
     nlohmann::json d4, d5;
-    const FormFactors e = m->compute(load_scene(test::data("room-4.vs3")), o, d4);
-    const FormFactors g = m->compute(load_scene(test::data("room-4-obstruction.vs3")), o, d5);
+    const FormFactors e = run_method(*m, load_scene(test::data("room-4.vs3")), o, d4);
+    const FormFactors g = run_method(*m, load_scene(test::data("room-4-obstruction.vs3")), o, d5);
     CHECK((e.F - a.F).cwiseAbs().maxCoeff() <= 1e-12);
     CHECK((g.F - b.F).cwiseAbs().maxCoeff() <= 1e-12);
     // And the built-in names.
@@ -431,12 +431,11 @@ TEST_CASE("obstructed: analytic agrees with mc-target on the room (independent c
     // mc-area, whose replicate standard errors understate its heavy-tailed error at shared edges.
     const Scene s = room_scene(2, RoomBox::kPatches);
     MethodOptions o;
-    o.progress = false;
     o.tolerance = 1e-6;
     nlohmann::json d1, d2;
-    const FormFactors a = make_method("analytic")->compute(s, o, d1);
+    const FormFactors a = run_method(*make_method("analytic"), s, o, d1);
     o.samples = 1 << 11;
-    const FormFactors m = make_method("mc-target")->compute(s, o, d2);
+    const FormFactors m = run_method(*make_method("mc-target"), s, o, d2);
     REQUIRE(m.standard_error);
     const auto n = static_cast<Eigen::Index>(s.patches.size());
     double worst_z = 0.0;

@@ -11,7 +11,10 @@
 #include "formfactor/methods/method.h"
 #include "formfactor/scene/room.h"
 #include "formfactor/scene/scene.h"
+#include "method_runner.h"
 #include "methods/analytic/obstructed_internal.h"
+
+using formfactor::testing::run_method;
 
 using namespace formfactor;
 using namespace formfactor::detail;
@@ -159,8 +162,8 @@ TEST_CASE("obstructed roots: a box as obstruction records blocks like the box as
     }
     MethodOptions opt;
     nlohmann::json d1, d2;
-    const FormFactors F1 = make_method("analytic")->compute(whole, opt, d1);
-    const FormFactors F2 = make_method("analytic")->compute(split, opt, d2);
+    const FormFactors F1 = run_method(*make_method("analytic"), whole, opt, d1);
+    const FormFactors F2 = run_method(*make_method("analytic"), split, opt, d2);
     REQUIRE(F1.size() == F2.size());
     double worst = 0.0;
     for (std::size_t i = 0; i < F1.size(); ++i)
@@ -214,7 +217,7 @@ TEST_CASE("obstructed roots: a patch in contact with a closed solid does not see
     subdivide(scene, SubdivisionOptions{});
     MethodOptions opt;
     nlohmann::json details;
-    const FormFactors F = make_method("analytic")->compute(scene, opt, details);
+    const FormFactors F = run_method(*make_method("analytic"), scene, opt, details);
     for (int i : {5, 6, 9, 10}) {  // the floor patches [.25,.75]² under the box
         CAPTURE(i);
         for (std::size_t j = 16; j < 20; ++j) CHECK(F.F(i, static_cast<Eigen::Index>(j)) <= 1e-6);

@@ -131,17 +131,20 @@ TEST_CASE("reciprocity: Student and normal tails") {
 TEST_CASE("reciprocity: the methods' promises and the report's JSON") {
     const Scene cube = load_scene("cube");
     MethodOptions o;
-    CHECK(method_traits("analytic", o, &cube).reciprocity.kind == ReciprocityPromise::Kind::exact);
-    CHECK(method_traits("analytic", o, &cube).reciprocity.tolerance == 1e-9);
-    CHECK_FALSE(method_traits("analytic", o).standard_errors);
-    CHECK(method_traits("mc-hemisphere", o).standard_errors);
-    CHECK(method_traits("mc-area", o).reciprocity.degrees_of_freedom == 15.0);
-    o.sampler = "random";
-    CHECK(method_traits("mc-target", o).reciprocity.degrees_of_freedom == 15.0);
-    CHECK(method_traits("hemiplane", o).reciprocity.kind == ReciprocityPromise::Kind::approximate);
-    for (const std::string& m : method_names()) CHECK_NOTHROW(method_traits(m, o));
+    CHECK(method_traits(parse_method("analytic"), o, &cube).reciprocity.kind ==
+          ReciprocityPromise::Kind::exact);
+    CHECK(method_traits(parse_method("analytic"), o, &cube).reciprocity.tolerance == 1e-9);
+    CHECK_FALSE(method_traits(parse_method("analytic"), o).standard_errors);
+    CHECK(method_traits(parse_method("mc-hemisphere"), o).standard_errors);
+    CHECK(method_traits(parse_method("mc-area"), o).reciprocity.degrees_of_freedom == 15.0);
+    o.sampler = SamplerKind::random;
+    CHECK(method_traits(parse_method("mc-target"), o).reciprocity.degrees_of_freedom == 15.0);
+    CHECK(method_traits(parse_method("hemiplane"), o).reciprocity.kind ==
+          ReciprocityPromise::Kind::approximate);
+    for (const std::string& m : method_names()) CHECK_NOTHROW(method_traits(parse_method(m), o));
 
-    ReciprocityPromise p = method_traits("analytic", MethodOptions{}, &cube).reciprocity;
+    ReciprocityPromise p =
+        method_traits(parse_method("analytic"), MethodOptions{}, &cube).reciprocity;
     const nlohmann::json j = diagnostics_json(diagnose(reciprocal(4)), p)["reciprocity"];
     CHECK(j["max_defect"].get<double>() < 1e-15);
     CHECK(j.contains("i"));

@@ -209,14 +209,16 @@ TEST_CASE("render: bad sizes, cameras and value counts are errors") {
 
 #include "formfactor/methods/method.h"
 #include "formfactor/solve/radiosity.h"
+#include "method_runner.h"
+
+using formfactor::testing::run_method;
 
 TEST_CASE("render: the empty Cornell box solved and seen through its published camera") {
     Scene s = load_scene("cornell-empty");
     subdivide(s, SubdivisionOptions{4, 0.0});
     MethodOptions mo;
-    mo.progress = false;
     nlohmann::json details;
-    const FormFactors ff = make_method("analytic")->compute(s, mo, details);
+    const FormFactors ff = run_method(*make_method("analytic"), s, mo, details);
     const RadiosityResult r = solve_radiosity(ff, properties_from_scene(s));
     RenderOptions o;
     o.width = 120;

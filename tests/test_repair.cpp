@@ -4,6 +4,7 @@
 
 #include "formfactor/core/error.h"
 #include "formfactor/matrix/repair.h"
+#include "formfactor/output/report.h"
 #include "solve_fixtures.h"
 
 using namespace formfactor;

@@ -8,11 +8,14 @@
 #include <string>
 #include <vector>
 
-#include "formfactor/matrix/aggregate.h"
 #include "formfactor/kernels/analytic.h"
+#include "formfactor/matrix/aggregate.h"
 #include "formfactor/methods/method.h"
 #include "formfactor/scene/scene.h"
+#include "method_runner.h"
 #include "scene_test_util.h"
+
+using formfactor::testing::run_method;
 
 using namespace formfactor;
 using formfactor::test::data;
@@ -28,10 +31,9 @@ FormFactors analytic(const Scene& s) {
     const auto m = make_method("analytic");
     m->check(s);
     MethodOptions o;
-    o.progress = false;
     o.tolerance = 1e-13;  // per entry; aggregated sums stay well inside 1e-10
     nlohmann::json details;
-    return m->compute(s, o, details);
+    return run_method(*m, s, o, details);
 }
 
 // Checks a 6 × 6 matrix against the cube's (faces x=0, x=1, y=0, y=1, z=0, z=1).

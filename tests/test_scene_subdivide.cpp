@@ -127,16 +127,15 @@ TEST_CASE("scene: subdivide by max edge bounds every edge") {
 
 TEST_CASE("scene: subdivide refuses bad options with the option's name") {
     Scene s = builtin_scene("cube");
-    CHECK(option_error(s, {0, 0.0}) == "--subdivide: must be at least 1 (got 0)");
-    CHECK(option_error(s, {-3, 0.0}).rfind("--subdivide:", 0) == 0);
-    CHECK(option_error(s, {1, -1.0}).rfind("--max-edge: must be a positive length", 0) == 0);
+    CHECK(option_error(s, {0, 0.0}) == "subdivide: must be at least 1 (got 0)");
+    CHECK(option_error(s, {-3, 0.0}).rfind("subdivide:", 0) == 0);
+    CHECK(option_error(s, {1, -1.0}).rfind("max_edge: must be a positive length", 0) == 0);
     CHECK(option_error(s, {1, std::numeric_limits<double>::quiet_NaN()})
-              .rfind("--max-edge: must be a positive length", 0) == 0);
-    CHECK(option_error(s, {1, std::numeric_limits<double>::infinity()}).rfind("--max-edge:", 0) ==
-          0);
-    CHECK(option_error(s, {4, 0.5}) == "--max-edge: cannot be combined with --subdivide");
-    CHECK(option_error(s, {100000, 0.0}).rfind("--subdivide: would make 6e+10 patches", 0) == 0);
-    CHECK(option_error(s, {1, 1e-300}).rfind("--max-edge: would make", 0) == 0);
+              .rfind("max_edge: must be a positive length", 0) == 0);
+    CHECK(option_error(s, {1, std::numeric_limits<double>::infinity()}).rfind("max_edge:", 0) == 0);
+    CHECK(option_error(s, {4, 0.5}) == "max_edge: cannot be combined with a subdivision n > 1");
+    CHECK(option_error(s, {100000, 0.0}).rfind("subdivide: would make 6e+10 patches", 0) == 0);
+    CHECK(option_error(s, {1, 1e-300}).rfind("max_edge: would make", 0) == 0);
     CHECK(s.patches.size() == 6);  // untouched by the refusals
     CHECK(option_error(s, {2, 0.0}) == "");
     CHECK(s.patches.size() == 24);

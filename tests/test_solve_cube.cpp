@@ -4,8 +4,8 @@
 
 #include <doctest/doctest.h>
 
-#include "formfactor/matrix/repair.h"
 #include "formfactor/kernels/analytic.h"
+#include "formfactor/matrix/repair.h"
 #include "formfactor/scene/scene.h"
 #include "formfactor/solve/radiosity.h"
 #include "formfactor/solve/thermal.h"

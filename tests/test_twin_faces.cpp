@@ -16,7 +16,10 @@
 #include "formfactor/scene/scene.h"
 #include "formfactor/visibility/visibility.h"
 #include "mc_test_scenes.h"
+#include "method_runner.h"
 #include "projection_test_scenes.h"
+
+using formfactor::testing::run_method;
 
 using namespace formfactor;
 
@@ -60,9 +63,8 @@ constexpr int kDownFirst = 1, kDownEnd = 10, kUpEnd = 14;
 FormFactors run(const std::string& method, const Scene& s, const MethodOptions& base,
                 nlohmann::json* details = nullptr) {
     MethodOptions o = base;
-    o.progress = false;
     nlohmann::json d;
-    FormFactors ff = make_method(method)->compute(s, o, d);
+    FormFactors ff = run_method(*make_method(method), s, o, d);
     if (details) *details = d;
     return ff;
 }
@@ -71,7 +73,8 @@ MethodOptions mc_options(std::uint64_t samples) {
     MethodOptions o;
     o.samples = samples;
     o.seed = 3;
-    o.sampler = "sobol";  // 16 replicates: (F − exact)/SE ~ Student t(15), 5 SE (see test_mc)
+    o.sampler =
+        SamplerKind::sobol;  // 16 replicates: (F − exact)/SE ~ Student t(15), 5 SE (see test_mc)
     return o;
 }
 
@@ -105,7 +108,7 @@ void check_mc(const std::string& method, std::uint64_t samples) {
     check_twin_physics(ff.F);
     for (const auto& pair : {std::pair{kFloor, kFinDown}, std::pair{kFinDown, kFloor}}) {
         const auto i = pair.first, j = pair.second;  // no structured binding: clang 14 cannot
-        CAPTURE(i);                                   // capture one in CAPTURE's lambda
+        CAPTURE(i);                                  // capture one in CAPTURE's lambda
         CAPTURE(j);
         const double f = ff.F(i, j), e = se(i, j);
         CAPTURE(f);

@@ -89,20 +89,21 @@ void run_compute(const ComputeArgs& args) {
         // The memory a dense run needs, checked before the patches and F exist.
         DenseRunNeeds needs;
         needs.standard_errors =
-            method_traits(args.method.resolved_name(scene), args.method.method_options(), &scene)
+            method_traits(args.method.resolved_kind(scene), args.method.method_options(), &scene)
                 .standard_errors;
         needs.repair = parse_repair_mode(args.repair.mode) != RepairMode::none;
         check_dense_memory(scene, args.scene, needs);
     }
     subdivide_step(scene, args.scene, times);
     warn_single_patch(scene);
-    const auto method = args.method.resolve(scene);
-    const MethodTraits traits = method_traits(method->name(), args.method.method_options(), &scene);
+    const MethodKind method = args.method.resolved_kind(scene);
+    const MethodTraits traits = method_traits(method, args.method.method_options(), &scene);
 
+    ComputedMatrix computed = compute_matrix(scene, args.method, args.repair, times);
+    FormFactors& ff = computed.ff;
+    const nlohmann::json& details = computed.details;
+    const std::optional<RepairReport>& repaired = computed.repaired;
     Stopwatch sw;
-    nlohmann::json details = nlohmann::json::object();
-    FormFactors ff = compute_matrix(*method, scene, args.method, details, times, sw);
-    const std::optional<RepairReport> repaired = args.repair.apply(ff, scene, times, sw);
 
     // What -o and --stderr hold: the patch matrix, or the per-surface one (rows = surfaces).
     const bool per_surface = rows_per_surface(args);
@@ -137,7 +138,7 @@ void run_compute(const ComputeArgs& args) {
     stage_matrix(args.output, written.F);
     if (!args.standard_error.empty()) {
         if (!written.standard_error) {
-            throw OptionError("--stderr", "method '" + method->name() +
+            throw OptionError("--stderr", "method '" + to_string(method) +
                                               "' gives no standard errors (it is exact; "
                                               "the Monte-Carlo methods give them)");
         }
@@ -153,9 +154,9 @@ void run_compute(const ComputeArgs& args) {
     if (!args.report.empty()) {
         ReportContext ctx;
         ctx.command = "compute";
-        ctx.method = method->name();
+        ctx.method = to_string(method);
         ctx.options = args.scene.to_json();
-        ctx.options.update(args.method.to_json(method->name()));
+        ctx.options.update(args.method.to_json(to_string(method)));
         ctx.options["output"] = args.output;
         ctx.options["report"] = args.report;
         ctx.options["patches"] =
@@ -198,7 +199,7 @@ void run_compute(const ComputeArgs& args) {
     }
     tx.commit();
 
-    print_matrix_summary(scene, method->name(), threads, ff, d, traits.reciprocity, times,
+    print_matrix_summary(scene, to_string(method), threads, ff, d, traits.reciprocity, times,
                          total.seconds());
     if (per_surface) {
         const Diagnostics ds = diagnose(per_surface_ff);

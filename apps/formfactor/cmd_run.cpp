@@ -35,7 +35,7 @@ constexpr int kRunSubdivide = 12;
 /// The method for an occluded scene when --method is not given: one set of rays per row gives
 /// a whole row of F, so thousands of patches take seconds (default_method's obstruction-aware
 /// analytic grows with the partly hidden pairs: ~2.5 min here).
-constexpr const char* kRunOcclusionMethod = "mc-hemisphere";
+constexpr MethodKind kRunOcclusionMethod = MethodKind::mc_hemisphere;
 /// The picture's size in pixels.
 constexpr int kRunImageSize = 512;
 
@@ -73,15 +73,15 @@ void run_run(RunArgs args) {
             "note: {} occludes: run uses {} (a whole row of F per set of rays, seconds for "
             "thousands of patches), not compute's default, the exact-grade but slower {}; "
             "choose with --method",
-            scene.name, kRunOcclusionMethod, default_method(scene));
-        args.method.method = kRunOcclusionMethod;
+            scene.name, to_string(kRunOcclusionMethod), to_string(default_method(scene)));
+        args.method.method = to_string(kRunOcclusionMethod);
     }
     {
         // The memory of F, its standard errors, the repair copy and the solver, checked before
         // the patches and F exist.
         DenseRunNeeds needs;
         needs.standard_errors =
-            method_traits(args.method.resolved_name(scene), args.method.method_options(), &scene)
+            method_traits(args.method.resolved_kind(scene), args.method.method_options(), &scene)
                 .standard_errors;
         needs.repair = parse_repair_mode(args.repair.mode) != RepairMode::none;
         needs.extra_matrices = solver_dense_matrices(
@@ -91,8 +91,8 @@ void run_run(RunArgs args) {
     }
     subdivide_step(scene, args.scene, times);
     warn_single_patch(scene);
-    const auto method = args.method.resolve(scene);
-    const MethodTraits traits = method_traits(method->name(), args.method.method_options(), &scene);
+    const MethodKind method = args.method.resolved_kind(scene);
+    const MethodTraits traits = method_traits(method, args.method.method_options(), &scene);
     const std::string stem = fs::path(scene.name).stem().string();
     const std::string matrix_npy = (dir / "formfactors.npy").string();
     const std::string patches_csv = (dir / "patches.csv").string();
@@ -103,14 +103,15 @@ void run_run(RunArgs args) {
     const std::string mesh_ply = (dir / (stem + ".ply")).string();
     if (!note.empty()) fmt::print("{}\n", note);
     fmt::print("formfactor run: {} ({} patches), method {}\n", scene.name, scene.patches.size(),
-               method->name());
+               to_string(method));
     std::fflush(stdout);
 
+    ComputedMatrix computed = compute_matrix(scene, args.method, args.repair, times);
+    FormFactors& ff = computed.ff;
+    const nlohmann::json& details = computed.details;
+    const Diagnostics& raw = computed.raw;
+    const std::optional<RepairReport>& repaired = computed.repaired;
     Stopwatch sw;
-    nlohmann::json details = nlohmann::json::object();
-    FormFactors ff = compute_matrix(*method, scene, args.method, details, times, sw);
-    const Diagnostics raw = diagnose(ff);
-    const std::optional<RepairReport> repaired = args.repair.apply(ff, scene, times, sw);
 
     const RadiosityResult solution =
         solve_radiosity(ff, properties_from_scene(scene), solver_options);
@@ -142,9 +143,9 @@ void run_run(RunArgs args) {
 
     ReportContext ctx;
     ctx.command = "run";
-    ctx.method = method->name();
+    ctx.method = to_string(method);
     ctx.options = args.scene.to_json();
-    ctx.options.update(args.method.to_json(method->name()));
+    ctx.options.update(args.method.to_json(to_string(method)));
     ctx.options["out_dir"] = args.out_dir;
     ctx.options["solver"] = to_string(solver_options.solver);
     ctx.options["residual"] = solver_options.residual;
@@ -173,7 +174,7 @@ void run_run(RunArgs args) {
     });
     tx.commit();
 
-    print_matrix_summary(scene, method->name(), threads, ff, raw, traits.reciprocity, times,
+    print_matrix_summary(scene, to_string(method), threads, ff, raw, traits.reciprocity, times,
                          total.seconds());
     print_radiosity_summary(solution);
     fmt::print("wrote      {} ({}×{} float64), {}, {}, {}, {}, {}{}\n", matrix_npy, ff.F.rows(),

@@ -75,7 +75,7 @@ void run_solve(const SolveArgs& args) {
         // and the exchange factors, checked before the patches and F exist.
         DenseRunNeeds needs;
         if (args.matrix.empty())
-            needs.standard_errors = method_traits(args.method.resolved_name(scene),
+            needs.standard_errors = method_traits(args.method.resolved_kind(scene),
                                                   args.method.method_options(), &scene)
                                         .standard_errors;
         needs.repair = parse_repair_mode(args.repair.mode) != RepairMode::none;
@@ -99,6 +99,8 @@ void run_solve(const SolveArgs& args) {
     std::string method_name;
     ReciprocityPromise promise;  // unknown for a matrix read from a file
     nlohmann::json details = nlohmann::json::object();
+    std::optional<RepairReport> repaired;
+    Diagnostics diagnostics;
     if (!args.matrix.empty()) {
         ff.F = read_matrix(args.matrix, "--matrix");
         if (static_cast<std::size_t>(ff.F.rows()) != scene.patches.size() ||
@@ -110,14 +112,19 @@ void run_solve(const SolveArgs& args) {
         for (const Patch& p : scene.patches) ff.areas.push_back(p.area);
         method_name = "matrix file";
         times.add("read matrix", sw.lap());
+        diagnostics = diagnose(ff);
+        repaired = args.repair.apply(ff, scene, times, sw);
     } else {
-        const auto method = args.method.resolve(scene);
-        method_name = method->name();
-        promise = method_traits(method_name, args.method.method_options(), &scene).reciprocity;
-        ff = compute_matrix(*method, scene, args.method, details, times, sw);
+        const MethodKind method = args.method.resolved_kind(scene);
+        method_name = to_string(method);
+        promise = method_traits(method, args.method.method_options(), &scene).reciprocity;
+        ComputedMatrix computed = compute_matrix(scene, args.method, args.repair, times);
+        ff = std::move(computed.ff);
+        details = std::move(computed.details);
+        diagnostics = computed.raw;
+        repaired = std::move(computed.repaired);
+        sw.lap();
     }
-    const Diagnostics diagnostics = diagnose(ff);
-    const std::optional<RepairReport> repaired = args.repair.apply(ff, scene, times, sw);
 
     OutputTransaction tx;
     nlohmann::json solve_json;

@@ -100,7 +100,7 @@ void MethodArgs::add_to(CLI::App* cmd) {
         ->capture_default_str();
     cmd->add_option("--seed", seed, "Seed of the random streams (Monte-Carlo methods)")
         ->capture_default_str();
-    cmd->add_option("--sampler", options.sampler,
+    cmd->add_option("--sampler", sampler,
                     "Monte-Carlo point set: sobol, halton, stratified or random")
         ->type_name("NAME")
         ->capture_default_str();
@@ -110,6 +110,13 @@ void MethodArgs::add_to(CLI::App* cmd) {
     cmd->add_option("--points", options.points, "Hemicube / hemiplane points per patch")
         ->type_name("P")
         ->capture_default_str();
+    cmd->add_option("--ray-offset", visibility.relative_epsilon,
+                    "Ray tracing (Monte-Carlo methods): ray ends are moved off their patch by "
+                    "this fraction of the scene's diagonal")
+        ->type_name("EPS")
+        ->capture_default_str();
+    cmd->add_flag("--robust-rays", visibility.robust,
+                  "Ray tracing: Embree's robust mode (no accuracy-reducing shortcuts; slower)");
 }
 
 void MethodArgs::validate() const {
@@ -133,35 +140,25 @@ void MethodArgs::validate() const {
     if (options.points < 1) {
         throw OptionError("--points", fmt::format("must be ≥ 1, got {}", options.points));
     }
-    parse_sampler(options.sampler);            // OptionError("--sampler", ...) when unknown
-    if (!method.empty()) make_method(method);  // OptionError("--method", ...) when unknown
+    if (!(std::isfinite(visibility.relative_epsilon) && visibility.relative_epsilon > 0.0 &&
+          visibility.relative_epsilon < 0.01))
+        throw OptionError("--ray-offset",
+                          fmt::format("must be in (0, 0.01), got {}", visibility.relative_epsilon));
+    parse_sampler(sampler);                     // OptionError("sampler", ...) when unknown
+    if (!method.empty()) parse_method(method);  // OptionError("method", ...) when unknown
 }
 
 MethodOptions MethodArgs::method_options() const {
     MethodOptions o = options;
     o.samples = static_cast<std::uint64_t>(samples);
     o.seed = static_cast<std::uint64_t>(seed);
+    o.sampler = parse_sampler(sampler);
     if (tolerance_given) o.obstructed_tolerance = options.tolerance;
     return o;
 }
 
-FormFactors compute_matrix(const Method& method, const Scene& scene, const MethodArgs& args,
-                           nlohmann::json& details, StepTimes& times, Stopwatch& sw) {
-    MethodOptions options = args.method_options();
-    options.progress = true;
-    FormFactors ff = method.compute(scene, options, details);
-    times.add("compute", sw.lap());
-    return ff;
-}
-
-std::string MethodArgs::resolved_name(const Scene& scene) const {
-    return method.empty() ? default_method(scene) : method;
-}
-
-std::unique_ptr<Method> MethodArgs::resolve(const Scene& scene) const {
-    auto m = make_method(resolved_name(scene));
-    m->check(scene);
-    return m;
+MethodKind MethodArgs::resolved_kind(const Scene& scene) const {
+    return method.empty() ? default_method(scene) : parse_method(method);
 }
 
 nlohmann::json MethodArgs::to_json(const std::string& resolved_method) const {
@@ -174,7 +171,7 @@ nlohmann::json MethodArgs::to_json(const std::string& resolved_method) const {
          tolerance_given ? options.tolerance : MethodOptions{}.obstructed_tolerance},
         {"samples", options.samples},
         {"seed", options.seed},
-        {"sampler", options.sampler},
+        {"sampler", sampler},
         {"resolution", options.resolution},
         {"points", options.points},
     };
@@ -287,6 +284,15 @@ void print_matrix_summary(const Scene& scene, const std::string& method, int thr
                    d.negative_entries, d.entries_above_one, d.nonfinite_entries);
     }
     fmt::print("time       {}\n", format_timings(times, total));
+}
+
+std::string cli_flag(const std::string& field) {
+    if (field.empty() || field[0] == '-') return field;
+    if (field == "output") return "-o";
+    if (field == "rows") return "--rows";
+    std::string flag = "--" + field;
+    std::replace(flag.begin(), flag.end(), '_', '-');
+    return flag;
 }
 
 bool same_file(const std::string& a, const std::string& b) {

@@ -14,27 +14,9 @@
 #include "formfactor/methods/method.h"
 #include "formfactor/output/report.h"
 #include "formfactor/scene/scene.h"
+#include "formfactor/visibility/visibility.h"
 
 namespace formfactor::cli {
-
-/// Wall-clock stopwatch.
-class Stopwatch {
-  public:
-    Stopwatch() : start_(std::chrono::steady_clock::now()) {}
-    /// Seconds since construction or the last restart().
-    double seconds() const {
-        return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-    }
-    /// Returns seconds() and restarts.
-    double lap() {
-        const double s = seconds();
-        start_ = std::chrono::steady_clock::now();
-        return s;
-    }
-
-  private:
-    std::chrono::steady_clock::time_point start_;
-};
 
 /// SCENE plus --subdivide N | --max-edge L.
 struct SceneArgs {
@@ -59,6 +41,8 @@ struct SceneArgs {
 struct MethodArgs {
     std::string method;  ///< empty = default_method(scene)
     MethodOptions options;
+    std::string sampler = "sobol";  ///< --sampler, parsed into options.sampler
+    VisibilityOptions visibility;   ///< --ray-offset, --robust-rays
     long long samples = 0;  ///< parsed signed so that a negative value is caught, not wrapped
     long long seed = 1;
     bool tolerance_given = false;  ///< --tolerance also sets options.obstructed_tolerance
@@ -68,18 +52,11 @@ struct MethodArgs {
     void validate() const;
     /// The validated options (samples and seed copied in).
     MethodOptions method_options() const;
-    /// The method: --method, else default_method(scene). Checks that it can handle the scene.
-    std::unique_ptr<Method> resolve(const Scene& scene) const;
-    /// The name resolve() would give (without the check).
-    std::string resolved_name(const Scene& scene) const;
+    /// The method: --method, else default_method(scene).
+    MethodKind resolved_kind(const Scene& scene) const;
     /// Every option as JSON for the report (with the resolved method name).
     nlohmann::json to_json(const std::string& resolved_method) const;
 };
-
-/// Computes F with `method` and args.method_options(), progress shown; fills `details` and
-/// adds the "compute" step (sw.lap()) to `times`.
-FormFactors compute_matrix(const Method& method, const Scene& scene, const MethodArgs& args,
-                           nlohmann::json& details, StepTimes& times, Stopwatch& sw);
 
 /// Loads the scene and subdivides it, timing both steps into `times` ("load", "subdivide").
 Scene load_and_subdivide(const SceneArgs& args, StepTimes& times);
@@ -117,6 +94,10 @@ void print_matrix_summary(const Scene& scene, const std::string& method, int thr
 /// The reciprocity lines of the summaries: "reciprocity area-weighted …: verdict" and, when the
 /// worst pair is not 0, "            worst pair (i, j): |A_i F_ij - A_j F_ji| / max(...) = x".
 void print_reciprocity(const Diagnostics& d, const ReciprocityPromise& promise);
+
+/// The flag of a library option field: "max_edge" → "--max-edge", "output" → "-o"; a flag stays
+/// as it is.
+std::string cli_flag(const std::string& field);
 
 /// True when the two paths name the same file (after normalisation; they need not exist).
 bool same_file(const std::string& a, const std::string& b);

@@ -12,6 +12,7 @@
 #include <string>
 
 #include "commands.h"
+#include "common.h"
 #include "formfactor/core/cancel.h"
 #include "formfactor/core/error.h"
 #include "signals.h"
@@ -88,7 +89,8 @@ int main(int argc, char** argv) {
                                 formfactor::cli::signal_name(sig)));
         return formfactor::cli::die_of_signal(sig);
     } catch (const formfactor::OptionError& e) {
-        print_error(e.what());
+        // The library names option fields; the user typed flags.
+        print_error(formfactor::cli::cli_flag(e.field()) + ": " + e.message());
         return 2;
     } catch (const formfactor::Error& e) {
         print_error(e.what());

@@ -5,6 +5,8 @@
 #include <cstdio>
 
 #include "formfactor/core/error.h"
+#include "formfactor/output/report.h"
+#include "formfactor/pipeline.h"
 
 namespace formfactor::cli {
 
@@ -28,19 +30,48 @@ RepairOptions RepairArgs::options(const Scene& scene) const {
     return o;
 }
 
-std::optional<RepairReport> RepairArgs::apply(FormFactors& ff, const Scene& scene) const {
-    const RepairOptions o = options(scene);
-    if (o.mode == RepairMode::none) return std::nullopt;
-    RepairReport r = repair(ff.F, ff.areas, o);
+namespace {
+
+void print_repair(const RepairReport& r) {
     fmt::print(
         "repair     {}: row sums [{:.10g}, {:.10g}] -> [{:.10g}, {:.10g}], "
         "reciprocity defect "
         "{:.3g} -> {:.3g}, entries moved by at most {:.3g} ({:.3g} relative)\n",
-        to_string(o.mode), r.before.row_sum_min, r.before.row_sum_max, r.after.row_sum_min,
+        to_string(r.mode), r.before.row_sum_min, r.before.row_sum_max, r.after.row_sum_min,
         r.after.row_sum_max, r.before.max_reciprocity_defect, r.after.max_reciprocity_defect,
         r.max_abs_change, r.max_relative_change);
     print_warnings(r.warnings);
+}
+
+}  // namespace
+
+std::optional<RepairReport> RepairArgs::apply(FormFactors& ff, const Scene& scene) const {
+    const RepairOptions o = options(scene);
+    if (o.mode == RepairMode::none) return std::nullopt;
+    RepairReport r = repair(ff.F, ff.areas, o);
+    print_repair(r);
     return r;
+}
+
+ComputedMatrix compute_matrix(const Scene& scene, const MethodArgs& method,
+                              const RepairArgs& repair, StepTimes& times) {
+    ComputeOptions o;
+    o.method = method.resolved_kind(scene);
+    o.method_options = method.method_options();
+    o.visibility = method.visibility;
+    o.repair = repair.options(scene);
+    TerminalProgress bar;
+    o.progress = &bar;
+    o.cancel = &process_cancellation();
+    ComputeResult r = compute_form_factors(scene, o);
+    times.add(r.timings);
+    ComputedMatrix out;
+    out.ff = std::move(r.form_factors);
+    out.details = to_json(r.report);
+    out.raw = *r.diagnostics;
+    out.repaired = std::move(r.repair);
+    if (out.repaired) print_repair(*out.repaired);
+    return out;
 }
 
 std::optional<RepairReport> RepairArgs::apply(FormFactors& ff, const Scene& scene, StepTimes& times,

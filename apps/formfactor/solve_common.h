@@ -33,6 +33,20 @@ struct RepairArgs {
                                       Stopwatch& sw) const;
 };
 
+/// F as the pipeline computed it (formfactor/pipeline.h), with what the commands print and
+/// report.
+struct ComputedMatrix {
+    FormFactors ff;                        ///< after repair, when asked
+    nlohmann::json details;                ///< the method's report, as the run report's "details"
+    std::optional<RepairReport> repaired;  ///< what repair did
+    Diagnostics raw;                       ///< of F as the method made it (before repair)
+};
+
+/// Computes F of `scene` through the pipeline with the method and repair options, progress on
+/// the terminal; prints the repair line; adds the pipeline's steps to `times`.
+ComputedMatrix compute_matrix(const Scene& scene, const MethodArgs& method,
+                              const RepairArgs& repair, StepTimes& times);
+
 /// --solver, --residual, --max-iterations, --allow-unconverged.
 struct SolverArgs {
     std::string solver;  ///< empty = the default of the problem (gauss-seidel / direct)

@@ -111,27 +111,10 @@ double uniform(std::uint64_t key, std::uint64_t counter) {
 }  // namespace
 
 SamplerKind parse_sampler(const std::string& name) {
-    if (name == "sobol") return SamplerKind::sobol;
-    if (name == "halton") return SamplerKind::halton;
-    if (name == "stratified") return SamplerKind::stratified;
-    if (name == "random") return SamplerKind::random;
-    throw OptionError("--sampler", "unknown sampler '" + name +
-                                       "' (expected sobol, halton, stratified or random)");
+    return enum_from_name(kSamplerNames, name, "sampler", "sampler");
 }
 
-std::string sampler_name(SamplerKind kind) {
-    switch (kind) {
-        case SamplerKind::sobol:
-            return "sobol";
-        case SamplerKind::halton:
-            return "halton";
-        case SamplerKind::stratified:
-            return "stratified";
-        case SamplerKind::random:
-            return "random";
-    }
-    return "?";
-}
+std::string sampler_name(SamplerKind kind) { return enum_to_name(kSamplerNames, kind); }
 
 PointSet4::PointSet4(SamplerKind kind, std::uint64_t key, std::uint32_t n)
     : kind_(kind), key_(key), n_(n) {

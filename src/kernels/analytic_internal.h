@@ -7,8 +7,8 @@
 #include "formfactor/core/error.h"
 #include "formfactor/core/progress.h"
 #include "formfactor/core/types.h"
-#include "formfactor/matrix/form_factors.h"
 #include "formfactor/kernels/analytic.h"
+#include "formfactor/matrix/form_factors.h"
 
 namespace formfactor::detail {
 

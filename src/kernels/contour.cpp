@@ -1,13 +1,12 @@
 // Exact unobstructed form factors: Lambert's formula (point → polygon) and the double contour
 // integral of Stokes' theorem (polygon → polygon). See docs/analytic.md.
 
-#include "formfactor/kernels/analytic.h"
-
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <vector>
 
+#include "formfactor/kernels/analytic.h"
 #include "kernels/analytic_internal.h"
 
 namespace formfactor {

@@ -11,27 +11,10 @@
 namespace formfactor {
 
 RepairMode parse_repair_mode(const std::string& name) {
-    if (name == "none") return RepairMode::none;
-    if (name == "reciprocity") return RepairMode::reciprocity;
-    if (name == "closure") return RepairMode::closure;
-    if (name == "both") return RepairMode::both;
-    throw OptionError(
-        "--repair", "unknown repair '" + name + "' (expected none, reciprocity, closure or both)");
+    return enum_from_name(kRepairModeNames, name, "repair", "repair");
 }
 
-std::string to_string(RepairMode mode) {
-    switch (mode) {
-        case RepairMode::none:
-            return "none";
-        case RepairMode::reciprocity:
-            return "reciprocity";
-        case RepairMode::closure:
-            return "closure";
-        case RepairMode::both:
-            return "both";
-    }
-    return "?";
-}
+std::string to_string(RepairMode mode) { return enum_to_name(kRepairModeNames, mode); }
 
 namespace {
 
@@ -121,21 +104,6 @@ void close_rows(DenseMatrix& F, const RepairOptions& o, RepairReport& rep) {
             rep.rows_not_closable));
 }
 
-nlohmann::json diagnostics_json(const Diagnostics& d) {
-    return {{"n", d.n},
-            {"row_sum_min", d.row_sum_min},
-            {"row_sum_max", d.row_sum_max},
-            {"row_sum_mean", d.row_sum_mean},
-            {"max_reciprocity_defect", d.max_reciprocity_defect},
-            {"reciprocity_pair", {d.reciprocity_i, d.reciprocity_j}},
-            {"reciprocity_area_weighted", d.reciprocity_area_weighted},
-            {"reciprocity_row_max", d.reciprocity_row_max},
-            {"negative_entries", d.negative_entries},
-            {"entries_above_one", d.entries_above_one},
-            {"nonfinite_entries", d.nonfinite_entries},
-            {"max_abs_diagonal", d.max_abs_diagonal}};
-}
-
 }  // namespace
 
 RepairReport repair(DenseMatrix& F, const std::vector<double>& areas,
@@ -163,7 +131,7 @@ RepairReport repair(DenseMatrix& F, const std::vector<double>& areas,
         const bool looks_open = rep.before.row_sum_min < 1.0 - kOpenRowSum;
         if (looks_open && !options.enclosure && !options.force_closure)
             throw OptionError(
-                "--repair",
+                "repair",
                 fmt::format("the scene is open (row sums down to {:.6g}, radiation escapes): "
                             "closing its rows would invent exchange; use --repair reciprocity, "
                             "or --force-closure if the scene really is a closed enclosure",
@@ -196,20 +164,6 @@ RepairReport repair(DenseMatrix& F, const std::vector<double>& areas,
         rep.warnings.push_back(
             fmt::format("{} negative entries were set to 0", rep.negatives_cleared));
     return rep;
-}
-
-nlohmann::json to_json(const RepairReport& r) {
-    return {{"mode", to_string(r.mode)},
-            {"before", diagnostics_json(r.before)},
-            {"after", diagnostics_json(r.after)},
-            {"max_abs_change", r.max_abs_change},
-            {"max_relative_change", r.max_relative_change},
-            {"negatives_cleared", r.negatives_cleared},
-            {"diagonal_cleared", r.diagonal_cleared},
-            {"closure_iterations", r.closure_iterations},
-            {"closure_residual", r.closure_residual},
-            {"rows_not_closable", r.rows_not_closable},
-            {"warnings", r.warnings}};
 }
 
 }  // namespace formfactor

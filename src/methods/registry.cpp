@@ -1,34 +1,64 @@
+// The list of methods, by kind and name, and the default choice.
+
 #include "formfactor/core/error.h"
 #include "formfactor/methods/hemicube.h"
 #include "formfactor/methods/hemiplane.h"
 #include "formfactor/methods/method.h"
-#include "methods/monte_carlo/mc_common.h"
 #include "methods/analytic/analytic_method.h"
+#include "methods/monte_carlo/mc_common.h"
 
 namespace formfactor {
 
+MethodKind parse_method(const std::string& name) {
+    return enum_from_name(kMethodNames, name, "method", "method");
+}
+
+std::string to_string(MethodKind kind) { return enum_to_name(kMethodNames, kind); }
+
 std::vector<std::string> method_names() {
-    return {"analytic", "hemicube", "hemiplane", "mc-area", "mc-hemisphere", "mc-target"};
+    std::vector<std::string> out;
+    for (const auto& e : kMethodNames) out.emplace_back(e.name);
+    return out;
+}
+
+std::unique_ptr<Method> make_method(MethodKind kind) {
+    switch (kind) {
+        case MethodKind::analytic:
+            return std::make_unique<AnalyticMethod>();
+        case MethodKind::hemicube:
+            return std::make_unique<HemicubeMethod>();
+        case MethodKind::hemiplane:
+            return std::make_unique<HemiplaneMethod>();
+        case MethodKind::mc_area:
+            return make_mc_area_method();
+        case MethodKind::mc_hemisphere:
+            return make_mc_hemisphere_method();
+        case MethodKind::mc_target:
+            return make_mc_target_method();
+    }
+    throw Error("unknown method kind");
 }
 
 std::unique_ptr<Method> make_method(const std::string& name) {
-    if (name == "analytic") return std::make_unique<AnalyticMethod>();
-    if (name == "hemicube") return std::make_unique<HemicubeMethod>();
-    if (name == "hemiplane") return std::make_unique<HemiplaneMethod>();
-    if (name == "mc-area") return make_mc_area_method();
-    if (name == "mc-hemisphere") return make_mc_hemisphere_method();
-    if (name == "mc-target") return make_mc_target_method();
-    throw OptionError("--method", "unknown method '" + name + "'");
+    return make_method(parse_method(name));
 }
 
-std::string default_method(const Scene&) {
+MethodKind default_method(const Scene&) {
     // The most accurate method that handles the scene: analytic is exact for unoccluded pairs
     // and exact-grade (MethodOptions::obstructed_tolerance, 1e-6 by default) for partly hidden
-    // ones (docs/analytic.md). Its cost grows with the partly hidden pairs; `run` picks
-    // mc-hemisphere for speed on its fine Cornell subdivision and says so.
-    return "analytic";
+    // ones (docs/analytic.md). Its cost grows with the partly hidden pairs.
+    return MethodKind::analytic;
 }
 
 bool may_obstruct(const Scene& scene) { return AnalyticMethod::may_obstruct(scene); }
+
+RowRange RowRange::clamped(std::size_t n) const {
+    RowRange r{begin, std::min(end, n)};
+    if (r.begin > r.end)
+        throw OptionError("rows", "the row range [" + std::to_string(begin) + ", " +
+                                      (end == kEnd ? std::string("end") : std::to_string(end)) +
+                                      ") is outside the " + std::to_string(n) + " patches");
+    return r;
+}
 
 }  // namespace formfactor

@@ -129,7 +129,8 @@ std::string gltf(const detail::ShadedMesh& m, const std::vector<Rgb>& colour, bo
                        {"mode", 4}}}}}};
     nlohmann::json buffer = {{"byteLength", bin.size()}};
     if (!glb) buffer["uri"] = "data:application/octet-stream;base64," + base64(bin);
-    j["buffers"] = {buffer};
+    // An array of one: `= {buffer}` would copy the object under clang (CWG 1467).
+    j["buffers"] = nlohmann::json::array({buffer});
     j["bufferViews"] = {
         {{"buffer", 0}, {"byteOffset", 0}, {"byteLength", pos_bytes}, {"target", 34962}},
         {{"buffer", 0}, {"byteOffset", pos_bytes}, {"byteLength", col_bytes}, {"target", 34962}},
@@ -181,7 +182,7 @@ std::string encode_mesh(const std::string& path, const Scene& scene,
                         const std::vector<Rgb>& radiance, const ExportOptions& options) {
     const std::string ext = extension_of(path);
     if (!is_mesh_path(path))
-        throw OptionError("-o",
+        throw OptionError("output",
                           "unknown 3D export extension '" + ext + "' (use .ply, .gltf or .glb)");
     if (radiance.size() != scene.patches.size())
         throw Error(

@@ -33,15 +33,15 @@ struct View {
         eye = c.eye;
         forward = c.target - c.eye;
         if (!(forward.norm() > 0.0) || !forward.allFinite())
-            throw OptionError("--camera", "the eye and the target coincide");
+            throw OptionError("camera", "the eye and the target coincide");
         forward.normalize();
         right = forward.cross(c.up);
         if (!(right.norm() > 1e-12))
-            throw OptionError("--camera", "the up vector is parallel to the view direction");
+            throw OptionError("camera", "the up vector is parallel to the view direction");
         right.normalize();
         up = right.cross(forward);
         if (!(c.fov_degrees > 0.0 && c.fov_degrees < 179.0))
-            throw OptionError("--camera", "the field of view must be in (0, 179) degrees");
+            throw OptionError("camera", "the field of view must be in (0, 179) degrees");
         focal = 0.5 * h / std::tan(0.5 * c.fov_degrees * kPi / 180.0);
         cx = 0.5 * w;
         cy = 0.5 * h;
@@ -120,8 +120,8 @@ void draw_triangle(const View& view, const ClipVertex (&v)[3], int patch, bool b
 
 void check_size(const RenderOptions& o) {
     if (o.width < 1 || o.height < 1 || o.width > 16384 || o.height > 16384)
-        throw OptionError("--size", fmt::format("{}x{} is outside 1..16384", o.width, o.height));
-    if (o.supersample < 1 || o.supersample > 8) throw OptionError("--supersample", "must be 1..8");
+        throw OptionError("size", fmt::format("{}x{} is outside 1..16384", o.width, o.height));
+    if (o.supersample < 1 || o.supersample > 8) throw OptionError("supersample", "must be 1..8");
 }
 
 // Rasterises the mesh at (w·s)×(h·s) samples.

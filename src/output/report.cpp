@@ -13,22 +13,6 @@ namespace formfactor {
 
 using nlohmann::json;
 
-void StepTimes::add(const std::string& name, double seconds) {
-    for (auto& [n, s] : steps) {
-        if (n == name) {
-            s += seconds;
-            return;
-        }
-    }
-    steps.emplace_back(name, seconds);
-}
-
-double StepTimes::sum() const {
-    double s = 0.0;
-    for (const auto& step : steps) s += step.second;
-    return s;
-}
-
 namespace {
 
 const char* promise_name(ReciprocityPromise::Kind k) {
@@ -176,6 +160,80 @@ void write_json_file(const std::string& path, const json& j) {
     write_file_atomically(path, [&](std::ostream& out) {
         out.write(text.data(), static_cast<std::streamsize>(text.size()));
     });
+}
+
+namespace {
+
+// The diagnostics block of the repair report (its own shape, kept for the report contract).
+nlohmann::json repair_diagnostics_json(const Diagnostics& d) {
+    return {{"n", d.n},
+            {"row_sum_min", d.row_sum_min},
+            {"row_sum_max", d.row_sum_max},
+            {"row_sum_mean", d.row_sum_mean},
+            {"max_reciprocity_defect", d.max_reciprocity_defect},
+            {"reciprocity_pair", {d.reciprocity_i, d.reciprocity_j}},
+            {"reciprocity_area_weighted", d.reciprocity_area_weighted},
+            {"reciprocity_row_max", d.reciprocity_row_max},
+            {"negative_entries", d.negative_entries},
+            {"entries_above_one", d.entries_above_one},
+            {"nonfinite_entries", d.nonfinite_entries},
+            {"max_abs_diagonal", d.max_abs_diagonal}};
+}
+
+}  // namespace
+
+nlohmann::json to_json(const RepairReport& r) {
+    return {{"mode", to_string(r.mode)},
+            {"before", repair_diagnostics_json(r.before)},
+            {"after", repair_diagnostics_json(r.after)},
+            {"max_abs_change", r.max_abs_change},
+            {"max_relative_change", r.max_relative_change},
+            {"negatives_cleared", r.negatives_cleared},
+            {"diagonal_cleared", r.diagonal_cleared},
+            {"closure_iterations", r.closure_iterations},
+            {"closure_residual", r.closure_residual},
+            {"rows_not_closable", r.rows_not_closable},
+            {"warnings", r.warnings}};
+}
+
+nlohmann::json to_json(const Fields& f) {
+    switch (f.kind()) {
+        case Fields::Kind::null:
+            return nullptr;
+        case Fields::Kind::boolean:
+            return f.boolean();
+        case Fields::Kind::integer:
+            return f.integer();
+        case Fields::Kind::unsigned_integer:
+            return f.unsigned_integer();
+        case Fields::Kind::real:
+            return f.real();
+        case Fields::Kind::text:
+            return f.text();
+        case Fields::Kind::reals:
+            return f.reals();
+        case Fields::Kind::object: {
+            nlohmann::json j = nlohmann::json::object();
+            for (std::size_t k = 0; k < f.keys().size(); ++k)
+                j[f.keys()[k]] = to_json(f.values()[k]);
+            return j;
+        }
+    }
+    return nullptr;
+}
+
+nlohmann::json to_json(const MethodReport& r) {
+    nlohmann::json j = r.details.is_null() ? nlohmann::json::object() : to_json(r.details);
+    if (r.error_bound_per_entry) j["error_bound_per_entry"] = *r.error_bound_per_entry;
+    if (r.pairs) {
+        j["pairs"] = r.pairs->pairs;
+        j["pairs_zero"] = r.pairs->zero;
+        j["pairs_exact"] = r.pairs->exact;
+        j["pairs_far_field"] = r.pairs->far_field;
+    }
+    if (r.rays_cast) j["rays_cast"] = *r.rays_cast;
+    if (r.seconds) j["seconds"] = *r.seconds;
+    return j;
 }
 
 }  // namespace formfactor

@@ -61,7 +61,7 @@ std::array<std::uint8_t, 3> ramp(double t) {
 }
 
 ViewImage blank(const ProjectionView& view, int scale) {
-    if (scale < 1) throw OptionError("--scale", "must be at least 1");
+    if (scale < 1) throw OptionError("scale", "must be at least 1");
     if (view.width <= 0 || view.height <= 0 ||
         view.items.size() != static_cast<std::size_t>(view.width) * view.height) {
         throw Error("view image: the view is empty or inconsistent");

@@ -29,7 +29,7 @@ void add_face(Scene& s, const Vec3& o, const Vec3& e1, const Vec3& e2, int m,
 
 Scene room_scene(int n, RoomBox box) {
     if (n < 1 || (box == RoomBox::kPatches && (n < 2 || n % 2 != 0)) || n > 4096)
-        throw OptionError("--room", "n must be ≥ 2 and even (≥ 1 without box patches), ≤ 4096");
+        throw OptionError("room", "n must be ≥ 2 and even (≥ 1 without box patches), ≤ 4096");
     Scene s;
     s.name = "room-" + std::to_string(n);
     s.title = "Unit cube room (faces inward, " + std::to_string(n) + "x" + std::to_string(n) +

@@ -119,13 +119,13 @@ void split_triangle(const Polygon& t, int n, int surface, std::vector<Patch>& ou
 
 void check_options(const SubdivisionOptions& options) {
     if (options.n < 1)
-        throw OptionError("--subdivide",
+        throw OptionError("subdivide",
                           "must be at least 1 (got " + std::to_string(options.n) + ")");
     if (std::isnan(options.max_edge) || options.max_edge < 0.0 || std::isinf(options.max_edge))
-        throw OptionError("--max-edge", "must be a positive length (got " +
-                                            detail::exact(options.max_edge) + ")");
+        throw OptionError(
+            "max_edge", "must be a positive length (got " + detail::exact(options.max_edge) + ")");
     if (options.max_edge > 0.0 && options.n > 1)
-        throw OptionError("--max-edge", "cannot be combined with --subdivide");
+        throw OptionError("max_edge", "cannot be combined with a subdivision n > 1");
 }
 
 }  // namespace
@@ -142,7 +142,7 @@ double subdivision_patch_count(const Scene& scene, const SubdivisionOptions& opt
 
 void subdivide(Scene& scene, const SubdivisionOptions& options) {
     check_options(options);
-    const char* option = options.max_edge > 0.0 ? "--max-edge" : "--subdivide";
+    const char* option = options.max_edge > 0.0 ? "max_edge" : "subdivide";
 
     // Count first, in floating point, so that absurd values are refused before anything is built.
     std::vector<Plan> plans(scene.surfaces.size());

@@ -13,27 +13,10 @@
 namespace formfactor {
 
 SolverKind parse_solver(const std::string& name) {
-    if (name == "jacobi") return SolverKind::jacobi;
-    if (name == "gauss-seidel" || name == "gauss_seidel") return SolverKind::gauss_seidel;
-    if (name == "shooting" || name == "progressive") return SolverKind::shooting;
-    if (name == "direct" || name == "lu") return SolverKind::direct;
-    throw OptionError("--solver", "unknown solver '" + name +
-                                      "' (expected jacobi, gauss-seidel, shooting or direct)");
+    return enum_from_name(kSolverNames, name, "solver", "solver");
 }
 
-std::string to_string(SolverKind kind) {
-    switch (kind) {
-        case SolverKind::jacobi:
-            return "jacobi";
-        case SolverKind::gauss_seidel:
-            return "gauss-seidel";
-        case SolverKind::shooting:
-            return "shooting";
-        case SolverKind::direct:
-            return "direct";
-    }
-    return "?";
-}
+std::string to_string(SolverKind kind) { return enum_to_name(kSolverNames, kind); }
 
 namespace detail {
 
@@ -241,9 +224,9 @@ SolverStats solve_linear(const DenseMatrix& F, const std::vector<double>& areas,
     FF_ASSERT(F.cols() == n && d.rows() == n && c.rows() == n && d.cols() == c.cols());
     FF_ASSERT(static_cast<Eigen::Index>(areas.size()) == n);
     if (!(options.residual > 0.0) || !std::isfinite(options.residual))
-        throw OptionError("--residual", "must be a positive number");
+        throw OptionError("residual", "must be a positive number");
     if (options.max_iterations < 0)
-        throw OptionError("--max-iterations", "must be ≥ 0 (0 = automatic)");
+        throw OptionError("max_iterations", "must be ≥ 0 (0 = automatic)");
 
     SolverStats st;
     st.solver = to_string(options.solver);

@@ -15,7 +15,7 @@ ThermalResult solve_thermal(const FormFactors& ff, const PatchProperties& props,
     detail::check_sizes(ff, props.size());
     validate_properties(props);
     if (!(options.ambient_temperature >= 0.0) || !std::isfinite(options.ambient_temperature))
-        throw OptionError("--ambient-temperature", "must be a temperature ≥ 0 K");
+        throw OptionError("ambient_temperature", "must be a temperature ≥ 0 K");
     const Eigen::Index n = ff.F.rows();
     const double sigma = kStefanBoltzmann;
     const double eb_env = sigma * std::pow(options.ambient_temperature, 4);

@@ -43,9 +43,26 @@ class CancellationFlag {
     std::atomic<bool> requested_{false};
 };
 
-/// The process-wide flag. The CLI's SIGINT / SIGTERM handlers set it; parallel_for() (every
-/// method's row loop, the solvers' sweeps) and the atomic output writers poll it. Until the
-/// pipeline API hands each computation a flag of its own, this is the one they see.
+/// The process-wide flag. The CLI's SIGINT / SIGTERM handlers set it; the atomic output writers
+/// poll it, and every computation that was given no flag of its own.
 CancellationFlag& process_cancellation() noexcept;
+
+/// The flag of the computation running on this thread: the one a CancellationScope installed,
+/// else process_cancellation(). parallel_for() reads it on the calling thread and polls it in
+/// every worker, so a computation's flag reaches all its loops without being passed down.
+const CancellationFlag& current_cancellation() noexcept;
+
+/// Installs `flag` as current_cancellation() of this thread until the scope ends (scopes nest).
+/// The pipeline opens one around each computation it was given a flag for.
+class CancellationScope {
+  public:
+    explicit CancellationScope(const CancellationFlag& flag) noexcept;
+    ~CancellationScope();
+    CancellationScope(const CancellationScope&) = delete;
+    CancellationScope& operator=(const CancellationScope&) = delete;
+
+  private:
+    const CancellationFlag* previous_;
+};
 
 }  // namespace formfactor

@@ -36,15 +36,22 @@ class InputError : public Error {
     std::string message_;
 };
 
-/// A bad option value or combination: `what()` is "--option: message".
+/// A bad option value or combination: `what()` is "field: message". The library names the
+/// option's field (e.g. "tolerance", "samples", "rows"); the CLI maps fields to its flags
+/// (cli_flag()) and may throw with a flag itself ("--out-dir").
 class OptionError : public Error {
   public:
-    OptionError(std::string option, const std::string& message)
-        : Error(option + ": " + message), option_(std::move(option)) {}
-    const std::string& option() const { return option_; }
+    OptionError(std::string field, const std::string& message)
+        : Error(field + ": " + message), field_(std::move(field)), message_(message) {}
+    /// The option field (or, from the CLI, the flag).
+    const std::string& field() const { return field_; }
+    const std::string& option() const { return field_; }
+    /// The message without the field.
+    const std::string& message() const { return message_; }
 
   private:
-    std::string option_;
+    std::string field_;
+    std::string message_;
 };
 
 /// Geometry the library cannot handle (degenerate, non-planar, ...), found outside a file

@@ -14,10 +14,11 @@ namespace formfactor {
 /// Runs body(i) for i in [0, n) on up to `threads` threads (0 = all cores). Iterations are
 /// handed out in small chunks (dynamic load balance: rows differ in cost). The first exception
 /// thrown by a body stops the remaining work and is rethrown on the calling thread, so none
-/// escapes a worker. `cancel` is polled before every iteration: once it is requested, no new
-/// iteration starts and Cancelled is thrown on the calling thread.
+/// escapes a worker. `cancel` (by default the calling thread's current_cancellation()) is polled
+/// before every iteration: once it is requested, no new iteration starts and Cancelled is thrown on
+/// the calling thread.
 void parallel_for(std::size_t n, int threads, const std::function<void(std::size_t)>& body,
-                  const CancellationFlag& cancel = process_cancellation());
+                  const CancellationFlag& cancel = current_cancellation());
 
 /// Number of threads `threads` means on this machine (0 → hardware concurrency).
 int effective_threads(int threads);

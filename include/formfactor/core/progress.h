@@ -1,6 +1,7 @@
 #pragma once
-/// A progress bar on stderr, shown only when stderr is a terminal and the work has already
-/// taken about a second. Thread-safe: workers call advance().
+/// Progress of long phases. A library draws nothing unless asked: a computation reports to the
+/// ProgressSink its caller gave (none by default). The CLI gives a TerminalProgress (a bar on
+/// stderr); the Python module a callback.
 
 #include <atomic>
 #include <chrono>
@@ -10,27 +11,50 @@
 
 namespace formfactor {
 
+/// Receives the progress of a computation, one phase at a time. Calls are serialised (never two
+/// at once) but may come from any thread.
+class ProgressSink {
+  public:
+    virtual ~ProgressSink() = default;
+    /// Phase `label` has `done` of `total` units done (called at most ~10 times a second, and
+    /// once more with done = total when it ends).
+    virtual void update(const std::string& label, std::size_t done, std::size_t total,
+                        double elapsed_seconds) = 0;
+    /// The phase is over: clear what update() drew.
+    virtual void finish(const std::string& label) = 0;
+};
+
+/// A bar on stderr, drawn only when stderr is a terminal and the phase has already taken about a
+/// second.
+class TerminalProgress final : public ProgressSink {
+  public:
+    void update(const std::string& label, std::size_t done, std::size_t total,
+                double elapsed_seconds) override;
+    void finish(const std::string& label) override;
+
+  private:
+    bool drawn_ = false;
+};
+
+/// The handle a method holds for one phase: counts units (thread-safe, cheap) and forwards to
+/// the sink at most every 100 ms. A null sink makes every call a no-op.
 class Progress {
   public:
-    /// `total` units of work labelled `label`; `enabled` false makes every call a no-op.
-    Progress(std::string label, std::size_t total, bool enabled = true);
+    Progress(std::string label, std::size_t total, ProgressSink* sink);
     ~Progress();
     Progress(const Progress&) = delete;
     Progress& operator=(const Progress&) = delete;
-
-    /// Marks `k` more units done (thread-safe, cheap).
+    /// Marks `k` more units done.
     void advance(std::size_t k = 1);
-    /// Clears the bar (called by the destructor too).
+    /// Ends the phase (called by the destructor too).
     void finish();
 
   private:
-    void draw(std::size_t done);
     std::string label_;
     std::size_t total_;
-    bool enabled_;
-    bool drawn_ = false;
+    std::atomic<ProgressSink*> sink_;
     std::atomic<std::size_t> done_{0};
-    std::atomic<long long> next_draw_ns_{0};
+    std::atomic<long long> next_update_ns_{0};
     std::chrono::steady_clock::time_point start_;
     std::mutex mutex_;
 };

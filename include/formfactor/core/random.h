@@ -8,6 +8,8 @@
 #include <cstdint>
 #include <string>
 
+#include "formfactor/core/enum_names.h"
+
 namespace formfactor {
 
 /// SplitMix64's output function (Steele, Lea & Flood, "Fast splittable pseudorandom number
@@ -37,7 +39,15 @@ enum class SamplerKind {
     random,      ///< independent uniform numbers
 };
 
-/// Parses "sobol" | "halton" | "stratified" | "random"; throws OptionError("--sampler", ...).
+/// The names of the point sets.
+inline constexpr EnumEntry<SamplerKind> kSamplerNames[] = {
+    {SamplerKind::sobol, "sobol"},
+    {SamplerKind::halton, "halton"},
+    {SamplerKind::stratified, "stratified"},
+    {SamplerKind::random, "random"},
+};
+
+/// Parses "sobol" | "halton" | "stratified" | "random"; throws OptionError("sampler", ...).
 SamplerKind parse_sampler(const std::string& name);
 /// The name parse_sampler() accepts.
 std::string sampler_name(SamplerKind kind);

@@ -3,6 +3,8 @@
 /// diagnostics").
 
 #include <Eigen/Core>
+#include <cstddef>
+#include <limits>
 #include <optional>
 #include <vector>
 
@@ -13,14 +15,31 @@ namespace formfactor {
 /// Row-major dense matrix: row i = from patch i.
 using DenseMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
+/// Rows [begin, end) of F (patch indices). The default is every row; end is clamped to N.
+struct RowRange {
+    static constexpr std::size_t kEnd = std::numeric_limits<std::size_t>::max();
+    std::size_t begin = 0;
+    std::size_t end = kEnd;
+
+    /// The range within [0, n): throws OptionError("rows") when begin > min(end, n).
+    RowRange clamped(std::size_t n) const;
+    std::size_t size() const { return end - begin; }
+    bool contains(std::size_t i) const { return i >= begin && i < end; }
+};
+
 /// F_ij from patch i to patch j, with the patch areas, and the standard error of each entry for
-/// methods that have one.
+/// methods that have one. A block of rows (a row range of the pipeline) holds rows
+/// [first_row, first_row + F.rows()) and every column; `areas` has every patch.
 struct FormFactors {
     DenseMatrix F;
     std::vector<double> areas;
     std::optional<DenseMatrix> standard_error;
+    std::size_t first_row = 0;
 
+    /// Rows held (N for the whole matrix).
     std::size_t size() const { return static_cast<std::size_t>(F.rows()); }
+    /// True when this holds only some rows of F.
+    bool is_block() const { return first_row != 0 || F.rows() != F.cols(); }
 };
 
 /// What every report says about a matrix.

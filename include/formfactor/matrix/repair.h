@@ -19,10 +19,10 @@
 /// Closure is refused for an open scene (Scene::enclosure false and some row sum below
 /// 1 − kOpenRowSum) unless forced: it would invent energy exchange where radiation escapes.
 
-#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
+#include "formfactor/core/enum_names.h"
 #include "formfactor/matrix/form_factors.h"
 
 namespace formfactor {
@@ -30,7 +30,14 @@ namespace formfactor {
 /// Which repair to apply.
 enum class RepairMode { none, reciprocity, closure, both };
 
-/// Parses none | reciprocity | closure | both; throws OptionError("--repair") otherwise.
+inline constexpr EnumEntry<RepairMode> kRepairModeNames[] = {
+    {RepairMode::none, "none"},
+    {RepairMode::reciprocity, "reciprocity"},
+    {RepairMode::closure, "closure"},
+    {RepairMode::both, "both"},
+};
+
+/// Parses none | reciprocity | closure | both; throws OptionError("repair") otherwise.
 RepairMode parse_repair_mode(const std::string& name);
 /// The name parse_repair_mode() accepts.
 std::string to_string(RepairMode mode);
@@ -64,13 +71,9 @@ struct RepairReport {
     std::vector<std::string> warnings;
 };
 
-/// Repairs F in place (see above). Throws OptionError("--repair") when closure is asked of an
+/// Repairs F in place (see above). Throws OptionError("repair") when closure is asked of an
 /// open scene without force_closure, and Error on a size mismatch. With mode none, only the
 /// diagnostics are filled.
 RepairReport repair(DenseMatrix& F, const std::vector<double>& areas, const RepairOptions& options);
-
-/// The report as JSON (for the run report): mode, the diagnostics before and after, the
-/// changes, the closure iterations, the warnings.
-nlohmann::json to_json(const RepairReport& report);
 
 }  // namespace formfactor

@@ -31,7 +31,7 @@ namespace formfactor {
 /// 1. Layout: the top face, R rows × R cells (cell (X, Y) centred at u = (2X+1)/R − 1,
 /// v = (2Y+1)/R − 1, ΔF ∝ ΔA / (π (u² + v² + 1)²)), then the side faces +u, −u, +v, −v, each
 /// R/2 rows × R cells (cell (X, Y) centred at s = (2X+1)/R − 1 across, height z = (2Y+1)/R,
-/// ΔF ∝ z ΔA / (π (s² + z² + 1)²)), ΔA = (2/R)². Throws OptionError("--resolution") when R is
+/// ΔF ∝ z ΔA / (π (s² + z² + 1)²)), ΔA = (2/R)². Throws OptionError("resolution") when R is
 /// odd or outside [64, 2048].
 std::vector<double> hemicube_delta_form_factors(int resolution);
 
@@ -52,10 +52,9 @@ ProjectionView hemicube_view(const Scene& scene, const Vec3& point, const Vec3& 
 /// resolution, points, hemicubes, cells.
 class HemicubeMethod final : public Method {
   public:
-    std::string name() const override { return "hemicube"; }
+    MethodKind kind() const override { return MethodKind::hemicube; }
     void check(const Scene& scene) const override;
-    FormFactors compute(const Scene& scene, const MethodOptions& options,
-                        nlohmann::json& details) const override;
+    MethodResult compute(const MethodContext& ctx) const override;
 };
 
 }  // namespace formfactor

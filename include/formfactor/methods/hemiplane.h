@@ -50,7 +50,7 @@ struct HemiplaneRow {
 
 /// F_{dA→Aj} for every patch from one hemiplane at `point` with base normal `normal`, the plane
 /// rotated by `rotation` radians about the normal; `exclude_patch` is not drawn (or −1).
-/// Throws OptionError("--resolution") unless R is a power of two in [64, 2048].
+/// Throws OptionError("resolution") unless R is a power of two in [64, 2048].
 HemiplaneRow hemiplane_point_row(const Scene& scene, const Vec3& point, const Vec3& normal,
                                  int resolution, double rotation = 0.0, int exclude_patch = -1,
                                  double half_width = kHemiplaneHalfWidth);
@@ -67,10 +67,9 @@ ProjectionView hemiplane_view(const Scene& scene, const Vec3& point, const Vec3&
 class HemiplaneMethod final : public Method {
   public:
     explicit HemiplaneMethod(double half_width = kHemiplaneHalfWidth) : half_width_(half_width) {}
-    std::string name() const override { return "hemiplane"; }
+    MethodKind kind() const override { return MethodKind::hemiplane; }
     void check(const Scene& scene) const override;
-    FormFactors compute(const Scene& scene, const MethodOptions& options,
-                        nlohmann::json& details) const override;
+    MethodResult compute(const MethodContext& ctx) const override;
 
   private:
     double half_width_;

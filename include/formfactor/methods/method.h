@@ -1,19 +1,49 @@
 #pragma once
-/// One interface for every estimator of F (DESIGN.md, "The methods"): a method fills the whole
-/// matrix (rows in parallel) for a scene. Virtual calls are per run, never per ray or pair.
+/// One interface for every estimator of F (DESIGN.md, "The methods"): a method computes a block
+/// of rows of the matrix (all of them by default, in parallel) for a scene, given a context.
+/// Virtual calls are per run, never per ray or pair. Callers normally go through the pipeline
+/// (formfactor/pipeline.h), which builds the context.
 
+#include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <memory>
-#include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "formfactor/core/enum_names.h"
+#include "formfactor/core/fields.h"
+#include "formfactor/core/random.h"
 #include "formfactor/matrix/form_factors.h"
 #include "formfactor/scene/scene.h"
 
 namespace formfactor {
 
-class Progress;
+class ProgressSink;
+class Visibility;
+
+/// The estimators of F.
+enum class MethodKind {
+    analytic,       ///< exact contour integrals, far-field Gauss rules, shadows clipped out
+    hemicube,       ///< Cohen & Greenberg's hemicube (item buffer)
+    hemiplane,      ///< Sillion's single-plane projection
+    mc_area,        ///< Monte Carlo, area sampling of both patches
+    mc_hemisphere,  ///< Monte Carlo, cosine-weighted rays from each patch
+    mc_target,      ///< Monte Carlo on the target: exact unoccluded factor × visible fraction
+};
+
+/// The names of the methods (the CLI's --method, the Python module's method=).
+inline constexpr EnumEntry<MethodKind> kMethodNames[] = {
+    {MethodKind::analytic, "analytic"},           {MethodKind::hemicube, "hemicube"},
+    {MethodKind::hemiplane, "hemiplane"},         {MethodKind::mc_area, "mc-area"},
+    {MethodKind::mc_hemisphere, "mc-hemisphere"}, {MethodKind::mc_target, "mc-target"},
+};
+
+/// The method called `name`; throws OptionError("method", ...) for an unknown name.
+MethodKind parse_method(const std::string& name);
+/// The name of `kind`.
+std::string to_string(MethodKind kind);
 
 /// Options shared by the methods; each method documents which it reads.
 struct MethodOptions {
@@ -21,38 +51,81 @@ struct MethodOptions {
     double tolerance = 1e-10;  ///< absolute error target per entry (analytic)
     /// analytic: absolute error target per entry of the partly hidden pairs of an obstructed
     /// scene (their adaptive integration; fully visible pairs keep `tolerance`, fully hidden
-    /// ones are exactly 0). A user-given --tolerance sets both.
+    /// ones are exactly 0). A user-given tolerance sets both.
     double obstructed_tolerance = 1e-6;
     std::uint64_t samples = 0;  ///< Monte Carlo: samples per row or pair (0 = method default)
     std::uint64_t seed = 1;     ///< random streams are seeded from (seed, i, j)
     int resolution = 256;       ///< hemicube / hemiplane cells per side
     int points = 1;             ///< hemicube / hemiplane: points per patch
-    bool progress = true;       ///< show a progress bar on a terminal
-    /// Monte Carlo: the point set, "sobol" (Owen-scrambled, default) | "halton" | "stratified"
-    /// | "random" (core/random.h). Standard errors: i.i.d. formulas for "random", else the spread
-    /// of 16 independent randomisations (replicates) of the point set.
-    std::string sampler = "sobol";
+    /// Monte Carlo: the point set (core/random.h). Standard errors: i.i.d. formulas for random,
+    /// else the spread of 16 independent randomisations (replicates) of the point set.
+    SamplerKind sampler = SamplerKind::sobol;
+};
+
+/// Everything a method is given: the scene (patches final), options, what was built for it.
+struct MethodContext {
+    const Scene& scene;
+    MethodOptions options;
+    /// The ray tracer of the scene, built once by the caller for the methods that cast rays
+    /// (Method::needs_visibility()); a method builds its own when this is null.
+    const Visibility* visibility = nullptr;
+    /// Where progress goes; null (the default): nowhere.
+    ProgressSink* progress = nullptr;
+    /// The rows to compute (clamped to the patch count).
+    RowRange rows;
+};
+
+/// How the method classified patch pairs (methods that classify them: analytic, mc-target).
+struct PairClasses {
+    std::size_t pairs = 0;      ///< unordered pairs considered
+    std::size_t zero = 0;       ///< facing away or behind: exactly 0
+    std::size_t exact = 0;      ///< closed form (contour integral)
+    std::size_t far_field = 0;  ///< Gauss rule with an a-priori bound
+};
+
+/// What a method says about its run. Only output/ turns it into JSON (to_json, report.h).
+struct MethodReport {
+    MethodKind method = MethodKind::analytic;
+    /// An upper bound of |F_ij − exact| for every entry (exact-grade methods), when the method
+    /// has one.
+    std::optional<double> error_bound_per_entry;
+    std::optional<PairClasses> pairs;
+    std::optional<std::uint64_t> rays_cast;  ///< rays (or segments) traced
+    std::optional<double> seconds;           ///< the method's own wall time, when it reports it
+    /// Everything else, method-specific (keys documented with each method).
+    Fields details;
+};
+
+/// F for the context's rows, and the method's report.
+struct MethodResult {
+    FormFactors form_factors;
+    MethodReport report;
 };
 
 /// An estimator of the form-factor matrix.
 class Method {
   public:
     virtual ~Method() = default;
-    /// The name used by --method.
-    virtual std::string name() const = 0;
+    virtual MethodKind kind() const = 0;
+    /// The name used by the CLI's --method.
+    std::string name() const { return to_string(kind()); }
     /// Throws Error when the method cannot handle the scene (say why).
     virtual void check(const Scene& scene) const = 0;
-    /// Computes F for scene.patches. `details` receives method-specific report fields.
-    virtual FormFactors compute(const Scene& scene, const MethodOptions& options,
-                                nlohmann::json& details) const = 0;
+    /// True when the method casts rays: the caller then builds a Visibility for the context.
+    virtual bool needs_visibility() const { return false; }
+    /// Computes rows ctx.rows of F for ctx.scene.patches (form_factors.first_row = the range's
+    /// begin). Any split of the rows gives the same values, bit for bit, as one run.
+    virtual MethodResult compute(const MethodContext& ctx) const = 0;
 };
 
-/// The method called `name`; throws OptionError("--method", ...) for an unknown name.
+/// The method of kind `kind`.
+std::unique_ptr<Method> make_method(MethodKind kind);
+/// make_method(parse_method(name)).
 std::unique_ptr<Method> make_method(const std::string& name);
 /// Names of every method.
 std::vector<std::string> method_names();
 /// The most accurate method that can handle the scene.
-std::string default_method(const Scene& scene);
+MethodKind default_method(const Scene& scene);
 /// True when some surface of the scene may block the view between two others (a conservative
 /// test: obstruction-only surfaces, or a surface with other surfaces on both sides of its plane).
 bool may_obstruct(const Scene& scene);

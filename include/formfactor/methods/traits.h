@@ -23,9 +23,9 @@ struct MethodTraits {
     ReciprocityPromise reciprocity;
 };
 
-/// The traits of method `name` (one of method_names()) with `options` on `scene` (may be null:
-/// then no obstruction is assumed). Throws OptionError("--method") for an unknown name.
-MethodTraits method_traits(const std::string& name, const MethodOptions& options,
+/// The traits of `method` with `options` on `scene` (may be null: then no obstruction is
+/// assumed).
+MethodTraits method_traits(MethodKind method, const MethodOptions& options,
                            const Scene* scene = nullptr);
 
 }  // namespace formfactor

@@ -15,20 +15,14 @@
 #include <utility>
 #include <vector>
 
+#include "formfactor/core/timing.h"
 #include "formfactor/matrix/form_factors.h"
 #include "formfactor/matrix/reciprocity.h"
+#include "formfactor/matrix/repair.h"
+#include "formfactor/methods/method.h"
 #include "formfactor/scene/scene.h"
 
 namespace formfactor {
-
-/// Wall-clock seconds per named step, in the order they ran.
-struct StepTimes {
-    std::vector<std::pair<std::string, double>> steps;
-    /// Appends (or adds to) the step `name`.
-    void add(const std::string& name, double seconds);
-    /// Sum of the steps.
-    double sum() const;
-};
 
 /// Everything the report says that is not in the scene or the matrix.
 struct ReportContext {
@@ -74,6 +68,18 @@ nlohmann::json scene_summary_json(const Scene& scene);
 /// when ff has them; the reciprocity verdict against ctx.reciprocity; "diagnostics" also gets
 /// "standard_error": standard_error_json(ff)).
 nlohmann::json make_report(const Scene& scene, const FormFactors& ff, const ReportContext& ctx);
+
+/// The report of repair(): mode, the diagnostics before and after, the changes, the closure
+/// iterations, the warnings.
+nlohmann::json to_json(const RepairReport& report);
+
+/// The method's report as the run report's "details": its Fields, with the typed members under
+/// their keys (error_bound_per_entry; pairs, pairs_zero, pairs_exact, pairs_far_field; rays_cast;
+/// seconds).
+nlohmann::json to_json(const MethodReport& report);
+
+/// A Fields tree as JSON (objects keep their keys; lists of reals become arrays).
+nlohmann::json to_json(const Fields& fields);
 
 /// The current UTC time as ISO 8601, e.g. "2024-01-31T12:00:00Z".
 std::string utc_timestamp();

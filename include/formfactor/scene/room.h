@@ -16,7 +16,7 @@ enum class RoomBox {
 /// The room: every patch is its own surface (as in a View3D input listing every patch), named
 /// `wall.K` / `box.K`; patch order: faces x=0, x=1, y=0, y=1, z=0, z=1 (each n×n, row-major),
 /// then the box's faces x=0.3, x=0.7, y=0.3, y=0.7, z=0.1, z=0.5. n ≥ 2 and even when the box
-/// has patches. Throws OptionError("--room", ...) otherwise.
+/// has patches. Throws OptionError("room", ...) otherwise.
 Scene room_scene(int n, RoomBox box = RoomBox::kPatches);
 
 }  // namespace formfactor

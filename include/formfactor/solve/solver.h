@@ -16,6 +16,8 @@
 #include <string>
 #include <vector>
 
+#include "formfactor/core/enum_names.h"
+
 namespace formfactor {
 
 /// The solver of the linear system.
@@ -28,7 +30,19 @@ enum class SolverKind {
     direct,        ///< LU with partial pivoting of I − D F (Eigen), O(N³): the reference
 };
 
-/// Parses jacobi | gauss-seidel | shooting | direct; throws OptionError("--solver") otherwise.
+/// The names of the solvers (then accepted aliases).
+inline constexpr EnumEntry<SolverKind> kSolverNames[] = {
+    {SolverKind::jacobi, "jacobi"},
+    {SolverKind::gauss_seidel, "gauss-seidel"},
+    {SolverKind::shooting, "shooting"},
+    {SolverKind::direct, "direct"},
+    {SolverKind::gauss_seidel, "gauss_seidel"},
+    {SolverKind::shooting, "progressive"},
+    {SolverKind::direct, "lu"},
+};
+
+/// Parses jacobi | gauss-seidel | shooting | direct (and the aliases); throws
+/// OptionError("solver") otherwise.
 SolverKind parse_solver(const std::string& name);
 /// The name parse_solver() accepts.
 std::string to_string(SolverKind kind);

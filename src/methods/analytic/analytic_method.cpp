@@ -190,53 +190,60 @@ detail::UnobstructedStats detail::unobstructed_form_factors(
     return total;
 }
 
-std::string AnalyticMethod::name() const { return "analytic"; }
-
 void AnalyticMethod::check(const Scene&) const {
     // Every scene: obstructed ones go through the obstruction pass of compute().
 }
 
-FormFactors AnalyticMethod::compute(const Scene& scene, const MethodOptions& options,
-                                    nlohmann::json& details) const {
+MethodResult AnalyticMethod::compute(const MethodContext& ctx) const {
+    const Scene& scene = ctx.scene;
+    const MethodOptions& options = ctx.options;
     if (!(options.tolerance > 0.0) || !std::isfinite(options.tolerance))
-        throw OptionError("--tolerance", "must be a positive number (absolute error per entry)");
+        throw OptionError("tolerance", "must be a positive number (absolute error per entry)");
+    const std::size_t n = scene.patches.size();
+    const RowRange rows = ctx.rows.clamped(n);
     // In an obstructed scene the unobstructed values (kept for the fully visible pairs, the
     // reference of the partly hidden ones) stay at ≤ 1e-10: they are cheap, and the closure of
     // the rows rests on them; options.obstructed_tolerance governs the partly hidden pairs.
     const bool obstructed = may_obstruct(scene);
     const double tol =
         obstructed ? std::min(options.tolerance, kVisibleTolerance) : options.tolerance;
-    const std::size_t n = scene.patches.size();
-    FormFactors out;
+    MethodResult result;
+    MethodReport& report = result.report;
+    report.method = kind();
+    FormFactors& out = result.form_factors;
     std::vector<const Polygon*> polys(n);
     for (std::size_t p = 0; p < n; ++p) polys[p] = &scene.patches[p].polygon;
-    Progress progress("analytic", n, options.progress);
+    Progress progress("analytic", n, ctx.progress);
     const RowStats total =
         detail::unobstructed_form_factors(polys, tol, options.threads, &progress, out.F, out.areas);
     progress.finish();
-    nlohmann::json hist = nlohmann::json::object();
+    Fields& details = report.details;
+    Fields hist = Fields::object();
     for (int o = 1; o <= kMaxFarFieldOrder; ++o)
         if (total.order_hist[static_cast<std::size_t>(o)] > 0)
             hist[std::to_string(o)] = total.order_hist[static_cast<std::size_t>(o)];
-    details["pairs"] = n * (n - (n > 0 ? 1 : 0)) / 2;
-    details["pairs_zero"] = total.zero;
-    details["pairs_exact"] = total.exact;
-    details["pairs_far_field"] = total.far;
+    report.pairs = PairClasses{n * (n - (n > 0 ? 1 : 0)) / 2, total.zero, total.exact, total.far};
     details["far_field_kernel_evaluations"] = total.points;
     details["far_field_orders"] = hist;
     details["tolerance"] = tol;
     // Far-field orders are chosen so that the calibrated bound is ≤ tolerance for F_ij and F_ji;
     // the exact path is accurate to ~1e-13 (docs/analytic.md).
-    details["error_bound_per_entry"] = std::max(tol, 1e-12);
+    report.error_bound_per_entry = std::max(tol, 1e-12);
     details["exact_path_error"] = 1e-12;
     details["threads"] = effective_threads(options.threads);
     details["obstructed"] = obstructed;
     if (obstructed) {
-        apply_obstructions(scene, options, out, details);
-        details["error_bound_per_entry"] = std::max(
-            std::max(tol, 1e-12), details["obstructions"]["max_error_estimate"].get<double>());
+        apply_obstructions(ctx, out, details);
+        report.error_bound_per_entry =
+            std::max(std::max(tol, 1e-12), details["obstructions"]["max_error_estimate"].real());
     }
-    return out;
+    if (rows.size() != n) {
+        DenseMatrix block = out.F.middleRows(static_cast<Eigen::Index>(rows.begin),
+                                             static_cast<Eigen::Index>(rows.size()));
+        out.F = std::move(block);
+        out.first_row = rows.begin;
+    }
+    return result;
 }
 
 }  // namespace formfactor

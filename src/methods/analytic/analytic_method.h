@@ -12,10 +12,11 @@ namespace formfactor {
 /// hidden: adaptive integration to options.obstructed_tolerance).
 class AnalyticMethod final : public Method {
   public:
-    std::string name() const override;
+    MethodKind kind() const override { return MethodKind::analytic; }
     void check(const Scene& scene) const override;
-    FormFactors compute(const Scene& scene, const MethodOptions& options,
-                        nlohmann::json& details) const override;
+    /// A row range computes the whole matrix and returns its rows (bit-identical to the whole
+    /// run; the cost is not yet proportional to the block).
+    MethodResult compute(const MethodContext& ctx) const override;
 
     /// True when some surface may block a segment between two others (an obstruction-only
     /// surface, or a surface with vertices of other surfaces on both sides of its plane).
@@ -25,9 +26,9 @@ class AnalyticMethod final : public Method {
     static constexpr double kVisibleTolerance = 1e-10;
 
   private:
-    /// The obstruction pass over an unobstructed matrix (src/methods/analytic_obstructed.cpp).
-    static void apply_obstructions(const Scene& scene, const MethodOptions& options,
-                                   FormFactors& out, nlohmann::json& details);
+    /// The obstruction pass over an unobstructed matrix (analytic_obstructed.cpp): corrects
+    /// `out` and fills details["obstructions"] and the error bound's input.
+    static void apply_obstructions(const MethodContext& ctx, FormFactors& out, Fields& details);
 };
 
 }  // namespace formfactor

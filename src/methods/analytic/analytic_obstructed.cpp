@@ -230,8 +230,10 @@ bool AnalyticMethod::may_obstruct(const Scene& scene) {
     return false;
 }
 
-void AnalyticMethod::apply_obstructions(const Scene& scene, const MethodOptions& options,
-                                        FormFactors& out, nlohmann::json& details) {
+void AnalyticMethod::apply_obstructions(const MethodContext& ctx, FormFactors& out,
+                                        Fields& details) {
+    const Scene& scene = ctx.scene;
+    const MethodOptions& options = ctx.options;
     using Clock = std::chrono::steady_clock;
     const auto t_start = Clock::now();
     auto seconds = [](Clock::time_point a, Clock::time_point b) {
@@ -239,7 +241,7 @@ void AnalyticMethod::apply_obstructions(const Scene& scene, const MethodOptions&
     };
     const double tol = options.obstructed_tolerance;
     if (!(tol > 0.0) || !std::isfinite(tol))
-        throw OptionError("--tolerance", "must be a positive number (absolute error per entry)");
+        throw OptionError("tolerance", "must be a positive number (absolute error per entry)");
     const std::size_t n = scene.patches.size();
     Bounds3 box = scene.bounds();
     for (const Patch& p : scene.patches)
@@ -384,7 +386,7 @@ void AnalyticMethod::apply_obstructions(const Scene& scene, const MethodOptions&
     };
     const int threads = effective_threads(options.threads);
     std::vector<Stats> stats(partial.size());
-    Progress progress("analytic (obstructed)", partial.size(), options.progress);
+    Progress progress("analytic (obstructed)", partial.size(), ctx.progress);
     parallel_for(partial.size(), options.threads, [&](std::size_t k) {
         const PartialPair& pp = partial[k];
         const std::vector<int>& cand = outputs[cand_task[k]].cand;
@@ -431,11 +433,11 @@ void AnalyticMethod::apply_obstructions(const Scene& scene, const MethodOptions&
         total.capped += s.capped;
         total.changed += s.changed;
     }
-    nlohmann::json levels = nlohmann::json::object();
+    Fields levels = Fields::object();
     for (int l = 0; l <= kLevels; ++l)
         if (total.levels[static_cast<std::size_t>(l)] > 0)
             levels[std::to_string(l)] = total.levels[static_cast<std::size_t>(l)];
-    nlohmann::json o;
+    Fields& o = details["obstructions"];
     o["blocker_pieces"] = blockers.size();
     o["plane_groups"] = trees.size();
     o["obstruction_plane_groups"] = otrees.size();
@@ -455,7 +457,6 @@ void AnalyticMethod::apply_obstructions(const Scene& scene, const MethodOptions&
     o["seconds_setup"] = seconds(t_start, t_setup);
     o["seconds_classification"] = seconds(t_setup, t_classified);
     o["seconds_partly_hidden"] = seconds(t_classified, t_done);
-    details["obstructions"] = o;
 }
 
 }  // namespace formfactor

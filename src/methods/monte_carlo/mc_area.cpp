@@ -25,33 +25,42 @@ bool behind(const Patch& p, const Patch& q) {
 
 class McAreaMethod final : public Method {
   public:
-    std::string name() const override { return "mc-area"; }
+    MethodKind kind() const override { return MethodKind::mc_area; }
+    bool needs_visibility() const override { return true; }
     void check(const Scene& scene) const override {
         if (scene.patches.empty()) throw GeometryError("mc-area: the scene has no patches");
     }
 
-    FormFactors compute(const Scene& scene, const MethodOptions& options,
-                        nlohmann::json& details) const override {
+    MethodResult compute(const MethodContext& ctx) const override {
+        const Scene& scene = ctx.scene;
+        const MethodOptions& options = ctx.options;
         check(scene);
         const auto t0 = mc::Clock::now();
-        const SamplerKind kind = parse_sampler(options.sampler);
+        const SamplerKind kind = options.sampler;
         const std::uint64_t N = mc::sample_count(options, 256);
         const std::uint32_t R = replicate_count(kind, N);
         const std::size_t n = scene.patches.size();
-        auto vis = make_visibility(scene);
+        const RowRange rows = ctx.rows.clamped(n);
+        std::unique_ptr<Visibility> own;
+        const Visibility* vis = mc::visibility_for(ctx, own);
         std::vector<PolygonSampler> samplers;
         samplers.reserve(n);
         for (const Patch& p : scene.patches) samplers.emplace_back(p.polygon);
 
-        FormFactors ff;
-        ff.F = DenseMatrix::Zero(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
+        MethodResult result;
+        result.report.method = this->kind();
+        FormFactors& ff = result.form_factors;
+        ff.first_row = rows.begin;
+        ff.F =
+            DenseMatrix::Zero(static_cast<Eigen::Index>(rows.size()), static_cast<Eigen::Index>(n));
         ff.standard_error = DenseMatrix::Zero(ff.F.rows(), ff.F.cols());
         for (const Patch& p : scene.patches) ff.areas.push_back(p.area);
         std::atomic<std::uint64_t> rays{0};
-        Progress progress("mc-area", n, options.progress);
+        Progress progress("mc-area", rows.size(), ctx.progress);
         constexpr std::size_t kBatch = 256;
 
-        parallel_for(n, options.threads, [&](std::size_t i) {
+        parallel_for(rows.size(), options.threads, [&](std::size_t row) {
+            const std::size_t i = rows.begin + row;
             const Patch& pi = scene.patches[i];
             // Rays of all pairs and replicates of the row share batches; each remembers where
             // its kernel value goes: c[j·R + r] (replicate sums) and s2[j] (i.i.d. moments).
@@ -117,7 +126,7 @@ class McAreaMethod final : public Method {
                     se = std::sqrt(std::max(0.0, var) / double(N));
                 }
                 const double Aj = scene.patches[j].area;
-                const auto ii = static_cast<Eigen::Index>(i), jj = static_cast<Eigen::Index>(j);
+                const auto ii = static_cast<Eigen::Index>(row), jj = static_cast<Eigen::Index>(j);
                 ff.F(ii, jj) = Aj * mean;
                 (*ff.standard_error)(ii, jj) = Aj * se;
             }
@@ -125,9 +134,9 @@ class McAreaMethod final : public Method {
             progress.advance();
         });
         progress.finish();
-        mc::report(details, ff, kind, N, R, rays.load(), mc::seconds_since(t0), vis->description(),
-                   "point pairs per patch pair");
-        return ff;
+        mc::report(result.report, ff, kind, N, R, rays.load(), mc::seconds_since(t0),
+                   vis->description(), "point pairs per patch pair");
+        return result;
     }
 };
 

@@ -7,7 +7,6 @@
 #include <cstdint>
 #include <ctime>
 #include <memory>
-#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -15,6 +14,7 @@
 #include "formfactor/core/random.h"
 #include "formfactor/matrix/form_factors.h"
 #include "formfactor/methods/method.h"
+#include "formfactor/visibility/visibility.h"
 
 namespace formfactor {
 
@@ -27,7 +27,7 @@ namespace mc {
 /// Sample count from the options (0 → the method's default), checked.
 inline std::uint64_t sample_count(const MethodOptions& o, std::uint64_t fallback) {
     const std::uint64_t n = o.samples == 0 ? fallback : o.samples;
-    if (n > 0xFFFFFFFFull) throw OptionError("--samples", "at most 4294967295 per stream");
+    if (n > 0xFFFFFFFFull) throw OptionError("samples", "at most 4294967295 per stream");
     return n;
 }
 
@@ -55,11 +55,20 @@ inline double replicate_standard_error(const ReplicateMean& a, double n, std::ui
     return s2 > 0 ? std::sqrt(s2 / r) : 0.0;
 }
 
-/// Fills the details every Monte-Carlo method reports.
-inline void report(nlohmann::json& details, const FormFactors& ff, SamplerKind kind,
+/// The ray tracer of the context, or one built here (kept in `own`) when the caller gave none.
+inline const Visibility* visibility_for(const MethodContext& ctx,
+                                        std::unique_ptr<Visibility>& own) {
+    if (ctx.visibility) return ctx.visibility;
+    own = make_visibility(ctx.scene);
+    return own.get();
+}
+
+/// Fills what every Monte-Carlo method reports.
+inline void report(MethodReport& rep, const FormFactors& ff, SamplerKind kind,
                    std::uint64_t samples, std::uint32_t replicates, std::uint64_t rays,
                    double seconds, const std::string& visibility,
                    const std::string& samples_meaning) {
+    Fields& details = rep.details;
     details["samples"] = samples;
     details["samples_meaning"] = samples_meaning;
     details["sampler"] = sampler_name(kind);
@@ -67,8 +76,8 @@ inline void report(nlohmann::json& details, const FormFactors& ff, SamplerKind k
     details["standard_error_model"] =
         replicates > 1 ? "spread of independent randomisations (replicates) of the point set"
                        : "i.i.d. sample variance";
-    details["rays_cast"] = rays;
-    details["seconds"] = seconds;
+    rep.rays_cast = rays;
+    rep.seconds = seconds;
     details["rays_per_second"] = seconds > 0 ? rays / seconds : 0.0;
     details["visibility"] = visibility;
     if (ff.standard_error) {
@@ -95,11 +104,11 @@ class PhaseTimer {
   public:
     PhaseTimer() : wall_(Clock::now()), cpu_(process_cpu_seconds()) {}
     /// Records the time since the previous lap (or construction) under `name`.
-    void lap(nlohmann::json& phases, const std::string& name) {
+    void lap(Fields& phases, const std::string& name) {
         const auto now = Clock::now();
         const double cpu = process_cpu_seconds();
-        phases[name] = {{"seconds", std::chrono::duration<double>(now - wall_).count()},
-                        {"process_cpu_seconds", cpu - cpu_}};
+        phases[name]["seconds"] = std::chrono::duration<double>(now - wall_).count();
+        phases[name]["process_cpu_seconds"] = cpu - cpu_;
         wall_ = now;
         cpu_ = cpu;
     }

@@ -36,36 +36,45 @@ struct Buffers {
 
 class McHemisphereMethod final : public Method {
   public:
-    std::string name() const override { return "mc-hemisphere"; }
+    MethodKind kind() const override { return MethodKind::mc_hemisphere; }
+    bool needs_visibility() const override { return true; }
     void check(const Scene& scene) const override {
         if (scene.patches.empty()) throw GeometryError("mc-hemisphere: the scene has no patches");
     }
 
-    FormFactors compute(const Scene& scene, const MethodOptions& options,
-                        nlohmann::json& details) const override {
+    MethodResult compute(const MethodContext& ctx) const override {
+        const Scene& scene = ctx.scene;
+        const MethodOptions& options = ctx.options;
         check(scene);
         const auto t0 = mc::Clock::now();
-        const SamplerKind kind = parse_sampler(options.sampler);
+        const SamplerKind kind = options.sampler;
         const std::uint64_t N = mc::sample_count(options, 10000);
         const std::uint32_t R = replicate_count(kind, N);
         const std::size_t n = scene.patches.size();
-        auto vis = make_visibility(scene);
+        const RowRange rows = ctx.rows.clamped(n);
+        std::unique_ptr<Visibility> own;
+        const Visibility* vis = mc::visibility_for(ctx, own);
 
-        FormFactors ff;
-        ff.F = DenseMatrix::Zero(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
+        MethodResult result;
+        result.report.method = this->kind();
+        FormFactors& ff = result.form_factors;
+        ff.first_row = rows.begin;
+        ff.F =
+            DenseMatrix::Zero(static_cast<Eigen::Index>(rows.size()), static_cast<Eigen::Index>(n));
         ff.standard_error = DenseMatrix::Zero(ff.F.rows(), ff.F.cols());
         for (const Patch& p : scene.patches) ff.areas.push_back(p.area);
         std::atomic<std::uint64_t> rays{0}, escaped{0}, back_hits{0}, obstruction_hits{0};
-        Progress progress("mc-hemisphere", n, options.progress);
+        Progress progress("mc-hemisphere", rows.size(), ctx.progress);
 
-        parallel_for(n, options.threads, [&](std::size_t i) {
+        parallel_for(rows.size(), options.threads, [&](std::size_t row) {
+            const std::size_t i = rows.begin + row;
             const Patch& pi = scene.patches[i];
             const PolygonSampler sampler(pi.polygon);
             Vec3 t, b;
             orthonormal_basis(pi.normal, t, b);
             // F row holds the running totals; Q (replicate second moments) lives in the SE row.
-            auto F = ff.F.row(static_cast<Eigen::Index>(i));
-            auto Q = ff.standard_error->row(static_cast<Eigen::Index>(i));
+            auto F = ff.F.row(static_cast<Eigen::Index>(row));
+            auto Q = ff.standard_error->row(static_cast<Eigen::Index>(row));
             // Per-thread buffers, reused across rows (no allocation per row or batch).
             thread_local Buffers buf;
             buf.prepare(n);
@@ -130,13 +139,14 @@ class McHemisphereMethod final : public Method {
             progress.advance();
         });
         progress.finish();
-        mc::report(details, ff, kind, N, R, rays.load(), mc::seconds_since(t0), vis->description(),
-                   "rays per patch (row)");
+        mc::report(result.report, ff, kind, N, R, rays.load(), mc::seconds_since(t0),
+                   vis->description(), "rays per patch (row)");
+        Fields& details = result.report.details;
         const double total = double(rays.load());
         details["escaped_fraction"] = total > 0 ? escaped.load() / total : 0.0;
         details["back_hit_fraction"] = total > 0 ? back_hits.load() / total : 0.0;
         details["obstruction_hit_fraction"] = total > 0 ? obstruction_hits.load() / total : 0.0;
-        return ff;
+        return result;
     }
 };
 

@@ -18,8 +18,8 @@
 #include "formfactor/geometry/sampling.h"
 #include "formfactor/kernels/analytic.h"
 #include "formfactor/visibility/visibility.h"
-#include "methods/monte_carlo/mc_common.h"
 #include "kernels/analytic_internal.h"
+#include "methods/monte_carlo/mc_common.h"
 #include "visibility/shaft_culler.h"
 
 namespace formfactor {
@@ -78,22 +78,26 @@ struct RowBuffers {
 
 class McTargetMethod final : public Method {
   public:
-    std::string name() const override { return "mc-target"; }
+    MethodKind kind() const override { return MethodKind::mc_target; }
+    bool needs_visibility() const override { return true; }
     void check(const Scene& scene) const override {
         if (scene.patches.empty()) throw GeometryError("mc-target: the scene has no patches");
     }
 
-    FormFactors compute(const Scene& scene, const MethodOptions& options,
-                        nlohmann::json& details) const override {
+    MethodResult compute(const MethodContext& ctx) const override {
+        const Scene& scene = ctx.scene;
+        const MethodOptions& options = ctx.options;
         check(scene);
         const auto t0 = mc::Clock::now();
         mc::PhaseTimer phase_timer;
-        nlohmann::json phases = nlohmann::json::object();
-        const SamplerKind kind = parse_sampler(options.sampler);
+        Fields phases;
+        const SamplerKind kind = options.sampler;
         const std::uint64_t N = mc::sample_count(options, 64);
         const std::uint32_t R = replicate_count(kind, N);
         const std::size_t n = scene.patches.size();
-        auto vis = make_visibility(scene);
+        const RowRange rows = ctx.rows.clamped(n);
+        std::unique_ptr<Visibility> own;
+        const Visibility* vis = mc::visibility_for(ctx, own);
         std::vector<PolygonSampler> senders;
         senders.reserve(n);
         std::vector<char> convex(n);
@@ -104,7 +108,9 @@ class McTargetMethod final : public Method {
         }
         phase_timer.lap(phases, "visibility");
 
-        FormFactors ff;
+        MethodResult result;
+        result.report.method = this->kind();
+        FormFactors& ff = result.form_factors;
         std::atomic<std::uint64_t> rays{0}, unblocked_pairs{0}, pairs{0};
 
         // Pass 1: the unobstructed F_ij of every pair (the analytic method's unobstructed pass:
@@ -170,9 +176,13 @@ class McTargetMethod final : public Method {
         };
 
         phase_timer.lap(phases, "shaft_culling");
-        Progress progress("mc-target", n, options.progress);
+        // Pass 2 (rays) on the rows asked for. Pass 1 above still makes the whole unobstructed
+        // matrix (the analytic pass has no row range of its own yet): a block costs its rays,
+        // but N² memory.
+        Progress progress("mc-target", rows.size(), ctx.progress);
         const std::uint32_t K = kDirectionsPerSender;
-        parallel_for(n, options.threads, [&](std::size_t i) {
+        parallel_for(rows.size(), options.threads, [&](std::size_t row) {
+            const std::size_t i = rows.begin + row;
             const Patch& pi = scene.patches[i];
             // Rays of all pairs and replicates of the row share batches. A group is one sender
             // point and its (up to K) rays; groups never straddle a batch. Per slot j·R + r:
@@ -310,15 +320,26 @@ class McTargetMethod final : public Method {
         });
         progress.finish();
         phase_timer.lap(phases, "rays");
-        mc::report(details, ff, kind, N, R, rays.load(), mc::seconds_since(t0), vis->description(),
-                   "rays per patch pair");
+        if (rows.size() != n) {
+            // Only the rows asked for go back (the others hold unobstructed values).
+            const auto b = static_cast<Eigen::Index>(rows.begin);
+            const auto m = static_cast<Eigen::Index>(rows.size());
+            DenseMatrix block = ff.F.middleRows(b, m);
+            ff.F = std::move(block);
+            DenseMatrix se_block = ff.standard_error->middleRows(b, m);
+            ff.standard_error = std::move(se_block);
+            ff.first_row = rows.begin;
+        }
+        mc::report(result.report, ff, kind, N, R, rays.load(), mc::seconds_since(t0),
+                   vis->description(), "rays per patch pair");
+        Fields& details = result.report.details;
         details["pairs"] = pairs.load();
         details["phases"] = phases;
         details["pairs_without_rays"] = cleared_pairs.load() * 2;  // both orders of each pair
         details["unoccluded_far_field_pairs"] = unocc.far;
         details["unoccluded_contour_pairs"] = unocc.exact;
         details["unblocked_pairs"] = unblocked_pairs.load();
-        return ff;
+        return result;
     }
 };
 

@@ -134,19 +134,24 @@ void HemicubeMethod::check(const Scene& scene) const {
     projection::check_patch_normals(scene, "hemicube");
 }
 
-FormFactors HemicubeMethod::compute(const Scene& scene, const MethodOptions& options,
-                                    nlohmann::json& details) const {
+MethodResult HemicubeMethod::compute(const MethodContext& ctx) const {
+    const Scene& scene = ctx.scene;
+    const MethodOptions& options = ctx.options;
     projection::check_projection_options(options.resolution, options.points, false);
     check(scene);
     const std::size_t n = scene.patches.size();
-    FormFactors out = projection::zero_form_factors(scene);
+    MethodResult result;
+    result.report.method = kind();
+    FormFactors& out = result.form_factors;
+    Fields& details = result.report.details;
+    out = projection::zero_form_factors(scene, ctx.rows.clamped(n));
     const int R = options.resolution;
     const projection::HemicubeDelta delta(hemicube_delta_form_factors(R), R);
     const projection::Occluders occ = projection::build_occluders(scene);
     const double near = projection::kRelativeNear * occ.scale;
     const double edge_on = projection::kRelativeEdgeOn * occ.scale;
     const std::size_t hemicubes = projection::project_patches<HemicubeRaster>(
-        scene, options, "hemicube", out, [R] { return std::make_unique<HemicubeRaster>(R); },
+        ctx, "hemicube", out, [R] { return std::make_unique<HemicubeRaster>(R); },
         [&](HemicubeRaster& raster, std::size_t i, const projection::Frame& frame, double weight,
             double* row) {
             raster.render(occ, frame, static_cast<int>(i), near, edge_on);
@@ -157,7 +162,7 @@ FormFactors HemicubeMethod::compute(const Scene& scene, const MethodOptions& opt
     details["hemicubes"] = hemicubes;
     details["cells_per_hemicube"] = 3 * R * R;
     details["seed"] = options.seed;
-    return out;
+    return result;
 }
 
 }  // namespace formfactor

@@ -305,7 +305,7 @@ double HemiplaneSolver::solve(double weight, double* row, int* ids) {
 
 void check_half_width(double W) {
     if (!(W > 0.0) || !std::isfinite(W)) {
-        throw OptionError("--half-width", "the hemiplane's half-width must be positive");
+        throw OptionError("half_width", "the hemiplane's half-width must be positive");
     }
 }
 
@@ -376,23 +376,29 @@ void HemiplaneMethod::check(const Scene& scene) const {
     projection::check_patch_normals(scene, "hemiplane");
 }
 
-FormFactors HemiplaneMethod::compute(const Scene& scene, const MethodOptions& options,
-                                     nlohmann::json& details) const {
+MethodResult HemiplaneMethod::compute(const MethodContext& ctx) const {
+    const Scene& scene = ctx.scene;
+    const MethodOptions& options = ctx.options;
     projection::check_projection_options(options.resolution, options.points, true);
     check(scene);
-    const std::size_t n = scene.patches.size();
-    FormFactors out = projection::zero_form_factors(scene);
+    const RowRange rows = ctx.rows.clamped(scene.patches.size());
+    const std::size_t n = rows.size();
+    MethodResult result;
+    result.report.method = kind();
+    FormFactors& out = result.form_factors;
+    Fields& details = result.report.details;
+    out = projection::zero_form_factors(scene, rows);
     const CornerTable table(options.resolution, half_width_);
     const Occluders occ = projection::build_occluders(scene);
     const double near = projection::kRelativeNear * occ.scale;
     const double edge_on = projection::kRelativeEdgeOn * occ.scale;
-    std::vector<double> ambiguous(n, 0.0);  // entry i: written by row i only
+    std::vector<double> ambiguous(n, 0.0);  // entry i - rows.begin: written by row i only
     const std::size_t planes = projection::project_patches<HemiplaneSolver>(
-        scene, options, "hemiplane", out, [&] { return std::make_unique<HemiplaneSolver>(table); },
+        ctx, "hemiplane", out, [&] { return std::make_unique<HemiplaneSolver>(table); },
         [&](HemiplaneSolver& solver, std::size_t i, const projection::Frame& frame, double weight,
             double* row) {
             solver.project(occ, frame, static_cast<int>(i), near, edge_on);
-            ambiguous[i] += weight * solver.solve(weight, row, nullptr);
+            ambiguous[i - rows.begin] += weight * solver.solve(weight, row, nullptr);
         });
     double amb_max = 0.0, amb_sum = 0.0;
     for (double a : ambiguous) {
@@ -408,7 +414,7 @@ FormFactors HemiplaneMethod::compute(const Scene& scene, const MethodOptions& op
     details["ambiguous_max"] = amb_max;
     details["ambiguous_mean"] = n > 0 ? amb_sum / static_cast<double>(n) : 0.0;
     details["seed"] = options.seed;
-    return out;
+    return result;
 }
 
 }  // namespace formfactor

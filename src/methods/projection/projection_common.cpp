@@ -297,22 +297,22 @@ int clip_convex(const P3* in, int n, const ClipPlane& plane, P3* out) {
 
 void check_projection_options(int resolution, int points, bool power_of_two) {
     if (resolution < 64 || resolution > 2048) {
-        throw OptionError("--resolution",
+        throw OptionError("resolution",
                           "must be from 64 to 2048, got " + std::to_string(resolution));
     }
     if (power_of_two) {
         if ((resolution & (resolution - 1)) != 0) {
-            throw OptionError("--resolution",
+            throw OptionError("resolution",
                               "the hemiplane needs a power of two (64, 128, ..., "
                               "2048), got " +
                                   std::to_string(resolution));
         }
     } else if (resolution % 2 != 0) {
-        throw OptionError("--resolution",
+        throw OptionError("resolution",
                           "the hemicube needs an even value, got " + std::to_string(resolution));
     }
     if (points < 1 || points > 4096) {
-        throw OptionError("--points", "must be from 1 to 4096, got " + std::to_string(points));
+        throw OptionError("points", "must be from 1 to 4096, got " + std::to_string(points));
     }
 }
 
@@ -339,10 +339,11 @@ void check_patch_normals(const Scene& scene, const char* method) {
     }
 }
 
-FormFactors zero_form_factors(const Scene& scene) {
+FormFactors zero_form_factors(const Scene& scene, RowRange rows) {
     const std::size_t n = scene.patches.size();
     FormFactors out;
-    out.F = DenseMatrix::Zero(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
+    out.first_row = rows.begin;
+    out.F = DenseMatrix::Zero(static_cast<Eigen::Index>(rows.size()), static_cast<Eigen::Index>(n));
     out.areas.resize(n);
     for (std::size_t i = 0; i < n; ++i) {
         const Patch& p = scene.patches[i];

@@ -98,7 +98,7 @@ Vec3 patch_normal(const Patch& p);
 void check_patch_normals(const Scene& scene, const char* method);
 
 /// An n × n zero matrix with the patches' areas (stored area, else the polygon's).
-FormFactors zero_form_factors(const Scene& scene);
+FormFactors zero_form_factors(const Scene& scene, RowRange rows);
 
 /// A point in local coordinates (a along u, b along v, c along w: the height above the base).
 struct P3 {
@@ -119,24 +119,27 @@ int clip_convex(const P3* in, int n, const ClipPlane& plane, P3* out);
 /// Checks --resolution and --points for the projection methods; throws OptionError.
 void check_projection_options(int resolution, int points, bool power_of_two);
 
-/// The loop of a projection method's compute(): in parallel over the patches i (progress bar
-/// `label`), for each of the options.points points of patch i, calls
-/// visit(worker, i, frame, weight, row) with the point's frame (rotated about the normal by
-/// the seeded stream), its weight and row i of out.F; then zeroes F_ii. `worker` is a
-/// per-thread Worker made by make() on first use. Returns the number of projections.
+/// The loop of a projection method's compute(): in parallel over the patches i of ctx.rows
+/// (progress phase `label`; `out` holds those rows), for each of the options.points points of patch
+/// i, calls visit(worker, i, frame, weight, row) with the point's frame (rotated about the normal
+/// by the seeded stream), its weight and row i of out.F; then zeroes F_ii. `worker` is a per-thread
+/// Worker made by make() on first use. Returns the number of projections.
 template <class Worker, class Make, class Visit>
-std::size_t project_patches(const Scene& scene, const MethodOptions& options, const char* label,
-                            FormFactors& out, Make make, Visit visit) {
-    const std::size_t n = scene.patches.size();
+std::size_t project_patches(const MethodContext& ctx, const char* label, FormFactors& out,
+                            Make make, Visit visit) {
+    const Scene& scene = ctx.scene;
+    const MethodOptions& options = ctx.options;
+    const RowRange rows = ctx.rows.clamped(scene.patches.size());
     tbb::enumerable_thread_specific<std::unique_ptr<Worker>> workers;
     std::atomic<std::size_t> projections{0};
-    Progress progress(label, n, options.progress);
-    parallel_for(n, options.threads, [&](std::size_t i) {
+    Progress progress(label, rows.size(), ctx.progress);
+    parallel_for(rows.size(), options.threads, [&](std::size_t r) {
+        const std::size_t i = rows.begin + r;
         std::unique_ptr<Worker>& worker = workers.local();
         if (!worker) worker = make();
         const Patch& p = scene.patches[i];
         const Vec3 nrm = patch_normal(p);
-        double* row = out.F.row(static_cast<Eigen::Index>(i)).data();
+        double* row = out.F.row(static_cast<Eigen::Index>(r)).data();
         const auto points = patch_points(p.polygon, options.points);
         for (std::size_t k = 0; k < points.size(); ++k) {
             const double rotation = 2.0 * kPi * stream_uniform(options.seed, i, k);

@@ -1,0 +1,24 @@
+#pragma once
+// Runs one method the way the tests did before the pipeline API: every row, no progress, the
+// report's "details" as JSON (to_json of the typed report, the same keys the run report holds).
+
+#include <nlohmann/json.hpp>
+
+#include "formfactor/methods/method.h"
+#include "formfactor/output/report.h"
+
+namespace formfactor::testing {
+
+inline FormFactors run_method(const Method& method, const Scene& scene,
+                              const MethodOptions& options, nlohmann::json& details) {
+    MethodResult r = method.compute(MethodContext{scene, options});
+    details = to_json(r.report);
+    return std::move(r.form_factors);
+}
+
+inline FormFactors run_method(const Method& method, const Scene& scene,
+                              const MethodOptions& options) {
+    return std::move(method.compute(MethodContext{scene, options}).form_factors);
+}
+
+}  // namespace formfactor::testing

@@ -1,0 +1,181 @@
+// The pipeline API (formfactor/pipeline.h): typed options and results, row ranges that give the
+// same rows bit for bit as the whole matrix, progress only when asked, a computation's own
+// cancellation flag, errors that name option fields.
+
+#include <doctest/doctest.h>
+
+#include <atomic>
+#include <string>
+#include <thread>
+
+#include "formfactor/core/error.h"
+#include "formfactor/pipeline.h"
+#include "formfactor/scene/scene.h"
+
+using namespace formfactor;
+
+namespace {
+
+Scene cornell(int n) {
+    Scene s = load_scene("cornell");
+    SubdivisionOptions o;
+    o.n = n;
+    subdivide(s, o);
+    return s;
+}
+
+ComputeOptions options_for(MethodKind kind) {
+    ComputeOptions o;
+    o.method = kind;
+    o.method_options.samples = kind == MethodKind::mc_hemisphere ? 512 : 16;
+    o.method_options.resolution = 64;
+    return o;
+}
+
+// Counts what a sink receives.
+class CountingSink final : public ProgressSink {
+  public:
+    void update(const std::string&, std::size_t, std::size_t, double) override { ++updates; }
+    void finish(const std::string&) override { ++finishes; }
+    int updates = 0, finishes = 0;
+};
+
+}  // namespace
+
+TEST_CASE("pipeline: any split of the rows gives the whole matrix bit for bit") {
+    const Scene s = cornell(2);
+    const std::size_t n = s.patches.size();
+    for (const MethodKind kind : {MethodKind::analytic, MethodKind::hemicube, MethodKind::hemiplane,
+                                  MethodKind::mc_area, MethodKind::mc_hemisphere,
+                                  MethodKind::mc_target}) {
+        CAPTURE(to_string(kind));
+        const ComputeOptions whole_options = options_for(kind);
+        const ComputeResult whole = compute_form_factors(s, whole_options);
+        REQUIRE(whole.form_factors.F.rows() == static_cast<Eigen::Index>(n));
+        REQUIRE(whole.diagnostics);
+        // Three uneven blocks.
+        const std::size_t cuts[] = {0, 7, n / 2 + 3, n};
+        for (int b = 0; b < 3; ++b) {
+            ComputeOptions o = whole_options;
+            o.rows = {cuts[b], cuts[b + 1]};
+            const ComputeResult part = compute_form_factors(s, o);
+            const FormFactors& f = part.form_factors;
+            CHECK(f.first_row == cuts[b]);
+            REQUIRE(f.F.rows() == static_cast<Eigen::Index>(cuts[b + 1] - cuts[b]));
+            REQUIRE(f.F.cols() == static_cast<Eigen::Index>(n));
+            CHECK_FALSE(part.diagnostics);  // a block has no row sums of the matrix
+            const auto expected = whole.form_factors.F.middleRows(
+                static_cast<Eigen::Index>(cuts[b]), f.F.rows());
+            CHECK((f.F.array() == expected.array()).all());
+            if (whole.form_factors.standard_error) {
+                REQUIRE(f.standard_error);
+                const auto se = whole.form_factors.standard_error->middleRows(
+                    static_cast<Eigen::Index>(cuts[b]), f.F.rows());
+                CHECK((f.standard_error->array() == se.array()).all());
+            }
+        }
+    }
+}
+
+TEST_CASE("pipeline: the default method, typed report, nothing drawn unless asked") {
+    const Scene s = cornell(1);
+    const ComputeResult r = compute_form_factors(s);
+    CHECK(r.report.method == MethodKind::analytic);
+    REQUIRE(r.report.error_bound_per_entry);
+    CHECK(*r.report.error_bound_per_entry > 0.0);
+    CHECK(*r.report.error_bound_per_entry <= 1e-6);
+    REQUIRE(r.report.pairs);
+    CHECK(r.report.pairs->pairs == s.patches.size() * (s.patches.size() - 1) / 2);
+    CHECK(r.report.details.contains("obstructions"));
+    CHECK(r.traits.reciprocity.kind == ReciprocityPromise::Kind::exact);
+    REQUIRE(r.diagnostics);
+    CHECK(r.diagnostics->n == s.patches.size());
+
+    // A sink receives the phases' ends (updates only after ~1 s of work).
+    CountingSink sink;
+    ComputeOptions o = options_for(MethodKind::mc_hemisphere);
+    o.progress = &sink;
+    const ComputeResult mc = compute_form_factors(s, o);
+    CHECK(sink.finishes >= 1);
+    REQUIRE(mc.report.rays_cast);
+    CHECK(*mc.report.rays_cast == 512 * s.patches.size());
+    CHECK(mc.form_factors.standard_error);
+}
+
+TEST_CASE("pipeline: a computation stops at its own cancellation flag") {
+    const Scene s = cornell(3);
+    CancellationFlag flag;
+    flag.request();
+    ComputeOptions o = options_for(MethodKind::mc_hemisphere);
+    o.cancel = &flag;
+    CHECK_THROWS_AS(compute_form_factors(s, o), Cancelled);
+    CHECK_FALSE(process_cancellation().requested());
+    // Another computation, without that flag, is not affected.
+    o.cancel = nullptr;
+    CHECK_NOTHROW(compute_form_factors(s, o));
+
+    // Requested from another thread while the rows run.
+    CancellationFlag later;
+    o.cancel = &later;
+    o.method_options.samples = 200000;
+    o.method_options.threads = 1;
+    std::thread stopper([&] {
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+        later.request();
+    });
+    CHECK_THROWS_AS(compute_form_factors(s, o), Cancelled);
+    stopper.join();
+}
+
+TEST_CASE("pipeline: errors name the option field, never a command-line flag") {
+    const Scene s = cornell(1);
+    auto field_of = [&](const ComputeOptions& o) -> std::string {
+        try {
+            compute_form_factors(s, o);
+        } catch (const OptionError& e) {
+            CHECK(std::string(e.what()).find("--") == std::string::npos);
+            return e.field();
+        }
+        return "(no error)";
+    };
+    ComputeOptions o;
+    o.method_options.tolerance = -1;
+    CHECK(field_of(o) == "tolerance");
+    o = {};
+    o.method_options.threads = -2;
+    CHECK(field_of(o) == "threads");
+    o = {};
+    o.rows = {5, 3};
+    CHECK(field_of(o) == "rows");
+    o = {};
+    o.rows = {s.patches.size() + 1, RowRange::kEnd};
+    CHECK(field_of(o) == "rows");
+    o = options_for(MethodKind::mc_area);
+    o.method_options.samples = std::uint64_t(1) << 40;
+    CHECK(field_of(o) == "samples");
+    o = {};
+    o.repair.mode = RepairMode::both;
+    o.rows = {0, 3};
+    CHECK(field_of(o) == "repair");
+    o = {};
+    o.visibility.relative_epsilon = 0.5;
+    CHECK(field_of(o) == "ray_offset");
+    CHECK_THROWS_WITH_AS(parse_method("radiosity"),
+                         "method: unknown method 'radiosity' (expected analytic, hemicube, "
+                         "hemiplane, mc-area, mc-hemisphere or mc-target)",
+                         OptionError);
+    CHECK(parse_method("mc-target") == MethodKind::mc_target);
+    CHECK(to_string(MethodKind::mc_area) == "mc-area");
+}
+
+TEST_CASE("pipeline: repair through the pipeline closes a Monte-Carlo matrix") {
+    const Scene s = load_scene("cube");
+    ComputeOptions o = options_for(MethodKind::mc_area);
+    o.repair.mode = RepairMode::both;
+    const ComputeResult r = compute_form_factors(s, o);
+    REQUIRE(r.repair);
+    CHECK(r.repair->after.row_sum_min > 1 - 1e-9);
+    CHECK(r.repair->after.row_sum_max < 1 + 1e-9);
+    REQUIRE(r.diagnostics);  // of F as the method made it
+    CHECK(r.diagnostics->reciprocity_area_weighted > r.repair->after.reciprocity_area_weighted);
+}
