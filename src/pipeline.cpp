@@ -15,8 +15,8 @@ namespace formfactor {
 void validate(const ComputeOptions& options) {
     const MethodOptions& m = options.method_options;
     if (m.threads < 0 || m.threads > 4096)
-        throw OptionError("threads", "must be from 0 (all cores) to 4096, got " +
-                                         std::to_string(m.threads));
+        throw OptionError("threads",
+                          "must be from 0 (all cores) to 4096, got " + std::to_string(m.threads));
     if (!(std::isfinite(m.tolerance) && m.tolerance > 0.0))
         throw OptionError("tolerance", "must be a finite number > 0");
     if (!(std::isfinite(m.obstructed_tolerance) && m.obstructed_tolerance > 0.0))
@@ -54,8 +54,7 @@ ComputeResult compute_form_factors(const Scene& scene, const ComputeOptions& opt
     needs.patches = n;
     needs.matrix = whole || full_inside;
     needs.standard_errors = result.traits.standard_errors && (whole || full_inside);
-    needs.output_rows =
-        whole ? 0 : rows.size() * (result.traits.standard_errors ? 2 : 1);
+    needs.output_rows = whole ? 0 : rows.size() * (result.traits.standard_errors ? 2 : 1);
     needs.repair = options.repair.mode != RepairMode::none;
     check_memory(needs, available_memory(),
                  "use a coarser subdivision, or compute the rows in blocks (ComputeOptions::rows)");
@@ -75,13 +74,13 @@ ComputeResult compute_form_factors(const Scene& scene, const ComputeOptions& opt
     result.report = std::move(computed.report);
     result.threads = effective_threads(options.method_options.threads);
 
+    if (whole) result.diagnostics = diagnose(result.form_factors);  // before repair
     if (options.repair.mode != RepairMode::none) {
         RepairOptions ro = options.repair;
         ro.enclosure = scene.enclosure;
         result.repair = repair(result.form_factors.F, result.form_factors.areas, ro);
         result.timings.add("repair", sw.lap());
     }
-    if (whole) result.diagnostics = diagnose(result.form_factors);
     return result;
 }
 

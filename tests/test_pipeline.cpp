@@ -45,9 +45,9 @@ class CountingSink final : public ProgressSink {
 TEST_CASE("pipeline: any split of the rows gives the whole matrix bit for bit") {
     const Scene s = cornell(2);
     const std::size_t n = s.patches.size();
-    for (const MethodKind kind : {MethodKind::analytic, MethodKind::hemicube, MethodKind::hemiplane,
-                                  MethodKind::mc_area, MethodKind::mc_hemisphere,
-                                  MethodKind::mc_target}) {
+    for (const MethodKind kind :
+         {MethodKind::analytic, MethodKind::hemicube, MethodKind::hemiplane, MethodKind::mc_area,
+          MethodKind::mc_hemisphere, MethodKind::mc_target}) {
         CAPTURE(to_string(kind));
         const ComputeOptions whole_options = options_for(kind);
         const ComputeResult whole = compute_form_factors(s, whole_options);
@@ -64,8 +64,8 @@ TEST_CASE("pipeline: any split of the rows gives the whole matrix bit for bit") 
             REQUIRE(f.F.rows() == static_cast<Eigen::Index>(cuts[b + 1] - cuts[b]));
             REQUIRE(f.F.cols() == static_cast<Eigen::Index>(n));
             CHECK_FALSE(part.diagnostics);  // a block has no row sums of the matrix
-            const auto expected = whole.form_factors.F.middleRows(
-                static_cast<Eigen::Index>(cuts[b]), f.F.rows());
+            const auto expected =
+                whole.form_factors.F.middleRows(static_cast<Eigen::Index>(cuts[b]), f.F.rows());
             CHECK((f.F.array() == expected.array()).all());
             if (whole.form_factors.standard_error) {
                 REQUIRE(f.standard_error);
@@ -169,8 +169,11 @@ TEST_CASE("pipeline: errors name the option field, never a command-line flag") {
 }
 
 TEST_CASE("pipeline: repair through the pipeline closes a Monte-Carlo matrix") {
-    const Scene s = load_scene("cube");
-    ComputeOptions o = options_for(MethodKind::mc_area);
+    Scene s = load_scene("cube");
+    SubdivisionOptions sub;
+    sub.n = 2;
+    subdivide(s, sub);
+    ComputeOptions o = options_for(MethodKind::mc_hemisphere);
     o.repair.mode = RepairMode::both;
     const ComputeResult r = compute_form_factors(s, o);
     REQUIRE(r.repair);

@@ -55,7 +55,8 @@ struct ComputeResult {
     MethodReport report;
     /// What the method promises (reciprocity verdict, standard errors).
     MethodTraits traits;
-    /// Row sums, reciprocity, signs of the (repaired) matrix; only for whole matrices.
+    /// Row sums, reciprocity (with z-scores for standard errors), signs of F as the method made
+    /// it, before repair (repair->after describes the repaired one); only for whole matrices.
     std::optional<Diagnostics> diagnostics;
     /// What repair did, when it was asked for.
     std::optional<RepairReport> repair;

@@ -28,10 +28,14 @@ bool Fields::contains(const std::string& key) const {
 
 double Fields::real() const {
     switch (kind_) {
-        case Kind::real: return d_;
-        case Kind::integer: return static_cast<double>(i_);
-        case Kind::unsigned_integer: return static_cast<double>(u_);
-        default: throw std::logic_error("Fields: not a number");
+        case Kind::real:
+            return d_;
+        case Kind::integer:
+            return static_cast<double>(i_);
+        case Kind::unsigned_integer:
+            return static_cast<double>(u_);
+        default:
+            throw std::logic_error("Fields: not a number");
     }
 }
 

@@ -30,7 +30,9 @@ class Fields {
         return f;
     }
 
-    Fields& operator=(bool v) { return set(Kind::boolean, [&] { b_ = v; }); }
+    Fields& operator=(bool v) {
+        return set(Kind::boolean, [&] { b_ = v; });
+    }
     Fields& operator=(const char* v) { return *this = std::string(v); }
     Fields& operator=(std::string v) {
         return set(Kind::text, [&] { s_ = std::move(v); });
