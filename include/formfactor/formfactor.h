@@ -4,10 +4,13 @@
 /// the headers they need; the test `umbrella_header_complete` fails when one is missing here.
 
 #include "formfactor/core/cancel.h"
+#include "formfactor/core/enum_names.h"
 #include "formfactor/core/error.h"
+#include "formfactor/core/fields.h"
 #include "formfactor/core/parallel.h"
 #include "formfactor/core/progress.h"
 #include "formfactor/core/random.h"
+#include "formfactor/core/timing.h"
 #include "formfactor/core/types.h"
 #include "formfactor/geometry/polygon.h"
 #include "formfactor/geometry/sampling.h"
@@ -31,6 +34,7 @@
 #include "formfactor/output/report.h"
 #include "formfactor/output/solution_io.h"
 #include "formfactor/output/view_image.h"
+#include "formfactor/pipeline.h"
 #include "formfactor/scene/points.h"
 #include "formfactor/scene/room.h"
 #include "formfactor/scene/scene.h"
