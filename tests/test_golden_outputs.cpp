@@ -140,7 +140,8 @@ TEST_CASE("golden: the CLI's outputs are those of the reference run") {
     const fs::path golden = fs::path(FF_TEST_DATA_DIR) / "golden";
     const bool write = std::getenv("FF_GOLDEN_WRITE") != nullptr;
     for (const GoldenCase& c : cases()) {
-        CAPTURE(c.name);
+        const std::string name = c.name;
+        CAPTURE(name);
         Cli cli;
         cli.write("thermal.csv", kThermal);
         cli.write("points.csv", kPoints);
@@ -152,7 +153,8 @@ TEST_CASE("golden: the CLI's outputs are those of the reference run") {
         INFO(r.err);
         REQUIRE(r.code == 0);
         for (const char* f : c.files) {
-            CAPTURE(f);
+            const std::string file = f;
+            CAPTURE(file);
             const fs::path got = cli.file(f);
             REQUIRE(fs::exists(got));
             const fs::path ref = golden / c.name / fs::path(f).filename();

@@ -77,6 +77,27 @@ TEST_CASE("pipeline: any split of the rows gives the whole matrix bit for bit") 
     }
 }
 
+TEST_CASE("pipeline: analytic row blocks of a room with obstruction records") {
+    // The obstruction pass on a block: hidden and partly hidden pairs touching the block only,
+    // their unobstructed values recovered as the whole matrix has them.
+    const Scene s = load_scene(std::string(FF_TEST_DATA_DIR) + "/room-4-obstruction.vs3");
+    const std::size_t n = s.patches.size();
+    const ComputeResult whole = compute_form_factors(s);
+    REQUIRE(whole.report.details.contains("obstructions"));
+    for (const RowRange rows :
+         {RowRange{0, 1}, RowRange{1, n / 3}, RowRange{n / 3, n - 2}, RowRange{n - 2, n}}) {
+        CAPTURE(rows.begin);
+        ComputeOptions o;
+        o.rows = rows;
+        const ComputeResult part = compute_form_factors(s, o);
+        REQUIRE(part.form_factors.F.rows() == static_cast<Eigen::Index>(rows.size()));
+        const auto expected = whole.form_factors.F.middleRows(
+            static_cast<Eigen::Index>(rows.begin), static_cast<Eigen::Index>(rows.size()));
+        CHECK((part.form_factors.F.array() == expected.array()).all());
+        CHECK(part.report.pairs->pairs < whole.report.pairs->pairs);
+    }
+}
+
 TEST_CASE("pipeline: the default method, typed report, nothing drawn unless asked") {
     const Scene s = cornell(1);
     const ComputeResult r = compute_form_factors(s);

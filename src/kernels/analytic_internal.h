@@ -77,6 +77,31 @@ UnobstructedStats unobstructed_form_factors(const std::vector<const Polygon*>& p
                                             int threads, Progress* progress, DenseMatrix& F,
                                             std::vector<double>& areas);
 
+/// Rows [rows.begin, rows.end) of that matrix, with the upper-triangle values U_ac (a < c) of
+/// every pair that touches the block: the block's rows (F, rows.size() × n) and the pairs of the
+/// rows before it with the block's patches (left, rows.begin × rows.size()). Every value is the
+/// one unobstructed_form_factors() gives, bit for bit. Cost: the block's rows plus rows.begin ×
+/// rows.size() pairs, not n².
+struct UnobstructedBlock {
+    RowRange rows;
+    std::size_t n = 0;
+    DenseMatrix F;
+    DenseMatrix left;
+    std::vector<double> areas;
+    /// U_ac (a < c) of a pair that touches the block.
+    double upper(std::size_t a, std::size_t c) const;
+    /// The whole matrix's unobstructed F_sr, for a pair that touches the block.
+    double unobstructed(std::size_t s, std::size_t r) const;
+    /// Sets F_ij when row i is in the block (else nothing: the row is not asked for).
+    void set(std::size_t i, std::size_t j, double v) {
+        if (rows.contains(i))
+            F(static_cast<Eigen::Index>(i - rows.begin), static_cast<Eigen::Index>(j)) = v;
+    }
+};
+UnobstructedStats unobstructed_block(const std::vector<const Polygon*>& polys, double tol,
+                                     int threads, Progress* progress, RowRange rows,
+                                     UnobstructedBlock& out);
+
 /// Relative error factor of an order-n Gauss rule over a polygon of circumradius R seen from a
 /// point at distance D ≥ R from its centroid, q = R/D < 1 (see docs/analytic.md).
 double gauss_factor(int n, double q);

@@ -105,79 +105,76 @@ using RowStats = detail::UnobstructedStats;
 
 }  // namespace
 
-detail::UnobstructedStats detail::unobstructed_form_factors(
-    const std::vector<const Polygon*>& polys, double tol, int threads, Progress* progress,
-    DenseMatrix& out_F, std::vector<double>& areas) {
-    const std::size_t n = polys.size();
-    out_F = DenseMatrix::Zero(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
-    const PatchTable t = build_table(polys, threads);
-    areas = t.area;
+namespace {
 
+// The unobstructed pairs (i, j) of row i for j in [j_begin, j_end) (all j > i): zero when one
+// faces away (nothing emitted), the far-field rule when its bound allows, else the contour
+// integral; emit(j, U_ij) for every other pair. One code path for the whole matrix and for a
+// block of rows, so that a block holds the whole matrix's values bit for bit (a far-field
+// batch computes each pair independently of the others queued with it).
+template <class Emit>
+void row_pairs(const PatchTable& t, const std::vector<const Polygon*>& polys, double tol,
+               double eps, std::size_t i, std::size_t j_begin, std::size_t j_end, RowStats& st,
+               const Emit& emit) {
+    const Vec3& ni = t.normal[i];
+    const Vec3& ci = t.centroid[i];
+    thread_local detail::FarFieldBatch batch;
+    batch.reset();
+    for (std::size_t j = j_begin; j < j_end; ++j) {
+        const Vec3& nj = t.normal[j];
+        const Vec3& cj = t.centroid[j];
+        const Side sj = side_of(ni, t.plane_d[i], cj, t.radius[j], *polys[j], eps);
+        if (sj == Side::kBehind) {
+            ++st.zero;
+            continue;
+        }
+        const Side si = side_of(nj, t.plane_d[j], ci, t.radius[i], *polys[i], eps);
+        if (si == Side::kBehind) {
+            ++st.zero;
+            continue;
+        }
+        if (sj == Side::kFront && si == Side::kFront) {
+            const double d = (cj - ci).norm();
+            const double ri = t.radius[i], rj = t.radius[j];
+            const double dmin = d - ri - rj;
+            if (dmin > 0.0) {
+                const double pref = std::max(t.area[i], t.area[j]) * kInvPi / (dmin * dmin);
+                const int oi =
+                    detail::gauss_order_for_fast(pref, ri / (d - rj), 0.5 * tol, kMaxFarFieldOrder);
+                const int oj = oi == 0 ? 0
+                                       : detail::gauss_order_for_fast(pref, rj / (d - ri),
+                                                                      0.5 * tol, kMaxFarFieldOrder);
+                if (oi > 0 && oj > 0) {
+                    batch.add(oi, j, t.rule(j, oj), nj, cj);
+                    ++st.far;
+                    st.points += static_cast<std::size_t>(t.rule(i, oi).count) *
+                                 static_cast<std::size_t>(t.rule(j, oj).count);
+                    ++st.order_hist[static_cast<std::size_t>(std::max(oi, oj))];
+                    continue;
+                }
+            }
+        }
+        emit(j, std::max(0.0, polygon_to_polygon(*polys[i], *polys[j])));
+        ++st.exact;
+    }
+    batch.run([&](int order) { return t.rule(i, order); }, ni, ci, 1.0 / t.area[i],
+              [&](std::size_t j, double fij) { emit(j, std::max(0.0, fij)); });
+}
+
+// The entry of the lower triangle from the upper one: F_ji = A_i F_ij / A_j (i < j), written
+// once here so that every path evaluates it alike.
+inline double reciprocal_entry(double upper, double area_small, double area_big) {
+    return area_big > 0.0 ? upper * area_small / area_big : 0.0;
+}
+
+Bounds3 polygons_box(const std::vector<const Polygon*>& polys) {
     Bounds3 box;
     for (const Polygon* p : polys)
         for (const Vec3& v : p->vertices) box.extend(v);
-    const double eps = box.empty() ? 0.0 : 1e-12 * box.diagonal().norm();
+    return box;
+}
 
-    std::vector<RowStats> stats(n);
-    double* F = out_F.data();
-    // Upper triangle: row i computes F_ij for j > i (each entry written by one task).
-    parallel_for(n, threads, [&](std::size_t i) {
-        RowStats& st = stats[i];
-        const Vec3& ni = t.normal[i];
-        const Vec3& ci = t.centroid[i];
-        thread_local detail::FarFieldBatch batch;
-        batch.reset();
-        for (std::size_t j = i + 1; j < n; ++j) {
-            const Vec3& nj = t.normal[j];
-            const Vec3& cj = t.centroid[j];
-            const Side sj = side_of(ni, t.plane_d[i], cj, t.radius[j], *polys[j], eps);
-            if (sj == Side::kBehind) {
-                ++st.zero;
-                continue;
-            }
-            const Side si = side_of(nj, t.plane_d[j], ci, t.radius[i], *polys[i], eps);
-            if (si == Side::kBehind) {
-                ++st.zero;
-                continue;
-            }
-            if (sj == Side::kFront && si == Side::kFront) {
-                const double d = (cj - ci).norm();
-                const double ri = t.radius[i], rj = t.radius[j];
-                const double dmin = d - ri - rj;
-                if (dmin > 0.0) {
-                    const double pref = std::max(t.area[i], t.area[j]) * kInvPi / (dmin * dmin);
-                    const int oi = detail::gauss_order_for_fast(pref, ri / (d - rj), 0.5 * tol,
-                                                                kMaxFarFieldOrder);
-                    const int oj = oi == 0 ? 0
-                                           : detail::gauss_order_for_fast(
-                                                 pref, rj / (d - ri), 0.5 * tol, kMaxFarFieldOrder);
-                    if (oi > 0 && oj > 0) {
-                        batch.add(oi, j, t.rule(j, oj), nj, cj);
-                        ++st.far;
-                        st.points += static_cast<std::size_t>(t.rule(i, oi).count) *
-                                     static_cast<std::size_t>(t.rule(j, oj).count);
-                        ++st.order_hist[static_cast<std::size_t>(std::max(oi, oj))];
-                        continue;
-                    }
-                }
-            }
-            F[i * n + j] = std::max(0.0, polygon_to_polygon(*polys[i], *polys[j]));
-            ++st.exact;
-        }
-        batch.run([&](int order) { return t.rule(i, order); }, ni, ci, 1.0 / t.area[i],
-                  [&](std::size_t j, double fij) { F[i * n + j] = std::max(0.0, fij); });
-        if (progress) progress->advance();
-    });
-    // Lower triangle by reciprocity, A_j F_ji = A_i F_ij, in cache-friendly tiles.
-    constexpr std::size_t kTile = 64;
-    const std::size_t tiles = (n + kTile - 1) / kTile;
-    parallel_for(tiles, threads, [&](std::size_t bj) {
-        for (std::size_t bi = 0; bi <= bj; ++bi)
-            for (std::size_t j = bj * kTile; j < std::min(n, (bj + 1) * kTile); ++j)
-                for (std::size_t i = bi * kTile; i < std::min(j, (bi + 1) * kTile); ++i)
-                    F[j * n + i] = t.area[j] > 0.0 ? F[i * n + j] * t.area[i] / t.area[j] : 0.0;
-    });
-
+RowStats sum_stats(const std::vector<RowStats>& stats) {
     RowStats total;
     for (const RowStats& s : stats) {
         total.zero += s.zero;
@@ -188,6 +185,87 @@ detail::UnobstructedStats detail::unobstructed_form_factors(
             total.order_hist[o] += s.order_hist[o];
     }
     return total;
+}
+
+}  // namespace
+
+detail::UnobstructedStats detail::unobstructed_form_factors(
+    const std::vector<const Polygon*>& polys, double tol, int threads, Progress* progress,
+    DenseMatrix& out_F, std::vector<double>& areas) {
+    const std::size_t n = polys.size();
+    out_F = DenseMatrix::Zero(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
+    const PatchTable t = build_table(polys, threads);
+    areas = t.area;
+    const Bounds3 box = polygons_box(polys);
+    const double eps = box.empty() ? 0.0 : 1e-12 * box.diagonal().norm();
+
+    std::vector<RowStats> stats(n);
+    double* F = out_F.data();
+    // Upper triangle: row i computes F_ij for j > i (each entry written by one task).
+    parallel_for(n, threads, [&](std::size_t i) {
+        row_pairs(t, polys, tol, eps, i, i + 1, n, stats[i],
+                  [&](std::size_t j, double v) { F[i * n + j] = v; });
+        if (progress) progress->advance();
+    });
+    // Lower triangle by reciprocity, A_j F_ji = A_i F_ij, in cache-friendly tiles.
+    constexpr std::size_t kTile = 64;
+    const std::size_t tiles = (n + kTile - 1) / kTile;
+    parallel_for(tiles, threads, [&](std::size_t bj) {
+        for (std::size_t bi = 0; bi <= bj; ++bi)
+            for (std::size_t j = bj * kTile; j < std::min(n, (bj + 1) * kTile); ++j)
+                for (std::size_t i = bi * kTile; i < std::min(j, (bi + 1) * kTile); ++i)
+                    F[j * n + i] = reciprocal_entry(F[i * n + j], t.area[i], t.area[j]);
+    });
+    return sum_stats(stats);
+}
+
+detail::UnobstructedStats detail::unobstructed_block(const std::vector<const Polygon*>& polys,
+                                                     double tol, int threads, Progress* progress,
+                                                     RowRange rows, UnobstructedBlock& out) {
+    const std::size_t n = polys.size(), b = rows.begin, e = rows.end, m = e - b;
+    const PatchTable t = build_table(polys, threads);
+    out.rows = rows;
+    out.n = n;
+    out.areas = t.area;
+    out.F = DenseMatrix::Zero(static_cast<Eigen::Index>(m), static_cast<Eigen::Index>(n));
+    out.left = DenseMatrix::Zero(static_cast<Eigen::Index>(b), static_cast<Eigen::Index>(m));
+    const Bounds3 box = polygons_box(polys);
+    const double eps = box.empty() ? 0.0 : 1e-12 * box.diagonal().norm();
+
+    // Rows before the block compute their pairs with the block's patches (into `left`), the
+    // block's rows their pairs with every later patch (into F's upper part).
+    std::vector<RowStats> stats(e);
+    parallel_for(e, threads, [&](std::size_t r) {
+        if (r < b) {
+            double* L = out.left.data() + r * m;
+            row_pairs(t, polys, tol, eps, r, b, e, stats[r],
+                      [&](std::size_t j, double v) { L[j - b] = v; });
+        } else {
+            double* row = out.F.data() + (r - b) * n;
+            row_pairs(t, polys, tol, eps, r, r + 1, n, stats[r],
+                      [&](std::size_t j, double v) { row[j] = v; });
+            if (progress) progress->advance();
+        }
+    });
+    // The block's entries below the diagonal, by reciprocity from the upper values.
+    parallel_for(m, threads, [&](std::size_t k) {
+        const std::size_t i = b + k;
+        double* row = out.F.data() + k * n;
+        for (std::size_t j = 0; j < i; ++j)
+            row[j] = reciprocal_entry(out.upper(j, i), t.area[j], t.area[i]);
+    });
+    return sum_stats(stats);
+}
+
+double detail::UnobstructedBlock::upper(std::size_t a, std::size_t c) const {
+    const std::size_t b = rows.begin, m = rows.size();
+    if (rows.contains(a)) return F(static_cast<Eigen::Index>(a - b), static_cast<Eigen::Index>(c));
+    FF_ASSERT(a < b && rows.contains(c));
+    return left.data()[a * m + (c - b)];
+}
+
+double detail::UnobstructedBlock::unobstructed(std::size_t s, std::size_t r) const {
+    return s < r ? upper(s, r) : reciprocal_entry(upper(r, s), areas[r], areas[s]);
 }
 
 void AnalyticMethod::check(const Scene&) const {
@@ -213,16 +291,23 @@ MethodResult AnalyticMethod::compute(const MethodContext& ctx) const {
     FormFactors& out = result.form_factors;
     std::vector<const Polygon*> polys(n);
     for (std::size_t p = 0; p < n; ++p) polys[p] = &scene.patches[p].polygon;
-    Progress progress("analytic", n, ctx.progress);
+    const bool whole = rows.size() == n;
+    Progress progress("analytic", rows.size(), ctx.progress);
+    detail::UnobstructedBlock block;
     const RowStats total =
-        detail::unobstructed_form_factors(polys, tol, options.threads, &progress, out.F, out.areas);
+        whole ? detail::unobstructed_form_factors(polys, tol, options.threads, &progress, out.F,
+                                                  out.areas)
+              : detail::unobstructed_block(polys, tol, options.threads, &progress, rows, block);
     progress.finish();
+    if (!whole) out.areas = block.areas;
     Fields& details = report.details;
     Fields hist = Fields::object();
     for (int o = 1; o <= kMaxFarFieldOrder; ++o)
         if (total.order_hist[static_cast<std::size_t>(o)] > 0)
             hist[std::to_string(o)] = total.order_hist[static_cast<std::size_t>(o)];
-    report.pairs = PairClasses{n * (n - (n > 0 ? 1 : 0)) / 2, total.zero, total.exact, total.far};
+    // Every unordered pair for the whole matrix; the pairs a block needed for a block.
+    report.pairs =
+        PairClasses{total.zero + total.exact + total.far, total.zero, total.exact, total.far};
     details["far_field_kernel_evaluations"] = total.points;
     details["far_field_orders"] = hist;
     details["tolerance"] = tol;
@@ -233,14 +318,12 @@ MethodResult AnalyticMethod::compute(const MethodContext& ctx) const {
     details["threads"] = effective_threads(options.threads);
     details["obstructed"] = obstructed;
     if (obstructed) {
-        apply_obstructions(ctx, out, details);
+        apply_obstructions(ctx, out, details, whole ? nullptr : &block);
         report.error_bound_per_entry =
             std::max(std::max(tol, 1e-12), details["obstructions"]["max_error_estimate"].real());
     }
-    if (rows.size() != n) {
-        DenseMatrix block = out.F.middleRows(static_cast<Eigen::Index>(rows.begin),
-                                             static_cast<Eigen::Index>(rows.size()));
-        out.F = std::move(block);
+    if (!whole) {
+        out.F = std::move(block.F);
         out.first_row = rows.begin;
     }
     return result;

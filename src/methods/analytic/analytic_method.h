@@ -2,6 +2,7 @@
 // The `analytic` method (private header: the registry creates it by name).
 
 #include "formfactor/methods/method.h"
+#include "kernels/analytic_internal.h"
 
 namespace formfactor {
 
@@ -14,8 +15,9 @@ class AnalyticMethod final : public Method {
   public:
     MethodKind kind() const override { return MethodKind::analytic; }
     void check(const Scene& scene) const override;
-    /// A row range computes the whole matrix and returns its rows (bit-identical to the whole
-    /// run; the cost is not yet proportional to the block).
+    /// A row range [b, e) costs its rows and the b × (e − b) pairs before them (plus the
+    /// classification of the whole scene when it may obstruct), and is bit-identical to the
+    /// same rows of the whole matrix.
     MethodResult compute(const MethodContext& ctx) const override;
 
     /// True when some surface may block a segment between two others (an obstruction-only
@@ -28,7 +30,9 @@ class AnalyticMethod final : public Method {
   private:
     /// The obstruction pass over an unobstructed matrix (analytic_obstructed.cpp): corrects
     /// `out` and fills details["obstructions"] and the error bound's input.
-    static void apply_obstructions(const MethodContext& ctx, FormFactors& out, Fields& details);
+    /// With `block`, only its rows are corrected (out.F is then unused).
+    static void apply_obstructions(const MethodContext& ctx, FormFactors& out, Fields& details,
+                                   detail::UnobstructedBlock* block = nullptr);
 };
 
 }  // namespace formfactor

@@ -230,8 +230,8 @@ bool AnalyticMethod::may_obstruct(const Scene& scene) {
     return false;
 }
 
-void AnalyticMethod::apply_obstructions(const MethodContext& ctx, FormFactors& out,
-                                        Fields& details) {
+void AnalyticMethod::apply_obstructions(const MethodContext& ctx, FormFactors& out, Fields& details,
+                                        detail::UnobstructedBlock* block) {
     const Scene& scene = ctx.scene;
     const MethodOptions& options = ctx.options;
     using Clock = std::chrono::steady_clock;
@@ -371,8 +371,13 @@ void AnalyticMethod::apply_obstructions(const MethodContext& ctx, FormFactors& o
             for (int y = B.first; y < B.first + B.count; ++y) {
                 const auto i = static_cast<std::size_t>(TA.order[static_cast<std::size_t>(x)]);
                 const auto j = static_cast<std::size_t>(TB.order[static_cast<std::size_t>(y)]);
-                F[i * n + j] = 0.0;
-                F[j * n + i] = 0.0;
+                if (block) {
+                    block->set(i, j, 0.0);
+                    block->set(j, i, 0.0);
+                } else {
+                    F[i * n + j] = 0.0;
+                    F[j * n + i] = 0.0;
+                }
             }
     });
 
@@ -384,6 +389,20 @@ void AnalyticMethod::apply_obstructions(const MethodContext& ctx, FormFactors& o
         double max_error = 0;
         std::size_t points = 0, cells = 0, capped = 0, changed = 0;
     };
+    if (block) {
+        // A block of rows: only the pairs with a patch in it.
+        std::size_t kept = 0;
+        for (std::size_t k = 0; k < partial.size(); ++k) {
+            const auto i = static_cast<std::size_t>(partial[k].i);
+            const auto j = static_cast<std::size_t>(partial[k].j);
+            if (!block->rows.contains(i) && !block->rows.contains(j)) continue;
+            partial[kept] = partial[k];
+            cand_task[kept] = cand_task[k];
+            ++kept;
+        }
+        partial.resize(kept);
+        cand_task.resize(kept);
+    }
     const int threads = effective_threads(options.threads);
     std::vector<Stats> stats(partial.size());
     Progress progress("analytic (obstructed)", partial.size(), ctx.progress);
@@ -394,7 +413,7 @@ void AnalyticMethod::apply_obstructions(const MethodContext& ctx, FormFactors& o
         const double as = scene.patches[s].area, ar = scene.patches[r].area;
         if (ar < as || (ar == as && r < s)) std::swap(s, r);
         const double a_s = scene.patches[s].area, a_r = scene.patches[r].area;
-        const double unobs = F[s * n + r];
+        const double unobs = block ? block->unobstructed(s, r) : F[s * n + r];
         Stats st;
         if (unobs > 0.0) {
             const Polygon& ps = scene.patches[s].polygon;
@@ -414,8 +433,14 @@ void AnalyticMethod::apply_obstructions(const MethodContext& ctx, FormFactors& o
             }
             const double f = std::clamp(unobs - hidden_sum, 0.0, unobs);
             if (f != unobs) ++st.changed;
-            F[s * n + r] = f;
-            F[r * n + s] = a_r > 0.0 ? f * a_s / a_r : 0.0;
+            const double back = a_r > 0.0 ? f * a_s / a_r : 0.0;
+            if (block) {
+                block->set(s, r, f);
+                block->set(r, s, back);
+            } else {
+                F[s * n + r] = f;
+                F[r * n + s] = back;
+            }
             st.max_error = err;
             ++st.levels[static_cast<std::size_t>(std::min(level, kLevels))];
         }
