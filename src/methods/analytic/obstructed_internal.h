@@ -1,7 +1,8 @@
 #pragma once
 // Internals of the obstruction-aware analytic method (not public API): convex blocker pieces in
-// a BVH, conservative shaft classification of polygon pairs, and the adaptive integration of
-// the hidden part of a partly hidden pair. See docs/analytic.md, "Obstructed scenes".
+// a BVH (blocker_set.cpp), conservative shaft classification of polygon pairs (shaft.cpp), and
+// the adaptive integration of the hidden part of a partly hidden pair (obstructed.cpp, with
+// discontinuity_mesh.cpp and shadow_clip.{h,cpp}). See docs/analytic.md, "Obstructed scenes".
 
 #include <cstdint>
 #include <vector>
@@ -137,6 +138,15 @@ struct HiddenIntegral {
 /// s and r: planar convex polygons (counter-clockwise about their normals).
 HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const BlockerSet& blockers,
                                const int* cand, int n, double target, double eps);
+
+struct Receiver;  // shadow_clip.h
+
+/// The sender s (unit normal ns) cut into convex pieces along the lines where
+/// F(x → part of rc hidden by the candidate pieces) has kinks (discontinuity meshing); the
+/// convex parts of s when nothing cuts it.
+std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Receiver& rc,
+                                     const BlockerSet& blockers, const int* cand, int n,
+                                     double eps);
 
 /// F from a point x (unit normal n) to the part of the convex polygon r hidden by the pieces:
 /// Lambert's formula on the union of the pieces' central projections (shadows) from x onto r's
