@@ -63,10 +63,11 @@ void BlockerSet::add(const Polygon& p, int surface) {
 }
 
 void BlockerSet::build() {
-    nodes_.clear();
-    order_.resize(pieces_.size());
-    std::iota(order_.begin(), order_.end(), 0);
-    if (!pieces_.empty()) build_node(0, static_cast<int>(pieces_.size()));
+    constexpr int kLeafSize = 4;
+    const auto box_of = [&](int k) -> const Bounds3& {
+        return pieces_[static_cast<std::size_t>(k)].box;
+    };
+    tree_.build(pieces_.size(), box_of, kLeafSize);
 }
 
 void BlockerSet::mark_closed_solids(const std::vector<std::pair<Bounds3, int>>& patches,
@@ -150,41 +151,6 @@ void BlockerSet::mark_closed_solids(const std::vector<std::pair<Bounds3, int>>& 
             }
         }
     }
-}
-
-int BlockerSet::build_node(int first, int count) {
-    const int id = static_cast<int>(nodes_.size());
-    nodes_.push_back({});
-    Bounds3 box, cbox;
-    for (int k = first; k < first + count; ++k) {
-        const Piece& p = pieces_[static_cast<std::size_t>(order_[static_cast<std::size_t>(k)])];
-        box.extend(p.box.lo);
-        box.extend(p.box.hi);
-        cbox.extend(0.5 * (p.box.lo + p.box.hi));
-    }
-    nodes_[static_cast<std::size_t>(id)].box = box;
-    if (count <= 4) {
-        nodes_[static_cast<std::size_t>(id)].first = first;
-        nodes_[static_cast<std::size_t>(id)].count = count;
-        return id;
-    }
-    int axis = 0;
-    const Vec3 ext = cbox.diagonal();
-    if (ext.y() > ext[axis]) axis = 1;
-    if (ext.z() > ext[axis]) axis = 2;
-    const int mid = first + count / 2;
-    std::nth_element(order_.begin() + first, order_.begin() + mid, order_.begin() + first + count,
-                     [&](int a, int b) {
-                         const Piece& pa = pieces_[static_cast<std::size_t>(a)];
-                         const Piece& pb = pieces_[static_cast<std::size_t>(b)];
-                         return pa.box.lo[axis] + pa.box.hi[axis] <
-                                pb.box.lo[axis] + pb.box.hi[axis];
-                     });
-    const int l = build_node(first, mid - first);
-    const int r = build_node(mid, first + count - mid);
-    nodes_[static_cast<std::size_t>(id)].left = l;
-    nodes_[static_cast<std::size_t>(id)].right = r;
-    return id;
 }
 
 std::vector<Vec3> planar_convex_hull(const std::vector<Vec3>& points, const Vec3& n) {

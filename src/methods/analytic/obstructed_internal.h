@@ -9,6 +9,7 @@
 
 #include "formfactor/core/types.h"
 #include "formfactor/geometry/polygon.h"
+#include "geometry/box_tree.h"
 
 namespace formfactor::detail {
 
@@ -63,17 +64,10 @@ class BlockerSet {
     void query(const class Shaft& shaft, int skip_a, int skip_b, std::vector<int>& out) const;
 
   private:
-    struct Node {
-        Bounds3 box;
-        int left = -1, right = -1;  // children, or −1 for a leaf
-        int first = 0, count = 0;   // leaf: order_[first, first + count)
-    };
     std::vector<Vec3> verts_;
     std::vector<int> neighbor_;  // per vertex of verts_: the piece across the edge it starts
     std::vector<Piece> pieces_;
-    std::vector<Node> nodes_;
-    std::vector<int> order_;
-    int build_node(int first, int count);
+    BoxTree tree_;  // over the pieces' boxes
 };
 
 /// The shaft of two planar convex polygons a and b: the planes bounding their convex hull (the

@@ -257,16 +257,16 @@ bool Shaft::piece_hides(const Vec3* p, int count, const Plane& pl) const {
 // Blocker pieces against a shaft
 
 void BlockerSet::query(const Shaft& shaft, int skip_a, int skip_b, std::vector<int>& out) const {
-    if (nodes_.empty()) return;
+    if (tree_.nodes.empty()) return;
     int stack[128];
     int top = 0;
     stack[top++] = 0;
     while (top > 0) {
-        const Node& nd = nodes_[static_cast<std::size_t>(stack[--top])];
+        const BoxTree::Node& nd = tree_.nodes[static_cast<std::size_t>(stack[--top])];
         if (shaft.box_outside(nd.box)) continue;
         if (nd.left < 0) {
             for (int k = nd.first; k < nd.first + nd.count; ++k) {
-                const int p = order_[static_cast<std::size_t>(k)];
+                const int p = tree_.order[static_cast<std::size_t>(k)];
                 const int s = pieces_[static_cast<std::size_t>(p)].surface;
                 if (s == skip_a || s == skip_b) continue;
                 out.push_back(p);
