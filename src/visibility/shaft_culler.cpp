@@ -47,48 +47,10 @@ ShaftCuller::ShaftCuller(const Scene& scene) {
     for (const Surface& s : scene.surfaces)
         if (s.obstruction) add(s.polygon);
     eps_ = all.empty() ? 0.0 : 1e-9 * all.diagonal().norm();
-    order_.resize(polys_.size());
-    for (std::size_t k = 0; k < order_.size(); ++k) order_[k] = static_cast<int>(k);
-    if (!polys_.empty()) {
-        nodes_.reserve(2 * polys_.size());
-        build(0, static_cast<int>(polys_.size()));
-    }
-}
-
-int ShaftCuller::build(int first, int count) {
-    const int index = static_cast<int>(nodes_.size());
-    nodes_.emplace_back();
-    Bounds3 box, centres;
-    for (int k = first; k < first + count; ++k) {
-        const Poly& p = polys_[static_cast<std::size_t>(order_[static_cast<std::size_t>(k)])];
-        box.extend(p.box.lo);
-        box.extend(p.box.hi);
-        centres.extend(0.5 * (p.box.lo + p.box.hi));
-    }
-    Node node;
-    node.centre = 0.5 * (box.lo + box.hi);
-    node.half = 0.5 * (box.hi - box.lo);
-    if (count <= kLeafSize) {
-        node.first = first;
-        node.count = count;
-        nodes_[static_cast<std::size_t>(index)] = node;
-        return index;
-    }
-    int axis = 0;
-    const Vec3 extent = centres.diagonal();
-    if (extent.y() > extent[axis]) axis = 1;
-    if (extent.z() > extent[axis]) axis = 2;
-    const int mid = first + count / 2;
-    auto key = [&](int k) {
-        const Poly& p = polys_[static_cast<std::size_t>(k)];
-        return p.box.lo[axis] + p.box.hi[axis];
+    const auto box_of = [&](int k) -> const Bounds3& {
+        return polys_[static_cast<std::size_t>(k)].box;
     };
-    std::nth_element(order_.begin() + first, order_.begin() + mid, order_.begin() + first + count,
-                     [&](int a, int b) { return key(a) < key(b); });
-    node.left = build(first, mid - first);
-    node.right = build(mid, first + count - mid);
-    nodes_[static_cast<std::size_t>(index)] = node;
-    return index;
+    tree_.build(polys_.size(), box_of, kLeafSize);
 }
 
 bool ShaftCuller::unoccluded(int i, int j) const {
@@ -186,11 +148,12 @@ bool ShaftCuller::clear(const Vec3* vi, int ni, const Vec3* vj, int nj, int skip
     int top = 0;
     stack[top++] = 0;
     while (top > 0) {
-        const Node& node = nodes_[static_cast<std::size_t>(stack[--top])];
-        if (box_cleared(node.centre, node.half)) continue;
+        const detail::BoxTree::Node& node = tree_.nodes[static_cast<std::size_t>(stack[--top])];
+        const Vec3 nc = 0.5 * (node.box.lo + node.box.hi), nh = 0.5 * (node.box.hi - node.box.lo);
+        if (box_cleared(nc, nh)) continue;
         if (node.left < 0) {
             for (int k = node.first; k < node.first + node.count; ++k) {
-                const int b = order_[static_cast<std::size_t>(k)];
+                const int b = tree_.order[static_cast<std::size_t>(k)];
                 if (b == skip_i || b == skip_j) continue;
                 const Poly& q = polys_[static_cast<std::size_t>(b)];
                 const Vec3 c = 0.5 * (q.box.lo + q.box.hi), h = 0.5 * (q.box.hi - q.box.lo);

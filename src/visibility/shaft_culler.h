@@ -2,8 +2,9 @@
 // Conservative shaft culling between pairs of patches (private to the library; DESIGN.md puts
 // shaft culling in the visibility module). Used by mc-target to settle, without rays, the pairs
 // that nothing can block. Deliberately independent of the analytic method's obstruction
-// classification (src/methods/obstructed*.cpp): mc-target is the Monte-Carlo check of that
-// method and must not share its reasoning.
+// classification (src/methods/analytic/shaft.cpp): mc-target is the Monte-Carlo check of that
+// method and must not share its reasoning. Only the bounding-volume tree is shared
+// (geometry/box_tree.h): it decides which blockers are tested, never how.
 
 #include <array>
 #include <cstddef>
@@ -11,6 +12,7 @@
 
 #include "formfactor/core/types.h"
 #include "formfactor/scene/scene.h"
+#include "geometry/box_tree.h"
 
 namespace formfactor {
 
@@ -45,11 +47,6 @@ class ShaftCuller {
         Vec3 normal = Vec3::Zero();  // unit (Newell), zero when degenerate
         double offset = 0;           // normal · (a vertex)
     };
-    struct Node {
-        Vec3 centre = Vec3::Zero(), half = Vec3::Zero();  // box as centre and half-extent
-        int left = -1, right = -1;                        // children, or −1 for a leaf
-        int first = 0, count = 0;                         // leaf: order_[first, first + count)
-    };
     struct Plane {
         Vec3 m = Vec3::Zero();  // unit, pointing out of the shaft
         double d = 0;           // the shaft is {p : m·p ≤ d}
@@ -57,13 +54,11 @@ class ShaftCuller {
     static constexpr int kMaxPlanes = 64;
     static constexpr int kMaxVertices = 16;  // larger patches are not culled (answer false)
 
-    int build(int first, int count);
     bool clear(const Vec3* vi, int ni, const Vec3* vj, int nj, int skip_i, int skip_j) const;
 
     std::vector<Vec3> verts_;
     std::vector<Poly> polys_;
-    std::vector<Node> nodes_;
-    std::vector<int> order_;
+    detail::BoxTree tree_;  // over the polygons' boxes
     std::size_t patch_count_ = 0;
     double eps_ = 0;
 };

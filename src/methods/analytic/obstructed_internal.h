@@ -1,13 +1,15 @@
 #pragma once
 // Internals of the obstruction-aware analytic method (not public API): convex blocker pieces in
-// a BVH, conservative shaft classification of polygon pairs, and the adaptive integration of
-// the hidden part of a partly hidden pair. See docs/analytic.md, "Obstructed scenes".
+// a BVH (blocker_set.cpp), conservative shaft classification of polygon pairs (shaft.cpp), and
+// the adaptive integration of the hidden part of a partly hidden pair (obstructed.cpp, with
+// discontinuity_mesh.cpp and shadow_clip.{h,cpp}). See docs/analytic.md, "Obstructed scenes".
 
 #include <cstdint>
 #include <vector>
 
 #include "formfactor/core/types.h"
 #include "formfactor/geometry/polygon.h"
+#include "geometry/box_tree.h"
 
 namespace formfactor::detail {
 
@@ -62,17 +64,10 @@ class BlockerSet {
     void query(const class Shaft& shaft, int skip_a, int skip_b, std::vector<int>& out) const;
 
   private:
-    struct Node {
-        Bounds3 box;
-        int left = -1, right = -1;  // children, or −1 for a leaf
-        int first = 0, count = 0;   // leaf: order_[first, first + count)
-    };
     std::vector<Vec3> verts_;
     std::vector<int> neighbor_;  // per vertex of verts_: the piece across the edge it starts
     std::vector<Piece> pieces_;
-    std::vector<Node> nodes_;
-    std::vector<int> order_;
-    int build_node(int first, int count);
+    BoxTree tree_;  // over the pieces' boxes
 };
 
 /// The shaft of two planar convex polygons a and b: the planes bounding their convex hull (the
@@ -137,6 +132,15 @@ struct HiddenIntegral {
 /// s and r: planar convex polygons (counter-clockwise about their normals).
 HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const BlockerSet& blockers,
                                const int* cand, int n, double target, double eps);
+
+struct Receiver;  // shadow_clip.h
+
+/// The sender s (unit normal ns) cut into convex pieces along the lines where
+/// F(x → part of rc hidden by the candidate pieces) has kinks (discontinuity meshing); the
+/// convex parts of s when nothing cuts it.
+std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Receiver& rc,
+                                     const BlockerSet& blockers, const int* cand, int n,
+                                     double eps);
 
 /// F from a point x (unit normal n) to the part of the convex polygon r hidden by the pieces:
 /// Lambert's formula on the union of the pieces' central projections (shadows) from x onto r's

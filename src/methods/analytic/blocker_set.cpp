@@ -1,0 +1,190 @@
+// The blocker set: every blocking polygon as convex planar pieces with a bounding-volume
+// hierarchy over their boxes, the closed solids among them (whose back faces a point can skip),
+// and the planar convex hull the cluster trees of analytic_obstructed.cpp bound their nodes with.
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <functional>
+#include <map>
+#include <numeric>
+#include <vector>
+
+#include "formfactor/geometry/polygon.h"
+#include "methods/analytic/obstructed_internal.h"
+
+namespace formfactor::detail {
+
+namespace {
+
+bool is_convex(const Polygon& p, const Vec3& n) {
+    const std::size_t m = p.size();
+    if (m == 3) return true;
+    const double scale = diameter(p);
+    for (std::size_t k = 0; k < m; ++k) {
+        const Vec3 e0 = p[k] - p[(k + m - 1) % m], e1 = p[(k + 1) % m] - p[k];
+        if (e0.cross(e1).dot(n) < -1e-12 * scale * scale) return false;
+    }
+    return true;
+}
+
+// Convex pieces of a polygon: itself when convex and small, else its triangulation.
+std::vector<Polygon> convex_pieces(const Polygon& p) {
+    const Vec3 n = normal(p);
+    if (p.size() <= static_cast<std::size_t>(kMaxPieceVertices) && is_convex(p, n)) return {p};
+    std::vector<Polygon> out;
+    for (const auto& t : triangulate(p)) {
+        Polygon q;
+        q.vertices = {p[static_cast<std::size_t>(t[0])], p[static_cast<std::size_t>(t[1])],
+                      p[static_cast<std::size_t>(t[2])]};
+        if (area(q) > 0.0) out.push_back(std::move(q));
+    }
+    return out;
+}
+
+}  // namespace
+
+// ----------------------------------------------------------------------------------------------
+// BlockerSet
+
+std::vector<Polygon> BlockerSet::convex_parts(const Polygon& p) { return convex_pieces(p); }
+
+void BlockerSet::add(const Polygon& p, int surface) {
+    for (const Polygon& q : convex_pieces(p)) {
+        Piece pc;
+        pc.first = static_cast<int>(verts_.size());
+        pc.count = static_cast<int>(q.size());
+        pc.plane = plane_of(q);
+        pc.box = bounds(q);
+        pc.surface = surface;
+        for (const Vec3& v : q.vertices) verts_.push_back(v);
+        pieces_.push_back(pc);
+    }
+}
+
+void BlockerSet::build() {
+    constexpr int kLeafSize = 4;
+    const auto box_of = [&](int k) -> const Bounds3& {
+        return pieces_[static_cast<std::size_t>(k)].box;
+    };
+    tree_.build(pieces_.size(), box_of, kLeafSize);
+}
+
+void BlockerSet::mark_closed_solids(const std::vector<std::pair<Bounds3, int>>& patches,
+                                    double tol) {
+    const std::size_t np = pieces_.size();
+    auto key = [&](const Vec3& v) {
+        return std::array<long long, 3>{std::llround(v.x() / tol), std::llround(v.y() / tol),
+                                        std::llround(v.z() / tol)};
+    };
+    using EdgeKey = std::array<long long, 6>;
+    std::map<EdgeKey, std::vector<int>> edges;  // directed edge → pieces
+    for (std::size_t p = 0; p < np; ++p) {
+        const Piece& pc = pieces_[p];
+        for (int k = 0; k < pc.count; ++k) {
+            const auto a = key(verts_[static_cast<std::size_t>(pc.first + k)]);
+            const auto b = key(verts_[static_cast<std::size_t>(pc.first + (k + 1) % pc.count)]);
+            edges[{a[0], a[1], a[2], b[0], b[1], b[2]}].push_back(static_cast<int>(p));
+        }
+    }
+    // Union–find over pieces joined by reversed edges; a piece with an unmatched edge is open.
+    std::vector<int> parent(np);
+    std::iota(parent.begin(), parent.end(), 0);
+    std::function<int(int)> find = [&](int x) {
+        while (parent[static_cast<std::size_t>(x)] != x)
+            x = parent[static_cast<std::size_t>(x)] =
+                parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(x)])];
+        return x;
+    };
+    std::vector<char> open(np, 0);
+    for (const auto& [e, ps] : edges) {
+        const EdgeKey rev = {e[3], e[4], e[5], e[0], e[1], e[2]};
+        const auto it = edges.find(rev);
+        if (it == edges.end() || ps.size() != 1 || it->second.size() != 1) {
+            for (int p : ps) open[static_cast<std::size_t>(p)] = 1;
+            continue;
+        }
+        parent[static_cast<std::size_t>(find(ps[0]))] = find(it->second[0]);
+    }
+    std::map<int, std::vector<int>> comps;
+    for (std::size_t p = 0; p < np; ++p)
+        comps[find(static_cast<int>(p))].push_back(static_cast<int>(p));
+    for (const auto& [root, ps] : comps) {
+        (void)root;
+        bool closed = ps.size() >= 4;
+        double volume = 0.0;
+        Bounds3 box;
+        std::vector<int> ids;
+        for (int p : ps) {
+            const Piece& pc = pieces_[static_cast<std::size_t>(p)];
+            closed = closed && !open[static_cast<std::size_t>(p)];
+            const Vec3& v0 = verts_[static_cast<std::size_t>(pc.first)];
+            for (int k = 1; k + 1 < pc.count; ++k)
+                volume += v0.dot(verts_[static_cast<std::size_t>(pc.first + k)].cross(
+                              verts_[static_cast<std::size_t>(pc.first + k + 1)])) /
+                          6.0;
+            box.extend(pc.box.lo);
+            box.extend(pc.box.hi);
+            ids.push_back(pc.surface);
+        }
+        if (!closed || !(volume > 0.0)) continue;
+        std::sort(ids.begin(), ids.end());
+        bool empty_inside = true;
+        for (const auto& [pb, id] : patches) {
+            if (std::binary_search(ids.begin(), ids.end(), id)) continue;
+            if ((pb.lo.array() <= box.hi.array() + tol).all() &&
+                (pb.hi.array() >= box.lo.array() - tol).all()) {
+                empty_inside = false;
+                break;
+            }
+        }
+        if (!empty_inside) continue;
+        for (int p : ps) pieces_[static_cast<std::size_t>(p)].cull_back = true;
+        if (neighbor_.empty()) neighbor_.assign(verts_.size(), -1);
+        for (int p : ps) {
+            const Piece& pc = pieces_[static_cast<std::size_t>(p)];
+            for (int k = 0; k < pc.count; ++k) {
+                const auto a = key(verts_[static_cast<std::size_t>(pc.first + k)]);
+                const auto b = key(verts_[static_cast<std::size_t>(pc.first + (k + 1) % pc.count)]);
+                const auto it = edges.find({b[0], b[1], b[2], a[0], a[1], a[2]});
+                neighbor_[static_cast<std::size_t>(pc.first + k)] = it->second[0];
+            }
+        }
+    }
+}
+
+std::vector<Vec3> planar_convex_hull(const std::vector<Vec3>& points, const Vec3& n) {
+    if (points.size() < 3) return points;
+    Vec3 u, v;
+    orthonormal_basis(n, u, v);
+    const Vec3 o = points[0];
+    struct P2 {
+        double x, y;
+        int k;
+    };
+    std::vector<P2> p;
+    p.reserve(points.size());
+    for (std::size_t k = 0; k < points.size(); ++k)
+        p.push_back({u.dot(points[k] - o), v.dot(points[k] - o), static_cast<int>(k)});
+    std::sort(p.begin(), p.end(),
+              [](const P2& a, const P2& b) { return a.x < b.x || (a.x == b.x && a.y < b.y); });
+    auto cross = [](const P2& o2, const P2& a, const P2& b) {
+        return (a.x - o2.x) * (b.y - o2.y) - (a.y - o2.y) * (b.x - o2.x);
+    };
+    std::vector<P2> h(2 * p.size());
+    std::size_t m = 0;
+    for (std::size_t k = 0; k < p.size(); ++k) {
+        while (m >= 2 && cross(h[m - 2], h[m - 1], p[k]) <= 0) --m;
+        h[m++] = p[k];
+    }
+    for (std::size_t k = p.size() - 1, t = m + 1; k-- > 0;) {
+        while (m >= t && cross(h[m - 2], h[m - 1], p[k]) <= 0) --m;
+        h[m++] = p[k];
+    }
+    h.resize(m > 0 ? m - 1 : 0);
+    std::vector<Vec3> out;
+    for (const P2& q : h) out.push_back(points[static_cast<std::size_t>(q.k)]);
+    return out;
+}
+
+}  // namespace formfactor::detail

@@ -1,0 +1,95 @@
+// The clipping and Lambert's formula of shadow_clip.h, out of line: the point kernel calls
+// them from several places, and inlining them there made it slower (more code, fewer
+// instructions, more cycles).
+
+#include "methods/analytic/shadow_clip.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace formfactor::detail {
+
+namespace {
+constexpr double kTwoPi = 2.0 * kPi;
+}  // namespace
+
+void clip3(const Poly3& in, const Vec3& n, double off, Poly3& out) {
+    out.n = 0;
+    if (in.n == 0) return;
+    double d[kCap];
+    bool all_in = true, all_out = true;
+    for (int k = 0; k < in.n; ++k) {
+        d[k] = n.dot(in.v[static_cast<std::size_t>(k)]) - off;
+        all_in = all_in && d[k] >= 0.0;
+        all_out = all_out && d[k] < 0.0;
+    }
+    if (all_out) return;
+    if (all_in) {
+        out.n = in.n;
+        std::copy(in.v.begin(), in.v.begin() + in.n, out.v.begin());
+        return;
+    }
+    for (int k = 0; k < in.n; ++k) {
+        const int m = k + 1 == in.n ? 0 : k + 1;
+        const Vec3& a = in.v[static_cast<std::size_t>(k)];
+        if (d[k] >= 0.0 && out.n < kCap) out.v[static_cast<std::size_t>(out.n++)] = a;
+        if ((d[k] > 0.0 && d[m] < 0.0) || (d[k] < 0.0 && d[m] > 0.0)) {
+            const double t = d[k] / (d[k] - d[m]);
+            if (out.n < kCap)
+                out.v[static_cast<std::size_t>(out.n++)] =
+                    a + t * (in.v[static_cast<std::size_t>(m)] - a);
+        }
+    }
+    if (out.n < 3) out.n = 0;
+}
+
+void clip2(const Poly2& in, double ax, double ay, double ex, double ey, double sign, Poly2& out) {
+    out.n = 0;
+    double d[kCap];
+    bool all_in = true, all_out = true;
+    for (int k = 0; k < in.n; ++k) {
+        d[k] = sign * (ex * (in.y[static_cast<std::size_t>(k)] - ay) -
+                       ey * (in.x[static_cast<std::size_t>(k)] - ax));
+        all_in = all_in && d[k] >= 0.0;
+        all_out = all_out && d[k] <= 0.0;
+    }
+    if (all_out) return;
+    if (all_in) {
+        copy2(in, out);
+        return;
+    }
+    for (int k = 0; k < in.n; ++k) {
+        const int m = k + 1 == in.n ? 0 : k + 1;
+        const auto ks = static_cast<std::size_t>(k), ms = static_cast<std::size_t>(m);
+        if (d[k] >= 0.0 && out.n < kCap) {
+            out.x[static_cast<std::size_t>(out.n)] = in.x[ks];
+            out.y[static_cast<std::size_t>(out.n++)] = in.y[ks];
+        }
+        if ((d[k] > 0.0 && d[m] < 0.0) || (d[k] < 0.0 && d[m] > 0.0)) {
+            const double t = d[k] / (d[k] - d[m]);
+            if (out.n < kCap) {
+                out.x[static_cast<std::size_t>(out.n)] = in.x[ks] + t * (in.x[ms] - in.x[ks]);
+                out.y[static_cast<std::size_t>(out.n++)] = in.y[ks] + t * (in.y[ms] - in.y[ks]);
+            }
+        }
+    }
+    if (out.n < 3) out.n = 0;
+}
+
+double lambert2(const Poly2& q, const Vec3& xl, const Vec3& nl) {
+    double sum = 0.0;
+    for (int k = 0; k < q.n; ++k) {
+        const int m = k + 1 == q.n ? 0 : k + 1;
+        const Vec3 r0(q.x[static_cast<std::size_t>(k)] - xl.x(),
+                      q.y[static_cast<std::size_t>(k)] - xl.y(), -xl.z());
+        const Vec3 r1(q.x[static_cast<std::size_t>(m)] - xl.x(),
+                      q.y[static_cast<std::size_t>(m)] - xl.y(), -xl.z());
+        const Vec3 cr = r0.cross(r1);
+        const double len = cr.norm();
+        if (len == 0.0) continue;
+        sum += std::atan2(len, r0.dot(r1)) * nl.dot(cr) / len;
+    }
+    return std::max(0.0, -sum / kTwoPi);
+}
+
+}  // namespace formfactor::detail

@@ -1,0 +1,102 @@
+#pragma once
+// Small fixed-capacity convex polygons and their clipping, shared by the point kernel
+// (obstructed.cpp: shadows of the blocker pieces on the receiver, their union by fragment
+// subtraction, Lambert's formula on the fragments) and the sender's event split
+// (discontinuity_mesh.cpp). The small helpers are inline here; clip3, clip2 and lambert2 are
+// in shadow_clip.cpp.
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <vector>
+
+#include "formfactor/core/error.h"
+#include "formfactor/core/types.h"
+#include "formfactor/geometry/polygon.h"
+#include "methods/analytic/obstructed_internal.h"
+
+namespace formfactor::detail {
+
+/// Capacity of the small polygons of the point evaluation: a convex piece (≤ kMaxPieceVertices)
+/// clipped by the receiver's plane and the pyramid's side planes gains one vertex per plane.
+inline constexpr int kCap = 2 * kMaxPieceVertices + 8;
+
+/// A convex polygon in space (n vertices).
+struct Poly3 {
+    int n = 0;
+    std::array<Vec3, kCap> v;
+};
+/// A convex polygon in a plane's 2D coordinates (n vertices).
+struct Poly2 {
+    int n = 0;
+    std::array<double, kCap> x, y;
+};
+
+/// Keeps the part of `in` where n·y − off ≥ 0 (Sutherland–Hodgman; convex in, convex out).
+void clip3(const Poly3& in, const Vec3& n, double off, Poly3& out);
+
+/// out = in.
+inline void copy2(const Poly2& in, Poly2& out) {
+    out.n = in.n;
+    std::copy(in.x.begin(), in.x.begin() + in.n, out.x.begin());
+    std::copy(in.y.begin(), in.y.begin() + in.n, out.y.begin());
+}
+
+/// Keeps the part of `in` on the left of the directed line a → a + e (sign = +1) or on its
+/// right (sign = −1).
+void clip2(const Poly2& in, double ax, double ay, double ex, double ey, double sign, Poly2& out);
+
+/// Signed area (positive when counter-clockwise).
+inline double area2(const Poly2& p) {
+    double a = 0.0;
+    for (int k = 0; k < p.n; ++k) {
+        const int m = k + 1 == p.n ? 0 : k + 1;
+        a += p.x[static_cast<std::size_t>(k)] * p.y[static_cast<std::size_t>(m)] -
+             p.x[static_cast<std::size_t>(m)] * p.y[static_cast<std::size_t>(k)];
+    }
+    return 0.5 * a;
+}
+
+/// f \ s for convex f and convex counter-clockwise s: disjoint convex fragments appended to out.
+inline void subtract(const Poly2& f, const Poly2& s, std::vector<Poly2>& out) {
+    Poly2 buf[2], outside;
+    copy2(f, buf[0]);
+    Poly2* inside = &buf[0];
+    Poly2* next = &buf[1];
+    for (int k = 0; k < s.n && inside->n >= 3; ++k) {
+        const int m = k + 1 == s.n ? 0 : k + 1;
+        const auto ks = static_cast<std::size_t>(k), ms = static_cast<std::size_t>(m);
+        const double ax = s.x[ks], ay = s.y[ks];
+        const double ex = s.x[ms] - ax, ey = s.y[ms] - ay;
+        if (ex == 0.0 && ey == 0.0) continue;
+        clip2(*inside, ax, ay, ex, ey, -1.0, outside);
+        if (outside.n >= 3 && area2(outside) > 0.0) {
+            out.emplace_back();
+            copy2(outside, out.back());
+        }
+        clip2(*inside, ax, ay, ex, ey, 1.0, *next);
+        std::swap(inside, next);
+    }
+}
+
+/// Lambert's formula for a counter-clockwise polygon q in the receiver's plane (local 2D
+/// coordinates), seen from the point xl = (u, v, height) with unit normal nl (local coordinates).
+double lambert2(const Poly2& q, const Vec3& xl, const Vec3& nl);
+
+/// The receiver of a pair, prepared once: convex polygon and its plane frame.
+struct Receiver {
+    Poly3 poly;
+    Vec3 n, o, u, v;
+    double d = 0;
+    explicit Receiver(const Polygon& r) {
+        FF_ASSERT(r.size() <= static_cast<std::size_t>(kCap));
+        poly.n = static_cast<int>(r.size());
+        for (std::size_t k = 0; k < r.size(); ++k) poly.v[k] = r[k];
+        n = normal(r);
+        o = r[0];
+        d = n.dot(o);
+        orthonormal_basis(n, u, v);
+    }
+};
+
+}  // namespace formfactor::detail

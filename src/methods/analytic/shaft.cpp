@@ -1,0 +1,298 @@
+// The shaft of a pair of convex polygons (the planes bounding their convex hull) and what is
+// tested against it: the blocker set's BVH query, a piece outside the shaft or hiding every
+// segment, and the classification of a pair as visible, hidden or partly hidden.
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "methods/analytic/obstructed_internal.h"
+#include "methods/analytic/shadow_clip.h"
+
+namespace formfactor::detail {
+
+// ----------------------------------------------------------------------------------------------
+// Shaft
+
+void Shaft::build(const Vec3* a, int na, const Vec3& normal_a, const Vec3* b, int nb,
+                  const Vec3& normal_b, double eps) {
+    a_ = a;
+    b_ = b;
+    na_ = na;
+    nb_ = nb;
+    eps_ = eps;
+    pa_ = {normal_a, normal_a.dot(a[0])};
+    pb_ = {normal_b, normal_b.dot(b[0])};
+    bool b_front = false, a_front = false;
+    for (int k = 0; k < nb; ++k) b_front = b_front || pa_.signed_distance(b[k]) > eps;
+    for (int k = 0; k < na; ++k) a_front = a_front || pb_.signed_distance(a[k]) > eps;
+    facing_away_ = !a_front || !b_front;
+    sides_ = 0;
+    links_ = 0;
+    ca_ = cb_ = Vec3::Zero();
+    for (int k = 0; k < na; ++k) ca_ += a[k];
+    for (int k = 0; k < nb; ++k) cb_ += b[k];
+    ca_ /= na;
+    cb_ /= nb;
+    // Side faces of the hull: through an edge of one polygon and a vertex of the other, with
+    // every vertex of both on one side.
+    auto sides_of = [&](const Vec3* p, int np, const Vec3& own, const Vec3& pc, const Vec3* q,
+                        int nq) {
+        for (int k = 0; k < np; ++k) {
+            const Vec3& e0 = p[k];
+            const Vec3 t = p[k + 1 == np ? 0 : k + 1] - e0;
+            // When q is in front of p's plane, the face through this edge is the plane through
+            // the vertex of q with the smallest angle above p's plane, seen along the edge
+            // (angles compared by cross products, in the section across the edge, x pointing
+            // out of p, y along p's normal).
+            {
+                Vec3 r = t.cross(own);
+                if (r.dot(pc - e0) > 0.0) r = -r;
+                int best = -1;
+                double best_angle = 0.0, by = 0.0;
+                bool front = true;
+                const double tn = t.norm();
+                for (int w = 0; w < nq && front; ++w) {
+                    const Vec3 d = q[w] - e0;
+                    const double x = r.dot(d) / tn, y = own.dot(d);
+                    if (y < -eps) front = false;
+                    // On the edge's line (distance from the line, not the cross-section
+                    // coordinates: `own` is not exactly normal to an edge of a slightly
+                    // non-planar polygon).
+                    if ((d - t * (t.dot(d) / (tn * tn))).squaredNorm() <= eps * eps) continue;
+                    // The angle above p's plane, in [0, π]: a cross-product comparison cannot
+                    // order two directions 180° apart (vertices of q in p's plane on both sides
+                    // of the edge, as where a wall meets the floor).
+                    const double angle = std::atan2(std::max(y, 0.0), x);
+                    if (best < 0 || angle < best_angle) {
+                        best = w;
+                        best_angle = angle;
+                        by = y;
+                    }
+                }
+                if (front) {
+                    Vec3 m = best >= 0 ? t.cross(q[best] - e0) : Vec3::Zero();
+                    const double mlen = m.norm();
+                    if (best >= 0 && by > eps && mlen > 1e-9 * tn * (q[best] - e0).norm()) {
+                        m /= mlen;
+                        double off = m.dot(e0);
+                        if (m.dot(pc) - off > 0.0) {
+                            m = -m;
+                            off = -off;
+                        }
+                        side_[sides_++] = Plane{m, off};
+                        link_[links_++] = q[best] - e0;
+                        link_[links_++] = q[best] - p[k + 1 == np ? 0 : k + 1];
+                    }
+                    continue;
+                }
+            }
+            for (int w = 0; w < nq; ++w) {
+                Vec3 m = t.cross(q[w] - e0);
+                const double len = m.norm();
+                if (!(len > 1e-300)) continue;
+                m /= len;
+                // p's own plane (already a bound) is no side face.
+                if (std::abs(m.dot(own)) > 1.0 - 1e-12) continue;
+                const double off = m.dot(e0);
+                double lo = 0.0, hi = 0.0;
+                for (int j = 0; j < nq && !(lo < -eps && hi > eps); ++j) {
+                    const double s = m.dot(q[j]) - off;
+                    lo = std::min(lo, s);
+                    hi = std::max(hi, s);
+                }
+                for (int j = 0; j < np && !(lo < -eps && hi > eps); ++j) {
+                    const double s = m.dot(p[j]) - off;
+                    lo = std::min(lo, s);
+                    hi = std::max(hi, s);
+                }
+                if (hi <= eps || lo >= -eps) {
+                    side_[sides_++] = hi <= eps ? Plane{m, off} : Plane{-m, -off};
+                    link_[links_++] = q[w] - e0;
+                    link_[links_++] = q[w] - p[k + 1 == np ? 0 : k + 1];
+                    break;
+                }
+            }
+        }
+    };
+    sides_of(a, na, normal_a, ca_, b, nb);
+    sides_of(b, nb, normal_b, cb_, a, na);
+    // A side plane that cuts off a vertex of either polygon would make the shaft smaller than
+    // the hull (not conservative): drop it (fewer planes only enlarge the shaft).
+    int kept = 0;
+    for (int k = 0; k < sides_; ++k) {
+        bool ok = std::abs(side_[k].n.squaredNorm() - 1.0) < 1e-9 && std::isfinite(side_[k].d);
+        for (int i = 0; i < na && ok; ++i) ok = side_[k].signed_distance(a[i]) <= eps;
+        for (int j = 0; j < nb && ok; ++j) ok = side_[k].signed_distance(b[j]) <= eps;
+        if (ok) side_[kept++] = side_[k];
+    }
+    sides_ = kept;
+}
+
+bool Shaft::box_outside(const Bounds3& box) const {
+    const Vec3 c = 0.5 * (box.lo + box.hi), e = 0.5 * (box.hi - box.lo);
+    auto range = [&](const Plane& p, double& lo, double& hi) {
+        const double s = p.signed_distance(c);
+        const double r =
+            std::abs(p.n.x()) * e.x() + std::abs(p.n.y()) * e.y() + std::abs(p.n.z()) * e.z();
+        lo = s - r;
+        hi = s + r;
+    };
+    double lo, hi;
+    range(pa_, lo, hi);
+    if (hi <= eps_) return true;
+    range(pb_, lo, hi);
+    if (hi <= eps_) return true;
+    for (int k = 0; k < sides_; ++k) {
+        range(side_[k], lo, hi);
+        if (lo >= -eps_) return true;
+    }
+    return false;
+}
+
+bool Shaft::piece_outside(const Vec3* p, int count, const Plane& pl, bool exact) const {
+    double hi_a = -1e300, hi_b = -1e300;
+    for (int k = 0; k < count; ++k) {
+        hi_a = std::max(hi_a, pa_.signed_distance(p[k]));
+        hi_b = std::max(hi_b, pb_.signed_distance(p[k]));
+    }
+    if (hi_a <= eps_ || hi_b <= eps_) return true;
+    for (int s = 0; s < sides_; ++s) {
+        double lo = 1e300;
+        for (int k = 0; k < count && lo >= -eps_; ++k)
+            lo = std::min(lo, side_[s].signed_distance(p[k]));
+        if (lo >= -eps_) return true;
+    }
+    double lo = 1e300, hi = -1e300;
+    for (int k = 0; k < na_; ++k) {
+        const double s = pl.signed_distance(a_[k]);
+        lo = std::min(lo, s);
+        hi = std::max(hi, s);
+    }
+    for (int k = 0; k < nb_; ++k) {
+        const double s = pl.signed_distance(b_[k]);
+        lo = std::min(lo, s);
+        hi = std::max(hi, s);
+    }
+    if (lo >= -eps_ || hi <= eps_) return true;
+    if (!exact) return false;
+    // The segment between the polygons' centres crosses the piece: it certainly blocks.
+    {
+        const double s0 = pl.signed_distance(ca_), s1 = pl.signed_distance(cb_);
+        if ((s0 > eps_ && s1 < -eps_) || (s0 < -eps_ && s1 > eps_)) {
+            const Vec3 z = ca_ + (cb_ - ca_) * (s0 / (s0 - s1));
+            bool inside = true;
+            for (int k = 0; k < count && inside; ++k) {
+                const Vec3 e = p[k + 1 == count ? 0 : k + 1] - p[k];
+                inside = e.cross(z - p[k]).dot(pl.n) > eps_ * e.norm();
+            }
+            if (inside) return false;
+        }
+    }
+    // Separating axis theorem for the remaining axes: an edge of the piece crossed with an edge
+    // of the hull (a's and b's edges, and the edges of the side faces between them).
+    auto separated = [&](const Vec3& axis) {
+        const double len = axis.norm();
+        if (!(len > 0.0)) return false;
+        double lo1 = 1e300, hi1 = -1e300, lo2 = 1e300, hi2 = -1e300;
+        for (int k = 0; k < na_; ++k) {
+            const double t = axis.dot(a_[k]);
+            lo1 = std::min(lo1, t);
+            hi1 = std::max(hi1, t);
+        }
+        for (int k = 0; k < nb_; ++k) {
+            const double t = axis.dot(b_[k]);
+            lo1 = std::min(lo1, t);
+            hi1 = std::max(hi1, t);
+        }
+        for (int k = 0; k < count; ++k) {
+            const double t = axis.dot(p[k]);
+            lo2 = std::min(lo2, t);
+            hi2 = std::max(hi2, t);
+        }
+        const double m = eps_ * len;
+        return hi2 <= lo1 + m || hi1 <= lo2 + m;
+    };
+    for (int k = 0; k < count; ++k) {
+        const Vec3 e = p[k + 1 == count ? 0 : k + 1] - p[k];
+        for (int i = 0; i < na_; ++i)
+            if (separated(e.cross(a_[i + 1 == na_ ? 0 : i + 1] - a_[i]))) return true;
+        for (int j = 0; j < nb_; ++j)
+            if (separated(e.cross(b_[j + 1 == nb_ ? 0 : j + 1] - b_[j]))) return true;
+        for (int l = 0; l < links_; ++l)
+            if (separated(e.cross(link_[l]))) return true;
+    }
+    return false;
+}
+
+bool Shaft::piece_hides(const Vec3* p, int count, const Plane& pl) const {
+    // The piece's plane must separate a and b strictly; then every segment crosses it inside the
+    // convex hull of the vertex-to-vertex crossings, which must lie inside the piece.
+    double sa[kCap], sb[kCap];
+    if (na_ > kCap || nb_ > kCap) return false;
+    double sign = 0.0;
+    for (int k = 0; k < na_; ++k) sa[k] = pl.signed_distance(a_[k]);
+    for (int k = 0; k < nb_; ++k) sb[k] = pl.signed_distance(b_[k]);
+    sign = sa[0] > 0.0 ? 1.0 : -1.0;
+    for (int k = 0; k < na_; ++k)
+        if (!(sign * sa[k] > eps_)) return false;
+    for (int k = 0; k < nb_; ++k)
+        if (!(-sign * sb[k] > eps_)) return false;
+    for (int i = 0; i < na_; ++i) {
+        for (int j = 0; j < nb_; ++j) {
+            const double t = sa[i] / (sa[i] - sb[j]);
+            const Vec3 z = a_[i] + t * (b_[j] - a_[i]);
+            for (int k = 0; k < count; ++k) {
+                const Vec3& v0 = p[k];
+                const Vec3 e = p[k + 1 == count ? 0 : k + 1] - v0;
+                const double len = e.norm();
+                if (e.cross(z - v0).dot(pl.n) < eps_ * len) return false;
+            }
+        }
+    }
+    return true;
+}
+
+// ----------------------------------------------------------------------------------------------
+// Blocker pieces against a shaft
+
+void BlockerSet::query(const Shaft& shaft, int skip_a, int skip_b, std::vector<int>& out) const {
+    if (tree_.nodes.empty()) return;
+    int stack[128];
+    int top = 0;
+    stack[top++] = 0;
+    while (top > 0) {
+        const BoxTree::Node& nd = tree_.nodes[static_cast<std::size_t>(stack[--top])];
+        if (shaft.box_outside(nd.box)) continue;
+        if (nd.left < 0) {
+            for (int k = nd.first; k < nd.first + nd.count; ++k) {
+                const int p = tree_.order[static_cast<std::size_t>(k)];
+                const int s = pieces_[static_cast<std::size_t>(p)].surface;
+                if (s == skip_a || s == skip_b) continue;
+                out.push_back(p);
+            }
+        } else if (top + 2 <= 128) {
+            stack[top++] = nd.left;
+            stack[top++] = nd.right;
+        }
+    }
+}
+
+ShaftClass classify_shaft(const Shaft& shaft, const BlockerSet& blockers, const int* cand, int n,
+                          std::vector<int>& kept, bool exact) {
+    kept.clear();
+    for (int c = 0; c < n; ++c) {
+        const int k = cand[c];
+        const auto& pc = blockers.piece(k);
+        const Vec3* v = blockers.vertices(k);
+        if (shaft.piece_outside(v, pc.count, pc.plane, exact)) continue;
+        if (shaft.piece_hides(v, pc.count, pc.plane)) {
+            kept.clear();
+            return ShaftClass::kHidden;
+        }
+        kept.push_back(k);
+    }
+    return kept.empty() ? ShaftClass::kVisible : ShaftClass::kPartial;
+}
+
+}  // namespace formfactor::detail
