@@ -8,6 +8,7 @@
 #include <string>
 #include <thread>
 
+#include "cli_runner.h"
 #include "formfactor/core/error.h"
 #include "formfactor/pipeline.h"
 #include "formfactor/scene/scene.h"
@@ -203,4 +204,22 @@ TEST_CASE("pipeline: repair through the pipeline closes a Monte-Carlo matrix") {
     CHECK(r.repair->after.row_sum_max < 1 + 1e-9);
     REQUIRE(r.diagnostics);  // of F as the method made it
     CHECK(r.diagnostics->reciprocity_area_weighted > r.repair->after.reciprocity_area_weighted);
+}
+
+TEST_CASE("pipeline: the CLI sets the ray tracer's options and maps fields to its flags") {
+    formfactor::testing::Cli cli;
+    auto r = cli.run("compute cube --method mc-hemisphere --samples 64 --ray-offset 0.5 -o F.csv");
+    CHECK(r.code == 2);
+    CHECK(r.err == "formfactor: --ray-offset: must be in (0, 0.01), got 0.5\n");
+    r = cli.run(
+        "compute cube --method mc-hemisphere --samples 64 --robust-rays --ray-offset 1e-6 "
+        "-o F.csv");
+    CHECK(r.code == 0);
+    // An option field named by the library comes out as the flag the user typed.
+    r = cli.run("compute cube --method mc-area --samples 8589934592 -o F.csv");
+    CHECK(r.code == 2);
+    CHECK(r.err.rfind("formfactor: --samples: ", 0) == 0);
+    r = cli.run("compute cube --max-edge 0.5 --subdivide 3 -o F.csv");
+    CHECK(r.code == 2);
+    CHECK(r.err.rfind("formfactor: --subdivide: ", 0) == 0);
 }
