@@ -113,3 +113,12 @@ TEST_CASE("shaft culler: convex rooms are clear, and every cleared pair is clear
     MESSAGE("room-4: " << room << " of the visible pairs cleared");
     CHECK(room > 0.3);
 }
+
+TEST_CASE("shaft culler: a scene without polygons blocks nothing") {
+    const Scene empty;
+    const ShaftCuller culler(empty);
+    Polygon a, b;
+    a.vertices = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0)};
+    b.vertices = {Vec3(0, 0, 1), Vec3(0, 1, 1), Vec3(1, 1, 1), Vec3(1, 0, 1)};
+    CHECK(culler.unoccluded(a, b));
+}

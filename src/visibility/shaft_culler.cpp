@@ -144,6 +144,7 @@ bool ShaftCuller::clear(const Vec3* vi, int ni, const Vec3* vj, int nj, int skip
         return hi <= eps_ || lo >= -eps_;
     };
 
+    if (tree_.nodes.empty()) return true;  // nothing in the scene can block
     int stack[64];
     int top = 0;
     stack[top++] = 0;
