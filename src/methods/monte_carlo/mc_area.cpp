@@ -23,26 +23,21 @@ bool behind(const Patch& p, const Patch& q) {
     return true;
 }
 
-class McAreaMethod final : public Method {
+class McAreaMethod final : public mc::MonteCarloMethod {
   public:
     MethodKind kind() const override { return MethodKind::mc_area; }
-    bool needs_visibility() const override { return true; }
-    void check(const Scene& scene) const override {
-        if (scene.patches.empty()) throw GeometryError("mc-area: the scene has no patches");
-    }
 
     MethodResult compute(const MethodContext& ctx) const override {
-        const Scene& scene = ctx.scene;
-        const MethodOptions& options = ctx.options;
-        check(scene);
-        const auto t0 = mc::Clock::now();
-        const SamplerKind kind = options.sampler;
-        const std::uint64_t N = mc::sample_count(options, 256);
-        const std::uint32_t R = replicate_count(kind, N);
-        const std::size_t n = scene.patches.size();
-        const RowRange rows = ctx.rows.clamped(n);
-        std::unique_ptr<Visibility> own;
-        const Visibility* vis = mc::visibility_for(ctx, own);
+        const mc::Run run(*this, ctx, 256);
+        const Scene& scene = run.scene;
+        const MethodOptions& options = run.options;
+        const auto t0 = run.t0;
+        const SamplerKind kind = run.kind;
+        const std::uint64_t N = run.N;
+        const std::uint32_t R = run.R;
+        const std::size_t n = run.n;
+        const RowRange rows = run.rows;
+        const Visibility* vis = run.vis;
         std::vector<PolygonSampler> samplers;
         samplers.reserve(n);
         for (const Patch& p : scene.patches) samplers.emplace_back(p.polygon);

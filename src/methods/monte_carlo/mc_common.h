@@ -55,13 +55,48 @@ inline double replicate_standard_error(const ReplicateMean& a, double n, std::ui
     return s2 > 0 ? std::sqrt(s2 / r) : 0.0;
 }
 
-/// The ray tracer of the context, or one built here (kept in `own`) when the caller gave none.
-inline const Visibility* visibility_for(const MethodContext& ctx,
-                                        std::unique_ptr<Visibility>& own) {
-    if (ctx.visibility) return ctx.visibility;
-    own = make_visibility(ctx.scene);
-    return own.get();
-}
+/// What the three Monte-Carlo methods share as methods: they cast rays and need patches.
+class MonteCarloMethod : public Method {
+  public:
+    bool needs_visibility() const override { return true; }
+    void check(const Scene& scene) const override {
+        if (scene.patches.empty()) throw GeometryError(name() + ": the scene has no patches");
+    }
+};
+
+using Clock = std::chrono::steady_clock;
+
+/// The start of every Monte-Carlo compute(): the scene checked, the sample and replicate
+/// counts, the rows, the ray tracer (the context's, or one built here), the clock started.
+struct Run {
+    Run(const Method& method, const MethodContext& ctx, std::uint64_t default_samples)
+        : scene(ctx.scene),
+          options(ctx.options),
+          t0(Clock::now()),
+          kind(ctx.options.sampler),
+          N(sample_count(ctx.options, default_samples)),
+          R(replicate_count(kind, N)),
+          n(ctx.scene.patches.size()),
+          rows(ctx.rows.clamped(n)) {
+        method.check(scene);
+        if (ctx.visibility) {
+            vis = ctx.visibility;
+        } else {
+            own = make_visibility(scene);
+            vis = own.get();
+        }
+    }
+    const Scene& scene;
+    const MethodOptions& options;
+    Clock::time_point t0;
+    SamplerKind kind;
+    std::uint64_t N;  ///< samples per row or pair
+    std::uint32_t R;  ///< replicates
+    std::size_t n;    ///< patches
+    RowRange rows;    ///< the rows to compute
+    std::unique_ptr<Visibility> own;
+    const Visibility* vis = nullptr;
+};
 
 /// Fills what every Monte-Carlo method reports.
 inline void report(MethodReport& rep, const FormFactors& ff, SamplerKind kind,
@@ -91,7 +126,6 @@ inline void report(MethodReport& rep, const FormFactors& ff, SamplerKind kind,
     }
 }
 
-using Clock = std::chrono::steady_clock;
 inline double seconds_since(Clock::time_point t0) {
     return std::chrono::duration<double>(Clock::now() - t0).count();
 }

@@ -34,26 +34,21 @@ struct Buffers {
     }
 };
 
-class McHemisphereMethod final : public Method {
+class McHemisphereMethod final : public mc::MonteCarloMethod {
   public:
     MethodKind kind() const override { return MethodKind::mc_hemisphere; }
-    bool needs_visibility() const override { return true; }
-    void check(const Scene& scene) const override {
-        if (scene.patches.empty()) throw GeometryError("mc-hemisphere: the scene has no patches");
-    }
 
     MethodResult compute(const MethodContext& ctx) const override {
-        const Scene& scene = ctx.scene;
-        const MethodOptions& options = ctx.options;
-        check(scene);
-        const auto t0 = mc::Clock::now();
-        const SamplerKind kind = options.sampler;
-        const std::uint64_t N = mc::sample_count(options, 10000);
-        const std::uint32_t R = replicate_count(kind, N);
-        const std::size_t n = scene.patches.size();
-        const RowRange rows = ctx.rows.clamped(n);
-        std::unique_ptr<Visibility> own;
-        const Visibility* vis = mc::visibility_for(ctx, own);
+        const mc::Run run(*this, ctx, 10000);
+        const Scene& scene = run.scene;
+        const MethodOptions& options = run.options;
+        const auto t0 = run.t0;
+        const SamplerKind kind = run.kind;
+        const std::uint64_t N = run.N;
+        const std::uint32_t R = run.R;
+        const std::size_t n = run.n;
+        const RowRange rows = run.rows;
+        const Visibility* vis = run.vis;
 
         MethodResult result;
         result.report.method = this->kind();
