@@ -87,7 +87,9 @@ test-sanitize: sanitize-configure
 # ThreadSanitizer on the tests that run computations concurrently (tests labelled `threads`).
 test-tsan: deps
 	@if [ ! -f $(TSAN_DIR)/CMakeCache.txt ]; then \
-		cmake -S . -B $(TSAN_DIR) -DCMAKE_BUILD_TYPE=RelWithDebInfo $(LAUNCHER) \
+		cmake -S . -B $(TSAN_DIR) -DCMAKE_BUILD_TYPE=Sanitize \
+			-DCMAKE_CXX_FLAGS_SANITIZE="-O1 -gline-tables-only" -DCMAKE_C_FLAGS_SANITIZE="-O1" \
+			-DCMAKE_CXX_COMPILER=clang++ -DCMAKE_C_COMPILER=clang $(LAUNCHER) \
 			-DFF_SANITIZE=thread -DFF_BUILD_BENCH=OFF $(CMAKE_FLAGS); \
 	fi
 	cmake --build $(TSAN_DIR) -j$(JOBS) --target formfactor_tests
