@@ -117,3 +117,17 @@ TEST_CASE("scene: Cornell box walls face inward, blocks outward, light down") {
     CHECK(e.obstruction_count() == 0);
     CHECK_FALSE(s.enclosure);
 }
+
+TEST_CASE("scene: material_of a patch goes through its surface, with a default") {
+    Scene s = load_scene("cornell");
+    bool emitting = false;
+    for (std::size_t i = 0; i < s.patches.size(); ++i) {
+        const auto surface = static_cast<std::size_t>(s.patches[i].surface);
+        CHECK(&s.material_of(i) == &s.material_of_surface(surface));
+        emitting = emitting || s.material_of(i).emission.maxCoeff() > 0.0;
+    }
+    CHECK(emitting);  // the light
+    CHECK(s.material_of(s.patches.size()).emissivity == 0.9);
+    s.surfaces[0].material = 1000;  // no such entry: the default
+    CHECK(s.material_of_surface(0).name == "default");
+}

@@ -114,13 +114,9 @@ void run_compute(const ComputeArgs& args) {
         groups = surface_groups(scene);
         per_surface_ff = aggregate(ff, groups);
         emissivities.clear();
-        for (const auto& members : groups.surfaces) {
-            const Surface& s = scene.surfaces[static_cast<std::size_t>(members.front())];
+        for (const auto& members : groups.surfaces)
             emissivities.push_back(
-                s.material >= 0 && static_cast<std::size_t>(s.material) < scene.materials.size()
-                    ? scene.materials[static_cast<std::size_t>(s.material)].emissivity
-                    : 0.9);
-        }
+                scene.material_of_surface(static_cast<std::size_t>(members.front())).emissivity);
         times.add("aggregate", sw.lap());
     }
     const FormFactors& written = per_surface ? per_surface_ff : ff;

@@ -226,16 +226,8 @@ void warn_single_patch(Scene& scene) {
 std::vector<double> patch_emissivities(const Scene& scene) {
     std::vector<double> e;
     e.reserve(scene.patches.size());
-    for (const auto& p : scene.patches) {
-        double eps = 0.9;
-        if (p.surface >= 0 && static_cast<std::size_t>(p.surface) < scene.surfaces.size()) {
-            const int m = scene.surfaces[static_cast<std::size_t>(p.surface)].material;
-            if (m >= 0 && static_cast<std::size_t>(m) < scene.materials.size()) {
-                eps = scene.materials[static_cast<std::size_t>(m)].emissivity;
-            }
-        }
-        e.push_back(eps);
-    }
+    for (std::size_t i = 0; i < scene.patches.size(); ++i)
+        e.push_back(scene.material_of(i).emissivity);
     return e;
 }
 

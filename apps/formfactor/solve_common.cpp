@@ -117,13 +117,8 @@ SolverOptions SolverArgs::options(SolverKind default_kind, int threads) const {
 
 std::vector<bool> emitting_patches(const Scene& scene) {
     std::vector<bool> e(scene.patches.size(), false);
-    for (std::size_t i = 0; i < e.size(); ++i) {
-        const int s = scene.patches[i].surface;
-        if (s < 0 || static_cast<std::size_t>(s) >= scene.surfaces.size()) continue;
-        const int m = scene.surfaces[static_cast<std::size_t>(s)].material;
-        if (m >= 0 && static_cast<std::size_t>(m) < scene.materials.size())
-            e[i] = scene.materials[static_cast<std::size_t>(m)].emission.maxCoeff() > 0.0;
-    }
+    for (std::size_t i = 0; i < e.size(); ++i)
+        e[i] = scene.material_of(i).emission.maxCoeff() > 0.0;
     return e;
 }
 

@@ -21,6 +21,21 @@ double Scene::total_patch_area() const {
     return a;
 }
 
+const Material& Scene::material_of_surface(std::size_t s) const {
+    static const Material kDefault;
+    if (s >= surfaces.size()) return kDefault;
+    const int m = surfaces[s].material;
+    return m >= 0 && static_cast<std::size_t>(m) < materials.size()
+               ? materials[static_cast<std::size_t>(m)]
+               : kDefault;
+}
+
+const Material& Scene::material_of(std::size_t i) const {
+    static const Material kDefault;
+    if (i >= patches.size() || patches[i].surface < 0) return kDefault;
+    return material_of_surface(static_cast<std::size_t>(patches[i].surface));
+}
+
 Bounds3 Scene::bounds() const {
     Bounds3 b;
     for (const Surface& s : surfaces)

@@ -101,6 +101,11 @@ struct Scene {
     double total_patch_area() const;
     /// Bounds of every surface (patches and obstructions).
     Bounds3 bounds() const;
+    /// The material of surface `s`: its entry of `materials`, or a default Material (grey 0.5,
+    /// emissivity 0.9, no emission) when the scene has no such entry.
+    const Material& material_of_surface(std::size_t s) const;
+    /// The material of patch `i`, through its surface (the default when it has none).
+    const Material& material_of(std::size_t i) const;
 };
 
 /// Loads a scene: a built-in name (`cornell`, `cornell-empty`, `plates`, `perpendicular`,
