@@ -93,7 +93,7 @@ test-tsan: deps
 			-DFF_SANITIZE=thread -DFF_BUILD_BENCH=OFF $(CMAKE_FLAGS); \
 	fi
 	cmake --build $(TSAN_DIR) -j$(JOBS) --target formfactor_tests
-	TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1" \
+	TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1 suppressions=$(CURDIR)/tests/tsan.supp" \
 		$(TSAN_DIR)/formfactor_tests -ts=threads
 
 fuzz-build: sanitize-configure

@@ -130,7 +130,13 @@ class EmbreeVisibility final : public Visibility {
         }
         if (tris.empty()) throw GeometryError("visibility: the scene has no triangles");
 
-        device_.reset(rtcNewDevice(nullptr));
+        {
+            // Embree's device creation writes process-wide state (ThreadSanitizer saw two
+            // computations started at once race inside rtcNewDevice): one at a time.
+            static std::mutex device_mutex;
+            std::lock_guard<std::mutex> lock(device_mutex);
+            device_.reset(rtcNewDevice(nullptr));
+        }
         if (!device_)
             throw Error(std::string("ray tracer (Embree) device: ") +
                         error_name(rtcGetDeviceError(nullptr)));
