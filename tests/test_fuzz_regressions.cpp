@@ -89,6 +89,26 @@ TEST_CASE("fuzz regressions: an NPY header claiming 10^12 values is an input err
     CHECK_THROWS_AS(read_npy_matrix(in2, "big.npy"), InputError);
 }
 
+TEST_CASE("fuzz regressions: an NPY shape with a zero or a huge side is an input error") {
+    // CI's fuzz run: (0, 2^62) made an empty matrix whose 2^62 columns allFinite() visited (a
+    // hang); (2^64-1, 0) and (2^63, 0) became negative Eigen sizes (an assertion).
+    for (const std::string shape :
+         {"(0, 4611686018427387904)", "(18446744073709551615, 0)", "(0, 18446744073709551615)",
+          "(9223372036854775808, 0)", "(0, 0)", "(0, 3)", "(3, 0)"}) {
+        INFO(shape);
+        std::istringstream in(npy_with_shape(shape, 0));
+        CHECK_THROWS_WITH_AS(read_npy_matrix(in, "e.npy"), doctest::Contains("empty NPY array"),
+                             InputError);
+        CHECK_FALSE(run_bytes(fuzz::Target::matrix_npy, npy_with_shape(shape, 0)));
+    }
+    for (const std::string shape : {"(4294967296, 1)", "(1, 4294967296)", "(2147483649, 2)"}) {
+        INFO(shape);
+        std::istringstream in(npy_with_shape(shape, 16));
+        CHECK_THROWS_WITH_AS(read_npy_matrix(in, "e.npy"), doctest::Contains("too large"),
+                             InputError);
+    }
+}
+
 TEST_CASE("fuzz regressions: a View3D header claiming 10^9 surfaces is an input error") {
     std::istringstream in1("View3D 3.2 0 0 0 1000000000\n1 2 3\n");
     CHECK_THROWS_WITH_AS(read_view3d_text(in1, "big.txt"), doctest::Contains("file ends after"),

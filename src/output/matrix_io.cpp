@@ -395,8 +395,14 @@ DenseMatrix read_npy_matrix(std::istream& in, const std::string& name) {
         throw InputError(name, 0, "expected a 2-D array, found shape " + shape_text);
     }
     const std::size_t rows = shape[0], cols = shape[1];
-    if (rows != 0 && cols > (std::size_t(1) << 40) / rows) {
-        throw InputError(name, 0, "NPY array too large");
+    // Like the CSV reader, no empty matrix: a shape (0, 2^62) would otherwise make an "empty"
+    // matrix whose every column a later loop visits. Each side must fit Eigen's (signed) index.
+    if (rows == 0 || cols == 0) {
+        throw InputError(name, 0, "empty NPY array (shape " + shape_text + ")");
+    }
+    constexpr std::size_t kMaxSide = std::size_t(1) << 31;
+    if (rows > kMaxSide || cols > kMaxSide || cols > (std::size_t(1) << 40) / rows) {
+        throw InputError(name, 0, "NPY array too large (shape " + shape_text + ")");
     }
     const std::size_t count = rows * cols;
     // The shape is only the header's claim: read the data in pieces, so that a header claiming
