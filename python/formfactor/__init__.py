@@ -1,0 +1,252 @@
+"""formfactor: radiative form factors (view factors) between the surfaces of 3D scenes, exact
+where it matters, and the radiosity and grey-body heat-exchange solves built on them.
+
+Quick start::
+
+    import formfactor as ff
+    scene = ff.load("cornell", subdivide=4)      # a built-in scene, or a .obj / .vs3 file
+    r = scene.form_factors()                     # analytic (exact) by default
+    F = r.matrix                                 # F[i, j]: from patch i (row) to patch j (column)
+    A = scene.areas
+    assert abs(A[:, None] * F - (A[:, None] * F).T).max() < 1e-9   # reciprocity
+
+Direction: everywhere in formfactor, ``F[i, j]`` is the fraction of the power leaving patch i
+that arrives at patch j (from i to j). Rows sum to 1 in a closed enclosure.
+
+The computations run in C++ with the GIL released (other Python threads run meanwhile), stop
+on Ctrl-C (KeyboardInterrupt), and report progress to a callback when asked
+(``progress=callable`` or ``progress=True`` for a bar on stderr). Errors are
+:class:`formfactor.Error` subclasses: :class:`InputError` (also a ValueError) names the file and
+line, :class:`OptionError` (also a ValueError) the keyword argument.
+
+See docs/python.md for a worked example.
+"""
+
+import json as _json
+import os as _os
+from dataclasses import dataclass as _dataclass
+from typing import Optional as _Optional
+
+import numpy as _np
+
+from . import _core
+from ._errors import Cancelled, Error, GeometryError, InputError, OptionError, ResourceError
+from ._progress import TextProgress
+
+__version__ = _core.__version__
+
+Scene = _core.Scene
+Result = _core.Result
+
+__all__ = [
+    "Scene", "Result", "load", "builtin_scenes", "methods", "point_factors", "solve_radiosity",
+    "solve_thermal", "RadiosityResult", "ThermalResult", "repair", "exchange_factors", "render",
+    "Error", "InputError", "OptionError", "GeometryError", "ResourceError", "Cancelled",
+    "TextProgress", "__version__",
+]
+
+_METHODS = ("analytic", "hemicube", "hemiplane", "mc-area", "mc-hemisphere", "mc-target")
+
+
+def _progress(progress):
+    if progress is None or progress is False:
+        return None
+    if progress is True:
+        return TextProgress()
+    if not callable(progress):
+        raise OptionError("progress: must be None, True or a callable "
+                          "progress(phase, done, total, elapsed_seconds)", "progress")
+    return progress
+
+
+def load(path, subdivide=None, max_edge=None):
+    """Loads a scene: a built-in name (see builtin_scenes(): ``cornell``, ``cube``,
+    ``room-8``, ...) or a file (``.obj`` with its MTL, ``.vs3`` View3D input).
+
+    subdivide=n splits each quad into n×n patches (triangles into n²); max_edge=L splits until
+    every patch edge is at most L (give one of them). Raises InputError (with ``.file`` and
+    ``.line``) for a bad file, OptionError for bad options.
+    """
+    return _core.load(_os.fspath(path), subdivide, max_edge)
+
+
+def builtin_scenes():
+    """Names of the built-in scenes."""
+    return list(_core.builtin_scenes())
+
+
+def methods():
+    """Names of the methods that ``Scene.form_factors(method=...)`` accepts."""
+    return list(_METHODS)
+
+
+def _form_factors(self, method=None, *, tolerance=None, obstructed_tolerance=None,
+                  samples=None, seed=None, threads=None, sampler=None, resolution=None,
+                  points=None, rows=None, repair=None, force_closure=False, ray_offset=None,
+                  robust_rays=False, progress=None):
+    """Computes the form factors of this scene's patches: returns a :class:`Result` whose
+    ``matrix[i, j]`` is F_ij, from patch i (row) to patch j (column).
+
+    method: ``analytic`` (exact contour integrals, shadows clipped out; the default for every
+    scene), ``hemicube``, ``hemiplane``, ``mc-area``, ``mc-hemisphere`` or ``mc-target``
+    (Monte Carlo, with per-entry standard errors). tolerance: absolute error target per entry
+    (analytic; default 1e-10, and 1e-6 for partly hidden pairs of an obstructed scene, which a
+    given tolerance also sets; obstructed_tolerance sets that one alone). samples, seed,
+    sampler (``sobol``, ``halton``, ``stratified``, ``random``): Monte Carlo. resolution,
+    points: hemicube / hemiplane. threads: worker threads (0 or None: all cores).
+    rows=(begin, end): compute only those rows (bit-identical to the same rows of the whole
+    matrix; end None = N). repair: ``reciprocity``, ``closure`` or ``both`` (closure only for
+    closed scenes unless force_closure). ray_offset, robust_rays: the ray tracer's end offset
+    (relative to the scene's size) and Embree's robust mode. progress: None, True (a bar on
+    stderr) or callable(phase, done, total, elapsed_seconds).
+
+    The GIL is released while it computes; Ctrl-C raises KeyboardInterrupt promptly.
+    """
+    a = _core._ComputeArgs()
+    a.method = method
+    a.tolerance = tolerance
+    a.obstructed_tolerance = obstructed_tolerance
+    a.samples = samples
+    a.seed = seed
+    a.threads = threads
+    a.sampler = sampler
+    a.resolution = resolution
+    a.points = points
+    a.rows = None if rows is None else tuple(rows)
+    a.repair = repair
+    a.force_closure = bool(force_closure)
+    a.ray_offset = ray_offset
+    a.robust_rays = bool(robust_rays)
+    return _core.compute(self, a, _progress(progress))
+
+
+Scene.form_factors = _form_factors
+
+
+def _report(self):
+    """The run report as a dict: the same keys as the CLI's ``compute --report`` JSON
+    (scene, N, method, options, threads, timings, diagnostics with row sums and reciprocity,
+    details of the method, repair)."""
+    return _json.loads(self._report_json)
+
+
+Result.report = property(_report)
+
+
+def _repr_result(self):
+    b, e = self.rows
+    return "<formfactor.Result %s: rows %d..%d of %d, %s>" % (
+        self.method, b, e, len(self.areas),
+        "error bound %.2g" % self.error_bound if self.error_bound is not None else
+        ("standard errors" if self.standard_error is not None else "approximate"))
+
+
+Result.__repr__ = _repr_result
+
+
+def point_factors(scene, points, normals, *, threads=0, progress=None):
+    """Form factors from M differential elements (sensors, radiometers, the points of a
+    mean-radiant-temperature map) to every patch: an (M, N) array whose row m is point m.
+
+    points: (M, 3) positions; normals: (M, 3) front normals (any length; normalised), or one
+    (3,) normal for every point. Exact with obstructions: each entry is the factor to the part
+    of patch j the point sees past every other surface.
+    """
+    return _core.point_factors(scene, points, normals, int(threads), _progress(progress))
+
+
+@_dataclass
+class RadiosityResult:
+    """The solution of B = E + ρ F B per colour channel."""
+    radiosity: _np.ndarray  #: (N, 3) radiosity B per patch, in the units of the emission
+    stats: dict             #: solver, iterations, residual, tolerance, converged, seconds
+    balance: dict           #: emitted, absorbed, escaped (3,) powers and relative_defect
+
+
+@_dataclass
+class ThermalResult:
+    """Grey-body radiative exchange (net-radiation method), per patch, SI units."""
+    area: _np.ndarray
+    emissivity: _np.ndarray
+    temperature: _np.ndarray             #: K (prescribed or solved)
+    temperature_prescribed: _np.ndarray  #: bool per patch
+    radiosity: _np.ndarray               #: J, W/m²
+    net_flux: _np.ndarray                #: q = J − H, W/m², positive = the patch loses heat
+    net_power: _np.ndarray               #: q·A, W
+    total_net_power: float
+    escaped_power: float                 #: to the environment (0 in a closed enclosure)
+    relative_balance_defect: float
+    ambient_temperature: float
+    stats: dict
+    warnings: list
+
+
+def solve_radiosity(scene, F, reflectance=None, emission=None, *, solver="gauss-seidel",
+                    residual=1e-8, max_iterations=0, threads=0, progress=None):
+    """Solves the radiosity equation B = E + diag(ρ) F B for each of R, G, B.
+
+    F: a :class:`Result` of this scene (used without a copy) or an (N, N) array, F[i, j] from
+    patch i to patch j. reflectance ρ and emission E: per patch, (N, 3), (N,) (grey) or a
+    scalar; by default the scene's materials (MTL Kd and Ke). solver: ``gauss-seidel``,
+    ``jacobi``, ``shooting`` (progressive refinement) or ``direct`` (LU). Returns a
+    :class:`RadiosityResult`.
+    """
+    d = _core.radiosity(scene, F, reflectance, emission, solver, float(residual),
+                        int(max_iterations), int(threads), _progress(progress))
+    return RadiosityResult(**d)
+
+
+def solve_thermal(scene, F, emissivity=None, temperature=None, net_flux=None, *,
+                  ambient_temperature=0.0, solver="direct", residual=1e-8, max_iterations=0,
+                  threads=0, progress=None):
+    """Radiative heat exchange between grey diffuse patches (net-radiation method).
+
+    Each patch has an emissivity ε and either a temperature T (K) or a net flux q (W/m²,
+    leaving the patch); a patch with neither is adiabatic (q = 0). emissivity, temperature,
+    net_flux: per patch (N,) or a scalar; NaN in temperature / net_flux means "not given" for
+    that patch. Defaults come from the scene's materials. ambient_temperature: the black
+    environment that the open part of each row sees (K). F as in solve_radiosity. Returns a
+    :class:`ThermalResult` (temperature, radiosity, net_flux, net_power, total_net_power, ...).
+    """
+    d = _core.thermal(scene, F, emissivity, temperature, net_flux, float(ambient_temperature),
+                      solver, float(residual), int(max_iterations), int(threads),
+                      _progress(progress))
+    return ThermalResult(**d)
+
+
+def repair(F, areas, mode="both", *, enclosure=False, force_closure=False):
+    """Repairs a form-factor matrix: ``reciprocity`` (symmetrises A_i F_ij), ``closure``
+    (scales rows to sum to 1, keeping reciprocity; closed scenes: enclosure=True, or
+    force_closure) or ``both``. F is not changed: returns (repaired copy, report dict).
+    """
+    F2, text = _core.repair(F, areas, mode, bool(enclosure), bool(force_closure))
+    return F2, _json.loads(text)
+
+
+def exchange_factors(F, emissivity):
+    """Hottel's total exchange factors 𝓕 = diag(ε) F (I − diag(1−ε) F)⁻¹ diag(ε): 𝓕[i, j] is
+    the fraction of the power a black body at i's temperature would emit over A_i that j
+    absorbs after any number of diffuse reflections (F[i, j] from i to j; Σ_j 𝓕_ij = ε_i in a
+    closed enclosure). emissivity: (N,) in (0, 1], or a scalar. O(N³)."""
+    eps = _np.broadcast_to(_np.asarray(emissivity, dtype=float), (_np.shape(F)[0],))
+    if not _np.all((eps > 0) & (eps <= 1)):
+        raise OptionError("emissivity: every value must be in (0, 1]", "emissivity")
+    return _core.exchange_factors(F, _np.ascontiguousarray(eps))
+
+
+def render(scene, values=None, *, width=640, height=640, path=None, flat=False, exposure=0.0,
+           label="", unit="", vmin=None, vmax=None, camera=None, supersample=2,
+           back_faces=False):
+    """A picture of the scene: an (height, width, 3) uint8 sRGB array, also written as a PNG
+    to ``path`` when given (atomically).
+
+    values: None (each patch in its material's colour), an (N, 3) radiosity (linear RGB,
+    exposed automatically unless exposure > 0), or an (N,) value per patch shown in false
+    colour (inferno) with a colour bar labelled ``label`` [``unit``] over [vmin, vmax] (default:
+    the values' range). camera: {"eye": (x, y, z), "target": ..., "up": ..., "fov": degrees};
+    default: the scene's camera or one that sees everything.
+    """
+    return _core.render(scene, values, int(width), int(height),
+                        "" if path is None else _os.fspath(path), bool(flat), float(exposure),
+                        str(label), str(unit), vmin, vmax, camera, int(supersample),
+                        bool(back_faces))

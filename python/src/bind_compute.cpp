@@ -1,0 +1,276 @@
+// Form factors: Scene.form_factors() → Result (the matrix as a NumPy view, standard errors,
+// the report, sparse output), and point_factors().
+
+#include <fmt/format.h>
+
+#include <cmath>
+
+#include "bindings.h"
+#include "formfactor/core/error.h"
+#include "formfactor/core/parallel.h"
+#include "formfactor/matrix/aggregate.h"
+#include "formfactor/methods/point_factors.h"
+#include "formfactor/output/report.h"
+
+namespace formfactor::python {
+
+namespace {
+
+/// The keyword arguments of form_factors(), None where not given.
+struct ComputeArgs {
+    py::object method, tolerance, obstructed_tolerance, samples, seed, threads, sampler,
+        resolution, points, rows, repair, ray_offset;
+    bool force_closure = false;
+    bool robust_rays = false;
+};
+
+template <class T>
+void set_if(const py::object& value, T& target) {
+    if (!value.is_none()) target = value.cast<T>();
+}
+
+/// A non-negative integer keyword: a negative Python int is an OptionError naming it (not a
+/// pybind11 cast error).
+std::uint64_t unsigned_arg(const py::object& value, const char* name) {
+    const long long v = value.cast<long long>();
+    if (v < 0) throw OptionError(name, fmt::format("must be ≥ 0, got {}", v));
+    return static_cast<std::uint64_t>(v);
+}
+
+ComputeOptions options_of(const Scene& scene, const ComputeArgs& a) {
+    ComputeOptions o;
+    if (!a.method.is_none()) o.method = parse_method(a.method.cast<std::string>());
+    MethodOptions& m = o.method_options;
+    set_if(a.threads, m.threads);
+    if (!a.tolerance.is_none()) {
+        // As the CLI's --tolerance: a given tolerance sets the obstructed pairs' target too.
+        m.tolerance = a.tolerance.cast<double>();
+        m.obstructed_tolerance = m.tolerance;
+    }
+    set_if(a.obstructed_tolerance, m.obstructed_tolerance);
+    if (!a.samples.is_none()) m.samples = unsigned_arg(a.samples, "samples");
+    if (!a.seed.is_none()) m.seed = unsigned_arg(a.seed, "seed");
+    if (!a.sampler.is_none()) m.sampler = parse_sampler(a.sampler.cast<std::string>());
+    set_if(a.resolution, m.resolution);
+    set_if(a.points, m.points);
+    if (!a.rows.is_none()) {
+        const auto t = a.rows.cast<py::tuple>();
+        if (t.size() != 2) throw OptionError("rows", "must be a pair (begin, end)");
+        o.rows.begin = unsigned_arg(t[0], "rows");
+        o.rows.end = t[1].is_none() ? RowRange::kEnd : unsigned_arg(t[1], "rows");
+    }
+    if (!a.repair.is_none()) o.repair.mode = parse_repair_mode(a.repair.cast<std::string>());
+    o.repair.enclosure = scene.enclosure;
+    o.repair.force_closure = a.force_closure;
+    set_if(a.ray_offset, o.visibility.relative_epsilon);
+    o.visibility.robust = a.robust_rays;
+    return o;
+}
+
+/// The run report, with the keys of the CLI's `compute --report` (output/report.h).
+std::string report_of(const Scene& scene, const ComputeOptions& o, const ComputeResult& r,
+                      double total_seconds) {
+    const MethodKind method = *o.method;
+    const MethodOptions& m = o.method_options;
+    nlohmann::json options{
+        {"scene", scene.name},
+        {"method", to_string(method)},
+        {"threads", m.threads},
+        {"tolerance", m.tolerance},
+        {"obstructed_tolerance", m.obstructed_tolerance},
+        {"samples", m.samples},
+        {"seed", m.seed},
+        {"sampler", sampler_name(m.sampler)},
+        {"resolution", m.resolution},
+        {"points", m.points},
+        {"repair", to_string(o.repair.mode)},
+        {"ray_offset", o.visibility.relative_epsilon},
+        {"robust_rays", o.visibility.robust},
+    };
+    const FormFactors& ff = r.form_factors;
+    if (ff.is_block()) {
+        options["rows"] = {ff.first_row, ff.first_row + ff.size()};
+        nlohmann::json report{{"formfactor_version", FF_VERSION},
+                              {"timestamp", utc_timestamp()},
+                              {"command", "python"},
+                              {"scene", scene_summary_json(scene)},
+                              {"N", ff.areas.size()},
+                              {"rows", {ff.first_row, ff.first_row + ff.size()}},
+                              {"method", to_string(method)},
+                              {"options", options},
+                              {"threads", r.threads},
+                              {"details", to_json(r.report)},
+                              {"diagnostics", {{"standard_error", standard_error_json(ff)}}}};
+        nlohmann::json t = nlohmann::json::object();
+        for (const auto& [step, sec] : r.timings.steps) t[step] = sec;
+        t["total"] = total_seconds;
+        report["timings"] = t;
+        return json_text(report);
+    }
+    ReportContext ctx;
+    ctx.command = "python";
+    ctx.method = to_string(method);
+    ctx.options = options;
+    ctx.timings = r.timings;
+    ctx.total_seconds = total_seconds;
+    ctx.threads = r.threads;
+    ctx.details = to_json(r.report);
+    ctx.reciprocity = r.traits.reciprocity;
+    nlohmann::json report = make_report(scene, ff, ctx);
+    if (r.repair) report["repair"] = to_json(*r.repair);
+    return json_text(report);
+}
+
+PyResult compute(const PyScene& s, const ComputeArgs& args, const py::object& progress) {
+    ComputeOptions o = options_of(*s.scene, args);
+    if (!o.method) o.method = default_method(*s.scene);
+    validate(o);
+    PyResult out;
+    out.scene = s.scene;
+    const auto start = std::chrono::steady_clock::now();
+    out.result = run_released(
+        [&](CancellationFlag& flag, ProgressSink* sink) {
+            ComputeOptions run = o;
+            run.cancel = &flag;
+            run.progress = sink;
+            return compute_form_factors(*s.scene, run);
+        },
+        progress);
+    const double total =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    out.report_json = report_of(*s.scene, o, out.result, total);
+    return out;
+}
+
+/// A NumPy array that takes over `M` (no copy): the matrix lives in a capsule the array owns.
+py::array_t<double> adopt(DenseMatrix&& M) {
+    auto* held = new DenseMatrix(std::move(M));
+    py::capsule owner(held, [](void* p) { delete static_cast<DenseMatrix*>(p); });
+    return py::array_t<double>({static_cast<std::size_t>(held->rows()),
+                                static_cast<std::size_t>(held->cols())},
+                               held->data(), owner);
+}
+
+/// A read-only view of a row-major matrix owned by `self`.
+py::array_t<double> matrix_view(const DenseMatrix& M, const py::object& self) {
+    const auto cols = static_cast<std::size_t>(M.cols());
+    auto a = py::array_t<double>({static_cast<std::size_t>(M.rows()), cols},
+                                 {cols * sizeof(double), sizeof(double)}, M.data(), self);
+    py::detail::array_proxy(a.ptr())->flags &= ~py::detail::npy_api::NPY_ARRAY_WRITEABLE_;
+    return a;
+}
+
+py::object csr(const DenseMatrix& F, double threshold) {
+    if (!(threshold >= 0.0) || !std::isfinite(threshold)) {
+        throw OptionError("threshold", fmt::format("must be a finite number ≥ 0, got {}", threshold));
+    }
+    const auto rows = static_cast<std::size_t>(F.rows());
+    const auto cols = static_cast<std::size_t>(F.cols());
+    std::vector<std::int64_t> indptr(rows + 1, 0);
+    std::vector<std::int32_t> indices;
+    std::vector<double> data;
+    for (std::size_t i = 0; i < rows; ++i) {
+        const double* row = F.data() + i * cols;
+        for (std::size_t j = 0; j < cols; ++j) {
+            if (std::abs(row[j]) > threshold) {
+                indices.push_back(static_cast<std::int32_t>(j));
+                data.push_back(row[j]);
+            }
+        }
+        indptr[i + 1] = static_cast<std::int64_t>(data.size());
+    }
+    const py::module_ sparse = py::module_::import("scipy.sparse");
+    return sparse.attr("csr_matrix")(
+        py::make_tuple(py::array_t<double>(data.size(), data.data()),
+                       py::array_t<std::int32_t>(indices.size(), indices.data()),
+                       py::array_t<std::int64_t>(indptr.size(), indptr.data())),
+        py::arg("shape") = py::make_tuple(rows, cols));
+}
+
+}  // namespace
+
+void bind_compute(py::module_& m) {
+    py::class_<PyResult>(m, "Result", R"doc(
+Form factors computed for a scene: ``matrix[i, j]`` is F_ij, the fraction of the power leaving
+patch i (diffusely) that arrives at patch j — from i (row) to j (column). (pyViewFactor puts the
+receiver first; formfactor never does.)
+
+``matrix`` is a read-only view of the computed matrix (no copy; ``.copy()`` to change it).
+For a row block (``rows=(b, e)``) it holds rows b..e-1 and every column.
+)doc")
+        .def_property_readonly("matrix", [](const py::object& self) {
+                return matrix_view(self.cast<const PyResult&>().result.form_factors.F, self);
+            }, "F (N×N float64, or the rows asked for): F[i, j] from patch i to patch j. "
+               "A read-only view, no copy.")
+        .def_property_readonly("standard_error", [](const py::object& self) -> py::object {
+                const auto& ff = self.cast<const PyResult&>().result.form_factors;
+                if (!ff.standard_error) return py::none();
+                return matrix_view(*ff.standard_error, self);
+            }, "Per-entry standard errors (Monte-Carlo methods; same shape as matrix), else None.")
+        .def_property_readonly("error_bound", [](const PyResult& r) -> py::object {
+                const auto& b = r.result.report.error_bound_per_entry;
+                return b ? py::object(py::float_(*b)) : py::none();
+            }, "An upper bound of |F_ij − exact| for every entry (analytic), else None.")
+        .def_property_readonly("areas", [](const py::object& self) {
+                const auto& a = self.cast<const PyResult&>().result.form_factors.areas;
+                return readonly_view<double>(a.data(), a.size(), sizeof(double), self);
+            }, "(N,) patch areas (A_i F_ij = A_j F_ji).")
+        .def_property_readonly("rows", [](const PyResult& r) {
+                const auto& ff = r.result.form_factors;
+                return py::make_tuple(ff.first_row, ff.first_row + ff.size());
+            }, "(begin, end): the rows held.")
+        .def_property_readonly("method", [](const PyResult& r) { return to_string(r.result.report.method); })
+        .def_property_readonly("threads", [](const PyResult& r) { return r.result.threads; })
+        .def_property_readonly("_report_json", [](const PyResult& r) { return r.report_json; })
+        .def("sparse", [](const PyResult& r, double threshold) {
+                return csr(r.result.form_factors.F, threshold);
+            }, py::arg("threshold") = 0.0,
+            "F as a scipy.sparse.csr_matrix holding the entries with |F_ij| > threshold.")
+        .def("per_surface", [](const PyResult& r) {
+                if (r.result.form_factors.is_block())
+                    throw OptionError("rows", "per-surface factors need the whole matrix");
+                FormFactors agg = aggregate_per_surface(*r.scene, r.result.form_factors);
+                const PatchGroups groups = surface_groups(*r.scene);
+                return py::make_tuple(adopt(std::move(agg.F)), groups.names);
+            }, "(F_surfaces, names): the area-weighted per-surface matrix (View3D's Combine "
+               "merges surfaces with cmb), rows = surfaces.");
+
+    py::class_<ComputeArgs>(m, "_ComputeArgs").def(py::init<>())
+        .def_readwrite("method", &ComputeArgs::method)
+        .def_readwrite("tolerance", &ComputeArgs::tolerance)
+        .def_readwrite("obstructed_tolerance", &ComputeArgs::obstructed_tolerance)
+        .def_readwrite("samples", &ComputeArgs::samples)
+        .def_readwrite("seed", &ComputeArgs::seed)
+        .def_readwrite("threads", &ComputeArgs::threads)
+        .def_readwrite("sampler", &ComputeArgs::sampler)
+        .def_readwrite("resolution", &ComputeArgs::resolution)
+        .def_readwrite("points", &ComputeArgs::points)
+        .def_readwrite("rows", &ComputeArgs::rows)
+        .def_readwrite("repair", &ComputeArgs::repair)
+        .def_readwrite("ray_offset", &ComputeArgs::ray_offset)
+        .def_readwrite("force_closure", &ComputeArgs::force_closure)
+        .def_readwrite("robust_rays", &ComputeArgs::robust_rays);
+
+    m.def("compute", &compute, py::arg("scene"), py::arg("args"), py::arg("progress") = py::none());
+
+    m.def("point_factors", [](const PyScene& s, const py::object& points, const py::object& normals,
+                              int threads, const py::object& progress) {
+            const std::vector<Vec3> p = as_vec3s(points, "points");
+            const std::vector<Vec3> n = as_vec3s(normals, "normals", p.size());
+            if (n.size() != p.size()) {
+                throw OptionError("normals", fmt::format("must have {} rows (one per point), got {}",
+                                                         p.size(), n.size()));
+            }
+            for (std::size_t k = 0; k < n.size(); ++k)
+                if (n[k].norm() == 0.0) throw OptionError("normals", fmt::format("row {} is zero", k));
+            DenseMatrix M = run_released(
+                [&](CancellationFlag&, ProgressSink*) {
+                    return point_form_factors(*s.scene, p, n, threads);
+                },
+                progress);
+            return adopt(std::move(M));
+        }, py::arg("scene"), py::arg("points"), py::arg("normals"), py::arg("threads") = 0,
+        py::arg("progress") = py::none());
+}
+
+}  // namespace formfactor::python

@@ -1,0 +1,251 @@
+// Solvers with NumPy in and out: radiosity (RGB), thermal (grey bodies), repair, Hottel's total
+// exchange factors.
+
+#include <fmt/format.h>
+
+#include <cmath>
+
+#include "bindings.h"
+#include "formfactor/core/error.h"
+#include "formfactor/matrix/repair.h"
+#include "formfactor/output/report.h"
+#include "formfactor/solve/properties.h"
+#include "formfactor/solve/radiosity.h"
+#include "formfactor/solve/thermal.h"
+
+namespace formfactor::python {
+
+namespace {
+
+/// F as the solvers take it: a Result's matrix (shared, whole), or an (N, N) array with the
+/// scene's areas.
+FormFactors form_factors_of(const PyScene& s, const py::object& F) {
+    const std::size_t n = s.scene->patches.size();
+    if (py::isinstance<PyResult>(F)) {
+        const PyResult& r = F.cast<const PyResult&>();
+        if (r.result.form_factors.is_block())
+            throw OptionError("F", "the solvers need the whole matrix, not a block of rows");
+        if (r.result.form_factors.size() != n)
+            throw OptionError("F", "was computed for another scene (sizes differ)");
+        return r.result.form_factors;
+    }
+    const auto a = as_doubles(F, "F", 2);
+    if (static_cast<std::size_t>(a.shape(0)) != n || static_cast<std::size_t>(a.shape(1)) != n) {
+        throw OptionError("F", fmt::format("must be {0}×{0} (the scene's patches), got {1}×{2}", n,
+                                           a.shape(0), a.shape(1)));
+    }
+    FormFactors ff;
+    ff.F = Eigen::Map<const DenseMatrix>(a.data(), static_cast<Eigen::Index>(n),
+                                         static_cast<Eigen::Index>(n));
+    if (!ff.F.allFinite()) throw OptionError("F", "has entries that are not finite");
+    for (const Patch& p : s.scene->patches) ff.areas.push_back(p.area);
+    return ff;
+}
+
+/// Per-patch doubles: a scalar for every patch or an (N,) array.
+std::vector<double> per_patch(const py::object& v, const char* name, std::size_t n) {
+    if (py::isinstance<py::float_>(v) || py::isinstance<py::int_>(v)) {
+        return std::vector<double>(n, v.cast<double>());
+    }
+    const auto a = as_doubles(v, name, 1);
+    if (static_cast<std::size_t>(a.shape(0)) != n) {
+        throw OptionError(name, fmt::format("must have {} values (one per patch), got {}", n,
+                                            a.shape(0)));
+    }
+    return std::vector<double>(a.data(), a.data() + n);
+}
+
+/// Per-patch colours: a scalar, an (N,) array (grey) or an (N, 3) array.
+std::vector<Rgb> per_patch_rgb(const py::object& v, const char* name, std::size_t n) {
+    if (py::isinstance<py::float_>(v) || py::isinstance<py::int_>(v)) {
+        return std::vector<Rgb>(n, Rgb::Constant(v.cast<double>()));
+    }
+    const auto any = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(v);
+    if (!any) throw OptionError(name, "must be an array of numbers");
+    if (any.ndim() == 1) {
+        const std::vector<double> g = per_patch(v, name, n);
+        std::vector<Rgb> out;
+        for (double x : g) out.push_back(Rgb::Constant(x));
+        return out;
+    }
+    if (any.ndim() != 2 || static_cast<std::size_t>(any.shape(0)) != n || any.shape(1) != 3) {
+        throw OptionError(name, fmt::format("must have shape ({}, 3) or ({},)", n, n));
+    }
+    std::vector<Rgb> out;
+    for (std::size_t i = 0; i < n; ++i)
+        out.emplace_back(any.data()[3 * i], any.data()[3 * i + 1], any.data()[3 * i + 2]);
+    return out;
+}
+
+py::array_t<double> array_of(const std::vector<double>& v) {
+    return py::array_t<double>(v.size(), v.data());
+}
+
+py::array_t<double> array_of(const std::vector<Rgb>& v) {
+    py::array_t<double> out({v.size(), std::size_t(3)});
+    for (std::size_t i = 0; i < v.size(); ++i)
+        for (int c = 0; c < 3; ++c) out.mutable_at(static_cast<py::ssize_t>(i), c) = v[i][c];
+    return out;
+}
+
+SolverOptions solver_options(const std::string& solver, double residual, long long max_iterations,
+                             int threads) {
+    SolverOptions o;
+    o.solver = parse_solver(solver);
+    o.residual = residual;
+    o.max_iterations = max_iterations;
+    o.threads = threads;
+    if (!(residual > 0.0) || !std::isfinite(residual))
+        throw OptionError("residual", fmt::format("must be a finite number > 0, got {}", residual));
+    if (max_iterations < 0)
+        throw OptionError("max_iterations", fmt::format("must be ≥ 0, got {}", max_iterations));
+    return o;
+}
+
+py::dict stats_dict(const SolverStats& s) {
+    py::dict d;
+    d["solver"] = s.solver;
+    d["iterations"] = s.iterations;
+    d["residual"] = s.residual;
+    d["tolerance"] = s.tolerance;
+    d["converged"] = s.converged;
+    d["seconds"] = s.seconds;
+    d["warnings"] = s.warnings;
+    return d;
+}
+
+py::dict radiosity(const PyScene& s, const py::object& F, const py::object& reflectance,
+                   const py::object& emission, const std::string& solver, double residual,
+                   long long max_iterations, int threads, const py::object& progress) {
+    const FormFactors ff = form_factors_of(s, F);
+    const std::size_t n = ff.size();
+    PatchProperties props = properties_from_scene(*s.scene);
+    if (!reflectance.is_none()) props.reflectance = per_patch_rgb(reflectance, "reflectance", n);
+    if (!emission.is_none()) props.emission = per_patch_rgb(emission, "emission", n);
+    validate_properties(props);
+    const SolverOptions o = solver_options(solver, residual, max_iterations, threads);
+    const RadiosityResult r = run_released(
+        [&](CancellationFlag&, ProgressSink*) { return solve_radiosity(ff, props, o); }, progress);
+    py::dict d;
+    d["radiosity"] = array_of(r.radiosity);
+    d["stats"] = stats_dict(r.stats);
+    py::dict b;
+    b["emitted"] = array_of(std::vector<Rgb>{r.balance.emitted}).attr("reshape")(3);
+    b["absorbed"] = array_of(std::vector<Rgb>{r.balance.absorbed}).attr("reshape")(3);
+    b["escaped"] = array_of(std::vector<Rgb>{r.balance.escaped}).attr("reshape")(3);
+    b["relative_defect"] = r.balance.relative_defect;
+    d["balance"] = b;
+    return d;
+}
+
+py::dict thermal(const PyScene& s, const py::object& F, const py::object& emissivity,
+                 const py::object& temperature, const py::object& net_flux,
+                 double ambient_temperature, const std::string& solver, double residual,
+                 long long max_iterations, int threads, const py::object& progress) {
+    const FormFactors ff = form_factors_of(s, F);
+    const std::size_t n = ff.size();
+    PatchProperties props = properties_from_scene(*s.scene);
+    if (!emissivity.is_none()) props.emissivity = per_patch(emissivity, "emissivity", n);
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    const std::vector<double> T =
+        temperature.is_none() ? std::vector<double>(n, nan) : per_patch(temperature, "temperature", n);
+    const std::vector<double> q =
+        net_flux.is_none() ? std::vector<double>(n, nan) : per_patch(net_flux, "net_flux", n);
+    for (std::size_t i = 0; i < n; ++i) {
+        if (!std::isnan(T[i]) && !std::isnan(q[i])) {
+            throw OptionError("net_flux", fmt::format("patch {} has both a temperature and a net "
+                                                      "flux (give one; NaN for the other)",
+                                                      i));
+        }
+        if (!std::isnan(T[i])) {
+            props.temperature[i] = T[i];
+            props.net_flux[i] = nan;
+        } else if (!std::isnan(q[i])) {
+            props.net_flux[i] = q[i];
+            props.temperature[i] = nan;
+        }
+    }
+    validate_properties(props);
+    ThermalOptions o;
+    o.solver = solver_options(solver, residual, max_iterations, threads);
+    o.ambient_temperature = ambient_temperature;
+    if (!(ambient_temperature >= 0.0) || !std::isfinite(ambient_temperature)) {
+        throw OptionError("ambient_temperature",
+                          fmt::format("must be a finite number ≥ 0 (K), got {}", ambient_temperature));
+    }
+    const ThermalResult r = run_released(
+        [&](CancellationFlag&, ProgressSink*) { return solve_thermal(ff, props, o); }, progress);
+    py::dict d;
+    d["area"] = array_of(r.area);
+    d["emissivity"] = array_of(r.emissivity);
+    d["temperature"] = array_of(r.temperature);
+    py::array_t<bool> prescribed(static_cast<py::ssize_t>(n));
+    for (std::size_t i = 0; i < n; ++i)
+        prescribed.mutable_at(static_cast<py::ssize_t>(i)) = r.temperature_prescribed[i];
+    d["temperature_prescribed"] = prescribed;
+    d["radiosity"] = array_of(r.radiosity);
+    d["net_flux"] = array_of(r.net_flux);
+    d["net_power"] = array_of(r.net_power);
+    d["total_net_power"] = r.total_net_power;
+    d["escaped_power"] = r.escaped_power;
+    d["relative_balance_defect"] = r.relative_balance_defect;
+    d["ambient_temperature"] = r.ambient_temperature;
+    d["stats"] = stats_dict(r.stats);
+    d["warnings"] = r.warnings;
+    return d;
+}
+
+}  // namespace
+
+void bind_solve(py::module_& m) {
+    m.def("radiosity", &radiosity, py::arg("scene"), py::arg("F"), py::arg("reflectance"),
+          py::arg("emission"), py::arg("solver"), py::arg("residual"), py::arg("max_iterations"),
+          py::arg("threads"), py::arg("progress"));
+    m.def("thermal", &thermal, py::arg("scene"), py::arg("F"), py::arg("emissivity"),
+          py::arg("temperature"), py::arg("net_flux"), py::arg("ambient_temperature"),
+          py::arg("solver"), py::arg("residual"), py::arg("max_iterations"), py::arg("threads"),
+          py::arg("progress"));
+    m.def("repair", [](const py::object& F, const py::object& areas, const std::string& mode,
+                       bool enclosure, bool force_closure) {
+            const auto a = as_doubles(F, "F", 2);
+            const auto n = static_cast<std::size_t>(a.shape(0));
+            if (static_cast<std::size_t>(a.shape(1)) != n) throw OptionError("F", "must be square");
+            const auto ar = as_doubles(areas, "areas", 1);
+            if (static_cast<std::size_t>(ar.shape(0)) != n)
+                throw OptionError("areas", fmt::format("must have {} values", n));
+            auto* held = new DenseMatrix(Eigen::Map<const DenseMatrix>(
+                a.data(), static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n)));
+            py::capsule owner(held, [](void* p) { delete static_cast<DenseMatrix*>(p); });
+            RepairOptions o;
+            o.mode = parse_repair_mode(mode);
+            o.enclosure = enclosure;
+            o.force_closure = force_closure;
+            const std::vector<double> av(ar.data(), ar.data() + n);
+            RepairReport report;
+            {
+                py::gil_scoped_release nogil;
+                report = repair(*held, av, o);
+            }
+            py::array_t<double> out({n, n}, held->data(), owner);
+            return py::make_tuple(out, json_text(to_json(report)));
+        }, py::arg("F"), py::arg("areas"), py::arg("mode"), py::arg("enclosure"),
+        py::arg("force_closure"));
+    m.def("exchange_factors", [](const py::object& F, const py::object& emissivity) {
+            const auto a = as_doubles(F, "F", 2);
+            const auto n = static_cast<std::size_t>(a.shape(0));
+            if (static_cast<std::size_t>(a.shape(1)) != n) throw OptionError("F", "must be square");
+            const std::vector<double> eps = per_patch(emissivity, "emissivity", n);
+            const DenseMatrix M = Eigen::Map<const DenseMatrix>(a.data(), static_cast<Eigen::Index>(n),
+                                                                static_cast<Eigen::Index>(n));
+            DenseMatrix X;
+            {
+                py::gil_scoped_release nogil;
+                X = total_exchange_factors(M, eps);
+            }
+            py::array_t<double> out({n, n});
+            std::copy(X.data(), X.data() + X.size(), out.mutable_data());
+            return out;
+        }, py::arg("F"), py::arg("emissivity"));
+}
+
+}  // namespace formfactor::python

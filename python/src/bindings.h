@@ -1,0 +1,139 @@
+#pragma once
+/// What the binding files of the Python module share (python/src/*.cpp): the scene and result
+/// holders, NumPy conversions, and run_released(), which runs a computation with the GIL released
+/// and turns Ctrl-C into a cancellation.
+
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <chrono>
+#include <future>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "formfactor/core/cancel.h"
+#include "formfactor/core/progress.h"
+#include "formfactor/core/types.h"
+#include "formfactor/pipeline.h"
+#include "formfactor/scene/scene.h"
+
+namespace formfactor::python {
+
+namespace py = pybind11;
+
+/// A scene as Python holds it: immutable once made (patch arrays are views into it).
+struct PyScene {
+    std::shared_ptr<const Scene> scene;
+};
+
+/// A computed matrix and everything said about it.
+struct PyResult {
+    std::shared_ptr<const Scene> scene;
+    ComputeResult result;
+    std::string report_json;  ///< the report, as the CLI writes it (json_text)
+};
+
+/// A read-only NumPy view of `count` values of type T starting at `data`, `stride` bytes apart
+/// (`shape2` > 0: a 2-D view of shape (count, shape2), inner stride sizeof(T)), kept alive by
+/// `owner`.
+template <class T>
+py::array_t<T> readonly_view(const T* data, std::size_t count, std::size_t stride,
+                             py::handle owner, std::size_t shape2 = 0) {
+    py::array_t<T> a =
+        shape2 == 0
+            ? py::array_t<T>({count}, {stride}, data, owner)
+            : py::array_t<T>({count, shape2}, {stride, sizeof(T)}, data, owner);
+    py::detail::array_proxy(a.ptr())->flags &= ~py::detail::npy_api::NPY_ARRAY_WRITEABLE_;
+    return a;
+}
+
+/// A C-contiguous float64 copy (or the array itself when it is one already) of `obj`, checked
+/// to have `ndim` dimensions; `name` is the keyword argument for error messages.
+py::array_t<double, py::array::c_style | py::array::forcecast> as_doubles(py::handle obj,
+                                                                           const char* name,
+                                                                           int ndim);
+
+/// An (n, 3) array of points or vectors (a (3,) array is repeated n times when n > 0).
+std::vector<Vec3> as_vec3s(py::handle obj, const char* name, std::size_t n = 0);
+
+/// Progress forwarded to a Python callable callback(phase, done, total, elapsed_seconds) from the
+/// thread that waits for the computation (which holds the GIL when it calls), never from the
+/// workers.
+class CallbackProgress final : public ProgressSink {
+  public:
+    void update(const std::string& label, std::size_t done, std::size_t total,
+                double elapsed_seconds) override;
+    void finish(const std::string& label) override;
+    /// Calls the callback with what changed since the last call (GIL held).
+    void deliver(const py::object& callback);
+
+  private:
+    struct Update {
+        std::string label;
+        std::size_t done = 0, total = 0;
+        double elapsed = 0.0;
+    };
+    std::mutex mutex_;
+    std::vector<Update> pending_;
+};
+
+/// Runs `work(flag)` on a worker thread with the GIL released; the calling thread waits,
+/// taking the GIL every 20 ms to check for signals (Ctrl-C: the flag is requested, the worker
+/// stops at its next poll, and KeyboardInterrupt is raised) and to deliver progress to
+/// `callback` (None: no progress). Errors of `work` propagate (translated to Python by the
+/// module's exception translator).
+template <class Work>
+auto run_released(Work&& work, const py::object& callback = py::none())
+    -> decltype(work(std::declval<CancellationFlag&>(), static_cast<ProgressSink*>(nullptr))) {
+    using R = decltype(work(std::declval<CancellationFlag&>(), static_cast<ProgressSink*>(nullptr)));
+    CancellationFlag flag;
+    CallbackProgress progress;
+    ProgressSink* sink = callback.is_none() ? nullptr : &progress;
+    std::packaged_task<R()> task([&]() -> R {
+        CancellationScope scope(flag);
+        return work(flag, sink);
+    });
+    std::future<R> done = task.get_future();
+    bool interrupted = false;
+    {
+        py::gil_scoped_release nogil;
+        std::thread worker(std::move(task));
+        while (done.wait_for(std::chrono::milliseconds(20)) != std::future_status::ready) {
+            py::gil_scoped_acquire gil;
+            if (PyErr_CheckSignals() != 0) {
+                // The KeyboardInterrupt stays pending on this thread until we raise it below.
+                flag.request();
+                interrupted = true;
+                break;
+            }
+            if (sink) {
+                try {
+                    progress.deliver(callback);
+                } catch (py::error_already_set& e) {
+                    // The callback raised: stop the computation and raise that.
+                    e.restore();
+                    flag.request();
+                    interrupted = true;
+                    break;
+                }
+            }
+        }
+        worker.join();
+    }
+    if (interrupted) throw py::error_already_set();
+    if (sink) progress.deliver(callback);
+    return done.get();
+}
+
+void bind_errors(py::module_& m);
+void bind_scene(py::module_& m);
+void bind_compute(py::module_& m);
+void bind_solve(py::module_& m);
+void bind_render(py::module_& m);
+
+}  // namespace formfactor::python
