@@ -158,3 +158,18 @@ TEST_CASE("scene: an OBJ without faces, or with obstruction faces only, is an in
           "factors between (faces outside groups and objects named obstruction* have rows)");
     CHECK(obj_error("ok.obj", kVerts + "g obstruction\nf 1 2 3 4\ng floor\nf 4 3 2 1\n").empty());
 }
+
+TEST_CASE("scene: OBJ coordinates are read correctly rounded, as in every other form") {
+    // tinyobjloader's own number parser read "0.3" as 0.30000000000000004 and "0.7" as
+    // 0.7000000000000001: the same geometry from an OBJ file and from a VS3 file or arrays then
+    // differed in the last bit, and so did their form factors (by 3e-8 on an obstructed box).
+    const std::string p = write_file("rounding.obj",
+                                     "v 0.5 0.3 0.7\nv 1.4 0.3 0.7\nv 0.9 0.8 0.7\n"
+                                     "v 1e-1 2.675 -0.1\nf 1 3 2\n");
+    const Scene s = load_scene(p);
+    REQUIRE(s.surfaces.size() == 1);
+    const Polygon& q = s.surfaces[0].polygon;
+    CHECK(q[0] == Vec3(0.5, 0.3, 0.7));
+    CHECK(q[1] == Vec3(0.9, 0.8, 0.7));
+    CHECK(q[2] == Vec3(1.4, 0.3, 0.7));
+}

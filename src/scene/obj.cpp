@@ -133,13 +133,14 @@ class ObjReader {
                                          "tinyobjloader read this face differently");
                 Surface s;
                 s.polygon.vertices.reserve(fi.v.size());
+                // The coordinates as the scan parsed them (correctly rounded): tinyobjloader's
+                // own number parser is not (it read "0.3" as 0.30000000000000004), so the same
+                // geometry from an OBJ file and from any other form differed in the last bit.
                 for (const int vi : fi.v) {
-                    const std::size_t b = 3 * static_cast<std::size_t>(vi);
-                    if (b + 2 >= attrib.vertices.size())
+                    if (vi < 0 || static_cast<std::size_t>(vi) >= vertices_.size())
                         throw InputError(path_, fi.line,
                                          "tinyobjloader read this face differently");
-                    s.polygon.vertices.emplace_back(attrib.vertices[b], attrib.vertices[b + 1],
-                                                    attrib.vertices[b + 2]);
+                    s.polygon.vertices.push_back(vertices_[static_cast<std::size_t>(vi)]);
                 }
                 offset += nv;
                 const int count = ++seen[fi.key];
@@ -235,13 +236,16 @@ class ObjReader {
                     fail(path_, ln,
                          "v record has " + std::to_string(t.size() - 1) +
                              " numbers (x, y, z needed)");
+                Vec3 p = Vec3::Zero();
                 for (std::size_t j = 1; j < t.size(); ++j) {
                     double x = 0.0;
                     if (!detail::parse_double(t[j], x))
                         fail(path_, ln, "malformed number '" + t[j] + "' in v record");
                     if (j <= 3 && !std::isfinite(x))
                         fail(path_, ln, "vertex coordinate '" + t[j] + "' is not finite");
+                    if (j <= 3) p[static_cast<Eigen::Index>(j - 1)] = x;
                 }
+                vertices_.push_back(p);
                 ++vertex_count_;
             } else if (k == "vt") {
                 ++nvt;
@@ -398,6 +402,7 @@ class ObjReader {
     Scene scene_;
     std::vector<FaceInfo> faces_;
     std::size_t vertex_count_ = 0;
+    std::vector<Vec3> vertices_;  ///< x, y, z of every `v` record, in file order
     std::map<std::string, std::string> mtl_text_;
     std::map<std::string, MtlValues> mtl_values_;
     bool missing_mtl_ = false;
