@@ -1,0 +1,94 @@
+"""Radiosity and thermal solves, repair and Hottel's exchange factors, against NumPy."""
+
+import numpy as np
+import pytest
+
+import formfactor as ff
+
+SIGMA = 5.670374419e-8
+
+
+def test_radiosity_matches_a_numpy_solve():
+    s = ff.load("cornell", subdivide=2)
+    r = s.form_factors()
+    props = s.properties()
+    out = ff.solve_radiosity(s, r, residual=1e-13)
+    F = r.matrix
+    for c in range(3):
+        A = np.eye(len(s)) - props["reflectance"][:, c, None] * F
+        B = np.linalg.solve(A, props["emission"][:, c])
+        assert np.abs(out.radiosity[:, c] - B).max() <= 1e-10 * np.abs(B).max()
+    assert out.stats["converged"]
+    # The same with the matrix given as an array, with explicit grey properties.
+    grey = ff.solve_radiosity(s, np.array(F), reflectance=0.5, emission=props["emission"][:, 0],
+                              solver="direct")
+    B = np.linalg.solve(np.eye(len(s)) - 0.5 * F, props["emission"][:, 0])
+    assert np.abs(grey.radiosity[:, 1] - B).max() <= 1e-12 * np.abs(B).max()
+
+
+def test_thermal_matches_the_net_radiation_equations():
+    s = ff.load("cube", subdivide=2)
+    r = s.form_factors()
+    F = r.matrix
+    n = len(s)
+    eps = np.full(n, 0.8)
+    eps[:4] = 0.5
+    T = np.full(n, 300.0)
+    T[:4] = 1000.0
+    q_given = np.full(n, np.nan)
+    T[-1] = np.nan
+    q_given[-1] = 0.0  # one adiabatic patch, with a prescribed flux of zero
+    out = ff.solve_thermal(s, r, emissivity=eps, temperature=T, net_flux=q_given)
+    # J_i − (1−ε_i) Σ F_ij J_j = ε_i σ T_i⁴ (known T);  J_i − Σ F_ij J_j = q_i (known q)
+    M = np.eye(n) - np.where(np.isnan(T), 1.0, 1 - eps)[:, None] * F
+    rhs = np.where(np.isnan(T), q_given, eps * SIGMA * np.nan_to_num(T) ** 4)
+    J = np.linalg.solve(M, rhs)
+    assert np.abs(out.radiosity - J).max() <= 1e-9 * J.max()
+    q = J - F @ J
+    assert np.abs(out.net_flux - q).max() <= 1e-9 * np.abs(q).max()
+    assert np.allclose(out.net_power, q * s.areas, rtol=1e-9, atol=1e-9 * np.abs(q).max())
+    assert abs(out.total_net_power) <= 1e-9 * np.abs(out.net_power).sum()  # closed box
+    assert out.temperature_prescribed[:-1].all() and not out.temperature_prescribed[-1]
+    assert 300 < out.temperature[-1] < 1000
+    with pytest.raises(ff.OptionError) as e:
+        ff.solve_thermal(s, r, temperature=300.0, net_flux=0.0)
+    assert e.value.option == "net_flux"
+
+
+def test_exchange_factors_and_repair():
+    s = ff.load("cube", subdivide=2)
+    F = np.array(s.form_factors().matrix)
+    eps = np.linspace(0.3, 0.9, len(s))
+    X = ff.exchange_factors(F, eps)
+    assert np.abs(X.sum(axis=1) - eps).max() < 1e-12  # closed: Σ_j 𝓕_ij = ε_i
+    AX = s.areas[:, None] * X
+    assert np.abs(AX - AX.T).max() < 1e-12
+    assert np.abs(ff.exchange_factors(F, 1.0) - F).max() < 1e-14
+    with pytest.raises(ff.OptionError):
+        ff.exchange_factors(F, 0.0)
+
+    noisy = np.array(s.form_factors(method="mc-area", samples=200).matrix)
+    before = noisy.copy()
+    fixed, report = ff.repair(noisy, s.areas, "both", enclosure=True)
+    assert np.array_equal(noisy, before)  # the input is not changed
+    assert np.abs(fixed.sum(axis=1) - 1).max() < 1e-12
+    AF = s.areas[:, None] * fixed
+    assert np.abs(AF - AF.T).max() < 1e-12
+    assert report["mode"] == "both" and "before" in report and "after" in report
+
+
+def test_solver_arguments_are_checked():
+    s = ff.load("plates")
+    r = s.form_factors()
+    with pytest.raises(ff.OptionError) as e:
+        ff.solve_radiosity(s, np.zeros((3, 3)))
+    assert e.value.option == "F"
+    with pytest.raises(ff.OptionError) as e:
+        ff.solve_radiosity(s, r, reflectance=np.zeros(5))
+    assert e.value.option == "reflectance"
+    with pytest.raises(ff.OptionError) as e:
+        ff.solve_radiosity(s, r, solver="magic")
+    assert e.value.option == "solver"
+    block = s.form_factors(rows=(0, 1))
+    with pytest.raises(ff.OptionError):
+        ff.solve_radiosity(s, block)
