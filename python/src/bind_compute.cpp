@@ -18,8 +18,8 @@ namespace {
 
 /// The keyword arguments of form_factors(), None where not given.
 struct ComputeArgs {
-    py::object method, tolerance, obstructed_tolerance, samples, seed, threads, sampler,
-        resolution, points, rows, repair, ray_offset;
+    py::object method, tolerance, obstructed_tolerance, samples, seed, threads, sampler, resolution,
+        points, rows, repair, ray_offset;
     bool force_closure = false;
     bool robust_rays = false;
 };
@@ -136,9 +136,9 @@ PyResult compute(const PyScene& s, const ComputeArgs& args, const py::object& pr
             return compute_form_factors(*s.scene, run);
         },
         progress);
-    const double total =
+    out.total_seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    out.report_json = report_of(*s.scene, o, out.result, total);
+    out.options = o;
     return out;
 }
 
@@ -146,9 +146,9 @@ PyResult compute(const PyScene& s, const ComputeArgs& args, const py::object& pr
 py::array_t<double> adopt(DenseMatrix&& M) {
     auto* held = new DenseMatrix(std::move(M));
     py::capsule owner(held, [](void* p) { delete static_cast<DenseMatrix*>(p); });
-    return py::array_t<double>({static_cast<std::size_t>(held->rows()),
-                                static_cast<std::size_t>(held->cols())},
-                               held->data(), owner);
+    return py::array_t<double>(
+        {static_cast<std::size_t>(held->rows()), static_cast<std::size_t>(held->cols())},
+        held->data(), owner);
 }
 
 /// A read-only view of a row-major matrix owned by `self`.
@@ -162,7 +162,8 @@ py::array_t<double> matrix_view(const DenseMatrix& M, const py::object& self) {
 
 py::object csr(const DenseMatrix& F, double threshold) {
     if (!(threshold >= 0.0) || !std::isfinite(threshold)) {
-        throw OptionError("threshold", fmt::format("must be a finite number ≥ 0, got {}", threshold));
+        throw OptionError("threshold",
+                          fmt::format("must be a finite number ≥ 0, got {}", threshold));
     }
     const auto rows = static_cast<std::size_t>(F.rows());
     const auto cols = static_cast<std::size_t>(F.cols());
@@ -198,44 +199,73 @@ receiver first; formfactor never does.)
 ``matrix`` is a read-only view of the computed matrix (no copy; ``.copy()`` to change it).
 For a row block (``rows=(b, e)``) it holds rows b..e-1 and every column.
 )doc")
-        .def_property_readonly("matrix", [](const py::object& self) {
+        .def_property_readonly(
+            "matrix",
+            [](const py::object& self) {
                 return matrix_view(self.cast<const PyResult&>().result.form_factors.F, self);
-            }, "F (N×N float64, or the rows asked for): F[i, j] from patch i to patch j. "
-               "A read-only view, no copy.")
-        .def_property_readonly("standard_error", [](const py::object& self) -> py::object {
+            },
+            "F (N×N float64, or the rows asked for): F[i, j] from patch i to patch j. "
+            "A read-only view, no copy.")
+        .def_property_readonly(
+            "standard_error",
+            [](const py::object& self) -> py::object {
                 const auto& ff = self.cast<const PyResult&>().result.form_factors;
                 if (!ff.standard_error) return py::none();
                 return matrix_view(*ff.standard_error, self);
-            }, "Per-entry standard errors (Monte-Carlo methods; same shape as matrix), else None.")
-        .def_property_readonly("error_bound", [](const PyResult& r) -> py::object {
+            },
+            "Per-entry standard errors (Monte-Carlo methods; same shape as matrix), else None.")
+        .def_property_readonly(
+            "error_bound",
+            [](const PyResult& r) -> py::object {
                 const auto& b = r.result.report.error_bound_per_entry;
                 return b ? py::object(py::float_(*b)) : py::none();
-            }, "An upper bound of |F_ij − exact| for every entry (analytic), else None.")
-        .def_property_readonly("areas", [](const py::object& self) {
+            },
+            "An upper bound of |F_ij − exact| for every entry (analytic), else None.")
+        .def_property_readonly(
+            "areas",
+            [](const py::object& self) {
                 const auto& a = self.cast<const PyResult&>().result.form_factors.areas;
                 return readonly_view<double>(a.data(), a.size(), sizeof(double), self);
-            }, "(N,) patch areas (A_i F_ij = A_j F_ji).")
-        .def_property_readonly("rows", [](const PyResult& r) {
+            },
+            "(N,) patch areas (A_i F_ij = A_j F_ji).")
+        .def_property_readonly(
+            "rows",
+            [](const PyResult& r) {
                 const auto& ff = r.result.form_factors;
                 return py::make_tuple(ff.first_row, ff.first_row + ff.size());
-            }, "(begin, end): the rows held.")
-        .def_property_readonly("method", [](const PyResult& r) { return to_string(r.result.report.method); })
+            },
+            "(begin, end): the rows held.")
+        .def_property_readonly("method",
+                               [](const PyResult& r) { return to_string(r.result.report.method); })
         .def_property_readonly("threads", [](const PyResult& r) { return r.result.threads; })
-        .def_property_readonly("_report_json", [](const PyResult& r) { return r.report_json; })
-        .def("sparse", [](const PyResult& r, double threshold) {
+        .def_property_readonly("_report_json",
+                               [](const PyResult& r) {
+                                   if (!r.report_json)
+                                       r.report_json = report_of(*r.scene, r.options, r.result,
+                                                                 r.total_seconds);
+                                   return *r.report_json;
+                               })
+        .def(
+            "sparse",
+            [](const PyResult& r, double threshold) {
                 return csr(r.result.form_factors.F, threshold);
-            }, py::arg("threshold") = 0.0,
+            },
+            py::arg("threshold") = 0.0,
             "F as a scipy.sparse.csr_matrix holding the entries with |F_ij| > threshold.")
-        .def("per_surface", [](const PyResult& r) {
+        .def(
+            "per_surface",
+            [](const PyResult& r) {
                 if (r.result.form_factors.is_block())
                     throw OptionError("rows", "per-surface factors need the whole matrix");
                 FormFactors agg = aggregate_per_surface(*r.scene, r.result.form_factors);
                 const PatchGroups groups = surface_groups(*r.scene);
                 return py::make_tuple(adopt(std::move(agg.F)), groups.names);
-            }, "(F_surfaces, names): the area-weighted per-surface matrix (View3D's Combine "
-               "merges surfaces with cmb), rows = surfaces.");
+            },
+            "(F_surfaces, names): the area-weighted per-surface matrix (View3D's Combine "
+            "merges surfaces with cmb), rows = surfaces.");
 
-    py::class_<ComputeArgs>(m, "_ComputeArgs").def(py::init<>())
+    py::class_<ComputeArgs>(m, "_ComputeArgs")
+        .def(py::init<>())
         .def_readwrite("method", &ComputeArgs::method)
         .def_readwrite("tolerance", &ComputeArgs::tolerance)
         .def_readwrite("obstructed_tolerance", &ComputeArgs::obstructed_tolerance)
@@ -253,23 +283,28 @@ For a row block (``rows=(b, e)``) it holds rows b..e-1 and every column.
 
     m.def("compute", &compute, py::arg("scene"), py::arg("args"), py::arg("progress") = py::none());
 
-    m.def("point_factors", [](const PyScene& s, const py::object& points, const py::object& normals,
-                              int threads, const py::object& progress) {
+    m.def(
+        "point_factors",
+        [](const PyScene& s, const py::object& points, const py::object& normals, int threads,
+           const py::object& progress) {
             const std::vector<Vec3> p = as_vec3s(points, "points");
             const std::vector<Vec3> n = as_vec3s(normals, "normals", p.size());
             if (n.size() != p.size()) {
-                throw OptionError("normals", fmt::format("must have {} rows (one per point), got {}",
-                                                         p.size(), n.size()));
+                throw OptionError(
+                    "normals",
+                    fmt::format("must have {} rows (one per point), got {}", p.size(), n.size()));
             }
             for (std::size_t k = 0; k < n.size(); ++k)
-                if (n[k].norm() == 0.0) throw OptionError("normals", fmt::format("row {} is zero", k));
+                if (n[k].norm() == 0.0)
+                    throw OptionError("normals", fmt::format("row {} is zero", k));
             DenseMatrix M = run_released(
                 [&](CancellationFlag&, ProgressSink*) {
                     return point_form_factors(*s.scene, p, n, threads);
                 },
                 progress);
             return adopt(std::move(M));
-        }, py::arg("scene"), py::arg("points"), py::arg("normals"), py::arg("threads") = 0,
+        },
+        py::arg("scene"), py::arg("points"), py::arg("normals"), py::arg("threads") = 0,
         py::arg("progress") = py::none());
 }
 

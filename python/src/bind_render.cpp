@@ -58,7 +58,8 @@ py::array_t<std::uint8_t> render(const PyScene& s, const py::object& values, int
         py::gil_scoped_release nogil;
         image = render_radiosity(scene, colour, o);
     } else {
-        const auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(values);
+        const auto a =
+            py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(values);
         if (!a) throw OptionError("values", "must be an array of numbers");
         if (a.ndim() == 2 && a.shape(1) == 3 && static_cast<std::size_t>(a.shape(0)) == n) {
             std::vector<Rgb> rad(n);

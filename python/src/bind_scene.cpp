@@ -41,7 +41,8 @@ std::vector<std::vector<long long>> face_lists(const py::handle& faces) {
             throw OptionError("faces", "must hold integer vertex indices, got dtype " +
                                            py::str(a.dtype()).cast<std::string>());
         }
-        const auto ints = py::array_t<long long, py::array::c_style | py::array::forcecast>::ensure(a);
+        const auto ints =
+            py::array_t<long long, py::array::c_style | py::array::forcecast>::ensure(a);
         const long long* d = ints.data();
         const auto rows = static_cast<std::size_t>(ints.shape(0));
         const auto k = static_cast<std::size_t>(ints.shape(1));
@@ -68,7 +69,8 @@ PyScene from_arrays(const py::object& vertices, const py::object& faces,
                     const std::string& name, const py::object& n, const py::object& max_edge) {
     const auto v = as_doubles(vertices, "vertices", 2);
     if (v.shape(1) != 3) {
-        throw OptionError("vertices", fmt::format("must have shape (V, 3), got (V, {})", v.shape(1)));
+        throw OptionError("vertices",
+                          fmt::format("must have shape (V, 3), got (V, {})", v.shape(1)));
     }
     const auto nv = static_cast<long long>(v.shape(0));
     const double* vd = v.data();
@@ -79,10 +81,11 @@ PyScene from_arrays(const py::object& vertices, const py::object& faces,
     if (!obstruction.is_none()) {
         const auto mask = py::array_t<bool, py::array::forcecast>::ensure(obstruction);
         if (!mask || mask.ndim() != 1 || static_cast<std::size_t>(mask.shape(0)) != polys.size()) {
-            throw OptionError("obstruction", fmt::format("must be {} booleans (one per face)",
-                                                         polys.size()));
+            throw OptionError("obstruction",
+                              fmt::format("must be {} booleans (one per face)", polys.size()));
         }
-        for (std::size_t f = 0; f < polys.size(); ++f) blocks[f] = mask.at(static_cast<py::ssize_t>(f));
+        for (std::size_t f = 0; f < polys.size(); ++f)
+            blocks[f] = mask.at(static_cast<py::ssize_t>(f));
     }
     std::vector<std::string> face_names;
     if (!names.is_none()) {
@@ -119,7 +122,8 @@ PyScene from_arrays(const py::object& vertices, const py::object& faces,
         scene.surfaces.push_back(std::move(s));
     }
     if (scene.obstruction_count() == scene.surfaces.size()) {
-        throw OptionError("obstruction", "every face is obstruction-only: the scene has no patches");
+        throw OptionError("obstruction",
+                          "every face is obstruction-only: the scene has no patches");
     }
     return finish(std::move(scene), n, max_edge);
 }
@@ -157,55 +161,83 @@ faces close a volume (repair may then close the rows). subdivide / max_edge: as 
 Raises OptionError (option ``vertices``, ``faces``, ...) for bad arrays or a face that is not a
 valid planar polygon.
 )doc")
-        .def("subdivided", [](const PyScene& self, const py::object& n, const py::object& max_edge) {
+        .def(
+            "subdivided",
+            [](const PyScene& self, const py::object& n, const py::object& max_edge) {
                 Scene copy = get(self);
                 return finish(std::move(copy), n, max_edge);
-            }, py::arg("subdivide") = py::none(), py::arg("max_edge") = py::none(),
+            },
+            py::arg("subdivide") = py::none(), py::arg("max_edge") = py::none(),
             "A new scene whose surfaces are split again: into subdivide×subdivide children "
             "(quads; triangles into subdivide²), or until every edge is at most max_edge.")
         .def("__len__", [](const PyScene& s) { return get(s).patches.size(); })
-        .def_property_readonly("n_patches", [](const PyScene& s) { return get(s).patches.size(); },
-                               "Number of patches N (rows and columns of F).")
-        .def_property_readonly("n_surfaces", [](const PyScene& s) { return get(s).surfaces.size(); },
-                               "Number of surfaces, obstruction-only ones included.")
+        .def_property_readonly(
+            "n_patches", [](const PyScene& s) { return get(s).patches.size(); },
+            "Number of patches N (rows and columns of F).")
+        .def_property_readonly(
+            "n_surfaces", [](const PyScene& s) { return get(s).surfaces.size(); },
+            "Number of surfaces, obstruction-only ones included.")
         .def_property_readonly("name", [](const PyScene& s) { return get(s).name; })
         .def_property_readonly("title", [](const PyScene& s) { return get(s).title; })
-        .def_property_readonly("enclosure", [](const PyScene& s) { return get(s).enclosure; },
-                               "True when the scene is known to be a closed enclosure.")
+        .def_property_readonly(
+            "enclosure", [](const PyScene& s) { return get(s).enclosure; },
+            "True when the scene is known to be a closed enclosure.")
         .def_property_readonly("warnings", [](const PyScene& s) { return get(s).warnings; })
-        .def_property_readonly("surface_names", [](const PyScene& s) {
+        .def_property_readonly(
+            "surface_names",
+            [](const PyScene& s) {
                 std::vector<std::string> out;
                 for (const Surface& x : get(s).surfaces) out.push_back(x.name);
                 return out;
-            }, "Names of the surfaces, in input order (obstruction-only ones included).")
-        .def_property_readonly("obstruction", [](const PyScene& s) {
+            },
+            "Names of the surfaces, in input order (obstruction-only ones included).")
+        .def_property_readonly(
+            "obstruction",
+            [](const PyScene& s) {
                 py::array_t<bool> out(static_cast<py::ssize_t>(get(s).surfaces.size()));
                 for (std::size_t k = 0; k < get(s).surfaces.size(); ++k)
                     out.mutable_at(static_cast<py::ssize_t>(k)) = get(s).surfaces[k].obstruction;
                 return out;
-            }, "(S,) booleans: True for obstruction-only surfaces.")
-        .def_property_readonly("areas", [](const py::object& self) {
+            },
+            "(S,) booleans: True for obstruction-only surfaces.")
+        .def_property_readonly(
+            "areas",
+            [](const py::object& self) {
                 const Scene& s = get(self.cast<const PyScene&>());
                 const Patch* p = s.patches.data();
                 return readonly_view<double>(&p->area, s.patches.size(), sizeof(Patch), self);
-            }, "(N,) patch areas (a read-only view, no copy).")
-        .def_property_readonly("normals", [](const py::object& self) {
+            },
+            "(N,) patch areas (a read-only view, no copy).")
+        .def_property_readonly(
+            "normals",
+            [](const py::object& self) {
                 const Scene& s = get(self.cast<const PyScene&>());
                 const Patch* p = s.patches.data();
-                return readonly_view<double>(p->normal.data(), s.patches.size(), sizeof(Patch), self, 3);
-            }, "(N, 3) unit front normals of the patches (a read-only view, no copy).")
-        .def_property_readonly("centroids", [](const py::object& self) {
+                return readonly_view<double>(p->normal.data(), s.patches.size(), sizeof(Patch),
+                                             self, 3);
+            },
+            "(N, 3) unit front normals of the patches (a read-only view, no copy).")
+        .def_property_readonly(
+            "centroids",
+            [](const py::object& self) {
                 const Scene& s = get(self.cast<const PyScene&>());
                 const Patch* p = s.patches.data();
-                return readonly_view<double>(p->centroid.data(), s.patches.size(), sizeof(Patch), self, 3);
-            }, "(N, 3) patch centroids (a read-only view, no copy).")
-        .def_property_readonly("surface_index", [](const py::object& self) {
+                return readonly_view<double>(p->centroid.data(), s.patches.size(), sizeof(Patch),
+                                             self, 3);
+            },
+            "(N, 3) patch centroids (a read-only view, no copy).")
+        .def_property_readonly(
+            "surface_index",
+            [](const py::object& self) {
                 const Scene& s = get(self.cast<const PyScene&>());
                 const Patch* p = s.patches.data();
                 return readonly_view<int>(&p->surface, s.patches.size(), sizeof(Patch), self);
-            }, "(N,) index of each patch's surface (into surface_names; a read-only view). "
-               "Per-surface values become per-patch ones with values[scene.surface_index].")
-        .def("patch_vertices", [](const PyScene& s, std::size_t i) {
+            },
+            "(N,) index of each patch's surface (into surface_names; a read-only view). "
+            "Per-surface values become per-patch ones with values[scene.surface_index].")
+        .def(
+            "patch_vertices",
+            [](const PyScene& s, std::size_t i) {
                 if (i >= get(s).patches.size()) throw py::index_error("patch index out of range");
                 const Polygon& poly = get(s).patches[i].polygon;
                 py::array_t<double> out({poly.size(), std::size_t(3)});
@@ -213,17 +245,24 @@ valid planar polygon.
                     for (int c = 0; c < 3; ++c)
                         out.mutable_at(static_cast<py::ssize_t>(k), c) = poly[k][c];
                 return out;
-            }, py::arg("i"), "The (k, 3) vertices of patch i, counter-clockwise seen from its front.")
-        .def_property_readonly("bounds", [](const PyScene& s) {
+            },
+            py::arg("i"), "The (k, 3) vertices of patch i, counter-clockwise seen from its front.")
+        .def_property_readonly(
+            "bounds",
+            [](const PyScene& s) {
                 const Bounds3 b = get(s).bounds();
                 return py::make_tuple(py::make_tuple(b.lo.x(), b.lo.y(), b.lo.z()),
                                       py::make_tuple(b.hi.x(), b.hi.y(), b.hi.z()));
-            }, "((xmin, ymin, zmin), (xmax, ymax, zmax)) of every surface.")
-        .def("properties", [](const PyScene& s) {
+            },
+            "((xmin, ymin, zmin), (xmax, ymax, zmax)) of every surface.")
+        .def(
+            "properties",
+            [](const PyScene& s) {
                 const PatchProperties p = properties_from_scene(get(s));
                 const std::size_t n = p.size();
                 py::array_t<double> refl({n, std::size_t(3)}), emis({n, std::size_t(3)});
-                py::array_t<double> eps(static_cast<py::ssize_t>(n)), temp(static_cast<py::ssize_t>(n));
+                py::array_t<double> eps(static_cast<py::ssize_t>(n)),
+                    temp(static_cast<py::ssize_t>(n));
                 for (std::size_t i = 0; i < n; ++i) {
                     const auto k = static_cast<py::ssize_t>(i);
                     for (int c = 0; c < 3; ++c) {
@@ -239,24 +278,29 @@ valid planar polygon.
                 d["emissivity"] = eps;
                 d["temperature"] = temp;
                 return d;
-            }, "The per-patch properties the scene's materials give (new arrays): "
-               "{'reflectance': (N, 3), 'emission': (N, 3), 'emissivity': (N,), "
-               "'temperature': (N,) in K, NaN where not given}.")
+            },
+            "The per-patch properties the scene's materials give (new arrays): "
+            "{'reflectance': (N, 3), 'emission': (N, 3), 'emissivity': (N,), "
+            "'temperature': (N,) in K, NaN where not given}.")
         .def("__repr__", [](const PyScene& s) {
-                const Scene& x = get(s);
-                return fmt::format("<formfactor.Scene '{}': {} surfaces ({} obstruction-only), {} patches{}>",
-                                   x.name, x.surfaces.size(), x.obstruction_count(), x.patches.size(),
-                                   x.enclosure ? ", enclosure" : "");
-            });
+            const Scene& x = get(s);
+            return fmt::format(
+                "<formfactor.Scene '{}': {} surfaces ({} obstruction-only), {} patches{}>", x.name,
+                x.surfaces.size(), x.obstruction_count(), x.patches.size(),
+                x.enclosure ? ", enclosure" : "");
+        });
 
-    m.def("load", [](const std::string& path, const py::object& n, const py::object& max_edge) {
+    m.def(
+        "load",
+        [](const std::string& path, const py::object& n, const py::object& max_edge) {
             Scene scene;
             {
                 py::gil_scoped_release nogil;
                 scene = load_scene(path);
             }
             return finish(std::move(scene), n, max_edge);
-        }, py::arg("path"), py::arg("subdivide") = py::none(), py::arg("max_edge") = py::none(),
+        },
+        py::arg("path"), py::arg("subdivide") = py::none(), py::arg("max_edge") = py::none(),
         "(see formfactor.load)");
     m.def("builtin_scenes", &builtin_scene_names, "Names of the built-in scenes.");
 }

@@ -49,8 +49,8 @@ std::vector<double> per_patch(const py::object& v, const char* name, std::size_t
     }
     const auto a = as_doubles(v, name, 1);
     if (static_cast<std::size_t>(a.shape(0)) != n) {
-        throw OptionError(name, fmt::format("must have {} values (one per patch), got {}", n,
-                                            a.shape(0)));
+        throw OptionError(
+            name, fmt::format("must have {} values (one per patch), got {}", n, a.shape(0)));
     }
     return std::vector<double>(a.data(), a.data() + n);
 }
@@ -147,8 +147,8 @@ py::dict thermal(const PyScene& s, const py::object& F, const py::object& emissi
     PatchProperties props = properties_from_scene(*s.scene);
     if (!emissivity.is_none()) props.emissivity = per_patch(emissivity, "emissivity", n);
     const double nan = std::numeric_limits<double>::quiet_NaN();
-    const std::vector<double> T =
-        temperature.is_none() ? std::vector<double>(n, nan) : per_patch(temperature, "temperature", n);
+    const std::vector<double> T = temperature.is_none() ? std::vector<double>(n, nan)
+                                                        : per_patch(temperature, "temperature", n);
     const std::vector<double> q =
         net_flux.is_none() ? std::vector<double>(n, nan) : per_patch(net_flux, "net_flux", n);
     for (std::size_t i = 0; i < n; ++i) {
@@ -170,8 +170,9 @@ py::dict thermal(const PyScene& s, const py::object& F, const py::object& emissi
     o.solver = solver_options(solver, residual, max_iterations, threads);
     o.ambient_temperature = ambient_temperature;
     if (!(ambient_temperature >= 0.0) || !std::isfinite(ambient_temperature)) {
-        throw OptionError("ambient_temperature",
-                          fmt::format("must be a finite number ≥ 0 (K), got {}", ambient_temperature));
+        throw OptionError(
+            "ambient_temperature",
+            fmt::format("must be a finite number ≥ 0 (K), got {}", ambient_temperature));
     }
     const ThermalResult r = run_released(
         [&](CancellationFlag&, ProgressSink*) { return solve_thermal(ff, props, o); }, progress);
@@ -205,8 +206,10 @@ void bind_solve(py::module_& m) {
           py::arg("temperature"), py::arg("net_flux"), py::arg("ambient_temperature"),
           py::arg("solver"), py::arg("residual"), py::arg("max_iterations"), py::arg("threads"),
           py::arg("progress"));
-    m.def("repair", [](const py::object& F, const py::object& areas, const std::string& mode,
-                       bool enclosure, bool force_closure) {
+    m.def(
+        "repair",
+        [](const py::object& F, const py::object& areas, const std::string& mode, bool enclosure,
+           bool force_closure) {
             const auto a = as_doubles(F, "F", 2);
             const auto n = static_cast<std::size_t>(a.shape(0));
             if (static_cast<std::size_t>(a.shape(1)) != n) throw OptionError("F", "must be square");
@@ -228,15 +231,18 @@ void bind_solve(py::module_& m) {
             }
             py::array_t<double> out({n, n}, held->data(), owner);
             return py::make_tuple(out, json_text(to_json(report)));
-        }, py::arg("F"), py::arg("areas"), py::arg("mode"), py::arg("enclosure"),
+        },
+        py::arg("F"), py::arg("areas"), py::arg("mode"), py::arg("enclosure"),
         py::arg("force_closure"));
-    m.def("exchange_factors", [](const py::object& F, const py::object& emissivity) {
+    m.def(
+        "exchange_factors",
+        [](const py::object& F, const py::object& emissivity) {
             const auto a = as_doubles(F, "F", 2);
             const auto n = static_cast<std::size_t>(a.shape(0));
             if (static_cast<std::size_t>(a.shape(1)) != n) throw OptionError("F", "must be square");
             const std::vector<double> eps = per_patch(emissivity, "emissivity", n);
-            const DenseMatrix M = Eigen::Map<const DenseMatrix>(a.data(), static_cast<Eigen::Index>(n),
-                                                                static_cast<Eigen::Index>(n));
+            const DenseMatrix M = Eigen::Map<const DenseMatrix>(
+                a.data(), static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
             DenseMatrix X;
             {
                 py::gil_scoped_release nogil;
@@ -245,7 +251,8 @@ void bind_solve(py::module_& m) {
             py::array_t<double> out({n, n});
             std::copy(X.data(), X.data() + X.size(), out.mutable_data());
             return out;
-        }, py::arg("F"), py::arg("emissivity"));
+        },
+        py::arg("F"), py::arg("emissivity"));
 }
 
 }  // namespace formfactor::python

@@ -36,19 +36,22 @@ struct PyScene {
 struct PyResult {
     std::shared_ptr<const Scene> scene;
     ComputeResult result;
-    std::string report_json;  ///< the report, as the CLI writes it (json_text)
+    ComputeOptions options;      ///< as resolved (method set); progress and cancel cleared
+    double total_seconds = 0.0;  ///< wall time of the call
+    /// The report, as the CLI writes it (json_text), made when first asked for: the
+    /// diagnostics it recomputes cost O(N²), which a caller that never reads it should not pay.
+    mutable std::optional<std::string> report_json;
 };
 
 /// A read-only NumPy view of `count` values of type T starting at `data`, `stride` bytes apart
 /// (`shape2` > 0: a 2-D view of shape (count, shape2), inner stride sizeof(T)), kept alive by
 /// `owner`.
 template <class T>
-py::array_t<T> readonly_view(const T* data, std::size_t count, std::size_t stride,
-                             py::handle owner, std::size_t shape2 = 0) {
-    py::array_t<T> a =
-        shape2 == 0
-            ? py::array_t<T>({count}, {stride}, data, owner)
-            : py::array_t<T>({count, shape2}, {stride, sizeof(T)}, data, owner);
+py::array_t<T> readonly_view(const T* data, std::size_t count, std::size_t stride, py::handle owner,
+                             std::size_t shape2 = 0) {
+    py::array_t<T> a = shape2 == 0
+                           ? py::array_t<T>({count}, {stride}, data, owner)
+                           : py::array_t<T>({count, shape2}, {stride, sizeof(T)}, data, owner);
     py::detail::array_proxy(a.ptr())->flags &= ~py::detail::npy_api::NPY_ARRAY_WRITEABLE_;
     return a;
 }
@@ -56,8 +59,8 @@ py::array_t<T> readonly_view(const T* data, std::size_t count, std::size_t strid
 /// A C-contiguous float64 copy (or the array itself when it is one already) of `obj`, checked
 /// to have `ndim` dimensions; `name` is the keyword argument for error messages.
 py::array_t<double, py::array::c_style | py::array::forcecast> as_doubles(py::handle obj,
-                                                                           const char* name,
-                                                                           int ndim);
+                                                                          const char* name,
+                                                                          int ndim);
 
 /// An (n, 3) array of points or vectors (a (3,) array is repeated n times when n > 0).
 std::vector<Vec3> as_vec3s(py::handle obj, const char* name, std::size_t n = 0);
@@ -92,7 +95,8 @@ class CallbackProgress final : public ProgressSink {
 template <class Work>
 auto run_released(Work&& work, const py::object& callback = py::none())
     -> decltype(work(std::declval<CancellationFlag&>(), static_cast<ProgressSink*>(nullptr))) {
-    using R = decltype(work(std::declval<CancellationFlag&>(), static_cast<ProgressSink*>(nullptr)));
+    using R =
+        decltype(work(std::declval<CancellationFlag&>(), static_cast<ProgressSink*>(nullptr)));
     CancellationFlag flag;
     CallbackProgress progress;
     ProgressSink* sink = callback.is_none() ? nullptr : &progress;

@@ -41,8 +41,8 @@ void raise(const char* name, const py::tuple& args) {
 }  // namespace
 
 py::array_t<double, py::array::c_style | py::array::forcecast> as_doubles(py::handle obj,
-                                                                           const char* name,
-                                                                           int ndim) {
+                                                                          const char* name,
+                                                                          int ndim) {
     if (obj.is_none()) throw OptionError(name, "must be an array, got None");
     py::array_t<double, py::array::c_style | py::array::forcecast> a;
     try {
@@ -77,7 +77,8 @@ std::vector<Vec3> as_vec3s(py::handle obj, const char* name, std::size_t n) {
         }
         const double* d = a.data();
         out.reserve(static_cast<std::size_t>(a.shape(0)));
-        for (py::ssize_t k = 0; k < a.shape(0); ++k) out.emplace_back(d[3 * k], d[3 * k + 1], d[3 * k + 2]);
+        for (py::ssize_t k = 0; k < a.shape(0); ++k)
+            out.emplace_back(d[3 * k], d[3 * k + 1], d[3 * k + 2]);
     }
     for (std::size_t k = 0; k < out.size(); ++k) {
         if (!out[k].allFinite()) {
@@ -137,7 +138,8 @@ void bind_errors(py::module_&) {
             std::rethrow_exception(p);
         } catch (const InputError& e) {
             raise("InputError", py::make_tuple(e.what(), e.file(),
-                                               e.line() > 0 ? py::object(py::int_(e.line())) : py::object(py::none())));
+                                               e.line() > 0 ? py::object(py::int_(e.line()))
+                                                            : py::object(py::none())));
         } catch (const OptionError& e) {
             const std::string k = keyword_of(e.field());
             raise("OptionError", py::make_tuple(k + ": " + e.message(), k));

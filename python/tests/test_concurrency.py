@@ -16,7 +16,7 @@ import formfactor as ff
 
 
 def test_other_python_threads_run_while_it_computes():
-    scene = ff.load("cornell", subdivide=3)
+    scene = ff.load("cornell", subdivide=2)  # about a second on one thread
     started = threading.Event()
     done = threading.Event()
     count = [0]
@@ -36,9 +36,10 @@ def test_other_python_threads_run_while_it_computes():
     assert started.wait(60)
     while not done.is_set():
         count[0] += 1  # Python bytecode in this thread, while the other is inside C++
+        time.sleep(0.001)
     t.join()
     # With the GIL held through the computation this loop could not have run before it ended.
-    assert seen["count_at_end"] > 10000
+    assert seen["count_at_end"] > 20
     assert np.array_equal(seen["matrix"], scene.form_factors(threads=1).matrix)
 
 
