@@ -37,6 +37,7 @@ __version__ = _core.__version__
 
 Scene = _core.Scene
 Result = _core.Result
+Scene.__module__ = Result.__module__ = "formfactor"
 
 __all__ = [
     "Scene", "Result", "load", "builtin_scenes", "methods", "point_factors", "solve_radiosity",

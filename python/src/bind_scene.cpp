@@ -170,6 +170,58 @@ valid planar polygon.
             py::arg("subdivide") = py::none(), py::arg("max_edge") = py::none(),
             "A new scene whose surfaces are split again: into subdivide×subdivide children "
             "(quads; triangles into subdivide²), or until every edge is at most max_edge.")
+        .def(
+            "to_arrays",
+            [](const PyScene& self, bool patches) {
+                // (vertices, faces, obstruction, names) that from_arrays() takes back.
+                const Scene& s = get(self);
+                std::vector<const Polygon*> polys;
+                std::vector<bool> blocks;
+                std::vector<std::string> names;
+                if (patches) {
+                    for (std::size_t i = 0; i < s.patches.size(); ++i) {
+                        polys.push_back(&s.patches[i].polygon);
+                        blocks.push_back(false);
+                        const auto surface = static_cast<std::size_t>(s.patches[i].surface);
+                        names.push_back(surface < s.surfaces.size()
+                                            ? fmt::format("{}#{}", s.surfaces[surface].name, i)
+                                            : fmt::format("patch{}", i));
+                    }
+                }
+                for (const Surface& x : s.surfaces) {
+                    if (patches && !x.obstruction) continue;
+                    if (!x.holes.empty()) {
+                        throw OptionError("patches", "surface '" + x.name +
+                                                         "' has holes (VS3 subsurfaces), which "
+                                                         "arrays cannot hold: use "
+                                                         "to_arrays(patches=True)");
+                    }
+                    polys.push_back(&x.polygon);
+                    blocks.push_back(x.obstruction);
+                    names.push_back(x.name);
+                }
+                std::size_t nv = 0;
+                for (const Polygon* p : polys) nv += p->size();
+                py::array_t<double> v({nv, std::size_t(3)});
+                py::list faces;
+                py::array_t<bool> mask(static_cast<py::ssize_t>(polys.size()));
+                std::size_t k = 0;
+                for (std::size_t f = 0; f < polys.size(); ++f) {
+                    py::list face;
+                    for (const Vec3& x : polys[f]->vertices) {
+                        for (int c = 0; c < 3; ++c)
+                            v.mutable_at(static_cast<py::ssize_t>(k), c) = x[c];
+                        face.append(k++);
+                    }
+                    faces.append(face);
+                    mask.mutable_at(static_cast<py::ssize_t>(f)) = blocks[f];
+                }
+                return py::make_tuple(v, faces, mask, names);
+            },
+            py::arg("patches") = false,
+            "(vertices, faces, obstruction, names) that Scene.from_arrays() takes back: the "
+            "surfaces (patches=False; surfaces with holes cannot be written so) or the patches "
+            "and the obstruction-only surfaces (patches=True). Vertices are not shared.")
         .def("__len__", [](const PyScene& s) { return get(s).patches.size(); })
         .def_property_readonly(
             "n_patches", [](const PyScene& s) { return get(s).patches.size(); },

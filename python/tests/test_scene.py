@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 import formfactor as ff
+from conftest import DATA_DIR
 
 # A closed box written the way mesh users write it: 8 shared vertices, 6 quads (normals in),
 # and an obstruction-only triangle inside.
@@ -133,3 +134,29 @@ def test_builtins_and_properties():
     assert p["reflectance"].shape == (len(s), 3) and p["emissivity"].shape == (len(s),)
     assert (p["emission"].max(axis=1) > 0).any()  # the light
     assert "cornell" in repr(s)
+
+
+@pytest.mark.parametrize("name, subdivide", [("cornell", 2), ("room-4-obstruction", None),
+                                             (str(DATA_DIR / "room.obj"), 3)])
+def test_to_arrays_and_back_gives_the_same_scene_and_matrix(name, subdivide):
+    s = ff.load(name, subdivide=subdivide)
+    v, faces, obstruction, names = s.to_arrays()
+    t = ff.Scene.from_arrays(v, faces, obstruction=obstruction, names=names,
+                             enclosure=s.enclosure, subdivide=subdivide)
+    assert t.surface_names == s.surface_names
+    assert np.array_equal(t.areas, s.areas) and np.array_equal(t.normals, s.normals)
+    assert np.array_equal(t.form_factors().matrix, s.form_factors().matrix)
+    # The patches themselves as faces: the same rows and columns again.
+    v, faces, obstruction, names = s.to_arrays(patches=True)
+    p = ff.Scene.from_arrays(v, faces, obstruction=obstruction)
+    assert len(p) == len(s) and np.array_equal(p.areas, s.areas)
+
+
+def test_surfaces_with_holes_export_as_patches(data_dir):
+    s = ff.load(data_dir / "room-windows.vs3")
+    with pytest.raises(ff.OptionError) as e:
+        s.to_arrays()
+    assert e.value.option == "patches"
+    v, faces, obstruction, names = s.to_arrays(patches=True)
+    p = ff.Scene.from_arrays(v, faces, obstruction=obstruction)
+    assert np.allclose(p.form_factors().matrix, s.form_factors().matrix, atol=1e-9, rtol=0)
