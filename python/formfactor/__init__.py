@@ -113,7 +113,7 @@ def _form_factors(self, method=None, *, tolerance=None, obstructed_tolerance=Non
     a.sampler = sampler
     a.resolution = resolution
     a.points = points
-    a.rows = None if rows is None else tuple(rows)
+    a.rows = tuple(rows) if isinstance(rows, (list, tuple)) else rows
     a.repair = repair
     a.force_closure = bool(force_closure)
     a.ray_offset = ray_offset

@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <type_traits>
 
 #include "bindings.h"
 #include "formfactor/core/error.h"
@@ -25,44 +26,45 @@ struct ComputeArgs {
 };
 
 template <class T>
-void set_if(const py::object& value, T& target) {
-    if (!value.is_none()) target = value.cast<T>();
+void set_if(const py::object& value, T& target, const char* name) {
+    if (!value.is_none()) target = arg<T>(value, name);
 }
 
-/// A non-negative integer keyword: a negative Python int is an OptionError naming it (not a
-/// pybind11 cast error).
+/// A non-negative integer keyword: a negative Python int is an OptionError naming it.
 std::uint64_t unsigned_arg(const py::object& value, const char* name) {
-    const long long v = value.cast<long long>();
+    const long long v = arg<long long>(value, name);
     if (v < 0) throw OptionError(name, fmt::format("must be ≥ 0, got {}", v));
     return static_cast<std::uint64_t>(v);
 }
 
 ComputeOptions options_of(const Scene& scene, const ComputeArgs& a) {
     ComputeOptions o;
-    if (!a.method.is_none()) o.method = parse_method(a.method.cast<std::string>());
+    if (!a.method.is_none()) o.method = parse_method(arg<std::string>(a.method, "method"));
     MethodOptions& m = o.method_options;
-    set_if(a.threads, m.threads);
+    set_if(a.threads, m.threads, "threads");
     if (!a.tolerance.is_none()) {
         // As the CLI's --tolerance: a given tolerance sets the obstructed pairs' target too.
-        m.tolerance = a.tolerance.cast<double>();
+        m.tolerance = arg<double>(a.tolerance, "tolerance");
         m.obstructed_tolerance = m.tolerance;
     }
-    set_if(a.obstructed_tolerance, m.obstructed_tolerance);
+    set_if(a.obstructed_tolerance, m.obstructed_tolerance, "obstructed_tolerance");
     if (!a.samples.is_none()) m.samples = unsigned_arg(a.samples, "samples");
     if (!a.seed.is_none()) m.seed = unsigned_arg(a.seed, "seed");
-    if (!a.sampler.is_none()) m.sampler = parse_sampler(a.sampler.cast<std::string>());
-    set_if(a.resolution, m.resolution);
-    set_if(a.points, m.points);
+    if (!a.sampler.is_none()) m.sampler = parse_sampler(arg<std::string>(a.sampler, "sampler"));
+    set_if(a.resolution, m.resolution, "resolution");
+    set_if(a.points, m.points, "points");
     if (!a.rows.is_none()) {
+        if (!py::isinstance<py::tuple>(a.rows) || py::len(a.rows) != 2)
+            throw OptionError("rows", "must be a pair (begin, end)");
         const auto t = a.rows.cast<py::tuple>();
-        if (t.size() != 2) throw OptionError("rows", "must be a pair (begin, end)");
         o.rows.begin = unsigned_arg(t[0], "rows");
         o.rows.end = t[1].is_none() ? RowRange::kEnd : unsigned_arg(t[1], "rows");
     }
-    if (!a.repair.is_none()) o.repair.mode = parse_repair_mode(a.repair.cast<std::string>());
+    if (!a.repair.is_none())
+        o.repair.mode = parse_repair_mode(arg<std::string>(a.repair, "repair"));
     o.repair.enclosure = scene.enclosure;
     o.repair.force_closure = a.force_closure;
-    set_if(a.ray_offset, o.visibility.relative_epsilon);
+    set_if(a.ray_offset, o.visibility.relative_epsilon, "ray_offset");
     o.visibility.robust = a.robust_rays;
     return o;
 }

@@ -12,8 +12,8 @@ namespace {
 
 SubdivisionOptions subdivision(const py::object& n, const py::object& max_edge) {
     SubdivisionOptions o;
-    if (!n.is_none()) o.n = n.cast<int>();
-    if (!max_edge.is_none()) o.max_edge = max_edge.cast<double>();
+    if (!n.is_none()) o.n = arg<int>(n, "subdivide");
+    if (!max_edge.is_none()) o.max_edge = arg<double>(max_edge, "max_edge");
     return o;
 }
 

@@ -15,9 +15,11 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <type_traits>
 #include <vector>
 
 #include "formfactor/core/cancel.h"
+#include "formfactor/core/error.h"
 #include "formfactor/core/progress.h"
 #include "formfactor/core/types.h"
 #include "formfactor/pipeline.h"
@@ -42,6 +44,31 @@ struct PyResult {
     /// diagnostics it recomputes cost O(N²), which a caller that never reads it should not pay.
     mutable std::optional<std::string> report_json;
 };
+
+/// `value` as a T, or an OptionError naming the keyword (a string for samples=, say, must not
+/// surface as pybind11's "Unable to cast").
+template <class T>
+T arg(const py::object& value, const char* name) {
+    // An int is accepted for a float; a float is not taken for an int, nor a bool for a number.
+    if constexpr (std::is_same_v<T, double>) {
+        if ((py::isinstance<py::float_>(value) || py::isinstance<py::int_>(value)) &&
+            !py::isinstance<py::bool_>(value))
+            return value.cast<double>();
+        throw OptionError(name, "must be a number, got " + py::repr(value).cast<std::string>());
+    } else if constexpr (std::is_integral_v<T>) {
+        if (py::isinstance<py::int_>(value) && !py::isinstance<py::bool_>(value)) {
+            try {
+                return value.cast<T>();
+            } catch (const py::cast_error&) {
+                throw OptionError(name, "is out of range: " + py::repr(value).cast<std::string>());
+            }
+        }
+        throw OptionError(name, "must be an integer, got " + py::repr(value).cast<std::string>());
+    } else {
+        if (py::isinstance<py::str>(value)) return value.cast<std::string>();
+        throw OptionError(name, "must be a string, got " + py::repr(value).cast<std::string>());
+    }
+}
 
 /// A read-only NumPy view of `count` values of type T starting at `data`, `stride` bytes apart
 /// (`shape2` > 0: a 2-D view of shape (count, shape2), inner stride sizeof(T)), kept alive by

@@ -114,3 +114,14 @@ def test_a_run_that_cannot_fit_is_refused_before_it_starts():
         s.form_factors()
     assert isinstance(e.value, MemoryError)
     assert "GB" in str(e.value) or "GiB" in str(e.value)
+
+
+def test_arguments_of_the_wrong_type_name_the_keyword():
+    s = ff.load("plates")
+    for kwargs, option in [({"samples": "many"}, "samples"), ({"tolerance": "1e-3"}, "tolerance"),
+                           ({"threads": 1.5}, "threads"), ({"method": 3}, "method"),
+                           ({"seed": -1}, "seed"), ({"rows": 7}, "rows"),
+                           ({"rows": (0, "end")}, "rows"), ({"samples": 2 ** 70}, "samples")]:
+        with pytest.raises(ff.OptionError) as e:
+            s.form_factors(**kwargs)
+        assert e.value.option == option, kwargs
