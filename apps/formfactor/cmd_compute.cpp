@@ -84,17 +84,15 @@ void run_compute(const ComputeArgs& args) {
     }
 
     StepTimes times;
-    Scene scene = load_scene_step(args.scene, times);
-    {
+    Scene scene = prepare_scene(args.scene, times, [&](const Scene& loaded) {
         // The memory a dense run needs, checked before the patches and F exist.
         DenseRunNeeds needs;
         needs.standard_errors =
-            method_traits(args.method.resolved_kind(scene), args.method.method_options(), &scene)
+            method_traits(args.method.resolved_kind(loaded), args.method.method_options(), &loaded)
                 .standard_errors;
         needs.repair = parse_repair_mode(args.repair.mode) != RepairMode::none;
-        check_dense_memory(scene, args.scene, needs);
-    }
-    subdivide_step(scene, args.scene, times);
+        return needs;
+    });
     warn_single_patch(scene);
     const MethodKind method = args.method.resolved_kind(scene);
     const MethodTraits traits = method_traits(method, args.method.method_options(), &scene);

@@ -15,6 +15,7 @@
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/render.h"
 #include "formfactor/output/solution_io.h"
+#include "formfactor/pipeline.h"
 #include "solve_common.h"
 
 namespace formfactor::cli {
@@ -73,7 +74,7 @@ void run_render(const RenderArgs& args) {
         throw OptionError("--exposure", "must be > 0 (or 0 = automatic)");
 
     StepTimes times;
-    Scene scene = load_and_subdivide(args.scene, times);
+    const Scene scene = prepare_scene(args.scene, times);
     Stopwatch sw;
     const std::size_t n = scene.patches.size();
     std::optional<SolutionTable> table;
@@ -115,11 +116,9 @@ void run_render(const RenderArgs& args) {
     } else {
         FalseColourField f;
         if (quantity == "row") {
-            const DenseMatrix F = read_matrix(args.matrix, "--matrix");
-            if (static_cast<std::size_t>(F.rows()) != n || F.cols() != F.rows())
-                throw InputError(
-                    args.matrix, 0,
-                    fmt::format("a {}x{} matrix, the scene has {} patches", F.rows(), F.cols(), n));
+            const DenseMatrix F =
+                form_factors_from_matrix(scene, read_matrix(args.matrix, "--matrix"), {}, args.matrix)
+                    .form_factors.F;
             if (static_cast<std::size_t>(args.row) >= n)
                 throw OptionError("--row",
                                   fmt::format("patch {} out of range (0..{})", args.row, n - 1));

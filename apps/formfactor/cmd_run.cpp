@@ -66,30 +66,28 @@ void run_run(RunArgs args) {
     parse_repair_mode(args.repair.mode);
 
     StepTimes times;
-    Scene scene = load_scene_step(args.scene, times);
     std::string note;
-    if (args.method.method.empty() && may_obstruct(scene)) {
-        note = fmt::format(
-            "note: {} occludes: run uses {} (a whole row of F per set of rays, seconds for "
-            "thousands of patches), not compute's default, the exact-grade but slower {}; "
-            "choose with --method",
-            scene.name, to_string(kRunOcclusionMethod), to_string(default_method(scene)));
-        args.method.method = to_string(kRunOcclusionMethod);
-    }
-    {
+    Scene scene = prepare_scene(args.scene, times, [&](const Scene& loaded) {
+        if (args.method.method.empty() && may_obstruct(loaded)) {
+            note = fmt::format(
+                "note: {} occludes: run uses {} (a whole row of F per set of rays, seconds for "
+                "thousands of patches), not compute's default, the exact-grade but slower {}; "
+                "choose with --method",
+                loaded.name, to_string(kRunOcclusionMethod), to_string(default_method(loaded)));
+            args.method.method = to_string(kRunOcclusionMethod);
+        }
         // The memory of F, its standard errors, the repair copy and the solver, checked before
         // the patches and F exist.
         DenseRunNeeds needs;
         needs.standard_errors =
-            method_traits(args.method.resolved_kind(scene), args.method.method_options(), &scene)
+            method_traits(args.method.resolved_kind(loaded), args.method.method_options(), &loaded)
                 .standard_errors;
         needs.repair = parse_repair_mode(args.repair.mode) != RepairMode::none;
         needs.extra_matrices = solver_dense_matrices(
             solver_options.solver,
-            static_cast<std::size_t>(subdivision_patch_count(scene, args.scene.subdivision())));
-        check_dense_memory(scene, args.scene, needs);
-    }
-    subdivide_step(scene, args.scene, times);
+            static_cast<std::size_t>(subdivision_patch_count(loaded, args.scene.subdivision())));
+        return needs;
+    });
     warn_single_patch(scene);
     const MethodKind method = args.method.resolved_kind(scene);
     const MethodTraits traits = method_traits(method, args.method.method_options(), &scene);
