@@ -38,10 +38,6 @@ struct RenderArgs {
     std::string output;
 };
 
-double srgb_to_linear(double c) {
-    return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4);
-}
-
 void run_render(const RenderArgs& args) {
     Stopwatch total;
     args.scene.validate();
@@ -139,23 +135,8 @@ void run_render(const RenderArgs& args) {
         }
         what = "false colour: " + f.label;
         if (mesh) {
-            // Vertex colours from the colour map (display values, stored linear as
-            // the exporters expect).
-            double lo = INFINITY, hi = -INFINITY;
-            for (double v : f.values)
-                if (std::isfinite(v)) lo = std::min(lo, v), hi = std::max(hi, v);
-            std::vector<Rgb> colours;
-            for (double v : f.values) {
-                const Rgb c = std::isfinite(v)
-                                  ? colormap_inferno(hi > lo ? (v - lo) / (hi - lo) : 0.0)
-                                  : Rgb::Constant(0.5);
-                colours.emplace_back(srgb_to_linear(c[0]), srgb_to_linear(c[1]),
-                                     srgb_to_linear(c[2]));
-            }
-            ExportOptions eo;
-            eo.flat = args.flat;
-            eo.exposure = 1.0;
-            bytes = encode_mesh(args.output, scene, colours, eo);
+            double lo = 0.0, hi = 0.0;
+            bytes = encode_false_colour_mesh(args.output, scene, f, args.flat, &lo, &hi);
             what += fmt::format(", range [{:.4g}, {:.4g}]", lo, hi);
         } else {
             RenderInfo info;

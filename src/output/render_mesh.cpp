@@ -131,6 +131,10 @@ double linear_to_srgb(double v) {
     return v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055;
 }
 
+double srgb_to_linear(double c) {
+    return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4);
+}
+
 std::uint8_t linear_to_srgb8(double v) {
     return static_cast<std::uint8_t>(std::lround(255.0 * linear_to_srgb(v)));
 }

@@ -122,6 +122,14 @@ void write_mesh(const std::string& path, const Scene& scene, const std::vector<R
 std::string encode_mesh(const std::string& path, const Scene& scene,
                         const std::vector<Rgb>& radiance, const ExportOptions& options = {});
 
+/// The bytes of a 3D export (encode_mesh()) of a false-colour field: each value in the inferno
+/// colour of its place in the field's finite range (colormap_inferno(), stored linear as the
+/// exporters expect), grey where there is no finite value. The range used goes to *lo and *hi
+/// (when given).
+std::string encode_false_colour_mesh(const std::string& path, const Scene& scene,
+                                     const FalseColourField& field, bool flat = false,
+                                     double* lo = nullptr, double* hi = nullptr);
+
 /// True when `path` ends in .ply, .gltf or .glb (case-insensitive).
 bool is_mesh_path(const std::string& path);
 
