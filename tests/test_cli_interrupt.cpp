@@ -15,7 +15,7 @@
 #include <vector>
 
 #include "formfactor/core/cancel.h"
-#include "formfactor/output/atomic_file.h"
+#include "formfactor/core/atomic_file.h"
 #include "temp_dir.h"
 
 using namespace formfactor;

@@ -10,11 +10,11 @@
 #include <sstream>
 
 #include "formfactor/core/error.h"
-#include "formfactor/output/atomic_file.h"
+#include "formfactor/core/atomic_file.h"
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/patch_table.h"
 #include "formfactor/output/report.h"
-#include "output/text_numbers.h"
+#include "core/text_numbers.h"
 #include "temp_dir.h"
 
 using namespace formfactor;

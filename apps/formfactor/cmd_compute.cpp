@@ -14,7 +14,7 @@
 #include "formfactor/matrix/aggregate.h"
 #include "formfactor/matrix/memory.h"
 #include "formfactor/methods/traits.h"
-#include "formfactor/output/atomic_file.h"
+#include "formfactor/core/atomic_file.h"
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/patch_table.h"
 #include "formfactor/output/report.h"

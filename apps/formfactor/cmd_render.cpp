@@ -11,7 +11,7 @@
 #include "commands.h"
 #include "common.h"
 #include "formfactor/core/error.h"
-#include "formfactor/output/atomic_file.h"
+#include "formfactor/core/atomic_file.h"
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/render.h"
 #include "formfactor/output/solution_io.h"

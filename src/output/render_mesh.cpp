@@ -4,7 +4,7 @@
 #include <unordered_map>
 
 #include "formfactor/core/error.h"
-#include "formfactor/output/atomic_file.h"
+#include "formfactor/core/atomic_file.h"
 #include "output/render_internal.h"
 
 namespace formfactor::detail {

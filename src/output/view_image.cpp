@@ -8,7 +8,7 @@
 #include <system_error>
 
 #include "formfactor/core/error.h"
-#include "formfactor/output/atomic_file.h"
+#include "formfactor/core/atomic_file.h"
 
 namespace formfactor {
 

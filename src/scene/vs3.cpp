@@ -23,6 +23,7 @@
 #include "formfactor/core/error.h"
 #include "formfactor/scene/scene.h"
 #include "formfactor/scene/scene_io.h"
+#include "formfactor/core/atomic_file.h"
 #include "scene/text.h"
 
 namespace formfactor {
@@ -657,7 +658,8 @@ void save_vs3(const Scene& scene, const std::string& path) {
         out << base << " " << cmb << " " << exact(emit) << " " << vs3_name(s.name, k + 1) << "\n";
     }
     out << "End of data\n";
-    detail::write_atomically(path, out.str());
+    const std::string text = out.str();
+    write_file_atomically(path, [&](std::ostream& file) { file << text; });
 }
 
 }  // namespace formfactor
