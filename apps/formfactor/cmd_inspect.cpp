@@ -57,7 +57,7 @@ void run_inspect(const InspectArgs& args) {
     const ProjectionView& view = seen.view;
     times.add("project", sw.lap());
     const int scale = args.scale > 0 ? args.scale : std::max(1, 512 / view.width);
-    const auto image =
+    const Image image =
         args.delta_map ? render_delta_map(view, scale) : render_view(view, args.weights, scale);
     write_png(args.output, image);
     times.add("write", sw.lap());

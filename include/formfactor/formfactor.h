@@ -28,6 +28,7 @@
 #include "formfactor/methods/point_factors.h"
 #include "formfactor/methods/projection_view.h"
 #include "formfactor/methods/traits.h"
+#include "formfactor/output/image.h"
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/patch_table.h"
 #include "formfactor/output/render.h"

@@ -11,24 +11,10 @@
 #include <vector>
 
 #include "formfactor/core/types.h"
+#include "formfactor/output/image.h"
 #include "formfactor/scene/scene.h"
 
 namespace formfactor {
-
-/// An 8-bit sRGB image, rows top to bottom, 3 bytes per pixel.
-struct Image {
-    int width = 0;
-    int height = 0;
-    std::vector<std::uint8_t> rgb;
-    std::uint8_t* pixel(int x, int y) {
-        return rgb.data() + 3 * (static_cast<std::size_t>(y) * static_cast<std::size_t>(width) +
-                                 static_cast<std::size_t>(x));
-    }
-    const std::uint8_t* pixel(int x, int y) const {
-        return rgb.data() + 3 * (static_cast<std::size_t>(y) * static_cast<std::size_t>(width) +
-                                 static_cast<std::size_t>(x));
-    }
-};
 
 /// Options of the renderers.
 struct RenderOptions {
@@ -93,13 +79,6 @@ Image render_false_colour(const Scene& scene, const FalseColourField& field,
 
 /// The inferno colour map at t ∈ [0, 1] (clamped), as linear-light-free display sRGB in [0, 1].
 Rgb colormap_inferno(double t);
-
-/// The PNG file's bytes (stb_image_write).
-std::string encode_png(const Image& image);
-
-/// Writes a PNG (atomically: a temporary, renamed on success). Throws InputError(path, 0, ...)
-/// when it cannot be written.
-void write_png(const std::string& path, const Image& image);
 
 /// Per-vertex colours for a 3D export.
 struct ExportOptions {
