@@ -101,20 +101,6 @@ inline double ProjectedPolygonSampler::Arc::r2(const Vec2& v) const {
     return a > 0 ? a / (a + b * b) : 0.0;
 }
 
-bool is_convex(const Polygon& p) {
-    const Vec3 n = normal(p);
-    const std::size_t k = p.size();
-    if (k < 3) return false;
-    const double scale = diameter(p);
-    for (std::size_t a = 0; a < k; ++a) {
-        const Vec3& p0 = p[a];
-        const Vec3& p1 = p[(a + 1) % k];
-        const Vec3& p2 = p[(a + 2) % k];
-        if ((p1 - p0).cross(p2 - p1).dot(n) < -1e-12 * scale * scale) return false;
-    }
-    return true;
-}
-
 // ---- uniform points on a polygon ----
 
 PolygonSampler::PolygonSampler(const Polygon& p) {

@@ -538,18 +538,6 @@ std::string vs3_name(const std::string& name, std::size_t number) {
     return s;
 }
 
-bool convex_quad_or_triangle(const Polygon& p) {
-    if (p.size() == 3) return true;
-    if (p.size() != 4) return false;
-    const Vec3 n = area_vector(p);
-    for (std::size_t k = 0; k < 4; ++k) {
-        const Vec3 e0 = p[k] - p[(k + 3) % 4];
-        const Vec3 e1 = p[(k + 1) % 4] - p[k];
-        if (e0.cross(e1).dot(n) <= 0.0) return false;
-    }
-    return true;
-}
-
 }  // namespace
 
 Scene load_vs3(const std::string& path) {
@@ -591,7 +579,7 @@ void save_vs3(const Scene& scene, const std::string& path) {
     for (std::size_t s : order) {
         const Polygon& p = scene.surfaces[s].polygon;
         first_piece[s] = static_cast<int>(pieces.size());
-        if (convex_quad_or_triangle(p)) {
+        if (p.size() == 3 || (p.size() == 4 && convexity(p) == Convexity::strictly_convex)) {
             pieces.push_back({s, p});
             continue;
         }

@@ -179,7 +179,4 @@ class ProjectedPolygonSampler {
     std::vector<std::size_t> far_, near_;
 };
 
-/// True when the planar polygon is convex (no reflex vertex about its normal).
-bool is_convex(const Polygon& p);
-
 }  // namespace formfactor
