@@ -29,6 +29,14 @@ void validate_threads(int threads) {
         throw OptionError("threads", fmt::format("{} is too many (at most 4096)", threads));
 }
 
+// The flag a computation polls: its own, else the process-wide one; Cancelled when it is
+// already requested.
+const CancellationFlag& requested_flag(const CancellationFlag* own) {
+    const CancellationFlag& flag = own ? *own : process_cancellation();
+    flag.throw_if_requested();
+    return flag;
+}
+
 }  // namespace
 
 Scene prepare_scene(const SceneOptions& options, StepTimes* times,
@@ -65,9 +73,7 @@ void validate(const ComputeOptions& options) {
 
 ComputeResult compute_form_factors(const Scene& scene, const ComputeOptions& options) {
     validate(options);
-    const CancellationFlag& flag = options.cancel ? *options.cancel : process_cancellation();
-    const CancellationScope scope(flag);
-    flag.throw_if_requested();
+    const CancellationScope scope(requested_flag(options.cancel));
 
     ComputeResult result;
     const MethodKind kind = options.method ? *options.method : default_method(scene);
@@ -149,9 +155,7 @@ void validate(const PointOptions& options) {
 
 PointResult compute_point_form_factors(const Scene& scene, const PointOptions& options) {
     validate(options);
-    const CancellationFlag& flag = options.cancel ? *options.cancel : process_cancellation();
-    const CancellationScope scope(flag);
-    flag.throw_if_requested();
+    const CancellationScope scope(requested_flag(options.cancel));
     DenseRunNeeds needs;
     needs.patches = scene.patches.size();
     needs.matrix = false;

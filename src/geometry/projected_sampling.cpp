@@ -107,12 +107,7 @@ void ProjectedPolygonSampler::reset(const Polygon& target, const Vec3& unit_norm
     FF_ASSERT(target.size() >= 3);
     target_normal_ = unit_normal;
     target_point_ = point;
-    cells_.clear();
-    cdf_.clear();
-    cells_ready_ = false;
-    reject_ready_ = false;
-    unit_count_ = 0;
-    total_ = 0.0;
+    clear_origin();
     piece_count_ = 0;
     auto next_piece = [&]() -> std::vector<Vec3>& {
         if (pieces_.size() <= piece_count_) pieces_.emplace_back();
@@ -130,13 +125,17 @@ void ProjectedPolygonSampler::reset(const Polygon& target, const Vec3& unit_norm
     }
 }
 
-double ProjectedPolygonSampler::set_origin(const Vec3& x, const Vec3& n) {
+void ProjectedPolygonSampler::clear_origin() {
     cells_.clear();
     cdf_.clear();
     cells_ready_ = false;
     reject_ready_ = false;
     unit_count_ = 0;
     total_ = 0.0;
+}
+
+double ProjectedPolygonSampler::set_origin(const Vec3& x, const Vec3& n) {
+    clear_origin();
     if (!(target_normal_.dot(x - target_point_) > 0)) return 0.0;
     if (n != n_) {
         n_ = n;
@@ -508,13 +507,7 @@ Vec3 ProjectedPolygonSampler::sample(double u, double v, std::uint64_t& rng) {
         const double lo = t == 0 ? 0.0 : proposal_cdf_[t - 1];
         const double a = std::clamp((s - lo) / (proposal_cdf_[t] - lo), 0.0, 1.0);
         double b0 = a, b1 = v;
-        if (b1 > b0) {
-            b0 *= 0.5;
-            b1 -= b0;
-        } else {
-            b1 *= 0.5;
-            b0 -= b1;
-        }
+        detail::square_to_triangle(b0, b1);
         const Vec2 q =
             b0 * proposal_centre_ + b1 * proposal_[t] + (1.0 - b0 - b1) * proposal_[(t + 1) % m];
         const double r2 = q.squaredNorm();

@@ -52,13 +52,7 @@ Vec3 PolygonSampler::operator()(double u, double v) const {
     }
     // Heitz 2019: low-distortion square → triangle.
     double b0 = u, b1 = v;
-    if (b1 > b0) {
-        b0 *= 0.5;
-        b1 -= b0;
-    } else {
-        b1 *= 0.5;
-        b0 -= b1;
-    }
+    detail::square_to_triangle(b0, b1);
     const auto& t = triangles_[k];
     return b0 * t[0] + b1 * t[1] + (1.0 - b0 - b1) * t[2];
 }
