@@ -33,14 +33,8 @@ class McAreaMethod final : public mc::MonteCarloMethod {
         samplers.reserve(run.n);
         for (const Patch& p : run.scene.patches) samplers.emplace_back(p.polygon);
 
-        MethodResult result;
-        result.report.method = this->kind();
+        MethodResult result = run.zero_rows(this->kind());
         FormFactors& ff = result.form_factors;
-        ff.first_row = run.rows.begin;
-        ff.F = DenseMatrix::Zero(static_cast<Eigen::Index>(run.rows.size()),
-                                 static_cast<Eigen::Index>(run.n));
-        ff.standard_error = DenseMatrix::Zero(ff.F.rows(), ff.F.cols());
-        for (const Patch& p : run.scene.patches) ff.areas.push_back(p.area);
         std::atomic<std::uint64_t> rays{0};
         Progress progress("mc-area", run.rows.size(), ctx.progress);
         constexpr std::size_t kBatch = 256;

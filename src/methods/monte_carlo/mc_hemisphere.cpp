@@ -41,14 +41,8 @@ class McHemisphereMethod final : public mc::MonteCarloMethod {
     MethodResult compute(const MethodContext& ctx) const override {
         const mc::Run run(*this, ctx, 10000);
 
-        MethodResult result;
-        result.report.method = this->kind();
+        MethodResult result = run.zero_rows(this->kind());
         FormFactors& ff = result.form_factors;
-        ff.first_row = run.rows.begin;
-        ff.F = DenseMatrix::Zero(static_cast<Eigen::Index>(run.rows.size()),
-                                 static_cast<Eigen::Index>(run.n));
-        ff.standard_error = DenseMatrix::Zero(ff.F.rows(), ff.F.cols());
-        for (const Patch& p : run.scene.patches) ff.areas.push_back(p.area);
         std::atomic<std::uint64_t> rays{0}, escaped{0}, back_hits{0}, obstruction_hits{0};
         Progress progress("mc-hemisphere", run.rows.size(), ctx.progress);
 
