@@ -146,20 +146,13 @@ void run_compute(const ComputeArgs& args) {
     const int threads = effective_threads(args.method.options.threads);
     const Diagnostics d = diagnose(ff);
     if (!args.report.empty()) {
-        ReportContext ctx;
-        ctx.command = "compute";
-        ctx.method = to_string(method);
-        ctx.options = args.scene.to_json();
+        ReportContext ctx = report_context("compute", to_string(method), args.scene, times, total,
+                                           threads, details, traits.reciprocity);
         ctx.options.update(args.method.to_json(to_string(method)));
         ctx.options["output"] = args.output;
         ctx.options["report"] = args.report;
         ctx.options["patches"] =
             args.patches.empty() ? nlohmann::json(nullptr) : nlohmann::json(args.patches);
-        ctx.timings = times;
-        ctx.total_seconds = total.seconds();
-        ctx.threads = threads;
-        ctx.details = details;
-        ctx.reciprocity = traits.reciprocity;
         ctx.outputs["matrix"] = args.output;
         if (!args.patches.empty()) ctx.outputs["patches"] = args.patches;
         if (!args.standard_error.empty()) ctx.outputs["standard_error"] = args.standard_error;
@@ -186,10 +179,7 @@ void run_compute(const ComputeArgs& args) {
                 {"rows", rows},
                 {"diagnostics", diagnostics_json(diagnose(per_surface_ff), traits.reciprocity)}};
         }
-        const std::string text = json_text(report);
-        tx.stage(args.report, [&](std::ostream& out) {
-            out.write(text.data(), static_cast<std::streamsize>(text.size()));
-        });
+        stage_report(tx, args.report, report);
     }
     tx.commit();
 

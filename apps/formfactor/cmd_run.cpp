@@ -139,21 +139,14 @@ void run_run(RunArgs args) {
     tx.stage(mesh_ply, [&](std::ostream& out) { out << ply; });
     times.add("write", sw.lap());
 
-    ReportContext ctx;
-    ctx.command = "run";
-    ctx.method = to_string(method);
-    ctx.options = args.scene.to_json();
+    ReportContext ctx = report_context("run", to_string(method), args.scene, times, total, threads,
+                                       details, traits.reciprocity);
     ctx.options.update(args.method.to_json(to_string(method)));
     ctx.options["out_dir"] = args.out_dir;
     ctx.options["solver"] = to_string(solver_options.solver);
     ctx.options["residual"] = solver_options.residual;
     ctx.options["repair"] = args.repair.mode;
     ctx.options["image_size"] = args.image_size;
-    ctx.timings = times;
-    ctx.total_seconds = total.seconds();
-    ctx.threads = threads;
-    ctx.details = details;
-    ctx.reciprocity = traits.reciprocity;
     ctx.outputs = {{"matrix_npy", matrix_npy},   {"patches", patches_csv},
                    {"radiosity", radiosity_csv}, {"image", image_png},
                    {"mesh", mesh_ply},           {"report", report_json}};
@@ -166,10 +159,7 @@ void run_run(RunArgs args) {
                         {"triangles", info.triangles}};
     if (repaired) report["repair"] = to_json(*repaired);
     if (!note.empty()) report["note"] = note;
-    const std::string text = json_text(report);
-    tx.stage(report_json, [&](std::ostream& out) {
-        out.write(text.data(), static_cast<std::streamsize>(text.size()));
-    });
+    stage_report(tx, report_json, report);
     tx.commit();
 
     print_matrix_summary(scene, to_string(method), threads, ff, raw, traits.reciprocity, times,

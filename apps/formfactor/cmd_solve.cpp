@@ -148,10 +148,8 @@ void run_solve(const SolveArgs& args) {
     }
     times.add("write", sw.lap());
     if (!args.report.empty()) {
-        ReportContext ctx;
-        ctx.command = "solve";
-        ctx.method = method_name;
-        ctx.options = args.scene.to_json();
+        ReportContext ctx = report_context("solve", method_name, args.scene, times, total, threads,
+                                           details, promise);
         if (args.matrix.empty()) ctx.options.update(args.method.to_json(method_name));
         ctx.options["matrix"] =
             args.matrix.empty() ? nlohmann::json(nullptr) : nlohmann::json(args.matrix);
@@ -163,19 +161,13 @@ void run_solve(const SolveArgs& args) {
         ctx.options["max_iterations"] = solver_options.max_iterations;
         ctx.options["repair"] = args.repair.mode;
         ctx.options["output"] = args.output;
-        ctx.timings = times;
-        ctx.total_seconds = total.seconds();
-        ctx.threads = threads;
-        ctx.details = details;
-        ctx.reciprocity = promise;
         ctx.outputs["result"] = args.output;
         if (!args.exchange.empty()) ctx.outputs["exchange_factors"] = args.exchange;
         ctx.outputs["report"] = args.report;
         nlohmann::json report = make_report(scene, ff, ctx);
         report["solve"] = solve_json;
         if (repaired) report["repair"] = to_json(*repaired);
-        const std::string text = json_text(report);
-        tx.stage(args.report, [&](std::ostream& out) { out << text; });
+        stage_report(tx, args.report, report);
     }
     tx.commit();
     fmt::print("scene      {}: N = {} patches, F from {}\n", scene.name, scene.patches.size(),

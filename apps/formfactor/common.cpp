@@ -186,6 +186,29 @@ Scene prepare_scene(const SceneArgs& args, StepTimes& times,
     });
 }
 
+ReportContext report_context(const std::string& command, const std::string& method,
+                             const SceneArgs& scene, const StepTimes& times, const Stopwatch& total,
+                             int threads, const nlohmann::json& details,
+                             const ReciprocityPromise& promise) {
+    ReportContext ctx;
+    ctx.command = command;
+    ctx.method = method;
+    ctx.options = scene.to_json();
+    ctx.timings = times;
+    ctx.total_seconds = total.seconds();
+    ctx.threads = threads;
+    ctx.details = details;
+    ctx.reciprocity = promise;
+    return ctx;
+}
+
+void stage_report(OutputTransaction& tx, const std::string& path, const nlohmann::json& report) {
+    const std::string text = json_text(report);
+    tx.stage(path, [&](std::ostream& out) {
+        out.write(text.data(), static_cast<std::streamsize>(text.size()));
+    });
+}
+
 void warn_single_patch(Scene& scene) {
     if (scene.patches.size() != 1) return;
     const std::string w =

@@ -9,6 +9,7 @@
 #include <memory>
 #include <string>
 
+#include "formfactor/core/atomic_file.h"
 #include "formfactor/matrix/form_factors.h"
 #include "formfactor/matrix/memory.h"
 #include "formfactor/matrix/reciprocity.h"
@@ -75,6 +76,17 @@ struct MethodArgs {
 /// loaded scene (the method's needs depend on it).
 Scene prepare_scene(const SceneArgs& args, StepTimes& times,
                     const std::function<DenseRunNeeds(const Scene&)>& needs = {});
+
+/// The context of a report that every command fills alike: `command`, `method`, the scene's
+/// options (SceneArgs::to_json()), the steps timed so far, the wall time since `total` started,
+/// `threads`, the method's `details` and its reciprocity `promise`.
+ReportContext report_context(const std::string& command, const std::string& method,
+                             const SceneArgs& scene, const StepTimes& times, const Stopwatch& total,
+                             int threads, const nlohmann::json& details,
+                             const ReciprocityPromise& promise);
+
+/// Stages `report` (json_text()) at `path` in `tx`.
+void stage_report(OutputTransaction& tx, const std::string& path, const nlohmann::json& report);
 
 /// For the commands that make F (compute, solve, run): a scene of one patch has the 1×1 matrix
 /// [0] (a planar patch does not see itself: there is nothing to exchange with). When the scene
