@@ -44,17 +44,13 @@ void SceneArgs::validate() const {
     if (has_n && has_l) {
         throw OptionError("--subdivide", "cannot be combined with --max-edge (choose one)");
     }
-    if (subdivide < 1) {
-        throw OptionError("--subdivide",
-                          fmt::format("must be a whole number ≥ 1, got {}", subdivide));
-    }
+    formfactor::validate(subdivision());  // the library's own checks, fields shown as flags
     if (subdivide > 100000) {
         throw OptionError("--subdivide",
                           fmt::format("{} is too large (at most 100000)", subdivide));
     }
-    if (has_l && !(std::isfinite(max_edge) && max_edge > 0.0)) {
-        throw OptionError("--max-edge",
-                          fmt::format("must be a finite length > 0, got {}", max_edge));
+    if (has_l && max_edge == 0.0) {  // the library reads 0 as "no limit"; given, it is a slip
+        throw OptionError("--max-edge", "must be a finite length > 0, got 0");
     }
 }
 

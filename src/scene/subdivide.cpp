@@ -106,7 +106,9 @@ void split_triangle(const Polygon& t, int n, int surface, std::vector<Patch>& ou
         }
 }
 
-void check_options(const SubdivisionOptions& options) {
+}  // namespace
+
+void validate(const SubdivisionOptions& options) {
     if (options.n < 1)
         throw OptionError("subdivide",
                           "must be at least 1 (got " + std::to_string(options.n) + ")");
@@ -117,10 +119,8 @@ void check_options(const SubdivisionOptions& options) {
         throw OptionError("max_edge", "cannot be combined with a subdivision n > 1");
 }
 
-}  // namespace
-
 double subdivision_patch_count(const Scene& scene, const SubdivisionOptions& options) {
-    check_options(options);
+    validate(options);
     double total = 0.0;
     for (const Surface& s : scene.surfaces) {
         if (s.obstruction) continue;
@@ -130,7 +130,7 @@ double subdivision_patch_count(const Scene& scene, const SubdivisionOptions& opt
 }
 
 void subdivide(Scene& scene, const SubdivisionOptions& options) {
-    check_options(options);
+    validate(options);
     const char* option = options.max_edge > 0.0 ? "max_edge" : "subdivide";
 
     // Count first, in floating point, so that absurd values are refused before anything is built.
