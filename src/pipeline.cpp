@@ -55,10 +55,11 @@ void validate(const ComputeOptions& options) {
     const MethodOptions& m = options.method_options;
     validate_threads(m.threads);
     if (!(std::isfinite(m.tolerance) && m.tolerance > 0.0))
-        throw OptionError("tolerance", fmt::format("must be a finite number > 0, got {}", m.tolerance));
+        throw OptionError("tolerance",
+                          fmt::format("must be a finite number > 0, got {}", m.tolerance));
     if (!(std::isfinite(m.obstructed_tolerance) && m.obstructed_tolerance > 0.0))
-        throw OptionError("obstructed_tolerance",
-                          fmt::format("must be a finite number > 0, got {}", m.obstructed_tolerance));
+        throw OptionError("obstructed_tolerance", fmt::format("must be a finite number > 0, got {}",
+                                                              m.obstructed_tolerance));
     if (m.resolution < 1)
         throw OptionError("resolution", fmt::format("must be ≥ 1, got {}", m.resolution));
     if (m.points < 1) throw OptionError("points", fmt::format("must be ≥ 1, got {}", m.points));
@@ -149,8 +150,7 @@ void validate(const PointOptions& options) {
     validate_threads(options.threads);
     if (options.positions.size() != options.normals.size())
         throw OptionError("normals", fmt::format("{} normals for {} positions (one each)",
-                                                 options.normals.size(),
-                                                 options.positions.size()));
+                                                 options.normals.size(), options.positions.size()));
 }
 
 PointResult compute_point_form_factors(const Scene& scene, const PointOptions& options) {
@@ -176,9 +176,9 @@ void validate(const ViewOptions& options) {
     if (options.point && !options.point->allFinite())
         throw OptionError("point", "coordinates must be finite numbers");
     if (options.resolution < 0)
-        throw OptionError("resolution",
-                          fmt::format("must be ≥ 0 (0 = the method's default), got {}",
-                                      options.resolution));
+        throw OptionError(
+            "resolution",
+            fmt::format("must be ≥ 0 (0 = the method's default), got {}", options.resolution));
     if (!std::isfinite(options.rotation_degrees))
         throw OptionError("rotation", "must be a finite angle");
 }

@@ -9,12 +9,12 @@
 #include <random>
 #include <sstream>
 
-#include "formfactor/core/error.h"
+#include "core/text_numbers.h"
 #include "formfactor/core/atomic_file.h"
+#include "formfactor/core/error.h"
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/patch_table.h"
 #include "formfactor/output/report.h"
-#include "core/text_numbers.h"
 #include "temp_dir.h"
 
 using namespace formfactor;

@@ -4,10 +4,10 @@
 #include <filesystem>
 #include <set>
 
+#include "formfactor/core/atomic_file.h"
 #include "formfactor/core/error.h"
 #include "formfactor/methods/hemicube.h"
 #include "formfactor/methods/hemiplane.h"
-#include "formfactor/core/atomic_file.h"
 #include "formfactor/output/view_image.h"
 #include "formfactor/scene/scene.h"
 

@@ -9,12 +9,12 @@
 
 #include "commands.h"
 #include "common.h"
+#include "formfactor/core/atomic_file.h"
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
 #include "formfactor/matrix/aggregate.h"
 #include "formfactor/matrix/memory.h"
 #include "formfactor/methods/traits.h"
-#include "formfactor/core/atomic_file.h"
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/patch_table.h"
 #include "formfactor/output/report.h"

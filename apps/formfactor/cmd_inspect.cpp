@@ -9,8 +9,8 @@
 
 #include "commands.h"
 #include "common.h"
-#include "formfactor/core/error.h"
 #include "formfactor/core/atomic_file.h"
+#include "formfactor/core/error.h"
 #include "formfactor/output/view_image.h"
 #include "formfactor/pipeline.h"
 

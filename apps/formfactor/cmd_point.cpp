@@ -10,10 +10,10 @@
 
 #include "commands.h"
 #include "common.h"
+#include "formfactor/core/atomic_file.h"
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
 #include "formfactor/matrix/memory.h"
-#include "formfactor/core/atomic_file.h"
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/pipeline.h"
 #include "formfactor/scene/points.h"

@@ -10,8 +10,8 @@
 
 #include "commands.h"
 #include "common.h"
-#include "formfactor/core/error.h"
 #include "formfactor/core/atomic_file.h"
+#include "formfactor/core/error.h"
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/render.h"
 #include "formfactor/output/solution_io.h"
@@ -112,9 +112,9 @@ void run_render(const RenderArgs& args) {
     } else {
         FalseColourField f;
         if (quantity == "row") {
-            const DenseMatrix F =
-                form_factors_from_matrix(scene, read_matrix(args.matrix, "--matrix"), {}, args.matrix)
-                    .form_factors.F;
+            const DenseMatrix F = form_factors_from_matrix(
+                                      scene, read_matrix(args.matrix, "--matrix"), {}, args.matrix)
+                                      .form_factors.F;
             if (static_cast<std::size_t>(args.row) >= n)
                 throw OptionError("--row",
                                   fmt::format("patch {} out of range (0..{})", args.row, n - 1));

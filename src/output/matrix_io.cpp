@@ -16,11 +16,11 @@
 #include <ostream>
 #include <sstream>
 
-#include "formfactor/core/error.h"
-#include "formfactor/core/parallel.h"
-#include "formfactor/core/atomic_file.h"
 #include "core/text.h"
 #include "core/text_numbers.h"
+#include "formfactor/core/atomic_file.h"
+#include "formfactor/core/error.h"
+#include "formfactor/core/parallel.h"
 
 namespace formfactor {
 

@@ -210,8 +210,9 @@ std::string encode_false_colour_mesh(const std::string& path, const Scene& scene
     std::vector<Rgb> colours;
     colours.reserve(field.values.size());
     for (double v : field.values) {
-        const Rgb c = std::isfinite(v) ? colormap_inferno(high > low ? (v - low) / (high - low) : 0.0)
-                                       : Rgb::Constant(0.5);
+        const Rgb c = std::isfinite(v)
+                          ? colormap_inferno(high > low ? (v - low) / (high - low) : 0.0)
+                          : Rgb::Constant(0.5);
         colours.emplace_back(detail::srgb_to_linear(c[0]), detail::srgb_to_linear(c[1]),
                              detail::srgb_to_linear(c[2]));
     }

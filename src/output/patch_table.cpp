@@ -2,8 +2,8 @@
 
 #include <ostream>
 
-#include "formfactor/core/atomic_file.h"
 #include "core/text_numbers.h"
+#include "formfactor/core/atomic_file.h"
 
 namespace formfactor {
 

@@ -3,8 +3,8 @@
 #include <cmath>
 #include <unordered_map>
 
-#include "formfactor/core/error.h"
 #include "formfactor/core/atomic_file.h"
+#include "formfactor/core/error.h"
 #include "output/render_internal.h"
 
 namespace formfactor::detail {

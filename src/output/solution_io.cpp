@@ -7,8 +7,8 @@
 #include <fstream>
 #include <sstream>
 
-#include "formfactor/core/error.h"
 #include "core/text.h"
+#include "formfactor/core/error.h"
 #include "output/render_internal.h"
 
 namespace formfactor {
@@ -19,7 +19,6 @@ std::string num(double v) {
     if (std::isnan(v)) return "nan";
     return fmt::format("{:.17g}", v);
 }
-
 
 double parse(const std::string& path, int line, const std::string& column, const std::string& s) {
     if (s == "nan" || s == "NaN") return std::numeric_limits<double>::quiet_NaN();

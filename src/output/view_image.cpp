@@ -5,8 +5,8 @@
 #include <filesystem>
 #include <system_error>
 
-#include "formfactor/core/error.h"
 #include "formfactor/core/atomic_file.h"
+#include "formfactor/core/error.h"
 
 namespace formfactor {
 

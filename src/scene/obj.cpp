@@ -21,10 +21,10 @@
 #include <string>
 #include <vector>
 
+#include "formfactor/core/atomic_file.h"
 #include "formfactor/core/error.h"
 #include "formfactor/scene/scene.h"
 #include "formfactor/scene/scene_io.h"
-#include "formfactor/core/atomic_file.h"
 #include "scene/text.h"
 
 namespace formfactor {

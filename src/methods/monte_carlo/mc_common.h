@@ -93,8 +93,8 @@ struct Run {
         result.report.method = method;
         FormFactors& ff = result.form_factors;
         ff.first_row = rows.begin;
-        ff.F = DenseMatrix::Zero(static_cast<Eigen::Index>(rows.size()),
-                                 static_cast<Eigen::Index>(n));
+        ff.F =
+            DenseMatrix::Zero(static_cast<Eigen::Index>(rows.size()), static_cast<Eigen::Index>(n));
         ff.standard_error = DenseMatrix::Zero(ff.F.rows(), ff.F.cols());
         for (const Patch& p : scene.patches) ff.areas.push_back(p.area);
         return result;
