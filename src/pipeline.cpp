@@ -1,42 +1,80 @@
-// The pipeline: options checked, memory estimated, the ray tracer built once, the method run on
-// the rows asked for, repair and diagnostics.
+// The pipeline: the scene loaded and subdivided; options checked, memory estimated, the ray
+// tracer built once, the method run on the rows asked for, repair and diagnostics; F from a file
+// treated alike; point factors; the view of one point through a projection method.
 
 #include "formfactor/pipeline.h"
 
+#include <fmt/format.h>
+
+#include <algorithm>
 #include <cmath>
+#include <map>
 #include <string>
 
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
 #include "formfactor/matrix/memory.h"
+#include "formfactor/methods/hemicube.h"
+#include "formfactor/methods/hemiplane.h"
+#include "formfactor/methods/point_factors.h"
 
 namespace formfactor {
 
+namespace {
+
+void validate_threads(int threads) {
+    if (threads < 0)
+        throw OptionError("threads", fmt::format("must be ≥ 0 (0 = all cores), got {}", threads));
+    if (threads > 4096)
+        throw OptionError("threads", fmt::format("{} is too many (at most 4096)", threads));
+}
+
+// The flag a computation polls: its own, else the process-wide one; Cancelled when it is
+// already requested.
+const CancellationFlag& requested_flag(const CancellationFlag* own) {
+    const CancellationFlag& flag = own ? *own : process_cancellation();
+    flag.throw_if_requested();
+    return flag;
+}
+
+}  // namespace
+
+Scene prepare_scene(const SceneOptions& options, StepTimes* times,
+                    const std::function<void(const Scene&)>& before_subdivide) {
+    Stopwatch sw;
+    Scene scene = load_scene(options.source);
+    if (times) times->add("load", sw.lap());
+    if (before_subdivide) before_subdivide(scene);
+    sw.lap();
+    subdivide(scene, options.subdivision);
+    if (times) times->add("subdivide", sw.lap());
+    return scene;
+}
+
 void validate(const ComputeOptions& options) {
     const MethodOptions& m = options.method_options;
-    if (m.threads < 0 || m.threads > 4096)
-        throw OptionError("threads",
-                          "must be from 0 (all cores) to 4096, got " + std::to_string(m.threads));
+    validate_threads(m.threads);
     if (!(std::isfinite(m.tolerance) && m.tolerance > 0.0))
-        throw OptionError("tolerance", "must be a finite number > 0");
+        throw OptionError("tolerance",
+                          fmt::format("must be a finite number > 0, got {}", m.tolerance));
     if (!(std::isfinite(m.obstructed_tolerance) && m.obstructed_tolerance > 0.0))
-        throw OptionError("obstructed_tolerance", "must be a finite number > 0");
+        throw OptionError("obstructed_tolerance", fmt::format("must be a finite number > 0, got {}",
+                                                              m.obstructed_tolerance));
     if (m.resolution < 1)
-        throw OptionError("resolution", "must be ≥ 1, got " + std::to_string(m.resolution));
-    if (m.points < 1) throw OptionError("points", "must be ≥ 1, got " + std::to_string(m.points));
+        throw OptionError("resolution", fmt::format("must be ≥ 1, got {}", m.resolution));
+    if (m.points < 1) throw OptionError("points", fmt::format("must be ≥ 1, got {}", m.points));
     const VisibilityOptions& v = options.visibility;
     if (!(std::isfinite(v.relative_epsilon) && v.relative_epsilon > 0.0 &&
           v.relative_epsilon < 0.01))
-        throw OptionError("ray_offset", "must be a relative offset in (0, 0.01)");
+        throw OptionError("ray_offset",
+                          fmt::format("must be in (0, 0.01), got {}", v.relative_epsilon));
     if (options.rows.begin > options.rows.end)
         throw OptionError("rows", "begin must not be after end");
 }
 
 ComputeResult compute_form_factors(const Scene& scene, const ComputeOptions& options) {
     validate(options);
-    const CancellationFlag& flag = options.cancel ? *options.cancel : process_cancellation();
-    const CancellationScope scope(flag);
-    flag.throw_if_requested();
+    const CancellationScope scope(requested_flag(options.cancel));
 
     ComputeResult result;
     const MethodKind kind = options.method ? *options.method : default_method(scene);
@@ -82,6 +120,94 @@ ComputeResult compute_form_factors(const Scene& scene, const ComputeOptions& opt
         result.timings.add("repair", sw.lap());
     }
     return result;
+}
+
+ComputeResult form_factors_from_matrix(const Scene& scene, DenseMatrix F,
+                                       const RepairOptions& repair_options,
+                                       const std::string& source) {
+    const std::size_t n = scene.patches.size();
+    if (static_cast<std::size_t>(F.rows()) != n || F.rows() != F.cols())
+        throw InputError(source, 0,
+                         fmt::format("a {}x{} matrix, the scene has {} patches (same scene and "
+                                     "subdivision?)",
+                                     F.rows(), F.cols(), n));
+    ComputeResult result;
+    result.form_factors.F = std::move(F);
+    result.form_factors.areas.reserve(n);
+    for (const Patch& p : scene.patches) result.form_factors.areas.push_back(p.area);
+    result.diagnostics = diagnose(result.form_factors);
+    if (repair_options.mode != RepairMode::none) {
+        Stopwatch sw;
+        RepairOptions ro = repair_options;
+        ro.enclosure = scene.enclosure;
+        result.repair = repair(result.form_factors.F, result.form_factors.areas, ro);
+        result.timings.add("repair", sw.lap());
+    }
+    return result;
+}
+
+void validate(const PointOptions& options) {
+    validate_threads(options.threads);
+    if (options.positions.size() != options.normals.size())
+        throw OptionError("normals", fmt::format("{} normals for {} positions (one each)",
+                                                 options.normals.size(), options.positions.size()));
+}
+
+PointResult compute_point_form_factors(const Scene& scene, const PointOptions& options) {
+    validate(options);
+    const CancellationScope scope(requested_flag(options.cancel));
+    DenseRunNeeds needs;
+    needs.patches = scene.patches.size();
+    needs.matrix = false;
+    needs.output_rows = options.positions.size();
+    check_memory(needs, available_memory(), "use fewer points or a coarser subdivision");
+    PointResult result;
+    Stopwatch sw;
+    result.F = point_form_factors(scene, options.positions, options.normals, options.threads);
+    result.timings.add("compute", sw.lap());
+    result.threads = effective_threads(options.threads);
+    return result;
+}
+
+void validate(const ViewOptions& options) {
+    if (options.method != MethodKind::hemicube && options.method != MethodKind::hemiplane)
+        throw OptionError("method", "a view shows 'hemicube' or 'hemiplane', not '" +
+                                        to_string(options.method) + "'");
+    if (options.point && !options.point->allFinite())
+        throw OptionError("point", "coordinates must be finite numbers");
+    if (options.resolution < 0)
+        throw OptionError(
+            "resolution",
+            fmt::format("must be ≥ 0 (0 = the method's default), got {}", options.resolution));
+    if (!std::isfinite(options.rotation_degrees))
+        throw OptionError("rotation", "must be a finite angle");
+}
+
+PatchView patch_view(const Scene& scene, const ViewOptions& options) {
+    validate(options);
+    const long long n = static_cast<long long>(scene.patches.size());
+    if (options.patch < 0 || options.patch >= n)
+        throw OptionError("patch", fmt::format("must be a patch index from 0 to {}, got {}", n - 1,
+                                               options.patch));
+    const Patch& p = scene.patches[static_cast<std::size_t>(options.patch)];
+    const bool cube = options.method == MethodKind::hemicube;
+    PatchView out;
+    out.point = options.point ? *options.point : p.centroid;
+    out.normal = p.normal;
+    out.resolution = options.resolution > 0 ? options.resolution : (cube ? 256 : 512);
+    const double angle = options.rotation_degrees * kPi / 180.0;
+    const int exclude = static_cast<int>(options.patch);
+    out.view = cube ? hemicube_view(scene, out.point, p.normal, out.resolution, angle, exclude)
+                    : hemiplane_view(scene, out.point, p.normal, out.resolution, angle, exclude);
+
+    std::map<int, double> seen;
+    for (std::size_t k = 0; k < out.view.items.size(); ++k)
+        if (out.view.items[k] != kViewUnused) seen[out.view.items[k]] += out.view.delta[k];
+    std::vector<std::pair<double, int>> order;
+    for (const auto& [item, f] : seen) order.emplace_back(f, item);
+    std::sort(order.rbegin(), order.rend());
+    for (const auto& [f, item] : order) out.seen.push_back({item, f});
+    return out;
 }
 
 }  // namespace formfactor

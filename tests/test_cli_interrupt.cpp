@@ -14,8 +14,8 @@
 #include <thread>
 #include <vector>
 
+#include "formfactor/core/atomic_file.h"
 #include "formfactor/core/cancel.h"
-#include "formfactor/output/atomic_file.h"
 #include "temp_dir.h"
 
 using namespace formfactor;

@@ -9,12 +9,12 @@
 #include <random>
 #include <sstream>
 
+#include "core/text_numbers.h"
+#include "formfactor/core/atomic_file.h"
 #include "formfactor/core/error.h"
-#include "formfactor/output/atomic_file.h"
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/patch_table.h"
 #include "formfactor/output/report.h"
-#include "output/text_numbers.h"
 #include "temp_dir.h"
 
 using namespace formfactor;
@@ -364,7 +364,7 @@ TEST_CASE("output: the text of awkward values, byte for byte (.txt and .csv)") {
 }
 
 TEST_CASE("output: numbers are printf's conversions on 300,000 values") {
-    // The writers' formatter (output/text_numbers.h) against snprintf: values spread over every
+    // The writers' formatter (core/text_numbers.h) against snprintf: values spread over every
     // exponent, random bit patterns, values rounded to 7 decimals (ties and near-ties of %.6f),
     // neighbours of powers of ten (where %.17g changes its exponent).
     std::mt19937_64 rng(2024);

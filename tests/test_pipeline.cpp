@@ -5,6 +5,7 @@
 #include <doctest/doctest.h>
 
 #include <atomic>
+#include <cmath>
 #include <string>
 #include <thread>
 
@@ -222,4 +223,78 @@ TEST_CASE("pipeline: the CLI sets the ray tracer's options and maps fields to it
     r = cli.run("compute cube --max-edge 0.5 --subdivide 3 -o F.csv");
     CHECK(r.code == 2);
     CHECK(r.err.rfind("formfactor: --subdivide: ", 0) == 0);
+}
+
+TEST_CASE("pipeline: every step of the CLI is an entry point with field-named errors") {
+    StepTimes times;
+    int seen_patches = -1;
+    const Scene s = prepare_scene({"cube", {2, 0.0}}, &times, [&](const Scene& loaded) {
+        seen_patches = static_cast<int>(loaded.patches.size());
+    });
+    CHECK(seen_patches == 6);  // the hook runs before subdividing: one patch per face
+    REQUIRE(s.patches.size() == 24);
+    REQUIRE(times.steps.size() == 2);
+    CHECK(times.steps[0].first == "load");
+    CHECK(times.steps[1].first == "subdivide");
+
+    // F from elsewhere: checked, diagnosed, repaired like a computed one.
+    const ComputeResult exact = compute_form_factors(s);
+    const ComputeResult read = form_factors_from_matrix(s, exact.form_factors.F, {}, "F.npy");
+    REQUIRE(read.diagnostics);
+    CHECK(read.diagnostics->row_sum_max == exact.diagnostics->row_sum_max);
+    CHECK_FALSE(read.repair);
+    RepairOptions both;
+    both.mode = RepairMode::both;
+    CHECK(form_factors_from_matrix(s, exact.form_factors.F, both).repair);
+    CHECK_THROWS_WITH_AS(form_factors_from_matrix(s, DenseMatrix::Zero(6, 6), {}, "F.npy"),
+                         "F.npy: a 6x6 matrix, the scene has 24 patches (same scene and "
+                         "subdivision?)",
+                         InputError);
+
+    // Points: the centre of the floor sees the whole closed cube.
+    PointOptions p;
+    p.positions = {Vec3(0.5, 0.5, 1e-9)};
+    p.normals = {Vec3(0, 0, 1)};
+    const PointResult pr = compute_point_form_factors(s, p);
+    CHECK(pr.F.rows() == 1);
+    CHECK(std::abs(pr.F.sum() - 1.0) < 1e-12);
+    p.threads = -1;
+    CHECK_THROWS_WITH_AS(validate(p), "threads: must be ≥ 0 (0 = all cores), got -1", OptionError);
+    p.threads = 0;
+    p.normals.clear();
+    CHECK_THROWS_AS(compute_point_form_factors(s, p), OptionError);
+
+    // The view of a patch: what it sees sums to 1 (the hemicube's delta form factors).
+    ViewOptions v;
+    v.patch = 3;
+    v.resolution = 64;
+    const PatchView view = patch_view(s, v);
+    CHECK(view.resolution == 64);
+    CHECK(view.point == s.patches[3].centroid);
+    double sum = 0.0;
+    for (std::size_t k = 0; k < view.seen.size(); ++k) {
+        sum += view.seen[k].form_factor;
+        if (k > 0) CHECK(view.seen[k - 1].form_factor >= view.seen[k].form_factor);
+    }
+    CHECK(std::abs(sum - 1.0) < 1e-9);
+    auto field_of = [&](const ViewOptions& o) -> std::string {
+        try {
+            patch_view(s, o);
+        } catch (const OptionError& e) {
+            return e.field();
+        }
+        return "(no error)";
+    };
+    ViewOptions bad = v;
+    bad.patch = 24;
+    CHECK(field_of(bad) == "patch");
+    bad = v;
+    bad.method = MethodKind::analytic;
+    CHECK(field_of(bad) == "method");
+    bad = v;
+    bad.rotation_degrees = std::nan("");
+    CHECK(field_of(bad) == "rotation");
+    bad = v;
+    bad.point = Vec3(0, 0, INFINITY);
+    CHECK(field_of(bad) == "point");
 }

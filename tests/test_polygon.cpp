@@ -42,3 +42,29 @@ TEST_CASE("polygon: clipping by a plane keeps the front part") {
     Plane all{Vec3(1, 0, 0), -1.0};
     CHECK(area(clip_to_front(sq, all)) == doctest::Approx(1.0));
 }
+
+TEST_CASE("polygon: one convexity test for every caller") {
+    const Polygon square{{Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0)}};
+    CHECK(convexity(square) == Convexity::strictly_convex);
+    // A corner on an edge (as subdivision and clipping leave them): convex, not strictly.
+    const Polygon straight{
+        {Vec3(0, 0, 0), Vec3(0.5, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0)}};
+    CHECK(convexity(straight) == Convexity::convex);
+    CHECK(is_convex(straight));
+    // Bent inwards by far less than the tolerance: still straight.
+    const Polygon almost{
+        {Vec3(0, 0, 0), Vec3(0.5, 1e-14, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0)}};
+    CHECK(convexity(almost) == Convexity::convex);
+    // Bent inwards by more: reflex.
+    const Polygon dent{
+        {Vec3(0, 0, 0), Vec3(0.5, 1e-6, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0)}};
+    CHECK(convexity(dent) == Convexity::not_convex);
+    const Polygon ell{
+        {Vec3(0, 0, 0), Vec3(2, 0, 0), Vec3(2, 1, 0), Vec3(1, 1, 0), Vec3(1, 2, 0), Vec3(0, 2, 0)}};
+    CHECK_FALSE(is_convex(ell));
+    // A spike (a straight corner that doubles back) and too few vertices are not convex.
+    const Polygon spike{
+        {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(1, 2, 0), Vec3(1, 1, 0), Vec3(0, 1, 0)}};
+    CHECK_FALSE(is_convex(spike));
+    CHECK_FALSE(is_convex(Polygon{{Vec3(0, 0, 0), Vec3(1, 0, 0)}}));
+}

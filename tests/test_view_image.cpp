@@ -4,10 +4,10 @@
 #include <filesystem>
 #include <set>
 
+#include "formfactor/core/atomic_file.h"
 #include "formfactor/core/error.h"
 #include "formfactor/methods/hemicube.h"
 #include "formfactor/methods/hemiplane.h"
-#include "formfactor/output/atomic_file.h"
 #include "formfactor/output/view_image.h"
 #include "formfactor/scene/scene.h"
 
@@ -37,7 +37,7 @@ TEST_CASE("view image: item colours are stable, distinct and mark the special it
 TEST_CASE("view image: the hemicube cross of the cube's floor centre, written as PNG") {
     const Scene cube = load_scene("cube");
     const ProjectionView v = hemicube_view(cube, Vec3(0.5, 0.5, 0), Vec3::UnitZ(), 64, 0.0, 4);
-    const ViewImage img = render_view(v, false, 2);
+    const Image img = render_view(v, false, 2);
     REQUIRE(img.width == 256);
     REQUIRE(img.height == 256);
     const auto path = temp_dir() / "cross.png";
@@ -59,7 +59,7 @@ TEST_CASE("view image: the hemicube cross of the cube's floor centre, written as
     stbi_image_free(data);
     // Weighted by the delta form factor: the centre keeps its colour (the largest cell), the
     // horizon goes dark.
-    const ViewImage wimg = render_view(v, true, 1);
+    const Image wimg = render_view(v, true, 1);
     const auto centre = item_colour(5);
     CHECK(std::abs(int(wimg.rgb[(64 * 128 + 64) * 3]) - int(centre[0])) <= 1);
     const std::size_t horizon = (64 * 128 + 127) * 3;  // right arm, outer edge
@@ -70,22 +70,22 @@ TEST_CASE("view image: the hemicube cross of the cube's floor centre, written as
 TEST_CASE("view image: the delta map and the hemiplane square") {
     const Scene pl = load_scene("plates");
     const ProjectionView v = hemiplane_view(pl, Vec3(0.5, 0.5, 0), Vec3::UnitZ(), 64, 0.0, 0);
-    const ViewImage map = render_delta_map(v);
+    const Image map = render_delta_map(v);
     REQUIRE(map.width == 64);
     // Brightest (yellow) in the middle, darkest at the corners.
     const std::uint8_t* mid = map.rgb.data() + (32 * 64 + 32) * 3;
     const std::uint8_t* corner = map.rgb.data();
     CHECK(mid[0] + mid[1] > corner[0] + corner[1] + 200);
-    const ViewImage items = render_view(v);
+    const Image items = render_view(v);
     const std::uint8_t* c = items.rgb.data() + (32 * 64 + 32) * 3;
     CHECK(std::array<std::uint8_t, 3>{c[0], c[1], c[2]} == item_colour(1));
 }
 
 TEST_CASE("view image: an unwritable path throws and leaves nothing") {
-    const ViewImage img{2, 2, std::vector<std::uint8_t>(12, 100)};
+    const Image img{2, 2, std::vector<std::uint8_t>(12, 100)};
     const auto bad = temp_dir() / "no_such_dir" / "x.png";
     CHECK_THROWS_AS(write_png(bad.string(), img), Error);
     CHECK_FALSE(std::filesystem::exists(temporary_path_for(bad.string())));
-    CHECK_THROWS_AS(write_png((temp_dir() / "y.png").string(), ViewImage{}), Error);
+    CHECK_THROWS_AS(write_png((temp_dir() / "y.png").string(), Image{}), Error);
     CHECK_THROWS_AS(render_view(ProjectionView{}), Error);
 }

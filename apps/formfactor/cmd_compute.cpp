@@ -9,12 +9,12 @@
 
 #include "commands.h"
 #include "common.h"
+#include "formfactor/core/atomic_file.h"
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
 #include "formfactor/matrix/aggregate.h"
 #include "formfactor/matrix/memory.h"
 #include "formfactor/methods/traits.h"
-#include "formfactor/output/atomic_file.h"
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/patch_table.h"
 #include "formfactor/output/report.h"
@@ -84,17 +84,15 @@ void run_compute(const ComputeArgs& args) {
     }
 
     StepTimes times;
-    Scene scene = load_scene_step(args.scene, times);
-    {
+    Scene scene = prepare_scene(args.scene, times, [&](const Scene& loaded) {
         // The memory a dense run needs, checked before the patches and F exist.
         DenseRunNeeds needs;
         needs.standard_errors =
-            method_traits(args.method.resolved_kind(scene), args.method.method_options(), &scene)
+            method_traits(args.method.resolved_kind(loaded), args.method.method_options(), &loaded)
                 .standard_errors;
         needs.repair = parse_repair_mode(args.repair.mode) != RepairMode::none;
-        check_dense_memory(scene, args.scene, needs);
-    }
-    subdivide_step(scene, args.scene, times);
+        return needs;
+    });
     warn_single_patch(scene);
     const MethodKind method = args.method.resolved_kind(scene);
     const MethodTraits traits = method_traits(method, args.method.method_options(), &scene);
@@ -148,20 +146,13 @@ void run_compute(const ComputeArgs& args) {
     const int threads = effective_threads(args.method.options.threads);
     const Diagnostics d = diagnose(ff);
     if (!args.report.empty()) {
-        ReportContext ctx;
-        ctx.command = "compute";
-        ctx.method = to_string(method);
-        ctx.options = args.scene.to_json();
+        ReportContext ctx = report_context("compute", to_string(method), args.scene, times, total,
+                                           threads, details, traits.reciprocity);
         ctx.options.update(args.method.to_json(to_string(method)));
         ctx.options["output"] = args.output;
         ctx.options["report"] = args.report;
         ctx.options["patches"] =
             args.patches.empty() ? nlohmann::json(nullptr) : nlohmann::json(args.patches);
-        ctx.timings = times;
-        ctx.total_seconds = total.seconds();
-        ctx.threads = threads;
-        ctx.details = details;
-        ctx.reciprocity = traits.reciprocity;
         ctx.outputs["matrix"] = args.output;
         if (!args.patches.empty()) ctx.outputs["patches"] = args.patches;
         if (!args.standard_error.empty()) ctx.outputs["standard_error"] = args.standard_error;
@@ -188,10 +179,7 @@ void run_compute(const ComputeArgs& args) {
                 {"rows", rows},
                 {"diagnostics", diagnostics_json(diagnose(per_surface_ff), traits.reciprocity)}};
         }
-        const std::string text = json_text(report);
-        tx.stage(args.report, [&](std::ostream& out) {
-            out.write(text.data(), static_cast<std::streamsize>(text.size()));
-        });
+        stage_report(tx, args.report, report);
     }
     tx.commit();
 

@@ -133,7 +133,7 @@ void print_info(const Scene& scene, const std::vector<std::size_t>& patch_counts
 void run_info(const InfoArgs& args) {
     args.scene.validate();
     StepTimes times;
-    const Scene scene = load_and_subdivide(args.scene, times);
+    const Scene scene = prepare_scene(args.scene, times);
     std::vector<std::size_t> patch_counts(scene.surfaces.size(), 0);
     for (const auto& p : scene.patches) {
         if (p.surface >= 0 && static_cast<std::size_t>(p.surface) < patch_counts.size())

@@ -4,17 +4,15 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <map>
 #include <memory>
 #include <vector>
 
 #include "commands.h"
 #include "common.h"
+#include "formfactor/core/atomic_file.h"
 #include "formfactor/core/error.h"
-#include "formfactor/methods/hemicube.h"
-#include "formfactor/methods/hemiplane.h"
-#include "formfactor/output/atomic_file.h"
 #include "formfactor/output/view_image.h"
+#include "formfactor/pipeline.h"
 
 namespace formfactor::cli {
 
@@ -36,71 +34,52 @@ struct InspectArgs {
 void run_inspect(const InspectArgs& args) {
     Stopwatch total;
     args.scene.validate();
-    if (args.method != "hemicube" && args.method != "hemiplane") {
-        throw OptionError("--method",
-                          "inspect shows 'hemicube' or 'hemiplane', not '" + args.method + "'");
-    }
     if (args.weights && args.delta_map) {
         throw OptionError("--delta-map", "shows the delta form factors alone: drop --weights");
     }
     if (args.scale < 0 || args.scale > 16) {
         throw OptionError("--scale", fmt::format("must be from 1 to 16, got {}", args.scale));
     }
-    if (!std::isfinite(args.rotation)) throw OptionError("--rotation", "must be a finite angle");
+    ViewOptions options;
+    options.method = parse_method(args.method);
+    options.patch = args.patch;
+    if (!args.point.empty()) options.point = Vec3(args.point[0], args.point[1], args.point[2]);
+    options.resolution = args.resolution;
+    options.rotation_degrees = args.rotation;
+    validate(options);
     require_extension(args.output, ".png", "-o");
     check_output_directory(args.output);
 
     StepTimes times;
-    Scene scene = load_and_subdivide(args.scene, times);
-    const long long n = static_cast<long long>(scene.patches.size());
-    if (args.patch < 0 || args.patch >= n) {
-        throw OptionError("--patch", fmt::format("must be a patch index from 0 to {}, got {}",
-                                                 n - 1, args.patch));
-    }
-    const Patch& p = scene.patches[static_cast<std::size_t>(args.patch)];
-    Vec3 x = p.centroid;
-    if (!args.point.empty()) {
-        x = Vec3(args.point[0], args.point[1], args.point[2]);
-        if (!x.allFinite()) throw OptionError("--point", "coordinates must be finite numbers");
-    }
-    const bool cube = args.method == "hemicube";
-    const int R = args.resolution > 0 ? args.resolution : (cube ? 256 : 512);
-    const double angle = args.rotation * kPi / 180.0;
-    const int exclude = static_cast<int>(args.patch);
-
+    const Scene scene = prepare_scene(args.scene, times);
     Stopwatch sw;
-    const ProjectionView view = cube ? hemicube_view(scene, x, p.normal, R, angle, exclude)
-                                     : hemiplane_view(scene, x, p.normal, R, angle, exclude);
+    const PatchView seen = patch_view(scene, options);
+    const ProjectionView& view = seen.view;
     times.add("project", sw.lap());
     const int scale = args.scale > 0 ? args.scale : std::max(1, 512 / view.width);
-    const ViewImage image =
+    const Image image =
         args.delta_map ? render_delta_map(view, scale) : render_view(view, args.weights, scale);
     write_png(args.output, image);
     times.add("write", sw.lap());
 
-    // What the point sees, largest first.
-    std::map<int, double> seen;
-    for (std::size_t k = 0; k < view.items.size(); ++k) {
-        if (view.items[k] != kViewUnused) seen[view.items[k]] += view.delta[k];
-    }
-    std::vector<std::pair<double, int>> order;
-    for (const auto& [item, f] : seen) order.emplace_back(f, item);
-    std::sort(order.rbegin(), order.rend());
+    const Vec3& x = seen.point;
+    const Vec3& n = seen.normal;
     fmt::print("point      ({:.6g}, {:.6g}, {:.6g}) on patch {}, normal ({:.6g}, {:.6g}, {:.6g})\n",
-               x.x(), x.y(), x.z(), args.patch, p.normal.x(), p.normal.y(), p.normal.z());
-    fmt::print("method     {}, resolution {}, rotation {} degrees\n", args.method, R,
+               x.x(), x.y(), x.z(), args.patch, n.x(), n.y(), n.z());
+    fmt::print("method     {}, resolution {}, rotation {} degrees\n", args.method, seen.resolution,
                args.rotation);
-    if (!cube) fmt::print("neglected  {:.6g} (beyond the plane's rim)\n", view.neglected);
+    if (options.method == MethodKind::hemiplane)
+        fmt::print("neglected  {:.6g} (beyond the plane's rim)\n", view.neglected);
     fmt::print("sees       ");
-    for (std::size_t k = 0; k < std::min<std::size_t>(order.size(), 6); ++k) {
-        const int item = order[k].second;
+    for (std::size_t k = 0; k < std::min<std::size_t>(seen.seen.size(), 6); ++k) {
+        const int item = seen.seen[k].item;
         const std::string what = item >= 0               ? fmt::format("patch {}", item)
                                  : item == kViewNothing  ? std::string("nothing")
                                  : item == kViewBackFace ? std::string("back faces")
                                                          : std::string("obstructions");
-        fmt::print("{}{} {:.4f}", k ? ", " : "", what, order[k].first);
+        fmt::print("{}{} {:.4f}", k ? ", " : "", what, seen.seen[k].form_factor);
     }
-    fmt::print("{}\n", order.size() > 6 ? ", ..." : "");
+    fmt::print("{}\n", seen.seen.size() > 6 ? ", ..." : "");
     fmt::print("image      {} x {} pixels ({})\n", image.width, image.height,
                args.delta_map ? "delta form factors" : (args.weights ? "weighted" : "items"));
     fmt::print("time       {}\n", format_timings(times, total.seconds()));

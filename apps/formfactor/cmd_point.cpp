@@ -10,12 +10,12 @@
 
 #include "commands.h"
 #include "common.h"
+#include "formfactor/core/atomic_file.h"
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
 #include "formfactor/matrix/memory.h"
-#include "formfactor/methods/point_factors.h"
-#include "formfactor/output/atomic_file.h"
 #include "formfactor/output/matrix_io.h"
+#include "formfactor/pipeline.h"
 #include "formfactor/scene/points.h"
 
 namespace formfactor::cli {
@@ -49,8 +49,6 @@ void run_point(const PointArgs& args) {
                           "cannot be combined with --points (one point, or a file of points)");
     if (single && !has_at) throw OptionError("--at", "is required (or --points FILE.csv)");
     if (single && !has_normal) throw OptionError("--normal", "is required with --at");
-    if (args.threads < 0 || args.threads > 4096)
-        throw OptionError("--threads", fmt::format("must be 0..4096, got {}", args.threads));
     MatrixFormat format = MatrixFormat::Csv;
     if (!args.output.empty()) {
         if (single) {
@@ -65,7 +63,8 @@ void run_point(const PointArgs& args) {
         check_output_directory(args.output);
     }
 
-    std::vector<Vec3> positions, normals;
+    PointOptions options;
+    options.threads = args.threads;
     if (single) {
         const Vec3 x(args.at[0], args.at[1], args.at[2]);
         if (!x.allFinite()) throw OptionError("--at", "coordinates must be finite numbers");
@@ -73,30 +72,31 @@ void run_point(const PointArgs& args) {
         if (!n.allFinite()) throw OptionError("--normal", "components must be finite numbers");
         const double big = n.cwiseAbs().maxCoeff();
         if (!(big > 0.0)) throw OptionError("--normal", "must not be the zero vector");
-        positions.push_back(x);
-        normals.push_back((n / big).normalized());
+        options.positions.push_back(x);
+        options.normals.push_back((n / big).normalized());
     }
+    validate(options);
 
     StepTimes times;
     Stopwatch sw;
     if (!single) {
         PointElements pts = read_points_csv(args.points);
-        positions = std::move(pts.positions);
-        normals = std::move(pts.normals);
+        options.positions = std::move(pts.positions);
+        options.normals = std::move(pts.normals);
         times.add("read points", sw.lap());
     }
-    Scene scene = load_scene_step(args.scene, times);
-    {
+    const std::vector<Vec3>& positions = options.positions;
+    const std::vector<Vec3>& normals = options.normals;
+    const Scene scene = prepare_scene(args.scene, times, [&](const Scene&) {
         DenseRunNeeds needs;
         needs.matrix = false;
         needs.output_rows = positions.size();
-        check_dense_memory(scene, args.scene, needs);
-    }
-    subdivide_step(scene, args.scene, times);
-
+        return needs;
+    });
+    const PointResult result = compute_point_form_factors(scene, options);
+    times.add(result.timings);
     sw.lap();
-    const DenseMatrix F = point_form_factors(scene, positions, normals, args.threads);
-    times.add("compute", sw.lap());
+    const DenseMatrix& F = result.F;
 
     if (args.output.empty()) {
         std::ostringstream text;

@@ -10,11 +10,12 @@
 
 #include "commands.h"
 #include "common.h"
+#include "formfactor/core/atomic_file.h"
 #include "formfactor/core/error.h"
-#include "formfactor/output/atomic_file.h"
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/render.h"
 #include "formfactor/output/solution_io.h"
+#include "formfactor/pipeline.h"
 #include "solve_common.h"
 
 namespace formfactor::cli {
@@ -36,10 +37,6 @@ struct RenderArgs {
     std::string matrix;
     std::string output;
 };
-
-double srgb_to_linear(double c) {
-    return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4);
-}
 
 void run_render(const RenderArgs& args) {
     Stopwatch total;
@@ -73,7 +70,7 @@ void run_render(const RenderArgs& args) {
         throw OptionError("--exposure", "must be > 0 (or 0 = automatic)");
 
     StepTimes times;
-    Scene scene = load_and_subdivide(args.scene, times);
+    const Scene scene = prepare_scene(args.scene, times);
     Stopwatch sw;
     const std::size_t n = scene.patches.size();
     std::optional<SolutionTable> table;
@@ -115,11 +112,9 @@ void run_render(const RenderArgs& args) {
     } else {
         FalseColourField f;
         if (quantity == "row") {
-            const DenseMatrix F = read_matrix(args.matrix, "--matrix");
-            if (static_cast<std::size_t>(F.rows()) != n || F.cols() != F.rows())
-                throw InputError(
-                    args.matrix, 0,
-                    fmt::format("a {}x{} matrix, the scene has {} patches", F.rows(), F.cols(), n));
+            const DenseMatrix F = form_factors_from_matrix(
+                                      scene, read_matrix(args.matrix, "--matrix"), {}, args.matrix)
+                                      .form_factors.F;
             if (static_cast<std::size_t>(args.row) >= n)
                 throw OptionError("--row",
                                   fmt::format("patch {} out of range (0..{})", args.row, n - 1));
@@ -140,23 +135,8 @@ void run_render(const RenderArgs& args) {
         }
         what = "false colour: " + f.label;
         if (mesh) {
-            // Vertex colours from the colour map (display values, stored linear as
-            // the exporters expect).
-            double lo = INFINITY, hi = -INFINITY;
-            for (double v : f.values)
-                if (std::isfinite(v)) lo = std::min(lo, v), hi = std::max(hi, v);
-            std::vector<Rgb> colours;
-            for (double v : f.values) {
-                const Rgb c = std::isfinite(v)
-                                  ? colormap_inferno(hi > lo ? (v - lo) / (hi - lo) : 0.0)
-                                  : Rgb::Constant(0.5);
-                colours.emplace_back(srgb_to_linear(c[0]), srgb_to_linear(c[1]),
-                                     srgb_to_linear(c[2]));
-            }
-            ExportOptions eo;
-            eo.flat = args.flat;
-            eo.exposure = 1.0;
-            bytes = encode_mesh(args.output, scene, colours, eo);
+            double lo = 0.0, hi = 0.0;
+            bytes = encode_false_colour_mesh(args.output, scene, f, args.flat, &lo, &hi);
             what += fmt::format(", range [{:.4g}, {:.4g}]", lo, hi);
         } else {
             RenderInfo info;

@@ -10,11 +10,11 @@
 
 #include "commands.h"
 #include "common.h"
+#include "formfactor/core/atomic_file.h"
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
 #include "formfactor/matrix/memory.h"
 #include "formfactor/methods/traits.h"
-#include "formfactor/output/atomic_file.h"
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/patch_table.h"
 #include "formfactor/output/render.h"
@@ -66,30 +66,28 @@ void run_run(RunArgs args) {
     parse_repair_mode(args.repair.mode);
 
     StepTimes times;
-    Scene scene = load_scene_step(args.scene, times);
     std::string note;
-    if (args.method.method.empty() && may_obstruct(scene)) {
-        note = fmt::format(
-            "note: {} occludes: run uses {} (a whole row of F per set of rays, seconds for "
-            "thousands of patches), not compute's default, the exact-grade but slower {}; "
-            "choose with --method",
-            scene.name, to_string(kRunOcclusionMethod), to_string(default_method(scene)));
-        args.method.method = to_string(kRunOcclusionMethod);
-    }
-    {
+    Scene scene = prepare_scene(args.scene, times, [&](const Scene& loaded) {
+        if (args.method.method.empty() && may_obstruct(loaded)) {
+            note = fmt::format(
+                "note: {} occludes: run uses {} (a whole row of F per set of rays, seconds for "
+                "thousands of patches), not compute's default, the exact-grade but slower {}; "
+                "choose with --method",
+                loaded.name, to_string(kRunOcclusionMethod), to_string(default_method(loaded)));
+            args.method.method = to_string(kRunOcclusionMethod);
+        }
         // The memory of F, its standard errors, the repair copy and the solver, checked before
         // the patches and F exist.
         DenseRunNeeds needs;
         needs.standard_errors =
-            method_traits(args.method.resolved_kind(scene), args.method.method_options(), &scene)
+            method_traits(args.method.resolved_kind(loaded), args.method.method_options(), &loaded)
                 .standard_errors;
         needs.repair = parse_repair_mode(args.repair.mode) != RepairMode::none;
         needs.extra_matrices = solver_dense_matrices(
             solver_options.solver,
-            static_cast<std::size_t>(subdivision_patch_count(scene, args.scene.subdivision())));
-        check_dense_memory(scene, args.scene, needs);
-    }
-    subdivide_step(scene, args.scene, times);
+            static_cast<std::size_t>(subdivision_patch_count(loaded, args.scene.subdivision())));
+        return needs;
+    });
     warn_single_patch(scene);
     const MethodKind method = args.method.resolved_kind(scene);
     const MethodTraits traits = method_traits(method, args.method.method_options(), &scene);
@@ -141,21 +139,14 @@ void run_run(RunArgs args) {
     tx.stage(mesh_ply, [&](std::ostream& out) { out << ply; });
     times.add("write", sw.lap());
 
-    ReportContext ctx;
-    ctx.command = "run";
-    ctx.method = to_string(method);
-    ctx.options = args.scene.to_json();
+    ReportContext ctx = report_context("run", to_string(method), args.scene, times, total, threads,
+                                       details, traits.reciprocity);
     ctx.options.update(args.method.to_json(to_string(method)));
     ctx.options["out_dir"] = args.out_dir;
     ctx.options["solver"] = to_string(solver_options.solver);
     ctx.options["residual"] = solver_options.residual;
     ctx.options["repair"] = args.repair.mode;
     ctx.options["image_size"] = args.image_size;
-    ctx.timings = times;
-    ctx.total_seconds = total.seconds();
-    ctx.threads = threads;
-    ctx.details = details;
-    ctx.reciprocity = traits.reciprocity;
     ctx.outputs = {{"matrix_npy", matrix_npy},   {"patches", patches_csv},
                    {"radiosity", radiosity_csv}, {"image", image_png},
                    {"mesh", mesh_ply},           {"report", report_json}};
@@ -168,10 +159,7 @@ void run_run(RunArgs args) {
                         {"triangles", info.triangles}};
     if (repaired) report["repair"] = to_json(*repaired);
     if (!note.empty()) report["note"] = note;
-    const std::string text = json_text(report);
-    tx.stage(report_json, [&](std::ostream& out) {
-        out.write(text.data(), static_cast<std::streamsize>(text.size()));
-    });
+    stage_report(tx, report_json, report);
     tx.commit();
 
     print_matrix_summary(scene, to_string(method), threads, ff, raw, traits.reciprocity, times,

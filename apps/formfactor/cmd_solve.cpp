@@ -10,11 +10,11 @@
 
 #include "commands.h"
 #include "common.h"
+#include "formfactor/core/atomic_file.h"
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
 #include "formfactor/matrix/memory.h"
 #include "formfactor/methods/traits.h"
-#include "formfactor/output/atomic_file.h"
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/report.h"
 #include "formfactor/output/solution_io.h"
@@ -69,25 +69,23 @@ void run_solve(const SolveArgs& args) {
         args.solver.options(args.thermal ? SolverKind::direct : SolverKind::gauss_seidel, threads);
 
     StepTimes times;
-    Scene scene = load_scene_step(args.scene, times);
-    {
+    Scene scene = prepare_scene(args.scene, times, [&](const Scene& loaded) {
         // The memory of F (computed or read), its standard errors, the repair copy, the solver
         // and the exchange factors, checked before the patches and F exist.
         DenseRunNeeds needs;
         if (args.matrix.empty())
-            needs.standard_errors = method_traits(args.method.resolved_kind(scene),
-                                                  args.method.method_options(), &scene)
+            needs.standard_errors = method_traits(args.method.resolved_kind(loaded),
+                                                  args.method.method_options(), &loaded)
                                         .standard_errors;
         needs.repair = parse_repair_mode(args.repair.mode) != RepairMode::none;
         const auto n =
-            static_cast<std::size_t>(subdivision_patch_count(scene, args.scene.subdivision()));
+            static_cast<std::size_t>(subdivision_patch_count(loaded, args.scene.subdivision()));
         needs.extra_matrices = solver_dense_matrices(solver_options.solver, n);
         if (!args.exchange.empty())
             for (const std::string& m : exchange_factor_dense_matrices())
                 needs.extra_matrices.push_back(m);
-        check_dense_memory(scene, args.scene, needs);
-    }
-    subdivide_step(scene, args.scene, times);
+        return needs;
+    });
     warn_single_patch(scene);
     Stopwatch sw;
     // Properties first: a bad CSV fails before the expensive part.
@@ -95,36 +93,26 @@ void run_solve(const SolveArgs& args) {
     if (!args.properties.empty()) apply_properties_csv(args.properties, scene, props);
     validate_properties(props);
 
-    FormFactors ff;
     std::string method_name;
     ReciprocityPromise promise;  // unknown for a matrix read from a file
     nlohmann::json details = nlohmann::json::object();
-    std::optional<RepairReport> repaired;
-    Diagnostics diagnostics;
+    ComputedMatrix computed;
     if (!args.matrix.empty()) {
-        ff.F = read_matrix(args.matrix, "--matrix");
-        if (static_cast<std::size_t>(ff.F.rows()) != scene.patches.size() ||
-            ff.F.rows() != ff.F.cols())
-            throw InputError(args.matrix, 0,
-                             fmt::format("a {}x{} matrix, the scene has {} patches (same scene "
-                                         "and subdivision?)",
-                                         ff.F.rows(), ff.F.cols(), scene.patches.size()));
-        for (const Patch& p : scene.patches) ff.areas.push_back(p.area);
-        method_name = "matrix file";
+        DenseMatrix F = read_matrix(args.matrix, "--matrix");
         times.add("read matrix", sw.lap());
-        diagnostics = diagnose(ff);
-        repaired = args.repair.apply(ff, scene, times, sw);
+        method_name = "matrix file";
+        computed = use_matrix(scene, std::move(F), args.matrix, args.repair, times);
     } else {
         const MethodKind method = args.method.resolved_kind(scene);
         method_name = to_string(method);
         promise = method_traits(method, args.method.method_options(), &scene).reciprocity;
-        ComputedMatrix computed = compute_matrix(scene, args.method, args.repair, times);
-        ff = std::move(computed.ff);
+        computed = compute_matrix(scene, args.method, args.repair, times);
         details = std::move(computed.details);
-        diagnostics = computed.raw;
-        repaired = std::move(computed.repaired);
-        sw.lap();
     }
+    sw.lap();
+    FormFactors& ff = computed.ff;
+    const Diagnostics& diagnostics = computed.raw;
+    const std::optional<RepairReport>& repaired = computed.repaired;
 
     OutputTransaction tx;
     nlohmann::json solve_json;
@@ -160,10 +148,8 @@ void run_solve(const SolveArgs& args) {
     }
     times.add("write", sw.lap());
     if (!args.report.empty()) {
-        ReportContext ctx;
-        ctx.command = "solve";
-        ctx.method = method_name;
-        ctx.options = args.scene.to_json();
+        ReportContext ctx = report_context("solve", method_name, args.scene, times, total, threads,
+                                           details, promise);
         if (args.matrix.empty()) ctx.options.update(args.method.to_json(method_name));
         ctx.options["matrix"] =
             args.matrix.empty() ? nlohmann::json(nullptr) : nlohmann::json(args.matrix);
@@ -175,19 +161,13 @@ void run_solve(const SolveArgs& args) {
         ctx.options["max_iterations"] = solver_options.max_iterations;
         ctx.options["repair"] = args.repair.mode;
         ctx.options["output"] = args.output;
-        ctx.timings = times;
-        ctx.total_seconds = total.seconds();
-        ctx.threads = threads;
-        ctx.details = details;
-        ctx.reciprocity = promise;
         ctx.outputs["result"] = args.output;
         if (!args.exchange.empty()) ctx.outputs["exchange_factors"] = args.exchange;
         ctx.outputs["report"] = args.report;
         nlohmann::json report = make_report(scene, ff, ctx);
         report["solve"] = solve_json;
         if (repaired) report["repair"] = to_json(*repaired);
-        const std::string text = json_text(report);
-        tx.stage(args.report, [&](std::ostream& out) { out << text; });
+        stage_report(tx, args.report, report);
     }
     tx.commit();
     fmt::print("scene      {}: N = {} patches, F from {}\n", scene.name, scene.patches.size(),

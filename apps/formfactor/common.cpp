@@ -44,17 +44,13 @@ void SceneArgs::validate() const {
     if (has_n && has_l) {
         throw OptionError("--subdivide", "cannot be combined with --max-edge (choose one)");
     }
-    if (subdivide < 1) {
-        throw OptionError("--subdivide",
-                          fmt::format("must be a whole number ≥ 1, got {}", subdivide));
-    }
+    formfactor::validate(subdivision());  // the library's own checks, fields shown as flags
     if (subdivide > 100000) {
         throw OptionError("--subdivide",
                           fmt::format("{} is too large (at most 100000)", subdivide));
     }
-    if (has_l && !(std::isfinite(max_edge) && max_edge > 0.0)) {
-        throw OptionError("--max-edge",
-                          fmt::format("must be a finite length > 0, got {}", max_edge));
+    if (has_l && max_edge == 0.0) {  // the library reads 0 as "no limit"; given, it is a slip
+        throw OptionError("--max-edge", "must be a finite length > 0, got 0");
     }
 }
 
@@ -70,6 +66,8 @@ SubdivisionOptions SceneArgs::subdivision() const {
     }
     return o;
 }
+
+SceneOptions SceneArgs::options() const { return SceneOptions{scene, subdivision()}; }
 
 nlohmann::json SceneArgs::to_json() const {
     const SubdivisionOptions o = subdivision();
@@ -120,32 +118,9 @@ void MethodArgs::add_to(CLI::App* cmd) {
 }
 
 void MethodArgs::validate() const {
-    if (options.threads < 0) {
-        throw OptionError("--threads",
-                          fmt::format("must be ≥ 0 (0 = all cores), got {}", options.threads));
-    }
-    if (options.threads > 4096) {
-        throw OptionError("--threads",
-                          fmt::format("{} is too many (at most 4096)", options.threads));
-    }
-    if (!(std::isfinite(options.tolerance) && options.tolerance > 0.0)) {
-        throw OptionError("--tolerance",
-                          fmt::format("must be a finite number > 0, got {}", options.tolerance));
-    }
     if (samples < 0) throw OptionError("--samples", fmt::format("must be ≥ 0, got {}", samples));
     if (seed < 0) throw OptionError("--seed", fmt::format("must be ≥ 0, got {}", seed));
-    if (options.resolution < 1) {
-        throw OptionError("--resolution", fmt::format("must be ≥ 1, got {}", options.resolution));
-    }
-    if (options.points < 1) {
-        throw OptionError("--points", fmt::format("must be ≥ 1, got {}", options.points));
-    }
-    if (!(std::isfinite(visibility.relative_epsilon) && visibility.relative_epsilon > 0.0 &&
-          visibility.relative_epsilon < 0.01))
-        throw OptionError("--ray-offset",
-                          fmt::format("must be in (0, 0.01), got {}", visibility.relative_epsilon));
-    parse_sampler(sampler);                     // OptionError("sampler", ...) when unknown
-    if (!method.empty()) parse_method(method);  // OptionError("method", ...) when unknown
+    formfactor::validate(compute_options());  // parses --sampler and --method on the way
 }
 
 MethodOptions MethodArgs::method_options() const {
@@ -154,6 +129,14 @@ MethodOptions MethodArgs::method_options() const {
     o.seed = static_cast<std::uint64_t>(seed);
     o.sampler = parse_sampler(sampler);
     if (tolerance_given) o.obstructed_tolerance = options.tolerance;
+    return o;
+}
+
+ComputeOptions MethodArgs::compute_options() const {
+    ComputeOptions o;
+    if (!method.empty()) o.method = parse_method(method);
+    o.method_options = method_options();
+    o.visibility = visibility;
     return o;
 }
 
@@ -177,40 +160,49 @@ nlohmann::json MethodArgs::to_json(const std::string& resolved_method) const {
     };
 }
 
-Scene load_and_subdivide(const SceneArgs& args, StepTimes& times) {
-    Scene scene = load_scene_step(args, times);
-    subdivide_step(scene, args, times);
-    return scene;
+Scene prepare_scene(const SceneArgs& args, StepTimes& times,
+                    const std::function<DenseRunNeeds(const Scene&)>& needs) {
+    if (!needs) return prepare_scene(args.options(), &times);
+    return prepare_scene(args.options(), &times, [&](const Scene& scene) {
+        DenseRunNeeds run = needs(scene);
+        const double count = subdivision_patch_count(scene, args.subdivision());
+        // Beyond size_t's reach the estimate is absurd anyway; clamp so the message can say so.
+        run.patches = count < 1e18 ? static_cast<std::size_t>(count) : std::size_t(1e18);
+        std::size_t surfaces = 0;
+        for (const Surface& s : scene.surfaces) surfaces += s.obstruction ? 0 : 1;
+        const bool subdivided = run.patches > surfaces;
+        std::string advice = subdivided
+                                 ? fmt::format(
+                                       "use a coarser --subdivide or a larger --max-edge (without "
+                                       "either, one patch per surface: N = {})",
+                                       surfaces)
+                                 : std::string("use a scene with fewer surfaces");
+        advice += "; sparse storage for scenes this large is not implemented yet";
+        check_memory(run, available_memory(), advice);
+    });
 }
 
-Scene load_scene_step(const SceneArgs& args, StepTimes& times) {
-    Stopwatch sw;
-    Scene scene = load_scene(args.scene);
-    times.add("load", sw.lap());
-    return scene;
+ReportContext report_context(const std::string& command, const std::string& method,
+                             const SceneArgs& scene, const StepTimes& times, const Stopwatch& total,
+                             int threads, const nlohmann::json& details,
+                             const ReciprocityPromise& promise) {
+    ReportContext ctx;
+    ctx.command = command;
+    ctx.method = method;
+    ctx.options = scene.to_json();
+    ctx.timings = times;
+    ctx.total_seconds = total.seconds();
+    ctx.threads = threads;
+    ctx.details = details;
+    ctx.reciprocity = promise;
+    return ctx;
 }
 
-void subdivide_step(Scene& scene, const SceneArgs& args, StepTimes& times) {
-    Stopwatch sw;
-    subdivide(scene, args.subdivision());
-    times.add("subdivide", sw.lap());
-}
-
-void check_dense_memory(const Scene& scene, const SceneArgs& args, DenseRunNeeds needs) {
-    const double count = subdivision_patch_count(scene, args.subdivision());
-    // Beyond size_t's reach the estimate is absurd anyway; clamp so the message can say so.
-    needs.patches = count < 1e18 ? static_cast<std::size_t>(count) : std::size_t(1e18);
-    std::size_t surfaces = 0;
-    for (const Surface& s : scene.surfaces) surfaces += s.obstruction ? 0 : 1;
-    const bool subdivided = needs.patches > surfaces;
-    std::string advice = subdivided
-                             ? fmt::format(
-                                   "use a coarser --subdivide or a larger --max-edge (without "
-                                   "either, one patch per surface: N = {})",
-                                   surfaces)
-                             : std::string("use a scene with fewer surfaces");
-    advice += "; sparse storage for scenes this large is not implemented yet";
-    check_memory(needs, available_memory(), advice);
+void stage_report(OutputTransaction& tx, const std::string& path, const nlohmann::json& report) {
+    const std::string text = json_text(report);
+    tx.stage(path, [&](std::ostream& out) {
+        out.write(text.data(), static_cast<std::streamsize>(text.size()));
+    });
 }
 
 void warn_single_patch(Scene& scene) {

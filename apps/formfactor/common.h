@@ -5,14 +5,17 @@
 
 #include <CLI/CLI.hpp>
 #include <chrono>
+#include <functional>
 #include <memory>
 #include <string>
 
+#include "formfactor/core/atomic_file.h"
 #include "formfactor/matrix/form_factors.h"
 #include "formfactor/matrix/memory.h"
 #include "formfactor/matrix/reciprocity.h"
 #include "formfactor/methods/method.h"
 #include "formfactor/output/report.h"
+#include "formfactor/pipeline.h"
 #include "formfactor/scene/scene.h"
 #include "formfactor/visibility/visibility.h"
 
@@ -33,6 +36,8 @@ struct SceneArgs {
     void validate() const;
     /// The validated subdivision (n = 1 and no max edge when neither option was given).
     SubdivisionOptions subdivision() const;
+    /// The pipeline's scene options: SCENE and subdivision().
+    SceneOptions options() const;
     /// The options as JSON for the report.
     nlohmann::json to_json() const;
 };
@@ -48,28 +53,40 @@ struct MethodArgs {
     bool tolerance_given = false;  ///< --tolerance also sets options.obstructed_tolerance
 
     void add_to(CLI::App* cmd);
-    /// Throws OptionError for a bad value, and for an unknown --method (make_method).
+    /// Throws OptionError for what only the command line can get wrong (a negative --samples or
+    /// --seed, an unknown --method or --sampler), then validate(compute_options()): the library
+    /// checks its own options and names their fields, which main() shows as flags (cli_flag()).
     void validate() const;
-    /// The validated options (samples and seed copied in).
+    /// The method options (samples, seed and sampler copied in).
     MethodOptions method_options() const;
+    /// The pipeline's options: the method (unset without --method: the library chooses), its
+    /// options and the ray tracer's.
+    ComputeOptions compute_options() const;
     /// The method: --method, else default_method(scene).
     MethodKind resolved_kind(const Scene& scene) const;
     /// Every option as JSON for the report (with the resolved method name).
     nlohmann::json to_json(const std::string& resolved_method) const;
 };
 
-/// Loads the scene and subdivides it, timing both steps into `times` ("load", "subdivide").
-Scene load_and_subdivide(const SceneArgs& args, StepTimes& times);
-/// The first half of load_and_subdivide(): loads (timed "load").
-Scene load_scene_step(const SceneArgs& args, StepTimes& times);
-/// The second half: subdivides (timed "subdivide").
-void subdivide_step(Scene& scene, const SceneArgs& args, StepTimes& times);
+/// The scene of `args` through the pipeline (prepare_scene(): loaded, then subdivided, both
+/// timed into `times`). With `needs`, a dense run that will not fit in memory is refused between
+/// the two steps, before anything big exists: the patches `args` will make are counted, the
+/// run's peak estimated with `needs` (its patch count is filled in here), and ResourceError names
+/// what it needs, what is available and which flags to change. `needs` is a function of the
+/// loaded scene (the method's needs depend on it).
+Scene prepare_scene(const SceneArgs& args, StepTimes& times,
+                    const std::function<DenseRunNeeds(const Scene&)>& needs = {});
 
-/// Refuses a dense run that will not fit in memory, before anything big exists: counts the
-/// patches `args` will make of `scene` (not yet subdivided), estimates the run's peak with
-/// `needs` (its patch count is filled in here) and throws ResourceError naming what it needs,
-/// what is available and what to do instead.
-void check_dense_memory(const Scene& scene, const SceneArgs& args, DenseRunNeeds needs);
+/// The context of a report that every command fills alike: `command`, `method`, the scene's
+/// options (SceneArgs::to_json()), the steps timed so far, the wall time since `total` started,
+/// `threads`, the method's `details` and its reciprocity `promise`.
+ReportContext report_context(const std::string& command, const std::string& method,
+                             const SceneArgs& scene, const StepTimes& times, const Stopwatch& total,
+                             int threads, const nlohmann::json& details,
+                             const ReciprocityPromise& promise);
+
+/// Stages `report` (json_text()) at `path` in `tx`.
+void stage_report(OutputTransaction& tx, const std::string& path, const nlohmann::json& report);
 
 /// For the commands that make F (compute, solve, run): a scene of one patch has the 1×1 matrix
 /// [0] (a planar patch does not see itself: there is nothing to exchange with). When the scene

@@ -45,25 +45,9 @@ void print_repair(const RepairReport& r) {
 
 }  // namespace
 
-std::optional<RepairReport> RepairArgs::apply(FormFactors& ff, const Scene& scene) const {
-    const RepairOptions o = options(scene);
-    if (o.mode == RepairMode::none) return std::nullopt;
-    RepairReport r = repair(ff.F, ff.areas, o);
-    print_repair(r);
-    return r;
-}
+namespace {
 
-ComputedMatrix compute_matrix(const Scene& scene, const MethodArgs& method,
-                              const RepairArgs& repair, StepTimes& times) {
-    ComputeOptions o;
-    o.method = method.resolved_kind(scene);
-    o.method_options = method.method_options();
-    o.visibility = method.visibility;
-    o.repair = repair.options(scene);
-    TerminalProgress bar;
-    o.progress = &bar;
-    o.cancel = &process_cancellation();
-    ComputeResult r = compute_form_factors(scene, o);
+ComputedMatrix computed_matrix(ComputeResult&& r, StepTimes& times) {
     times.add(r.timings);
     ComputedMatrix out;
     out.ff = std::move(r.form_factors);
@@ -74,11 +58,24 @@ ComputedMatrix compute_matrix(const Scene& scene, const MethodArgs& method,
     return out;
 }
 
-std::optional<RepairReport> RepairArgs::apply(FormFactors& ff, const Scene& scene, StepTimes& times,
-                                              Stopwatch& sw) const {
-    std::optional<RepairReport> r = apply(ff, scene);
-    if (r) times.add("repair", sw.lap());
-    return r;
+}  // namespace
+
+ComputedMatrix compute_matrix(const Scene& scene, const MethodArgs& method,
+                              const RepairArgs& repair, StepTimes& times) {
+    ComputeOptions o = method.compute_options();
+    o.repair = repair.options(scene);
+    TerminalProgress bar;
+    o.progress = &bar;
+    o.cancel = &process_cancellation();
+    return computed_matrix(compute_form_factors(scene, o), times);
+}
+
+ComputedMatrix use_matrix(const Scene& scene, DenseMatrix F, const std::string& source,
+                          const RepairArgs& repair, StepTimes& times) {
+    ComputedMatrix out = computed_matrix(
+        form_factors_from_matrix(scene, std::move(F), repair.options(scene), source), times);
+    out.details = nlohmann::json::object();
+    return out;
 }
 
 void SolverArgs::add_to(CLI::App* cmd) {

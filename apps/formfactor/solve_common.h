@@ -25,12 +25,6 @@ struct RepairArgs {
     void add_to(CLI::App* cmd);
     /// Throws OptionError("--repair") for an unknown mode.
     RepairOptions options(const Scene& scene) const;
-    /// Repairs ff.F in place when the mode is not none; prints one line; returns
-    /// the report (nullopt when nothing was asked).
-    std::optional<RepairReport> apply(FormFactors& ff, const Scene& scene) const;
-    /// Same, adding the "repair" step (sw.lap()) to `times` when it repaired.
-    std::optional<RepairReport> apply(FormFactors& ff, const Scene& scene, StepTimes& times,
-                                      Stopwatch& sw) const;
 };
 
 /// F as the pipeline computed it (formfactor/pipeline.h), with what the commands print and
@@ -46,6 +40,12 @@ struct ComputedMatrix {
 /// the terminal; prints the repair line; adds the pipeline's steps to `times`.
 ComputedMatrix compute_matrix(const Scene& scene, const MethodArgs& method,
                               const RepairArgs& repair, StepTimes& times);
+
+/// F read from `source` (--matrix) through the pipeline (form_factors_from_matrix(): its shape
+/// checked against the scene, diagnosed, repaired); prints the repair line; adds the pipeline's
+/// steps to `times`.
+ComputedMatrix use_matrix(const Scene& scene, DenseMatrix F, const std::string& source,
+                          const RepairArgs& repair, StepTimes& times);
 
 /// --solver, --residual, --max-iterations, --allow-unconverged.
 struct SolverArgs {

@@ -3,6 +3,7 @@
 /// folder, DESIGN.md's module table). Applications that embed the library may include this or
 /// the headers they need; the test `umbrella_header_complete` fails when one is missing here.
 
+#include "formfactor/core/atomic_file.h"
 #include "formfactor/core/cancel.h"
 #include "formfactor/core/enum_names.h"
 #include "formfactor/core/error.h"
@@ -27,7 +28,7 @@
 #include "formfactor/methods/point_factors.h"
 #include "formfactor/methods/projection_view.h"
 #include "formfactor/methods/traits.h"
-#include "formfactor/output/atomic_file.h"
+#include "formfactor/output/image.h"
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/patch_table.h"
 #include "formfactor/output/render.h"

@@ -23,6 +23,25 @@ Vec3 normal(const Polygon& p) {
     return len > 0.0 ? Vec3(a / len) : Vec3(Vec3::Zero());
 }
 
+Convexity convexity(const Polygon& p) {
+    const std::size_t m = p.size();
+    if (m < 3) return Convexity::not_convex;
+    const Vec3 n = normal(p);
+    bool strict = true;
+    for (std::size_t k = 0; k < m; ++k) {
+        const Vec3 e0 = p[k] - p[(k + m - 1) % m], e1 = p[(k + 1) % m] - p[k];
+        const double turn = e0.cross(e1).dot(n), tol = kConvexityTolerance * e0.norm() * e1.norm();
+        if (turn < -tol) return Convexity::not_convex;
+        if (turn <= tol) {
+            if (e0.dot(e1) < 0.0) return Convexity::not_convex;
+            strict = false;
+        }
+    }
+    return strict ? Convexity::strictly_convex : Convexity::convex;
+}
+
+bool is_convex(const Polygon& p) { return convexity(p) != Convexity::not_convex; }
+
 Vec3 centroid(const Polygon& p) {
     const std::size_t n = p.size();
     if (n == 0) return Vec3::Zero();
@@ -263,7 +282,7 @@ bool convex_cycle(const std::vector<Vec2>& q, const std::vector<int>& c) {
         const Vec2& b = q[static_cast<std::size_t>(c[k])];
         const Vec2& d = q[static_cast<std::size_t>(c[(k + 1) % m])];
         const Vec2 e0 = b - a, e1 = d - b;
-        const double cr = cross2(e0, e1), tol = 1e-12 * e0.norm() * e1.norm();
+        const double cr = cross2(e0, e1), tol = kConvexityTolerance * e0.norm() * e1.norm();
         if (cr < -tol) return false;
         if (cr <= tol && e0.dot(e1) < 0.0) return false;
     }

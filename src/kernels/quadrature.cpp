@@ -91,14 +91,6 @@ void triangle_rule(const Vec3& A, const Vec3& B, const Vec3& C, int n, PolygonRu
     }
 }
 
-bool convex_quad(const Polygon& p, const Vec3& nrm) {
-    for (std::size_t k = 0; k < 4; ++k) {
-        const Vec3 e0 = p[(k + 1) % 4] - p[k], e1 = p[(k + 2) % 4] - p[(k + 1) % 4];
-        if (!(e0.cross(e1).dot(nrm) > 0.0)) return false;
-    }
-    return true;
-}
-
 }  // namespace
 
 }  // namespace detail
@@ -112,8 +104,7 @@ PolygonRule polygon_rule(const Polygon& p, int order) {
         triangle_rule(p[0], p[1], p[2], n, out);
         return out;
     }
-    const Vec3 nrm = normal(p);
-    if (p.size() == 4 && convex_quad(p, nrm) &&
+    if (p.size() == 4 && convexity(p) == Convexity::strictly_convex &&
         (p[0] + p[2] - p[1] - p[3]).norm() <= 1e-12 * diameter(p)) {
         // A parallelogram: affine map of the unit square, constant Jacobian, so the tensor rule
         // is exact for degree 2n − 1 (other quads are split into triangles, whose bilinear

@@ -16,12 +16,16 @@
 #include <ostream>
 #include <sstream>
 
+#include "core/text.h"
+#include "core/text_numbers.h"
+#include "formfactor/core/atomic_file.h"
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
-#include "formfactor/output/atomic_file.h"
-#include "output/text_numbers.h"
 
 namespace formfactor {
+
+using detail::parse_double;
+using detail::trim;
 
 namespace {
 
@@ -30,26 +34,6 @@ std::string lower_extension(const std::string& path) {
     std::transform(ext.begin(), ext.end(), ext.begin(),
                    [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
     return ext;
-}
-
-std::string trim(std::string_view s) {
-    std::size_t b = 0, e = s.size();
-    while (b < e && (s[b] == ' ' || s[b] == '\t' || s[b] == '\r')) ++b;
-    while (e > b && (s[e - 1] == ' ' || s[e - 1] == '\t' || s[e - 1] == '\r')) --e;
-    return std::string(s.substr(b, e - b));
-}
-
-/// Parses a whole token as a double; false when it is not exactly a number.
-bool parse_double(const std::string& token, double& value) {
-    if (token.empty()) return false;
-    const char* first = token.data();
-    const char* last = first + token.size();
-    if (*first == '+') {  // from_chars refuses a leading '+'
-        ++first;
-        if (first != last && *first == '-') return false;
-    }
-    const auto [ptr, ec] = std::from_chars(first, last, value);
-    return ec == std::errc() && ptr == last;
 }
 
 void write_le_double(std::ostream& out, const double* values, std::size_t count) {
@@ -384,8 +368,7 @@ DenseMatrix read_npy_matrix(std::istream& in, const std::string& name) {
             const std::string t = trim(part);
             if (t.empty()) continue;
             std::size_t v = 0;
-            const auto [ptr, ec] = std::from_chars(t.data(), t.data() + t.size(), v);
-            if (ec != std::errc() || ptr != t.data() + t.size()) {
+            if (!detail::parse_size(t, v)) {
                 throw InputError(name, 0, "malformed NPY shape '" + shape_text + "'");
             }
             shape.push_back(v);

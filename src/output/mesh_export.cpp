@@ -201,4 +201,27 @@ std::string encode_mesh(const std::string& path, const Scene& scene,
     return ext == ".ply" ? ply(mesh, colour, options.binary) : gltf(mesh, colour, ext == ".glb");
 }
 
+std::string encode_false_colour_mesh(const std::string& path, const Scene& scene,
+                                     const FalseColourField& field, bool flat, double* lo,
+                                     double* hi) {
+    double low = INFINITY, high = -INFINITY;
+    for (double v : field.values)
+        if (std::isfinite(v)) low = std::min(low, v), high = std::max(high, v);
+    std::vector<Rgb> colours;
+    colours.reserve(field.values.size());
+    for (double v : field.values) {
+        const Rgb c = std::isfinite(v)
+                          ? colormap_inferno(high > low ? (v - low) / (high - low) : 0.0)
+                          : Rgb::Constant(0.5);
+        colours.emplace_back(detail::srgb_to_linear(c[0]), detail::srgb_to_linear(c[1]),
+                             detail::srgb_to_linear(c[2]));
+    }
+    ExportOptions eo;
+    eo.flat = flat;
+    eo.exposure = 1.0;
+    if (lo) *lo = low;
+    if (hi) *hi = high;
+    return encode_mesh(path, scene, colours, eo);
+}
+
 }  // namespace formfactor

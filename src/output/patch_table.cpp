@@ -2,8 +2,8 @@
 
 #include <ostream>
 
-#include "formfactor/output/atomic_file.h"
-#include "output/text_numbers.h"
+#include "core/text_numbers.h"
+#include "formfactor/core/atomic_file.h"
 
 namespace formfactor {
 

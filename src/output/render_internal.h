@@ -33,6 +33,8 @@ inline double luminance(const Rgb& c) { return 0.2126 * c[0] + 0.7152 * c[1] + 0
 std::uint8_t linear_to_srgb8(double v);
 /// Linear → sRGB-encoded value in [0, 1], clamped.
 double linear_to_srgb(double v);
+/// sRGB-encoded value in [0, 1] → linear (IEC 61966-2-1), the inverse of linear_to_srgb().
+double srgb_to_linear(double c);
 
 /// Area-weighted q-quantile of the luminance of the patches (emitters left out); 0 if none.
 double patch_luminance_quantile(const Scene& scene, const std::vector<Rgb>& values,

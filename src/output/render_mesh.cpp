@@ -3,8 +3,8 @@
 #include <cmath>
 #include <unordered_map>
 
+#include "formfactor/core/atomic_file.h"
 #include "formfactor/core/error.h"
-#include "formfactor/output/atomic_file.h"
 #include "output/render_internal.h"
 
 namespace formfactor::detail {
@@ -129,6 +129,10 @@ double linear_to_srgb(double v) {
     if (!(v > 0.0)) return 0.0;
     if (v >= 1.0) return 1.0;
     return v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055;
+}
+
+double srgb_to_linear(double c) {
+    return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4);
 }
 
 std::uint8_t linear_to_srgb8(double v) {

@@ -7,7 +7,7 @@
 #include <limits>
 #include <ostream>
 
-#include "formfactor/output/atomic_file.h"
+#include "formfactor/core/atomic_file.h"
 
 namespace formfactor {
 

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "core/text.h"
 #include "formfactor/core/error.h"
 #include "output/render_internal.h"
 
@@ -19,27 +20,10 @@ std::string num(double v) {
     return fmt::format("{:.17g}", v);
 }
 
-std::vector<std::string> split(const std::string& line) {
-    std::vector<std::string> out;
-    std::string cell;
-    std::istringstream in(line);
-    while (std::getline(in, cell, ',')) {
-        const auto b = cell.find_first_not_of(" \t\r");
-        const auto e = cell.find_last_not_of(" \t\r");
-        out.push_back(b == std::string::npos ? "" : cell.substr(b, e - b + 1));
-    }
-    if (!line.empty() && line.back() == ',') out.emplace_back();
-    return out;
-}
-
 double parse(const std::string& path, int line, const std::string& column, const std::string& s) {
     if (s == "nan" || s == "NaN") return std::numeric_limits<double>::quiet_NaN();
     double v = 0.0;
-    const char* b = s.data();
-    const char* e = s.data() + s.size();
-    if (b != e && *b == '+') ++b;
-    const auto [ptr, ec] = std::from_chars(b, e, v);
-    if (s.empty() || ec != std::errc() || ptr != e || !std::isfinite(v))
+    if (!detail::parse_double(s, v) || !std::isfinite(v))
         throw InputError(path, line, fmt::format("{}: bad number '{}'", column, s));
     return v;
 }
@@ -95,7 +79,7 @@ SolutionTable read_solution_csv(std::istream& in, const std::string& path,
     while (std::getline(in, line)) {
         ++line_no;
         if (line.find_first_not_of(" \t\r") == std::string::npos || line[0] == '#') continue;
-        const auto cells = split(line);
+        const auto cells = detail::split_fields(line);
         if (!header) {
             header = true;
             if (cells == kRadiosityHeader) {

@@ -1,14 +1,12 @@
 #include "formfactor/output/view_image.h"
 
-#include <stb/stb_image_write.h>
-
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <system_error>
 
+#include "formfactor/core/atomic_file.h"
 #include "formfactor/core/error.h"
-#include "formfactor/output/atomic_file.h"
 
 namespace formfactor {
 
@@ -60,20 +58,20 @@ std::array<std::uint8_t, 3> ramp(double t) {
     return c;
 }
 
-ViewImage blank(const ProjectionView& view, int scale) {
+Image blank(const ProjectionView& view, int scale) {
     if (scale < 1) throw OptionError("scale", "must be at least 1");
     if (view.width <= 0 || view.height <= 0 ||
         view.items.size() != static_cast<std::size_t>(view.width) * view.height) {
         throw Error("view image: the view is empty or inconsistent");
     }
-    ViewImage img;
+    Image img;
     img.width = view.width * scale;
     img.height = view.height * scale;
     img.rgb.assign(static_cast<std::size_t>(img.width) * img.height * 3, 0);
     return img;
 }
 
-void put(ViewImage& img, int scale, int col, int row, const std::array<std::uint8_t, 3>& c) {
+void put(Image& img, int scale, int col, int row, const std::array<std::uint8_t, 3>& c) {
     for (int y = row * scale; y < (row + 1) * scale; ++y) {
         for (int x = col * scale; x < (col + 1) * scale; ++x) {
             std::uint8_t* p = img.rgb.data() + (static_cast<std::size_t>(y) * img.width + x) * 3;
@@ -115,8 +113,8 @@ std::array<std::uint8_t, 3> item_colour(int item) {
     return hsv(h, s, v);
 }
 
-ViewImage render_view(const ProjectionView& view, bool weights, int scale) {
-    ViewImage img = blank(view, scale);
+Image render_view(const ProjectionView& view, bool weights, int scale) {
+    Image img = blank(view, scale);
     const double dmax = max_delta(view);
     for (int row = 0; row < view.height; ++row) {
         for (int col = 0; col < view.width; ++col) {
@@ -132,8 +130,8 @@ ViewImage render_view(const ProjectionView& view, bool weights, int scale) {
     return img;
 }
 
-ViewImage render_delta_map(const ProjectionView& view, int scale) {
-    ViewImage img = blank(view, scale);
+Image render_delta_map(const ProjectionView& view, int scale) {
+    Image img = blank(view, scale);
     const double dmax = max_delta(view);
     for (int row = 0; row < view.height; ++row) {
         for (int col = 0; col < view.width; ++col) {
@@ -145,26 +143,6 @@ ViewImage render_delta_map(const ProjectionView& view, int scale) {
         }
     }
     return img;
-}
-
-void write_png(const std::string& path, const ViewImage& image) {
-    if (image.width <= 0 || image.height <= 0 ||
-        image.rgb.size() != static_cast<std::size_t>(image.width) * image.height * 3) {
-        throw Error("cannot write '" + path + "': the image is empty or inconsistent");
-    }
-    const std::string tmp = temporary_path_for(path);
-    const int ok = stbi_write_png(tmp.c_str(), image.width, image.height, 3, image.rgb.data(),
-                                  image.width * 3);
-    std::error_code ec;
-    if (ok == 0) {
-        std::filesystem::remove(tmp, ec);
-        throw Error("cannot write '" + path + "'");
-    }
-    std::filesystem::rename(tmp, path, ec);
-    if (ec) {
-        std::filesystem::remove(tmp, ec);
-        throw Error("cannot write '" + path + "': " + ec.message());
-    }
 }
 
 }  // namespace formfactor

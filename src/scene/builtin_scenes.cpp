@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "core/text.h"
 #include "formfactor/core/error.h"
 #include "formfactor/scene/room.h"
 #include "formfactor/scene/scene.h"
@@ -177,10 +178,9 @@ int parse_room_name(const std::string& name, bool& obstruction) {
         obstruction = true;
         rest.resize(rest.size() - suffix.size());
     }
-    if (rest.empty() || rest.size() > 4 ||
-        !std::all_of(rest.begin(), rest.end(), [](char c) { return c >= '0' && c <= '9'; }))
-        return 0;
-    return std::stoi(rest);
+    std::size_t n = 0;
+    if (rest.size() > 4 || !detail::parse_size(rest, n)) return 0;
+    return static_cast<int>(n);
 }
 
 }  // namespace

@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "formfactor/core/atomic_file.h"
 #include "formfactor/core/error.h"
 #include "formfactor/scene/scene.h"
 #include "formfactor/scene/scene_io.h"
@@ -492,8 +493,11 @@ void save_obj(const Scene& scene, const std::string& path) {
             obj << "\n";
         }
     }
-    if (!scene.materials.empty()) detail::write_atomically(mtl_path, mtl.str());
-    detail::write_atomically(path, obj.str());
+    // Both files or neither.
+    OutputTransaction tx;
+    if (!scene.materials.empty()) tx.stage(mtl_path, [&](std::ostream& out) { out << mtl.str(); });
+    tx.stage(path, [&](std::ostream& out) { out << obj.str(); });
+    tx.commit();
 }
 
 }  // namespace formfactor

@@ -15,16 +15,7 @@ namespace {
 // kept so that "1,,2" is an error), else separated by spaces and tabs.
 std::vector<std::string> fields_of(const std::string& line) {
     if (line.find(',') == std::string::npos) return detail::split(line, " \t");
-    std::vector<std::string> out;
-    std::size_t a = 0;
-    while (true) {
-        const std::size_t b = line.find(',', a);
-        out.push_back(
-            detail::trim(std::string_view(line).substr(a, b == std::string::npos ? b : b - a)));
-        if (b == std::string::npos) break;
-        a = b + 1;
-    }
-    return out;
+    return detail::split_fields(line);
 }
 
 const char* const kNames[6] = {"x", "y", "z", "nx", "ny", "nz"};

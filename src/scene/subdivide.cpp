@@ -11,19 +11,6 @@ namespace formfactor {
 
 namespace {
 
-// A quad is split bilinearly only when it is convex (non-strictly: collinear corners are fine);
-// the bilinear map of a planar convex quad tiles it exactly with planar children.
-bool is_convex_quad(const Polygon& p) {
-    if (p.size() != 4) return false;
-    const Vec3 n = area_vector(p);
-    for (std::size_t k = 0; k < 4; ++k) {
-        const Vec3 e0 = p[k] - p[(k + 3) % 4];
-        const Vec3 e1 = p[(k + 1) % 4] - p[k];
-        if (e0.cross(e1).dot(n) < -1e-12 * e0.norm() * e1.norm() * n.norm()) return false;
-    }
-    return true;
-}
-
 // How a polygon is split: the pieces (the polygon itself when it is a quad or a triangle, else
 // its triangles) and per piece the grid (n_u, n_v) for quads or n for triangles.
 struct Plan {
@@ -39,7 +26,9 @@ Plan plan_for_polygon(const Polygon& p, const SubdivisionOptions& o) {
         plan.grid.push_back({1.0, 1.0});
         return plan;
     }
-    if (is_convex_quad(p)) {
+    // A quad is split bilinearly only when it is convex (collinear corners are fine): the
+    // bilinear map of a planar convex quad tiles it exactly with planar children.
+    if (p.size() == 4 && is_convex(p)) {
         plan.pieces.push_back(p);
     } else if (p.size() == 3) {
         plan.pieces.push_back(p);
@@ -117,7 +106,9 @@ void split_triangle(const Polygon& t, int n, int surface, std::vector<Patch>& ou
         }
 }
 
-void check_options(const SubdivisionOptions& options) {
+}  // namespace
+
+void validate(const SubdivisionOptions& options) {
     if (options.n < 1)
         throw OptionError("subdivide",
                           "must be at least 1 (got " + std::to_string(options.n) + ")");
@@ -128,10 +119,8 @@ void check_options(const SubdivisionOptions& options) {
         throw OptionError("max_edge", "cannot be combined with a subdivision n > 1");
 }
 
-}  // namespace
-
 double subdivision_patch_count(const Scene& scene, const SubdivisionOptions& options) {
-    check_options(options);
+    validate(options);
     double total = 0.0;
     for (const Surface& s : scene.surfaces) {
         if (s.obstruction) continue;
@@ -141,7 +130,7 @@ double subdivision_patch_count(const Scene& scene, const SubdivisionOptions& opt
 }
 
 void subdivide(Scene& scene, const SubdivisionOptions& options) {
-    check_options(options);
+    validate(options);
     const char* option = options.max_edge > 0.0 ? "max_edge" : "subdivide";
 
     // Count first, in floating point, so that absurd values are refused before anything is built.

@@ -10,6 +10,7 @@
 #include <optional>
 #include <sstream>
 
+#include "core/text.h"
 #include "formfactor/core/error.h"
 
 namespace formfactor {
@@ -61,13 +62,6 @@ constexpr std::array<const char*, kColumns> kColumnNames = {
     "reflectance_r", "reflectance_g", "reflectance_b", "emission_r", "emission_g",
     "emission_b",    "emissivity",    "temperature",   "net_flux"};
 
-std::string trim(const std::string& s) {
-    const auto b = s.find_first_not_of(" \t\r");
-    if (b == std::string::npos) return "";
-    const auto e = s.find_last_not_of(" \t\r");
-    return s.substr(b, e - b + 1);
-}
-
 // Splits a CSV line on commas; cells may be double-quoted (surface names with commas).
 std::vector<std::string> split_csv(const std::string& line) {
     std::vector<std::string> cells;
@@ -87,23 +81,19 @@ std::vector<std::string> split_csv(const std::string& line) {
         } else if (ch == '"') {
             quoted = true;
         } else if (ch == ',') {
-            cells.push_back(trim(cell));
+            cells.push_back(detail::trim(cell));
             cell.clear();
         } else {
             cell += ch;
         }
     }
-    cells.push_back(trim(cell));
+    cells.push_back(detail::trim(cell));
     return cells;
 }
 
 std::optional<double> parse_number(const std::string& s) {
     double v = 0.0;
-    const char* b = s.data();
-    const char* e = s.data() + s.size();
-    if (!s.empty() && *b == '+') ++b;
-    const auto [ptr, ec] = std::from_chars(b, e, v);
-    if (ec != std::errc() || ptr != e || !std::isfinite(v)) return std::nullopt;
+    if (!detail::parse_double(s, v) || !std::isfinite(v)) return std::nullopt;
     return v;
 }
 
@@ -156,7 +146,7 @@ void apply_properties_csv(std::istream& in, const std::string& path, const Scene
     }
     while (std::getline(in, line)) {
         ++line_no;
-        const std::string t = trim(line);
+        const std::string t = detail::trim(line);
         if (t.empty() || t[0] == '#') continue;
         const auto cells = split_csv(line);
         if (!have_header) {

@@ -2,7 +2,7 @@
 /// Cooperative cancellation (DESIGN.md, "The pipeline API": every method's context carries a
 /// cancellation flag). A flag is set from any thread or from a signal handler; long loops poll
 /// it and stop by throwing Cancelled, which unwinds like any error: temporary output files are
-/// removed, nothing half-written is left (formfactor/output/atomic_file.h).
+/// removed, nothing half-written is left (formfactor/core/atomic_file.h).
 
 #include <atomic>
 #include <string>

@@ -40,6 +40,20 @@ double planarity_defect(const Polygon& p);
 /// True when no two non-adjacent edges touch and no vertex repeats (checked in the plane).
 bool is_simple(const Polygon& p);
 
+/// Relative tolerance of every convexity test: a corner (edges e0 into it, e1 out of it) whose
+/// turn |(e0 × e1) · n| is at most kConvexityTolerance · |e0| |e1| is straight (collinear).
+inline constexpr double kConvexityTolerance = 1e-12;
+
+/// How convex a polygon is about its own normal (normal()): every corner turns left
+/// (strictly_convex); or left or straight (convex: collinear corners, as clipping and
+/// subdivision leave them); or some corner turns right, or is straight but doubles back (a
+/// spike), or there are fewer than 3 vertices (not_convex). A degenerate polygon (zero normal)
+/// has only straight corners. kConvexityTolerance decides what is straight.
+enum class Convexity { not_convex, convex, strictly_convex };
+Convexity convexity(const Polygon& p);
+/// True when the polygon is convex, collinear corners allowed (convexity(p) != not_convex).
+bool is_convex(const Polygon& p);
+
 /// Coordinates in the polygon's plane: origin at the centroid, axes (u, v) orthonormal with
 /// u × v = normal. Used for 2D tests and sampling.
 struct PlaneFrame {

@@ -144,6 +144,8 @@ class ProjectedPolygonSampler {
         Arc far, near;
     };
     void add_piece(std::vector<Vec3>& local);
+    /// Forgets the origin: no cells, no rejection set-up, zero total.
+    void clear_origin();
     void build_cells();
     bool prepare_rejection(std::vector<Vec3>& unit);
     double sample_wedge(const Cell& c, double s) const;
@@ -178,8 +180,5 @@ class ProjectedPolygonSampler {
     std::vector<Vec3> edge_normal_;
     std::vector<std::size_t> far_, near_;
 };
-
-/// True when the planar polygon is convex (no reflex vertex about its normal).
-bool is_convex(const Polygon& p);
 
 }  // namespace formfactor

@@ -11,24 +11,10 @@
 #include <vector>
 
 #include "formfactor/core/types.h"
+#include "formfactor/output/image.h"
 #include "formfactor/scene/scene.h"
 
 namespace formfactor {
-
-/// An 8-bit sRGB image, rows top to bottom, 3 bytes per pixel.
-struct Image {
-    int width = 0;
-    int height = 0;
-    std::vector<std::uint8_t> rgb;
-    std::uint8_t* pixel(int x, int y) {
-        return rgb.data() + 3 * (static_cast<std::size_t>(y) * static_cast<std::size_t>(width) +
-                                 static_cast<std::size_t>(x));
-    }
-    const std::uint8_t* pixel(int x, int y) const {
-        return rgb.data() + 3 * (static_cast<std::size_t>(y) * static_cast<std::size_t>(width) +
-                                 static_cast<std::size_t>(x));
-    }
-};
 
 /// Options of the renderers.
 struct RenderOptions {
@@ -94,13 +80,6 @@ Image render_false_colour(const Scene& scene, const FalseColourField& field,
 /// The inferno colour map at t ∈ [0, 1] (clamped), as linear-light-free display sRGB in [0, 1].
 Rgb colormap_inferno(double t);
 
-/// The PNG file's bytes (stb_image_write).
-std::string encode_png(const Image& image);
-
-/// Writes a PNG (atomically: a temporary, renamed on success). Throws InputError(path, 0, ...)
-/// when it cannot be written.
-void write_png(const std::string& path, const Image& image);
-
 /// Per-vertex colours for a 3D export.
 struct ExportOptions {
     bool flat = false;  ///< one colour per patch (vertices duplicated per patch)
@@ -121,6 +100,14 @@ void write_mesh(const std::string& path, const Scene& scene, const std::vector<R
 /// The bytes write_mesh() would write to a file named `path` (its extension picks the format).
 std::string encode_mesh(const std::string& path, const Scene& scene,
                         const std::vector<Rgb>& radiance, const ExportOptions& options = {});
+
+/// The bytes of a 3D export (encode_mesh()) of a false-colour field: each value in the inferno
+/// colour of its place in the field's finite range (colormap_inferno(), stored linear as the
+/// exporters expect), grey where there is no finite value. The range used goes to *lo and *hi
+/// (when given).
+std::string encode_false_colour_mesh(const std::string& path, const Scene& scene,
+                                     const FalseColourField& field, bool flat = false,
+                                     double* lo = nullptr, double* hi = nullptr);
 
 /// True when `path` ends in .ply, .gltf or .glb (case-insensitive).
 bool is_mesh_path(const std::string& path);

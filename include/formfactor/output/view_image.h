@@ -1,7 +1,7 @@
 #pragma once
 /// Pictures of what a point sees through a projection method (hemicube cross or hemiplane
 /// square): each cell coloured by the patch it sees, optionally weighted by its delta form
-/// factor, or the delta-form-factor map alone in false colour. Written as PNG.
+/// factor, or the delta-form-factor map alone in false colour (written by write_png(), image.h).
 
 #include <array>
 #include <cstdint>
@@ -9,15 +9,9 @@
 #include <vector>
 
 #include "formfactor/methods/projection_view.h"
+#include "formfactor/output/image.h"
 
 namespace formfactor {
-
-/// An 8-bit sRGB image, row 0 at the top, 3 bytes per pixel.
-struct ViewImage {
-    int width = 0;
-    int height = 0;
-    std::vector<std::uint8_t> rgb;
-};
 
 /// A stable, well-spread colour for patch `item` (≥ 0): the same id always gets the same
 /// colour, neighbouring ids very different ones. Special items: kViewNothing black,
@@ -27,15 +21,10 @@ std::array<std::uint8_t, 3> item_colour(int item);
 /// The item buffer as a picture: each cell in its patch's colour; with `weights`, scaled by
 /// the cell's delta form factor relative to the largest (what each cell contributes to F).
 /// Each cell becomes `scale` × `scale` pixels (scale ≥ 1).
-ViewImage render_view(const ProjectionView& view, bool weights = false, int scale = 1);
+Image render_view(const ProjectionView& view, bool weights = false, int scale = 1);
 
 /// The delta form factors alone, in false colour (dark blue = 0 → yellow = the largest
 /// cell); unused pixels white.
-ViewImage render_delta_map(const ProjectionView& view, int scale = 1);
-
-/// Writes `image` as a PNG at `path`, atomically: to a temporary file beside it
-/// (temporary_path_for, output/atomic_file.h), then renamed.
-/// Throws Error when the file cannot be written (nothing is left behind).
-void write_png(const std::string& path, const ViewImage& image);
+Image render_delta_map(const ProjectionView& view, int scale = 1);
 
 }  // namespace formfactor

@@ -160,6 +160,10 @@ Scene builtin_scene(const std::string& name);
 /// > 0), or more than kMaxPatches patches.
 void subdivide(Scene& scene, const SubdivisionOptions& options);
 
+/// Throws OptionError("subdivide" / "max_edge") for options subdivide() refuses: n < 1, a
+/// negative or non-finite max_edge, or both a max_edge and n > 1.
+void validate(const SubdivisionOptions& options);
+
 /// The number of patches subdivide(scene, options) would make, counted without making them (a
 /// double: absurd options must not overflow). Throws OptionError like subdivide() for bad
 /// options.

@@ -17,21 +17,10 @@ namespace formfactor::detail {
 
 namespace {
 
-bool is_convex(const Polygon& p, const Vec3& n) {
-    const std::size_t m = p.size();
-    if (m == 3) return true;
-    const double scale = diameter(p);
-    for (std::size_t k = 0; k < m; ++k) {
-        const Vec3 e0 = p[k] - p[(k + m - 1) % m], e1 = p[(k + 1) % m] - p[k];
-        if (e0.cross(e1).dot(n) < -1e-12 * scale * scale) return false;
-    }
-    return true;
-}
-
 // Convex pieces of a polygon: itself when convex and small, else its triangulation.
 std::vector<Polygon> convex_pieces(const Polygon& p) {
-    const Vec3 n = normal(p);
-    if (p.size() <= static_cast<std::size_t>(kMaxPieceVertices) && is_convex(p, n)) return {p};
+    if (p.size() == 3 || (p.size() <= static_cast<std::size_t>(kMaxPieceVertices) && is_convex(p)))
+        return {p};
     std::vector<Polygon> out;
     for (const auto& t : triangulate(p)) {
         Polygon q;

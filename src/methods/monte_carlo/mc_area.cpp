@@ -29,38 +29,23 @@ class McAreaMethod final : public mc::MonteCarloMethod {
 
     MethodResult compute(const MethodContext& ctx) const override {
         const mc::Run run(*this, ctx, 256);
-        const Scene& scene = run.scene;
-        const MethodOptions& options = run.options;
-        const auto t0 = run.t0;
-        const SamplerKind kind = run.kind;
-        const std::uint64_t N = run.N;
-        const std::uint32_t R = run.R;
-        const std::size_t n = run.n;
-        const RowRange rows = run.rows;
-        const Visibility* vis = run.vis;
         std::vector<PolygonSampler> samplers;
-        samplers.reserve(n);
-        for (const Patch& p : scene.patches) samplers.emplace_back(p.polygon);
+        samplers.reserve(run.n);
+        for (const Patch& p : run.scene.patches) samplers.emplace_back(p.polygon);
 
-        MethodResult result;
-        result.report.method = this->kind();
+        MethodResult result = run.zero_rows(this->kind());
         FormFactors& ff = result.form_factors;
-        ff.first_row = rows.begin;
-        ff.F =
-            DenseMatrix::Zero(static_cast<Eigen::Index>(rows.size()), static_cast<Eigen::Index>(n));
-        ff.standard_error = DenseMatrix::Zero(ff.F.rows(), ff.F.cols());
-        for (const Patch& p : scene.patches) ff.areas.push_back(p.area);
         std::atomic<std::uint64_t> rays{0};
-        Progress progress("mc-area", rows.size(), ctx.progress);
+        Progress progress("mc-area", run.rows.size(), ctx.progress);
         constexpr std::size_t kBatch = 256;
 
-        parallel_for(rows.size(), options.threads, [&](std::size_t row) {
-            const std::size_t i = rows.begin + row;
-            const Patch& pi = scene.patches[i];
+        parallel_for(run.rows.size(), run.options.threads, [&](std::size_t row) {
+            const std::size_t i = run.rows.begin + row;
+            const Patch& pi = run.scene.patches[i];
             // Rays of all pairs and replicates of the row share batches; each remembers where
             // its kernel value goes: c[j·R + r] (replicate sums) and s2[j] (i.i.d. moments).
-            std::vector<double> c(n * R, 0.0), s2(n, 0.0);
-            std::vector<char> active(n, 0);
+            std::vector<double> c(run.n * run.R, 0.0), s2(run.n, 0.0);
+            std::vector<char> active(run.n, 0);
             std::vector<SegmentQuery> queries;
             std::vector<double> kernel;
             std::vector<std::uint32_t> slot;
@@ -70,25 +55,25 @@ class McAreaMethod final : public mc::MonteCarloMethod {
             slot.reserve(kBatch);
             std::uint64_t row_rays = 0;
             auto flush = [&] {
-                vis->occluded(queries, std::span<std::uint8_t>(blocked.data(), queries.size()));
+                run.vis->occluded(queries, std::span<std::uint8_t>(blocked.data(), queries.size()));
                 row_rays += queries.size();
                 for (std::size_t k = 0; k < queries.size(); ++k)
                     if (!blocked[k]) {
                         c[slot[k]] += kernel[k];
-                        s2[slot[k] / R] += kernel[k] * kernel[k];
+                        s2[slot[k] / run.R] += kernel[k] * kernel[k];
                     }
                 queries.clear();
                 kernel.clear();
                 slot.clear();
             };
-            for (std::size_t j = 0; j < n; ++j) {
+            for (std::size_t j = 0; j < run.n; ++j) {
                 if (j == i) continue;
-                const Patch& pj = scene.patches[j];
+                const Patch& pj = run.scene.patches[j];
                 if (behind(pi, pj) || behind(pj, pi)) continue;
                 active[j] = 1;
-                for (std::uint32_t r = 0; r < R; ++r) {
-                    const std::uint64_t nr = replicate_size(N, R, r);
-                    const PointSet4 set(kind, stream_key(options.seed, i, j, r),
+                for (std::uint32_t r = 0; r < run.R; ++r) {
+                    const std::uint64_t nr = replicate_size(run.N, run.R, r);
+                    const PointSet4 set(run.kind, stream_key(run.options.seed, i, j, r),
                                         static_cast<std::uint32_t>(nr));
                     for (std::uint32_t s = 0; s < nr; ++s) {
                         const auto u = set(s);
@@ -100,27 +85,28 @@ class McAreaMethod final : public mc::MonteCarloMethod {
                         if (!(ci > 0 && cj > 0 && r2 > 0)) continue;
                         queries.push_back({x, y, static_cast<int>(i), static_cast<int>(j)});
                         kernel.push_back(ci * cj * kInvPi / (r2 * r2));
-                        slot.push_back(static_cast<std::uint32_t>(j * R + r));
+                        slot.push_back(static_cast<std::uint32_t>(j * run.R + r));
                         if (queries.size() == kBatch) flush();
                     }
                 }
             }
             if (!queries.empty()) flush();
-            const double n_bar = double(N) / R;
-            for (std::size_t j = 0; j < n; ++j) {
+            const double n_bar = double(run.N) / run.R;
+            for (std::size_t j = 0; j < run.n; ++j) {
                 if (!active[j]) continue;
                 mc::ReplicateMean acc;
-                for (std::uint32_t r = 0; r < R; ++r)
-                    acc.add(c[j * R + r], double(replicate_size(N, R, r)), n_bar);
-                const double mean = acc.total / double(N);
+                for (std::uint32_t r = 0; r < run.R; ++r)
+                    acc.add(c[j * run.R + r], double(replicate_size(run.N, run.R, r)), n_bar);
+                const double mean = acc.total / double(run.N);
                 double se;
-                if (R > 1) {
-                    se = mc::replicate_standard_error(acc, double(N), R);
+                if (run.R > 1) {
+                    se = mc::replicate_standard_error(acc, double(run.N), run.R);
                 } else {
-                    const double var = N > 1 ? (s2[j] - N * mean * mean) / double(N - 1) : 0.0;
-                    se = std::sqrt(std::max(0.0, var) / double(N));
+                    const double var =
+                        run.N > 1 ? (s2[j] - run.N * mean * mean) / double(run.N - 1) : 0.0;
+                    se = std::sqrt(std::max(0.0, var) / double(run.N));
                 }
-                const double Aj = scene.patches[j].area;
+                const double Aj = run.scene.patches[j].area;
                 const auto ii = static_cast<Eigen::Index>(row), jj = static_cast<Eigen::Index>(j);
                 ff.F(ii, jj) = Aj * mean;
                 (*ff.standard_error)(ii, jj) = Aj * se;
@@ -129,8 +115,8 @@ class McAreaMethod final : public mc::MonteCarloMethod {
             progress.advance();
         });
         progress.finish();
-        mc::report(result.report, ff, kind, N, R, rays.load(), mc::seconds_since(t0),
-                   vis->description(), "point pairs per patch pair");
+        mc::report(result.report, ff, run.kind, run.N, run.R, rays.load(),
+                   mc::seconds_since(run.t0), run.vis->description(), "point pairs per patch pair");
         return result;
     }
 };

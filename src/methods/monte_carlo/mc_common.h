@@ -86,6 +86,20 @@ struct Run {
             vis = own.get();
         }
     }
+    /// The result the row-by-row methods fill: F and its standard errors zero for the rows
+    /// (rows × n), the patches' areas, the method named in the report.
+    MethodResult zero_rows(MethodKind method) const {
+        MethodResult result;
+        result.report.method = method;
+        FormFactors& ff = result.form_factors;
+        ff.first_row = rows.begin;
+        ff.F =
+            DenseMatrix::Zero(static_cast<Eigen::Index>(rows.size()), static_cast<Eigen::Index>(n));
+        ff.standard_error = DenseMatrix::Zero(ff.F.rows(), ff.F.cols());
+        for (const Patch& p : scene.patches) ff.areas.push_back(p.area);
+        return result;
+    }
+
     const Scene& scene;
     const MethodOptions& options;
     Clock::time_point t0;

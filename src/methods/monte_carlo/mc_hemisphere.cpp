@@ -40,30 +40,15 @@ class McHemisphereMethod final : public mc::MonteCarloMethod {
 
     MethodResult compute(const MethodContext& ctx) const override {
         const mc::Run run(*this, ctx, 10000);
-        const Scene& scene = run.scene;
-        const MethodOptions& options = run.options;
-        const auto t0 = run.t0;
-        const SamplerKind kind = run.kind;
-        const std::uint64_t N = run.N;
-        const std::uint32_t R = run.R;
-        const std::size_t n = run.n;
-        const RowRange rows = run.rows;
-        const Visibility* vis = run.vis;
 
-        MethodResult result;
-        result.report.method = this->kind();
+        MethodResult result = run.zero_rows(this->kind());
         FormFactors& ff = result.form_factors;
-        ff.first_row = rows.begin;
-        ff.F =
-            DenseMatrix::Zero(static_cast<Eigen::Index>(rows.size()), static_cast<Eigen::Index>(n));
-        ff.standard_error = DenseMatrix::Zero(ff.F.rows(), ff.F.cols());
-        for (const Patch& p : scene.patches) ff.areas.push_back(p.area);
         std::atomic<std::uint64_t> rays{0}, escaped{0}, back_hits{0}, obstruction_hits{0};
-        Progress progress("mc-hemisphere", rows.size(), ctx.progress);
+        Progress progress("mc-hemisphere", run.rows.size(), ctx.progress);
 
-        parallel_for(rows.size(), options.threads, [&](std::size_t row) {
-            const std::size_t i = rows.begin + row;
-            const Patch& pi = scene.patches[i];
+        parallel_for(run.rows.size(), run.options.threads, [&](std::size_t row) {
+            const std::size_t i = run.rows.begin + row;
+            const Patch& pi = run.scene.patches[i];
             const PolygonSampler sampler(pi.polygon);
             Vec3 t, b;
             orthonormal_basis(pi.normal, t, b);
@@ -72,7 +57,7 @@ class McHemisphereMethod final : public mc::MonteCarloMethod {
             auto Q = ff.standard_error->row(static_cast<Eigen::Index>(row));
             // Per-thread buffers, reused across rows (no allocation per row or batch).
             thread_local Buffers buf;
-            buf.prepare(n);
+            buf.prepare(run.n);
             std::vector<std::uint32_t>& count = buf.count;
             std::vector<std::uint32_t>& touched = buf.touched;
             RayQuery* queries = buf.queries.data();
@@ -81,10 +66,10 @@ class McHemisphereMethod final : public mc::MonteCarloMethod {
                                   buf.u[3].data()};
             const int from = static_cast<int>(i);
             std::uint64_t esc = 0, back = 0, obst = 0;
-            const double n_bar = double(N) / R;
-            for (std::uint32_t r = 0; r < R; ++r) {
-                const std::uint64_t nr = replicate_size(N, R, r);
-                const PointSet4 set(kind, stream_key(options.seed, i, mc::kRowStream, r),
+            const double n_bar = double(run.N) / run.R;
+            for (std::uint32_t r = 0; r < run.R; ++r) {
+                const std::uint64_t nr = replicate_size(run.N, run.R, r);
+                const PointSet4 set(run.kind, stream_key(run.options.seed, i, mc::kRowStream, r),
                                     static_cast<std::uint32_t>(nr));
                 for (std::uint64_t s0 = 0; s0 < nr; s0 += kBatch) {
                     const std::size_t m =
@@ -96,8 +81,8 @@ class McHemisphereMethod final : public mc::MonteCarloMethod {
                         queries[k].direction = d.x() * t + d.y() * b + d.z() * pi.normal;
                         queries[k].from_patch = from;
                     }
-                    vis->first_hit(std::span<const RayQuery>(queries, m),
-                                   std::span<RayHit>(hits, m));
+                    run.vis->first_hit(std::span<const RayQuery>(queries, m),
+                                       std::span<RayHit>(hits, m));
                     for (std::size_t k = 0; k < m; ++k) {
                         const RayHit& h = hits[k];
                         if (h.patch < 0) {
@@ -122,20 +107,20 @@ class McHemisphereMethod final : public mc::MonteCarloMethod {
             for (Eigen::Index j = 0; j < F.size(); ++j) {
                 if (F[j] == 0.0) continue;
                 mc::ReplicateMean acc{F[j], Q[j]};
-                const double f = F[j] / double(N);
-                Q[j] = R > 1 ? mc::replicate_standard_error(acc, double(N), R)
-                             : std::sqrt(f * (1 - f) / double(N));
+                const double f = F[j] / double(run.N);
+                Q[j] = run.R > 1 ? mc::replicate_standard_error(acc, double(run.N), run.R)
+                                 : std::sqrt(f * (1 - f) / double(run.N));
                 F[j] = f;
             }
-            rays += N;
+            rays += run.N;
             escaped += esc;
             back_hits += back;
             obstruction_hits += obst;
             progress.advance();
         });
         progress.finish();
-        mc::report(result.report, ff, kind, N, R, rays.load(), mc::seconds_since(t0),
-                   vis->description(), "rays per patch (row)");
+        mc::report(result.report, ff, run.kind, run.N, run.R, rays.load(),
+                   mc::seconds_since(run.t0), run.vis->description(), "rays per patch (row)");
         Fields& details = result.report.details;
         const double total = double(rays.load());
         details["escaped_fraction"] = total > 0 ? escaped.load() / total : 0.0;

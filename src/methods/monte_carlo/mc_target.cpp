@@ -82,22 +82,13 @@ class McTargetMethod final : public mc::MonteCarloMethod {
 
     MethodResult compute(const MethodContext& ctx) const override {
         const mc::Run run(*this, ctx, 64);
-        const Scene& scene = run.scene;
-        const MethodOptions& options = run.options;
-        const auto t0 = run.t0;
         mc::PhaseTimer phase_timer;
         Fields phases;
-        const SamplerKind kind = run.kind;
-        const std::uint64_t N = run.N;
-        const std::uint32_t R = run.R;
-        const std::size_t n = run.n;
-        const RowRange rows = run.rows;
-        const Visibility* vis = run.vis;
         std::vector<PolygonSampler> senders;
-        senders.reserve(n);
-        std::vector<char> convex(n);
-        for (std::size_t p = 0; p < n; ++p) {
-            const Patch& patch = scene.patches[p];
+        senders.reserve(run.n);
+        std::vector<char> convex(run.n);
+        for (std::size_t p = 0; p < run.n; ++p) {
+            const Patch& patch = run.scene.patches[p];
             senders.emplace_back(patch.polygon);
             convex[p] = is_convex(patch.polygon) ? 1 : 0;
         }
@@ -112,10 +103,10 @@ class McTargetMethod final : public mc::MonteCarloMethod {
         // the double contour integral for near pairs, the far-field rule where its a-priori
         // bound is ≤ kUnoccludedTolerance, once per unordered pair and the other entry by
         // reciprocity). ff.F holds F_unocc until pass 2 scales its own row.
-        std::vector<const Polygon*> polys(n);
-        for (std::size_t p = 0; p < n; ++p) polys[p] = &scene.patches[p].polygon;
+        std::vector<const Polygon*> polys(run.n);
+        for (std::size_t p = 0; p < run.n; ++p) polys[p] = &run.scene.patches[p].polygon;
         const detail::UnobstructedStats unocc = detail::unobstructed_form_factors(
-            polys, kUnoccludedTolerance, options.threads, nullptr, ff.F, ff.areas);
+            polys, kUnoccludedTolerance, run.options.threads, nullptr, ff.F, ff.areas);
         ff.standard_error = DenseMatrix::Zero(ff.F.rows(), ff.F.cols());
         phase_timer.lap(phases, "unobstructed");
 
@@ -124,34 +115,34 @@ class McTargetMethod final : public mc::MonteCarloMethod {
         // their rays would give. Surfaces are tested whole first when they average two patches
         // or more (a clear surface pair clears all its patch pairs). One bit per unordered
         // patch pair (bit j of row i, j > i).
-        const ShaftCuller culler(scene);
-        const std::size_t S = scene.surfaces.size();
-        std::vector<int> surface_of(n, -1);
+        const ShaftCuller culler(run.scene);
+        const std::size_t S = run.scene.surfaces.size();
+        std::vector<int> surface_of(run.n, -1);
         std::vector<std::size_t> patches_of(S, 0);
-        for (std::size_t p = 0; p < n; ++p) {
-            const int sp = scene.patches[p].surface;
+        for (std::size_t p = 0; p < run.n; ++p) {
+            const int sp = run.scene.patches[p].surface;
             if (sp >= 0 && static_cast<std::size_t>(sp) < S) {
                 surface_of[p] = sp;
                 ++patches_of[static_cast<std::size_t>(sp)];
             }
         }
-        const bool by_surface = 2 * S <= n;
+        const bool by_surface = 2 * S <= run.n;
         std::vector<std::uint8_t> surface_clear(by_surface ? S * S : 0, 0);
         if (by_surface) {
-            parallel_for(S, options.threads, [&](std::size_t a) {
+            parallel_for(S, run.options.threads, [&](std::size_t a) {
                 if (patches_of[a] == 0) return;
                 for (std::size_t b = a + 1; b < S; ++b)
                     if (patches_of[b] > 0 && patches_of[a] + patches_of[b] > 2)
-                        surface_clear[a * S + b] =
-                            culler.unoccluded(scene.surfaces[a].polygon, scene.surfaces[b].polygon);
+                        surface_clear[a * S + b] = culler.unoccluded(run.scene.surfaces[a].polygon,
+                                                                     run.scene.surfaces[b].polygon);
             });
         }
-        const std::size_t words = (n + 63) / 64;
-        std::vector<std::uint64_t> clear_bits(n * words, 0);
+        const std::size_t words = (run.n + 63) / 64;
+        std::vector<std::uint64_t> clear_bits(run.n * words, 0);
         std::atomic<std::uint64_t> cleared_pairs{0};
-        parallel_for(n, options.threads, [&](std::size_t i) {
+        parallel_for(run.n, run.options.threads, [&](std::size_t i) {
             std::uint64_t count = 0;
-            for (std::size_t j = i + 1; j < n; ++j) {
+            for (std::size_t j = i + 1; j < run.n; ++j) {
                 if (!(ff.F(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) > 0))
                     continue;
                 const int a = surface_of[i], b = surface_of[j];
@@ -174,17 +165,17 @@ class McTargetMethod final : public mc::MonteCarloMethod {
         // Pass 2 (rays) on the rows asked for. Pass 1 above still makes the whole unobstructed
         // matrix (the analytic pass has no row range of its own yet): a block costs its rays,
         // but N² memory.
-        Progress progress("mc-target", rows.size(), ctx.progress);
+        Progress progress("mc-target", run.rows.size(), ctx.progress);
         const std::uint32_t K = kDirectionsPerSender;
-        parallel_for(rows.size(), options.threads, [&](std::size_t row) {
-            const std::size_t i = rows.begin + row;
-            const Patch& pi = scene.patches[i];
+        parallel_for(run.rows.size(), run.options.threads, [&](std::size_t row) {
+            const std::size_t i = run.rows.begin + row;
+            const Patch& pi = run.scene.patches[i];
             // Rays of all pairs and replicates of the row share batches. A group is one sender
             // point and its (up to K) rays; groups never straddle a batch. Per slot j·R + r:
             // Σw and Σw·V; per j, for the delta method (R = 1) with groups as the units:
             // Σ w²v², Σ w²v·m, Σ w²m² (v visible rays of the group's m).
             thread_local RowBuffers buf;
-            buf.prepare(n, R);
+            buf.prepare(run.n, run.R);
             std::vector<double>&W = buf.W, &V = buf.V, &A2 = buf.A2, &B2 = buf.B2, &C2 = buf.C2;
             std::vector<SegmentQuery>& queries = buf.queries;
             std::vector<Group>& groups = buf.groups;
@@ -196,13 +187,13 @@ class McTargetMethod final : public mc::MonteCarloMethod {
                                    buf.direction_u[3].data()};
             std::uint64_t row_rays = 0, row_pairs = 0, row_unblocked = 0;
             auto flush = [&] {
-                vis->occluded(queries, std::span<std::uint8_t>(blocked, queries.size()));
+                run.vis->occluded(queries, std::span<std::uint8_t>(blocked, queries.size()));
                 row_rays += queries.size();
                 for (const Group& g : groups) {
                     std::uint32_t v = 0;
                     for (std::uint32_t k = 0; k < g.count; ++k) v += blocked[g.first + k] ? 0 : 1;
                     const double w = g.weight, m = g.count, w2 = w * w;
-                    const std::uint32_t j = g.slot / R;
+                    const std::uint32_t j = g.slot / run.R;
                     W[g.slot] += m * w;
                     V[g.slot] += v * w;
                     A2[j] += w2 * v * v;
@@ -213,20 +204,20 @@ class McTargetMethod final : public mc::MonteCarloMethod {
                 groups.clear();
             };
             const int from = static_cast<int>(i);
-            for (std::size_t j = 0; j < n; ++j) {
+            for (std::size_t j = 0; j < run.n; ++j) {
                 if (j == i) continue;
                 const double f_unocc =
                     ff.F(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j));
                 if (!(f_unocc > 0) || cleared(i, j)) continue;
-                const Patch& pj = scene.patches[j];
+                const Patch& pj = run.scene.patches[j];
                 ProjectedPolygonSampler& target = buf.target;
                 target.reset(pj.polygon, pj.normal, pj.centroid, convex[j] != 0);
                 const int to = static_cast<int>(j);
                 const double plane = pj.normal.dot(pj.centroid);
-                for (std::uint32_t r = 0; r < R; ++r) {
-                    const auto nr = static_cast<std::uint32_t>(replicate_size(N, R, r));
-                    const std::uint64_t key = stream_key(options.seed, i, j, r);
-                    const PointSet4 set(kind, key, nr);
+                for (std::uint32_t r = 0; r < run.R; ++r) {
+                    const auto nr = static_cast<std::uint32_t>(replicate_size(run.N, run.R, r));
+                    const std::uint64_t key = stream_key(run.options.seed, i, j, r);
+                    const PointSet4 set(run.kind, key, nr);
                     // Further candidates of the rejection sampler: their own counter stream.
                     std::uint64_t retry = splitmix64(key ^ kRetryStream);
                     // Group g: the sender point of point g (dimensions 0, 1: the first points of
@@ -247,7 +238,7 @@ class McTargetMethod final : public mc::MonteCarloMethod {
                             if (!(w > 0)) continue;
                             if (queries.size() + m > kBatch) flush();
                             Group grp{static_cast<std::uint32_t>(queries.size()), 0, w,
-                                      static_cast<std::uint32_t>(j * R + r)};
+                                      static_cast<std::uint32_t>(j * run.R + r)};
                             const double h = plane - pj.normal.dot(x);  // < 0: x in front
                             for (std::uint32_t k = g * K; k < g * K + m; ++k) {
                                 const Vec3 d = target.sample(ud[2][k], ud[3][k], retry);
@@ -263,7 +254,7 @@ class McTargetMethod final : public mc::MonteCarloMethod {
             }
             if (!queries.empty()) flush();
             std::vector<double>& rho = buf.rho;
-            for (std::size_t j = 0; j < n; ++j) {
+            for (std::size_t j = 0; j < run.n; ++j) {
                 const double f_unocc =
                     j == i ? 0.0 : ff.F(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j));
                 if (!(f_unocc > 0)) continue;
@@ -275,11 +266,11 @@ class McTargetMethod final : public mc::MonteCarloMethod {
                 const auto ii = static_cast<Eigen::Index>(i), jj = static_cast<Eigen::Index>(j);
                 double w_sum = 0, v_sum = 0;
                 std::uint32_t used = 0;
-                for (std::uint32_t r = 0; r < R; ++r) {
-                    w_sum += W[j * R + r];
-                    v_sum += V[j * R + r];
-                    if (W[j * R + r] > 0) rho[used++] = V[j * R + r] / W[j * R + r];
-                    W[j * R + r] = V[j * R + r] = 0.0;  // zero for the next row
+                for (std::size_t k = j * run.R; k < (j + 1) * run.R; ++k) {  // j's replicates
+                    w_sum += W[k];
+                    v_sum += V[k];
+                    if (W[k] > 0) rho[used++] = V[k] / W[k];
+                    W[k] = V[k] = 0.0;  // zero for the next row
                 }
                 const double a2 = A2[j], b2 = B2[j], c2 = C2[j];
                 A2[j] = B2[j] = C2[j] = 0.0;
@@ -293,7 +284,7 @@ class McTargetMethod final : public mc::MonteCarloMethod {
                 if (v_sum == w_sum) ++row_unblocked;
                 ff.F(ii, jj) = f_unocc * ratio;
                 double se = 0;
-                if (R > 1) {
+                if (run.R > 1) {
                     if (used > 1) {
                         double m = 0, s2 = 0;
                         for (std::uint32_t k = 0; k < used; ++k) m += rho[k] / used;
@@ -315,18 +306,18 @@ class McTargetMethod final : public mc::MonteCarloMethod {
         });
         progress.finish();
         phase_timer.lap(phases, "rays");
-        if (rows.size() != n) {
+        if (run.rows.size() != run.n) {
             // Only the rows asked for go back (the others hold unobstructed values).
-            const auto b = static_cast<Eigen::Index>(rows.begin);
-            const auto m = static_cast<Eigen::Index>(rows.size());
+            const auto b = static_cast<Eigen::Index>(run.rows.begin);
+            const auto m = static_cast<Eigen::Index>(run.rows.size());
             DenseMatrix block = ff.F.middleRows(b, m);
             ff.F = std::move(block);
             DenseMatrix se_block = ff.standard_error->middleRows(b, m);
             ff.standard_error = std::move(se_block);
-            ff.first_row = rows.begin;
+            ff.first_row = run.rows.begin;
         }
-        mc::report(result.report, ff, kind, N, R, rays.load(), mc::seconds_since(t0),
-                   vis->description(), "rays per patch pair");
+        mc::report(result.report, ff, run.kind, run.N, run.R, rays.load(),
+                   mc::seconds_since(run.t0), run.vis->description(), "rays per patch pair");
         Fields& details = result.report.details;
         details["pairs"] = pairs.load();
         details["phases"] = phases;

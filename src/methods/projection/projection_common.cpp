@@ -11,17 +11,6 @@ namespace formfactor::projection {
 
 namespace {
 
-bool is_convex(const Polygon& p, const Vec3& n) {
-    const std::size_t m = p.size();
-    for (std::size_t k = 0; k < m; ++k) {
-        const Vec3& a = p[k];
-        const Vec3& b = p[(k + 1) % m];
-        const Vec3& c = p[(k + 2) % m];
-        if ((b - a).cross(c - b).dot(n) < 0.0) return false;
-    }
-    return true;
-}
-
 void add_primitive(Occluders& occ, const std::vector<Vec3>& verts, int item) {
     Polygon poly{verts};
     const Vec3 av = area_vector(poly);
@@ -54,7 +43,7 @@ void add_polygon(Occluders& occ, const Polygon& p, int item) {
     if (p.size() < 3) return;
     const Vec3 n = normal(p);
     if (n.squaredNorm() == 0.0) return;
-    if (p.size() <= static_cast<std::size_t>(kMaxPrimitiveVertices) && is_convex(p, n)) {
+    if (p.size() <= static_cast<std::size_t>(kMaxPrimitiveVertices) && is_convex(p)) {
         add_primitive(occ, p.vertices, item);
         return;
     }

@@ -1,4 +1,4 @@
-#include "output/text_numbers.h"
+#include "core/text_numbers.h"
 
 #include <algorithm>
 #include <array>

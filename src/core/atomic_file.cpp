@@ -1,4 +1,4 @@
-#include "formfactor/output/atomic_file.h"
+#include "formfactor/core/atomic_file.h"
 
 #include <unistd.h>
 
