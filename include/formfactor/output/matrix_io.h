@@ -25,8 +25,8 @@ enum class MatrixFormat { Csv, Npy, View3dText };
 
 /// The format for `path`'s extension (case-insensitive). Throws
 /// OptionError(option, "unknown output extension '.xyz' (use .csv, .npy or .txt)"); call it
-/// before any computation so that a bad -o fails at once.
-MatrixFormat matrix_format_for(const std::string& path, const std::string& option = "-o");
+/// before any computation so that a bad output path fails at once (the CLI passes its flag).
+MatrixFormat matrix_format_for(const std::string& path, const std::string& option = "output");
 
 /// What a matrix file may carry beyond F (only `.txt` uses it).
 struct MatrixFileInfo {
@@ -61,7 +61,7 @@ std::string npy_header(std::size_t rows, std::size_t cols);
 /// Reads a matrix from `path` by extension (`.csv`, `.npy`, `.txt`). Throws OptionError(option,
 /// ...) for another extension and InputError("FILE:LINE: message") for bad content (NPY errors
 /// carry no line). Only finite values are accepted.
-DenseMatrix read_matrix(const std::string& path, const std::string& option = "--matrix");
+DenseMatrix read_matrix(const std::string& path, const std::string& option = "matrix");
 /// A dense CSV matrix: every line the same number of comma-separated numbers (blank lines and
 /// lines starting with '#' are skipped). `name` is used in error messages.
 DenseMatrix read_csv_matrix(std::istream& in, const std::string& name);

@@ -93,7 +93,7 @@ struct ExportOptions {
 /// Writes the patches as a triangle mesh with per-vertex sRGB colours: `.ply` (PLY with
 /// uchar red/green/blue vertex properties), `.gltf` (glTF 2.0, one embedded base64 buffer,
 /// COLOR_0 in linear float as the format requires, KHR_materials_unlit) or `.glb` (binary
-/// glTF). `radiance` as for render_radiosity. Throws OptionError("-o") for another extension.
+/// glTF). `radiance` as for render_radiosity. Throws OptionError("output") for another extension.
 void write_mesh(const std::string& path, const Scene& scene, const std::vector<Rgb>& radiance,
                 const ExportOptions& options = {});
 
