@@ -35,6 +35,7 @@
 #include "formfactor/output/solution_io.h"
 #include "formfactor/output/view_image.h"
 #include "formfactor/pipeline.h"
+#include "formfactor/scene/city.h"
 #include "formfactor/scene/points.h"
 #include "formfactor/scene/room.h"
 #include "formfactor/scene/scene.h"
