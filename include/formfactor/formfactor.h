@@ -35,6 +35,7 @@
 #include "formfactor/output/render.h"
 #include "formfactor/output/report.h"
 #include "formfactor/output/solution_io.h"
+#include "formfactor/output/sparse_io.h"
 #include "formfactor/output/view_image.h"
 #include "formfactor/pipeline.h"
 #include "formfactor/pipeline_sparse.h"
