@@ -10,16 +10,21 @@ namespace formfactor {
 
 namespace {
 
-// A rectangle o + [0, a] u + [0, b] v (u, v unit axis vectors, front normal u × v).
-void add_rect(Scene& s, const std::string& name, int material, const Vec3& o, const Vec3& u,
-              double a, const Vec3& v, double b) {
-    Surface f;
-    f.name = name;
-    f.material = material;
-    f.polygon.vertices = {o, o + a * u, o + a * u + b * v, o + b * v};
-    f.where = {s.name, 0};
-    validate_polygon(f.polygon, f.where, "built-in surface '" + name + "'");
-    s.surfaces.push_back(std::move(f));
+// The rectangle o + [0, a] u + [0, b] v (u, v unit axis vectors, front normal u × v, a and b
+// whole numbers) as a × b unit squares, each its own surface named `prefix.K`, in the order
+// subdivide() would split it: rows along v, columns along u.
+void add_rect(Scene& s, const char* prefix, int material, const Vec3& o, const Vec3& u, int a,
+              const Vec3& v, int b) {
+    for (int r = 0; r < b; ++r)
+        for (int c = 0; c < a; ++c) {
+            Surface f;
+            f.name = std::string(prefix) + "." + std::to_string(s.surfaces.size() + 1);
+            f.material = material;
+            const Vec3 p = o + c * u + r * v;
+            f.polygon.vertices = {p, p + u, p + u + v, p + v};
+            f.where = {s.name, 0};
+            s.surfaces.push_back(std::move(f));
+        }
 }
 
 }  // namespace
@@ -54,22 +59,22 @@ Scene city_scene(int n) {
     roof.emissivity = 0.9;
     s.materials = {ground, wall, roof};
     const Vec3 X = Vec3::UnitX(), Y = Vec3::UnitY(), Z = Vec3::UnitZ();
-    const double side = 3.0 * n + 1.0;
-    int k = 0;
-    auto name = [&k](const char* what) { return std::string(what) + "." + std::to_string(++k); };
+    const int side = 3 * n + 1;
+    s.surfaces.reserve(city_patch_count(n));
     // Ground: the streets along x, then the pieces between the buildings of each row.
-    for (int y = 0; y <= n; ++y) add_rect(s, name("ground"), 0, Vec3(0, 3.0 * y, 0), X, side, Y, 1);
+    for (int y = 0; y <= n; ++y) add_rect(s, "ground", 0, Vec3(0, 3.0 * y, 0), X, side, Y, 1);
     for (int y = 0; y < n; ++y)
         for (int x = 0; x <= n; ++x)
-            add_rect(s, name("ground"), 0, Vec3(3.0 * x, 3.0 * y + 1, 0), X, 1, Y, 2);
+            add_rect(s, "ground", 0, Vec3(3.0 * x, 3.0 * y + 1, 0), X, 1, Y, 2);
     for (int y = 0; y < n; ++y)
         for (int x = 0; x < n; ++x) {
-            const double x0 = 3.0 * x + 1, y0 = 3.0 * y + 1, h = city_building_height(x, y);
-            add_rect(s, name("wall"), 1, Vec3(x0, y0, 0), Z, h, Y, 2);      // −x
-            add_rect(s, name("wall"), 1, Vec3(x0 + 2, y0, 0), Y, 2, Z, h);  // +x
-            add_rect(s, name("wall"), 1, Vec3(x0, y0, 0), X, 2, Z, h);      // −y
-            add_rect(s, name("wall"), 1, Vec3(x0, y0 + 2, 0), Z, h, X, 2);  // +y
-            add_rect(s, name("roof"), 2, Vec3(x0, y0, h), X, 2, Y, 2);      // +z
+            const double x0 = 3.0 * x + 1, y0 = 3.0 * y + 1;
+            const int h = city_building_height(x, y);
+            add_rect(s, "wall", 1, Vec3(x0, y0, 0), Z, h, Y, 2);      // −x
+            add_rect(s, "wall", 1, Vec3(x0 + 2, y0, 0), Y, 2, Z, h);  // +x
+            add_rect(s, "wall", 1, Vec3(x0, y0, 0), X, 2, Z, h);      // −y
+            add_rect(s, "wall", 1, Vec3(x0, y0 + 2, 0), Z, h, X, 2);  // +y
+            add_rect(s, "roof", 2, Vec3(x0, y0, h), X, 2, Y, 2);      // +z
         }
     s.enclosure = false;
     Camera cam;
@@ -78,7 +83,7 @@ Scene city_scene(int n) {
     cam.up = Z;
     cam.fov_degrees = 45.0;
     s.camera = cam;
-    subdivide(s, SubdivisionOptions{.n = 1, .max_edge = 1.0});
+    subdivide(s, SubdivisionOptions{});
     return s;
 }
 

@@ -12,8 +12,9 @@
 /// Surfaces, in order: the ground as rectangles that tile it minus the footprints (the n + 1
 /// streets along x, y = 3k, each (3n + 1) × 1; then, for each row of buildings, the n + 1
 /// street pieces 1 × 2 between them), then for each building (y-major, then x) its walls facing
-/// −x, +x, −y, +y and its roof. Every surface is split into unit squares (subdivide() with
-/// max_edge 1, row-major). Normals: ground and roofs +z, walls outward.
+/// −x, +x, −y, +y and its roof; each rectangle as unit squares, every square its own surface
+/// and patch (as room-N: `ground.K`, `wall.K`, `roof.K`), row-major as subdivide() would split
+/// the rectangle. Normals: ground and roofs +z, walls outward.
 ///
 /// Patch count P(n) = (n + 1)(5n + 1) [ground] + 4n² [roofs] + 8 Σ_{x,y} h(x, y) [walls]; when
 /// n is even, Σ h = 2.5 n² and P(n) = 29 n² + 6 n + 1 (city-6: 1,081 patches, city-18: 9,505,
