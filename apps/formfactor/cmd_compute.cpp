@@ -418,7 +418,7 @@ void add_compute_command(CLI::App& app) {
     args->repair.add_to(cmd);
     cmd->add_option("-o,--output", args->output,
                     "Matrix file: .csv (N×N, %.17g), .npy (float64) or .txt (View3D 3.2 text); "
-                    "sparse: .mtx (Matrix Market coordinate) or .h5 (HDF5 CSR, docs/formats.md)")
+                    "sparse: .mtx (Matrix Market coordinate) or .h5 (HDF5 CSR, docs/sparse.md)")
         ->type_name("OUT");
     cmd->add_option("--report", args->report,
                     "Also write a JSON report (options, timings, diagnostics)")

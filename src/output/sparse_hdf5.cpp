@@ -1,4 +1,4 @@
-// HDF5 output of sparse form factors (layout: formfactor/output/sparse_io.h, docs/formats.md).
+// HDF5 output of sparse form factors (layout: formfactor/output/sparse_io.h, docs/sparse.md).
 // Arrays are written in slices of at most kSlice elements (hyperslabs), so that no array is
 // copied whole; the HDF5 library's own error printing is turned off while we write and every
 // failure becomes an InputError naming the target.

@@ -7,7 +7,7 @@
 ///            size line `N N nonzeros`, then one `i j F_ij` line per entry, 1-based as Matrix
 ///            Market requires, rows ascending, values `%.17g` (read back bit for bit).
 ///            scipy.io.mmread("F.mtx"), MATLAB's mmread, Julia's MatrixMarket.mmread read it.
-///  - `.h5`   HDF5 (docs/formats.md has the layout): datasets `indptr` (int64, N + 1),
+///  - `.h5`   HDF5 (docs/sparse.md has the layout): datasets `indptr` (int64, N + 1),
 ///            `indices` (int32, 0-based), `data` (float64) — SciPy's CSR arrays —, `areas`,
 ///            `sky_factor` (1 − Σ_j F_ij per patch), `dropped` (mass the threshold dropped, per
 ///            row), `computed_row_sum`, optional `standard_error` (per entry), the patch table
