@@ -270,21 +270,17 @@ void run_compute(const ComputeArgs& args) {
             method_traits(args.method.resolved_kind(scene), args.method.method_options(), &scene)
                 .standard_errors;
         needs.repair = parse_repair_mode(args.repair.mode) != RepairMode::none;
-        if (args.storage == "auto") {
-            // Dense output, but F will not fit comfortably: say what to use instead.
-            needs.patches = static_cast<std::size_t>(
-                std::min(1e18, subdivision_patch_count(scene, args.scene.subdivision())));
-            const double dense = estimate_dense_memory(needs).total();
-            const double available = available_memory();
-            if (available > 0.0 && dense > available)
-                throw ResourceError(fmt::format(
-                    "not enough memory: dense F of {} patches needs about {}, this machine has "
-                    "{} available: write a sparse matrix instead (-o F.mtx or F.h5, with "
-                    "--threshold T)",
-                    format_count(double(needs.patches)), format_bytes(dense),
-                    format_bytes(available)));
+        // compute can write sparse now: the shared advice's last words are replaced here.
+        try {
+            check_dense_memory(scene, args.scene, needs);
+        } catch (const ResourceError& e) {
+            std::string msg = e.what();
+            const std::string stale =
+                "; sparse storage for scenes this large is not implemented yet";
+            if (const auto at = msg.find(stale); at != std::string::npos) msg.erase(at);
+            throw ResourceError(
+                msg + "; or write a sparse matrix (-o F.mtx or F.h5, with --threshold T)");
         }
-        check_dense_memory(scene, args.scene, needs);
     }
     subdivide_step(scene, args.scene, times);
     warn_single_patch(scene);
