@@ -64,7 +64,8 @@ struct SparseComputeResult {
     SparseDiagnostics diagnostics;
     std::optional<SparseRepairReport> repair;
     SparseRunReport run;
-    /// Wall time per step: "compute" (the blocks), "threshold", "repair".
+    /// Wall time per step: "compute" (the blocks), "threshold" (into CSR, with the memory
+    /// projection), "diagnose", "repair".
     StepTimes timings;
     int threads = 0;
 };

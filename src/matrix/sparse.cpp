@@ -75,6 +75,12 @@ SparseBuilder::SparseBuilder(std::size_t n, std::vector<double> areas, double th
     m_.indptr.reserve(n + 1);
 }
 
+void SparseBuilder::reserve(std::size_t nonzeros) {
+    m_.values.reserve(nonzeros);
+    m_.indices.reserve(nonzeros);
+    if (m_.standard_error) m_.standard_error->reserve(nonzeros);
+}
+
 void SparseBuilder::append(const FormFactors& block, int threads) {
     const std::size_t m = block.size(), n = m_.n, first = rows();
     if (block.first_row != first || static_cast<std::size_t>(block.F.cols()) != n || first + m > n)
@@ -129,9 +135,8 @@ SparseFormFactors SparseBuilder::finish() {
     if (rows() != m_.n)
         throw Error("SparseBuilder: " + std::to_string(rows()) + " of " + std::to_string(m_.n) +
                     " rows appended");
-    m_.values.shrink_to_fit();
-    m_.indices.shrink_to_fit();
-    if (m_.standard_error) m_.standard_error->shrink_to_fit();
+    // No shrink_to_fit: it would copy the arrays (and hold both copies at once) to give back
+    // the few percent that reserve() asked for beyond the projection.
     return std::move(m_);
 }
 

@@ -64,6 +64,8 @@ class SparseBuilder {
     /// columns), which must follow the rows appended so far. Rows are thresholded on `threads`
     /// threads (0: all cores).
     void append(const FormFactors& block, int threads = 0);
+    /// Reserves room for `nonzeros` stored entries (avoids the copies of growing arrays).
+    void reserve(std::size_t nonzeros);
     /// Rows appended so far.
     std::size_t rows() const { return m_.indptr.size() - 1; }
     /// The matrix (every row must have been appended; throws Error otherwise).
