@@ -86,13 +86,16 @@ ComputeResult compute_form_factors(const Scene& scene, const ComputeOptions& opt
     result.traits = method_traits(kind, options.method_options, &scene);
 
     // Memory before anything big exists: the rows, their standard errors, repair's copy.
-    // analytic and mc-target still build the whole matrix for a block of rows.
-    const bool full_inside = kind == MethodKind::analytic || kind == MethodKind::mc_target;
+    // mc-target still builds the whole matrix for a block of rows; the analytic method's block
+    // holds its rows and, for the rows before it, their pairs with the block (≤ N × rows).
+    const bool full_inside = kind == MethodKind::mc_target;
+    const bool strip = kind == MethodKind::analytic && !whole;
     DenseRunNeeds needs;
     needs.patches = n;
     needs.matrix = whole || full_inside;
     needs.standard_errors = result.traits.standard_errors && (whole || full_inside);
-    needs.output_rows = whole ? 0 : rows.size() * (result.traits.standard_errors ? 2 : 1);
+    needs.output_rows =
+        whole ? 0 : rows.size() * ((result.traits.standard_errors ? 2 : 1) + (strip ? 1 : 0));
     needs.repair = options.repair.mode != RepairMode::none;
     check_memory(needs, available_memory(),
                  "use a coarser subdivision, or compute the rows in blocks (ComputeOptions::rows)");

@@ -1,9 +1,10 @@
 // `formfactor compute SCENE -o OUT [--report REPORT.json] [--patches PATCHES.csv]
-//  [--stderr SE] [--per-surface | --per-patch]`
+//  [--stderr SE] [--per-surface | --per-patch] [--storage auto|dense|sparse] [--threshold T]`
 
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <memory>
 
@@ -18,6 +19,8 @@
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/patch_table.h"
 #include "formfactor/output/report.h"
+#include "formfactor/output/sparse_io.h"
+#include "formfactor/pipeline_sparse.h"
 #include "solve_common.h"
 
 namespace formfactor::cli {
@@ -34,6 +37,8 @@ struct ComputeArgs {
     bool per_surface = false;  ///< --per-surface
     bool per_patch = false;    ///< --per-patch
     RepairArgs repair;
+    std::string storage = "auto";  ///< --storage auto|dense|sparse
+    double threshold = 0.0;        ///< --threshold T (sparse storage)
 };
 
 // Rows of -o (and --stderr): per surface when asked, or by default for View3D (.vs3) input,
@@ -47,6 +52,145 @@ bool rows_per_surface(const ComputeArgs& args) {
     return ext == ".vs3";
 }
 
+// Sparse storage (formfactor/pipeline_sparse.h): rows in blocks into CSR, written as .mtx or
+// .h5; `why` says why it was picked.
+void run_compute_sparse(const ComputeArgs& args, const std::string& why) {
+    Stopwatch total;
+    if (args.per_surface)
+        throw OptionError("--per-surface", "is not available with sparse storage yet");
+    if (!args.standard_error.empty())
+        throw OptionError("--stderr",
+                          "with sparse storage the standard errors go into the .h5 file "
+                          "(dataset standard_error)");
+    StepTimes times;
+    Scene scene = prepare_scene(args.scene, times);
+    warn_single_patch(scene);
+    const MethodKind method = args.method.resolved_kind(scene);
+    ComputeOptions o;
+    o.method = method;
+    o.method_options = args.method.method_options();
+    o.visibility = args.method.visibility;
+    o.repair = args.repair.options(scene);
+    TerminalProgress bar;
+    o.progress = &bar;
+    o.cancel = &process_cancellation();
+    SparseOptions so;
+    so.threshold = args.threshold;
+    const SparseComputeResult r = compute_sparse_form_factors(scene, o, so);
+    times.add(r.timings);
+    const SparseFormFactors& F = r.form_factors;
+    const SparseDiagnostics d = r.repair ? r.repair->after : r.diagnostics;
+    Stopwatch sw;
+
+    // The report and the patch table are staged first, the matrix written, then both renamed.
+    OutputTransaction tx;
+    if (!args.patches.empty())
+        tx.stage(args.patches, [&](std::ostream& out) { write_patch_table(out, scene); });
+    if (!args.report.empty()) {
+        auto diag = [](const SparseDiagnostics& x) {
+            return nlohmann::json{{"N", x.n},
+                                  {"nonzeros", x.nonzeros},
+                                  {"row_sum_min", x.row_sum_min},
+                                  {"row_sum_max", x.row_sum_max},
+                                  {"row_sum_mean", x.row_sum_mean},
+                                  {"sky_factor_min", x.sky_min},
+                                  {"sky_factor_max", x.sky_max},
+                                  {"max_reciprocity_defect", x.max_reciprocity_defect},
+                                  {"asymmetric_entries", x.asymmetric_entries},
+                                  {"dropped_max", x.dropped_max},
+                                  {"dropped_area_weighted", x.dropped_area_weighted},
+                                  {"negative_entries", x.negative_entries},
+                                  {"entries_above_one", x.entries_above_one}};
+        };
+        auto items = [](const MemoryEstimate& e) {
+            nlohmann::json j = nlohmann::json::array();
+            for (const auto& i : e.items) j.push_back({{"what", i.what}, {"bytes", i.bytes}});
+            return j;
+        };
+        nlohmann::json report = {{"command", "compute"},
+                                 {"scene", scene_summary_json(scene)},
+                                 {"method", to_string(method)},
+                                 {"storage",
+                                  {{"kind", "sparse"},
+                                   {"why", why},
+                                   {"threshold", args.threshold},
+                                   {"blocks", r.run.blocks},
+                                   {"block_rows", r.run.block_rows},
+                                   {"nonzeros", F.nonzeros()},
+                                   {"csr_bytes", F.memory_bytes()}}},
+                                 {"details", to_json(r.report)},
+                                 {"diagnostics", diag(r.diagnostics)},
+                                 {"memory",
+                                  {{"estimate_before", items(r.run.estimate_before)},
+                                   {"estimate_after", items(r.run.estimate_after)},
+                                   {"projected_bytes", r.run.projected_bytes},
+                                   {"peak_bytes", r.run.peak_memory_bytes}}},
+                                 {"threads", effective_threads(args.method.options.threads)},
+                                 {"outputs", {{"matrix", args.output}}}};
+        if (r.repair)
+            report["repair"] = {{"mode", args.repair.mode},
+                                {"closure", r.repair->closure},
+                                {"entries_restored", r.repair->entries_restored},
+                                {"entries_removed", r.repair->entries_removed},
+                                {"rows_lowered", r.repair->rows_lowered},
+                                {"min_scale", r.repair->min_scale},
+                                {"closure_iterations", r.repair->closure_iterations},
+                                {"closure_residual", r.repair->closure_residual},
+                                {"max_row_increase", r.repair->max_row_increase},
+                                {"after", diag(r.repair->after)}};
+        nlohmann::json timings = nlohmann::json::object();
+        for (const auto& [step, seconds] : times.steps) timings[step] = seconds;
+        report["timings"] = timings;
+        const std::string text = json_text(report);
+        tx.stage(args.report, [text](std::ostream& out) {
+            out.write(text.data(), static_cast<std::streamsize>(text.size()));
+        });
+    }
+    SparseFileInfo info;
+    info.scene = scene.name;
+    info.method = to_string(method);
+    info.repair = args.repair.mode;
+    info.patches = &scene.patches;
+    write_sparse_matrix(args.output, F, info);
+    tx.commit();
+    times.add("write", sw.lap());
+
+    const int threads = effective_threads(args.method.options.threads);
+    const double n = static_cast<double>(F.n);
+    fmt::print("scene      {}: N = {} patches\n", scene.name, format_count(n));
+    fmt::print("method     {} ({} thread{})\n", to_string(method), threads,
+               threads == 1 ? "" : "s");
+    fmt::print("storage    sparse ({}); threshold {:g}, {} block{} of {} rows\n", why,
+               args.threshold, r.run.blocks, r.run.blocks == 1 ? "" : "s",
+               format_count(double(r.run.block_rows)));
+    fmt::print("matrix     {} stored entries ({:.1f} per row, {:.3g} % of N²), CSR {}\n",
+               format_count(double(F.nonzeros())), n > 0 ? double(F.nonzeros()) / n : 0.0,
+               n > 0 ? 100.0 * double(F.nonzeros()) / (n * n) : 0.0,
+               format_bytes(F.memory_bytes()));
+    fmt::print("dropped    max {:.3g} per row, {:.3g} area-weighted (threshold)\n",
+               r.diagnostics.dropped_max, r.diagnostics.dropped_area_weighted);
+    fmt::print(
+        "row sums   min {:.10g}, max {:.10g}, mean {:.10g}; sky factor min {:.6g}, max {:.6g}\n",
+        d.row_sum_min, d.row_sum_max, d.row_sum_mean, d.sky_min, d.sky_max);
+    fmt::print("reciprocity max defect {:.3g}, {} entries without their reverse\n",
+               d.max_reciprocity_defect, d.asymmetric_entries);
+    if (r.repair)
+        fmt::print(
+            "repair     {}: {} reverse entries restored, {} rows lowered, closure residual "
+            "{:.3g}\n",
+            args.repair.mode, r.repair->entries_restored, r.repair->rows_lowered,
+            r.repair->closure_residual);
+    fmt::print("memory     estimated {} before the blocks, {} projected; peak {} (RSS)\n",
+               format_bytes(r.run.estimate_before.total()), format_bytes(r.run.projected_bytes),
+               format_bytes(r.run.peak_memory_bytes));
+    fmt::print("time       {}\n", format_timings(times, total.seconds()));
+    std::string wrote = fmt::format("{} (sparse, {}×{}, {} entries)", args.output, format_count(n),
+                                    format_count(n), format_count(double(F.nonzeros())));
+    if (!args.patches.empty()) wrote += ", " + args.patches;
+    if (!args.report.empty()) wrote += ", " + args.report;
+    fmt::print("wrote      {}\n", wrote);
+}
+
 void run_compute(const ComputeArgs& args) {
     Stopwatch total;
     // Every option and output path is checked before any work.
@@ -54,9 +198,22 @@ void run_compute(const ComputeArgs& args) {
     args.method.validate();
     parse_repair_mode(args.repair.mode);
     if (args.output.empty()) {
-        throw OptionError("-o", "an output file is required (.csv, .npy or .txt)");
+        throw OptionError("-o", "an output file is required (.csv, .npy, .txt, .mtx or .h5)");
     }
-    matrix_format_for(args.output, "-o");
+    if (args.storage != "auto" && args.storage != "dense" && args.storage != "sparse")
+        throw OptionError("--storage", "must be auto, dense or sparse, got '" + args.storage + "'");
+    if (!(args.threshold >= 0.0) || !std::isfinite(args.threshold))
+        throw OptionError("--threshold", "must be a finite number ≥ 0");
+    const bool sparse_file = is_sparse_matrix_path(args.output);
+    if (args.storage == "sparse" && !sparse_file)
+        throw OptionError("--storage", "sparse storage writes .mtx or .h5 files (-o F.mtx)");
+    if (args.storage == "dense" && sparse_file)
+        throw OptionError("--storage",
+                          "dense storage writes .csv, .npy or .txt; .mtx and .h5 are written "
+                          "by sparse storage (--storage sparse or auto)");
+    if (!sparse_file && args.threshold > 0.0)
+        throw OptionError("--threshold", "applies to sparse storage (-o F.mtx or F.h5)");
+    if (!sparse_file) matrix_format_for(args.output, "-o");
     check_output_directory(args.output);
     if (!args.report.empty()) {
         check_output_directory(args.report);
@@ -83,6 +240,26 @@ void run_compute(const ComputeArgs& args) {
         }
     }
 
+    if (sparse_file) {
+        std::string why = args.storage == "sparse" ? "asked for" : "auto: -o is a sparse format";
+        if (args.storage == "auto") {
+            // Say also whether the dense matrix would have fitted comfortably (half of what is
+            // available now).
+            Scene probe = load_scene(args.scene.scene);
+            const double count = subdivision_patch_count(probe, args.scene.subdivision());
+            DenseRunNeeds needs;
+            needs.patches = count < 1e18 ? static_cast<std::size_t>(count) : std::size_t(1e18);
+            const double dense = estimate_dense_memory(needs).total();
+            const double available = available_memory();
+            why += fmt::format(
+                "; dense F would need {}{}", format_bytes(dense),
+                available > 0.0 && dense > 0.5 * available
+                    ? fmt::format(", more than half of the {} available", format_bytes(available))
+                    : "");
+        }
+        run_compute_sparse(args, why);
+        return;
+    }
     StepTimes times;
     Scene scene = prepare_scene(args.scene, times, [&](const Scene& loaded) {
         // The memory a dense run needs, checked before the patches and F exist.
@@ -207,12 +384,14 @@ void add_compute_command(CLI::App& app) {
     CLI::App* cmd = app.add_subcommand(
         "compute",
         "Compute the form-factor matrix F of a scene (F_ij from patch i to patch j, row i = "
-        "patch i) and write it to a .csv, .npy or .txt (View3D 3.2) file");
+        "patch i) and write it to a .csv, .npy or .txt (View3D 3.2) file, or sparse to a .mtx "
+        "(Matrix Market) or .h5 (HDF5) file");
     args->scene.add_to(cmd);
     args->method.add_to(cmd);
     args->repair.add_to(cmd);
     cmd->add_option("-o,--output", args->output,
-                    "Matrix file: .csv (N×N, %.17g), .npy (float64) or .txt (View3D 3.2 text)")
+                    "Matrix file: .csv (N×N, %.17g), .npy (float64) or .txt (View3D 3.2 text); "
+                    "sparse: .mtx (Matrix Market coordinate) or .h5 (HDF5 CSR, docs/sparse.md)")
         ->type_name("OUT");
     cmd->add_option("--report", args->report,
                     "Also write a JSON report (options, timings, diagnostics)")
@@ -231,6 +410,15 @@ void add_compute_command(CLI::App& app) {
     auto* pp = cmd->add_flag("--per-patch", args->per_patch,
                              "Write one row per patch (default for built-in scenes and .obj)");
     ps->excludes(pp);
+    cmd->add_option("--storage", args->storage,
+                    "auto (default: sparse for -o .mtx or .h5, dense otherwise, and says which), "
+                    "dense (N×N in memory) or sparse (rows in blocks into CSR; the dense matrix "
+                    "is never made)")
+        ->type_name("KIND");
+    cmd->add_option("--threshold", args->threshold,
+                    "Sparse storage: drop entries F_ij ≤ T, keeping the dropped mass per row "
+                    "(--repair reciprocity then restores reciprocity without raising a row sum)")
+        ->type_name("T");
     cmd->callback([args] { run_compute(*args); });
 }
 

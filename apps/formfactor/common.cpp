@@ -177,7 +177,8 @@ Scene prepare_scene(const SceneArgs& args, StepTimes& times,
                                        "either, one patch per surface: N = {})",
                                        surfaces)
                                  : std::string("use a scene with fewer surfaces");
-        advice += "; sparse storage for scenes this large is not implemented yet";
+        advice += "; or write a sparse matrix (formfactor compute -o F.mtx or F.h5, with "
+                  "--threshold T)";
         check_memory(run, available_memory(), advice);
     });
 }

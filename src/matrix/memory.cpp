@@ -4,11 +4,13 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <sstream>
 
 #include "formfactor/core/error.h"
+#include "formfactor/matrix/sparse.h"
 
 namespace formfactor {
 
@@ -108,6 +110,77 @@ void check_memory(const DenseRunNeeds& needs, double available, const std::strin
     msg += fmt::format("; at most about {} patches fit", format_count(double(fit)));
     if (!advice.empty()) msg += ": " + advice;
     throw ResourceError(msg);
+}
+
+namespace {
+
+// Bytes of the block buffers per row of a block.
+double block_bytes_per_row(const SparseRunNeeds& needs) {
+    const double n = static_cast<double>(needs.patches);
+    double per_row = dense_matrix_bytes(1, n) * (needs.standard_errors ? 2 : 1);
+    if (needs.block_strip) per_row += dense_matrix_bytes(1, n);
+    return per_row;
+}
+
+}  // namespace
+
+MemoryEstimate estimate_sparse_memory(const SparseRunNeeds& needs) {
+    MemoryEstimate e;
+    const double n = static_cast<double>(needs.patches);
+    const double m = static_cast<double>(needs.block_rows);
+    e.add(fmt::format("a block of {} rows ({} × {} doubles{}{})", format_count(m), format_count(m),
+                      format_count(n), needs.standard_errors ? ", with standard errors" : "",
+                      needs.block_strip ? ", and the strip of earlier rows' pairs" : ""),
+          m * block_bytes_per_row(needs));
+    if (needs.whole_matrix_inside) {
+        const double nn = dense_matrix_bytes(n, n);
+        e.add(fmt::format("the whole unobstructed matrix and its standard errors, which the method "
+                          "builds for every block ({}² doubles, twice)",
+                          format_count(n)),
+              2 * nn + n * n / 8);
+    }
+    if (needs.nonzeros > 0) {
+        e.add(fmt::format("CSR of {} entries", format_count(needs.nonzeros)),
+              sparse_matrix_bytes(n, needs.nonzeros, needs.standard_errors));
+        if (needs.repair)
+            e.add("repair's transposed pattern and symmetrised copy",
+                  needs.nonzeros * (sizeof(std::int32_t) + sizeof(std::int64_t) +
+                                    sizeof(std::int32_t) + 2 * sizeof(double)) +
+                      (n + 1) * sizeof(std::int64_t) * 2);
+    }
+    e.add("patches and per-patch tables", n * kBytesPerPatch);
+    return e;
+}
+
+std::size_t sparse_block_rows(const SparseRunNeeds& needs, double budget) {
+    const double per_row = block_bytes_per_row(needs);
+    const double m = per_row > 0.0 ? std::floor(budget / per_row) : double(needs.patches);
+    const double clamped = std::clamp(m, 1.0, std::max(1.0, double(needs.patches)));
+    return static_cast<std::size_t>(clamped);
+}
+
+void check_sparse_memory(const SparseRunNeeds& needs, double available, const std::string& advice) {
+    if (!(available > 0.0)) return;
+    const MemoryEstimate e = estimate_sparse_memory(needs);
+    const double total = e.total();
+    if (total <= available) return;
+    std::string parts;
+    for (const MemoryEstimate::Item& i : e.items) {
+        if (i.bytes < 0.01 * total) continue;
+        parts += (parts.empty() ? "" : ", ") + i.what + " " + format_bytes(i.bytes);
+    }
+    std::string msg = fmt::format(
+        "not enough memory: the sparse run of {} patches needs about {} ({}), this machine has {} "
+        "available",
+        format_count(double(needs.patches)), format_bytes(total), parts, format_bytes(available));
+    if (!advice.empty()) msg += ": " + advice;
+    throw ResourceError(msg);
+}
+
+double peak_memory_bytes() {
+    struct rusage ru {};
+    if (getrusage(RUSAGE_SELF, &ru) != 0) return 0.0;
+    return static_cast<double>(ru.ru_maxrss) * 1024.0;  // kilobytes on Linux
 }
 
 std::string format_bytes(double bytes) {

@@ -8,6 +8,7 @@
 
 #include "core/text.h"
 #include "formfactor/core/error.h"
+#include "formfactor/scene/city.h"
 #include "formfactor/scene/room.h"
 #include "formfactor/scene/scene.h"
 
@@ -164,6 +165,10 @@ std::vector<std::string> builtin_scene_names() {
     return {"cornell", "cornell-empty", "plates", "perpendicular", "cube"};
 }
 
+std::vector<std::string> builtin_scene_generators() {
+    return {"room-N", "room-N-obstruction", "city-N"};
+}
+
 namespace {
 
 // "room-N" or "room-N-obstruction" (formfactor/scene/room.h): N, and whether the box is an
@@ -183,27 +188,44 @@ int parse_room_name(const std::string& name, bool& obstruction) {
     return static_cast<int>(n);
 }
 
+// "city-N" (formfactor/scene/city.h): N, or 0 when the name is not of that form.
+int parse_city_name(const std::string& name) {
+    if (name.rfind("city-", 0) != 0) return 0;
+    const std::string rest = name.substr(5);
+    if (rest.empty() || rest.size() > 4 ||
+        !std::all_of(rest.begin(), rest.end(), [](char c) { return c >= '0' && c <= '9'; }))
+        return 0;
+    return std::stoi(rest);
+}
+
+// The fixed names and the generators, for messages.
+std::string known_scenes() {
+    std::string names;
+    for (const std::string& b : builtin_scene_names()) names += (names.empty() ? "" : ", ") + b;
+    for (const std::string& g : builtin_scene_generators()) names += ", " + g;
+    return names;
+}
+
 }  // namespace
 
 bool is_builtin_scene(const std::string& name) {
     const auto names = builtin_scene_names();
     bool ob = false;
     return std::find(names.begin(), names.end(), name) != names.end() ||
-           parse_room_name(name, ob) > 0;
+           parse_room_name(name, ob) > 0 || parse_city_name(name) > 0;
 }
 
 Scene builtin_scene(const std::string& name) {
     bool room_obstruction = false;
     if (const int n = parse_room_name(name, room_obstruction); n > 0)
         return room_scene(n, room_obstruction ? RoomBox::kObstruction : RoomBox::kPatches);
+    if (const int n = parse_city_name(name); n > 0) return city_scene(n);
     if (name == "cornell") return cornell(true);
     if (name == "cornell-empty") return cornell(false);
     if (name == "plates") return plates();
     if (name == "perpendicular") return perpendicular();
     if (name == "cube") return cube();
-    std::string names;
-    for (const std::string& b : builtin_scene_names()) names += (names.empty() ? "" : ", ") + b;
-    throw InputError(name, 0, "unknown built-in scene (known: " + names + ")");
+    throw InputError(name, 0, "unknown built-in scene (known: " + known_scenes() + ")");
 }
 
 }  // namespace formfactor

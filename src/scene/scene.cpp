@@ -104,10 +104,13 @@ Scene load_scene(const std::string& name_or_path) {
     if (ext == ".vs3") return load_vs3(name_or_path);
     std::string names;
     for (const std::string& b : builtin_scene_names()) names += (names.empty() ? "" : ", ") + b;
+    std::string generators;
+    for (const std::string& g : builtin_scene_generators())
+        generators += (generators.empty() ? "" : ", ") + g;
     if (ext.empty())
-        throw InputError(
-            name_or_path, 0,
-            "not a built-in scene (" + names + ") and no file extension (.obj or .vs3 expected)");
+        throw InputError(name_or_path, 0,
+                         "not a built-in scene (" + names + ") nor a generated one (" + generators +
+                             ") and no file extension (.obj or .vs3 expected)");
     throw InputError(name_or_path, 0,
                      "unknown file extension '" + ext +
                          "' (.obj or .vs3 expected, or a built-in "

@@ -60,6 +60,38 @@ std::size_t max_dense_patches(const DenseRunNeeds& needs, double available);
 /// do instead, in the caller's words). No check when available ≤ 0 (unknown).
 void check_memory(const DenseRunNeeds& needs, double available, const std::string& advice);
 
+/// What a sparse run (row blocks of the pipeline thresholded into CSR) holds at its peak.
+struct SparseRunNeeds {
+    std::size_t patches = 0;       ///< N
+    std::size_t block_rows = 0;    ///< m, rows per block
+    bool standard_errors = false;  ///< the method fills standard errors (the block's and the CSR's)
+    /// The analytic method's block also holds, for the rows before it, their pairs with the
+    /// block's patches (≤ N × m doubles).
+    bool block_strip = false;
+    /// The method builds the whole N × N unobstructed matrix inside, whatever the block
+    /// (mc-target today), with its standard errors and an N²/8-byte table of cleared pairs.
+    bool whole_matrix_inside = false;
+    /// Expected stored entries (0: not known yet; the CSR is then listed as growing).
+    double nonzeros = 0;
+    /// The repair's working copies (the transposed pattern and the symmetrised matrix).
+    bool repair = false;
+};
+
+/// The estimate of a sparse run: the block buffers, the whole matrix when the method builds it
+/// inside, the CSR arrays for `nonzeros` entries, the repair's copies, kBytesPerPatch per patch.
+MemoryEstimate estimate_sparse_memory(const SparseRunNeeds& needs);
+
+/// Rows per block so that the block buffers of `needs` (its block_rows ignored) take about
+/// `budget` bytes: at least 1, at most N.
+std::size_t sparse_block_rows(const SparseRunNeeds& needs, double budget);
+
+/// Throws ResourceError when estimate_sparse_memory(needs).total() > available: what is
+/// needed (parts), what is available, and `advice`. No check when available ≤ 0 (unknown).
+void check_sparse_memory(const SparseRunNeeds& needs, double available, const std::string& advice);
+
+/// Peak resident memory of this process so far (getrusage ru_maxrss), in bytes; 0 when unknown.
+double peak_memory_bytes();
+
 /// A whole number with thousands separators: "135,000".
 std::string format_count(double x);
 

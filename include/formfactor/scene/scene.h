@@ -109,7 +109,8 @@ struct Scene {
 };
 
 /// Loads a scene: a built-in name (`cornell`, `cornell-empty`, `plates`, `perpendicular`,
-/// `cube`, and `room-N` / `room-N-obstruction`, the pre-split room of formfactor/scene/room.h)
+/// `cube`, `room-N` / `room-N-obstruction`, the pre-split room of formfactor/scene/room.h, and
+/// `city-N`, the open city of formfactor/scene/city.h)
 /// or a file path by extension (`.obj`, `.vs3`). The patches are the surfaces, unsplit;
 /// call subdivide() for more. Throws InputError naming file and line on bad input.
 Scene load_scene(const std::string& name_or_path);
@@ -174,6 +175,9 @@ inline constexpr double kMaxPatches = 50e6;
 
 /// Names of the built-in scenes.
 std::vector<std::string> builtin_scene_names();
+/// The built-in scene generators, as patterns: `room-N`, `room-N-obstruction`
+/// (formfactor/scene/room.h) and `city-N` (formfactor/scene/city.h); N in decimal.
+std::vector<std::string> builtin_scene_generators();
 /// True when `name` is a built-in scene.
 bool is_builtin_scene(const std::string& name);
 

@@ -1,0 +1,176 @@
+// HDF5 output of sparse form factors (layout: formfactor/output/sparse_io.h, docs/sparse.md).
+// Arrays are written in slices of at most kSlice elements (hyperslabs), so that no array is
+// copied whole; the HDF5 library's own error printing is turned off while we write and every
+// failure becomes an InputError naming the target.
+
+#include "output/sparse_hdf5.h"
+
+#include <hdf5.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "formfactor/core/error.h"
+
+namespace formfactor::detail {
+
+namespace {
+
+constexpr hsize_t kSlice = hsize_t(1) << 20;
+
+// An HDF5 identifier closed by `close` when it goes out of scope.
+class Handle {
+  public:
+    Handle(hid_t id, herr_t (*close)(hid_t)) : id_(id), close_(close) {}
+    ~Handle() {
+        if (id_ >= 0) close_(id_);
+    }
+    Handle(const Handle&) = delete;
+    Handle& operator=(const Handle&) = delete;
+    hid_t get() const { return id_; }
+
+  private:
+    hid_t id_;
+    herr_t (*close_)(hid_t);
+};
+
+// Silences HDF5's automatic error stack printing for the scope.
+class QuietErrors {
+  public:
+    QuietErrors() {
+        H5Eget_auto2(H5E_DEFAULT, &func_, &data_);
+        H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+    }
+    ~QuietErrors() { H5Eset_auto2(H5E_DEFAULT, func_, data_); }
+    QuietErrors(const QuietErrors&) = delete;
+    QuietErrors& operator=(const QuietErrors&) = delete;
+
+  private:
+    H5E_auto2_t func_ = nullptr;
+    void* data_ = nullptr;
+};
+
+class Writer {
+  public:
+    Writer(const std::string& target) : target_(target) {}
+
+    hid_t check(hid_t id, const char* what) const {
+        if (id < 0) fail(what);
+        return id;
+    }
+    void check(herr_t status, const char* what) const {
+        if (status < 0) fail(what);
+    }
+    [[noreturn]] void fail(const std::string& what) const {
+        throw InputError(target_, 0, "HDF5 write failed: " + what + " (disk full?)");
+    }
+
+    // A dataset of `rows` × `cols` elements (cols 1: one dimension) of `type`, filled from
+    // `data` (row-major) in slices of whole rows.
+    void dataset(hid_t loc, const char* name, hid_t type, const void* data, hsize_t rows,
+                 hsize_t cols = 1) const {
+        const int rank = cols == 1 ? 1 : 2;
+        const hsize_t dims[2] = {rows, cols};
+        const Handle space(check(H5Screate_simple(rank, dims, nullptr), name), H5Sclose);
+        const Handle set(
+            check(H5Dcreate2(loc, name, type, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+                  name),
+            H5Dclose);
+        const std::size_t elem = H5Tget_size(type);
+        const hsize_t step = std::max<hsize_t>(1, kSlice / cols);
+        for (hsize_t r = 0; r < rows; r += step) {
+            const hsize_t count[2] = {std::min(step, rows - r), cols};
+            const hsize_t start[2] = {r, 0};
+            check(H5Sselect_hyperslab(space.get(), H5S_SELECT_SET, start, nullptr, count, nullptr),
+                  name);
+            const Handle mem(check(H5Screate_simple(rank, count, nullptr), name), H5Sclose);
+            const auto* p = static_cast<const char*>(data) + r * cols * elem;
+            check(H5Dwrite(set.get(), type, mem.get(), space.get(), H5P_DEFAULT, p), name);
+        }
+    }
+
+    template <class T>
+    void attribute(hid_t loc, const char* name, hid_t type, const T& value) const {
+        const Handle space(check(H5Screate(H5S_SCALAR), name), H5Sclose);
+        const Handle a(
+            check(H5Acreate2(loc, name, type, space.get(), H5P_DEFAULT, H5P_DEFAULT), name),
+            H5Aclose);
+        check(H5Awrite(a.get(), type, &value), name);
+    }
+    // A variable-length UTF-8 string attribute (h5py reads it as str).
+    void attribute(hid_t loc, const char* name, const std::string& value) const {
+        const Handle type(check(H5Tcopy(H5T_C_S1), name), H5Tclose);
+        check(H5Tset_size(type.get(), H5T_VARIABLE), name);
+        check(H5Tset_cset(type.get(), H5T_CSET_UTF8), name);
+        const char* p = value.c_str();
+        attribute(loc, name, type.get(), p);
+    }
+
+  private:
+    std::string target_;
+};
+
+}  // namespace
+
+void write_sparse_hdf5(const std::string& file, const std::string& target,
+                       const SparseFormFactors& F, const SparseFileInfo& info) {
+    const QuietErrors quiet;
+    const Writer w(target);
+    const Handle f(H5Fcreate(file.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose);
+    if (f.get() < 0) throw InputError(target, 0, "cannot create the HDF5 file");
+    const hid_t root = f.get();
+    const hsize_t n = F.n, nnz = F.nonzeros();
+    w.dataset(root, "indptr", H5T_NATIVE_INT64, F.indptr.data(), n + 1);
+    w.dataset(root, "indices", H5T_NATIVE_INT32, F.indices.data(), nnz);
+    w.dataset(root, "data", H5T_NATIVE_DOUBLE, F.values.data(), nnz);
+    if (F.standard_error)
+        w.dataset(root, "standard_error", H5T_NATIVE_DOUBLE, F.standard_error->data(), nnz);
+    w.dataset(root, "areas", H5T_NATIVE_DOUBLE, F.areas.data(), n);
+    std::vector<double> per_row(F.n);
+    for (std::size_t i = 0; i < F.n; ++i) per_row[i] = F.sky_factor(i);
+    w.dataset(root, "sky_factor", H5T_NATIVE_DOUBLE, per_row.data(), n);
+    w.dataset(root, "dropped", H5T_NATIVE_DOUBLE, F.dropped.data(), n);
+    w.dataset(root, "computed_row_sum", H5T_NATIVE_DOUBLE, F.computed_row_sums.data(), n);
+    if (info.patches) {
+        const Handle g(
+            w.check(H5Gcreate2(root, "patches", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), "patches"),
+            H5Gclose);
+        const std::vector<Patch>& p = *info.patches;
+        std::vector<std::int32_t> surface(p.size());
+        std::vector<double> xyz(3 * p.size());
+        for (std::size_t i = 0; i < p.size(); ++i) surface[i] = p[i].surface;
+        w.dataset(g.get(), "surface", H5T_NATIVE_INT32, surface.data(), n);
+        for (std::size_t i = 0; i < p.size(); ++i)
+            for (int c = 0; c < 3; ++c) xyz[3 * i + static_cast<std::size_t>(c)] = p[i].centroid[c];
+        w.dataset(g.get(), "centroid", H5T_NATIVE_DOUBLE, xyz.data(), n, 3);
+        for (std::size_t i = 0; i < p.size(); ++i)
+            for (int c = 0; c < 3; ++c) xyz[3 * i + static_cast<std::size_t>(c)] = p[i].normal[c];
+        w.dataset(g.get(), "normal", H5T_NATIVE_DOUBLE, xyz.data(), n, 3);
+    }
+    double total_area = 0.0, dropped_area = 0.0;
+    for (std::size_t i = 0; i < F.n; ++i) {
+        total_area += F.areas[i];
+        dropped_area += F.areas[i] * F.dropped[i];
+    }
+    const std::uint64_t n64 = F.n, nnz64 = F.nonzeros();
+    const std::int32_t version = 1;
+    w.attribute(root, "format", "formfactor sparse form factors (CSR)");
+    w.attribute(root, "format_version", H5T_NATIVE_INT32, version);
+    w.attribute(root, "N", H5T_NATIVE_UINT64, n64);
+    w.attribute(root, "nonzeros", H5T_NATIVE_UINT64, nnz64);
+    w.attribute(root, "threshold", H5T_NATIVE_DOUBLE, F.threshold);
+    w.attribute(root, "dropped_mass", H5T_NATIVE_DOUBLE,
+                total_area > 0.0 ? dropped_area / total_area : 0.0);
+    w.attribute(root, "direction",
+                "data[k] = F[i, indices[k]] for indptr[i] <= k < indptr[i+1]: the fraction of "
+                "the energy leaving patch i that reaches patch indices[k] (0-based)");
+    w.attribute(root, "scene", info.scene);
+    w.attribute(root, "method", info.method);
+    w.attribute(root, "repair", info.repair);
+    w.attribute(root, "program", std::string("formfactor ") + FF_VERSION);
+    w.check(H5Fflush(root, H5F_SCOPE_GLOBAL), "flush");
+}
+
+}  // namespace formfactor::detail

@@ -1,0 +1,126 @@
+// Sparse runs: the pipeline's row blocks thresholded into CSR as they come.
+
+#include "formfactor/pipeline_sparse.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "formfactor/core/error.h"
+#include "formfactor/core/parallel.h"
+
+namespace formfactor {
+
+namespace {
+
+void merge_report(MethodReport& total, const MethodReport& block, bool first) {
+    if (first) {
+        total = block;
+        return;
+    }
+    if (total.pairs && block.pairs) {
+        total.pairs->pairs += block.pairs->pairs;
+        total.pairs->zero += block.pairs->zero;
+        total.pairs->exact += block.pairs->exact;
+        total.pairs->far_field += block.pairs->far_field;
+    }
+    if (total.rays_cast && block.rays_cast) *total.rays_cast += *block.rays_cast;
+    if (total.seconds && block.seconds) *total.seconds += *block.seconds;
+    if (total.error_bound_per_entry && block.error_bound_per_entry)
+        total.error_bound_per_entry =
+            std::max(*total.error_bound_per_entry, *block.error_bound_per_entry);
+}
+
+}  // namespace
+
+SparseComputeResult compute_sparse_form_factors(const Scene& scene, const ComputeOptions& options,
+                                                const SparseOptions& sparse) {
+    validate(options);
+    if (!(sparse.threshold >= 0.0) || !std::isfinite(sparse.threshold))
+        throw OptionError("threshold", "must be a finite number ≥ 0");
+    if (!(sparse.block_memory >= 0.0) || !std::isfinite(sparse.block_memory))
+        throw OptionError("block_memory", "must be a finite number of bytes ≥ 0");
+    const std::size_t n = scene.patches.size();
+    const RowRange rows = options.rows.clamped(n);
+    if (rows.size() != n) throw OptionError("rows", "a sparse run computes every row");
+    const bool closure =
+        options.repair.mode == RepairMode::closure || options.repair.mode == RepairMode::both;
+    if (closure && !scene.enclosure && !options.repair.force_closure)
+        throw OptionError("repair",
+                          "closure needs a closed enclosure (this scene is open: radiation "
+                          "escapes); use reciprocity, which never raises a row sum");
+
+    SparseComputeResult result;
+    const MethodKind kind = options.method ? *options.method : default_method(scene);
+    result.traits = method_traits(kind, options.method_options, &scene);
+    SparseRunNeeds needs;
+    needs.patches = n;
+    needs.standard_errors = result.traits.standard_errors;
+    needs.block_strip = kind == MethodKind::analytic;
+    needs.whole_matrix_inside = kind == MethodKind::mc_target;
+    needs.repair = options.repair.mode != RepairMode::none;
+    const double available = available_memory();
+    double budget = sparse.block_memory;
+    if (!(budget > 0.0)) budget = available > 0.0 ? std::min(512e6, available / 4) : 512e6;
+    needs.block_rows = sparse.block_rows > 0
+                           ? std::min(sparse.block_rows, std::max<std::size_t>(n, 1))
+                           : sparse_block_rows(needs, budget);
+    result.run.block_rows = needs.block_rows;
+    result.run.estimate_before = estimate_sparse_memory(needs);
+    const std::string advice =
+        "raise the threshold, use a coarser subdivision, or smaller blocks (block_rows)";
+    check_sparse_memory(needs, available, advice);
+
+    std::optional<SparseBuilder> builder;  // made with the areas of the first block
+    Progress progress("sparse rows", n, options.progress);
+    Stopwatch sw;
+    double compute_s = 0.0, threshold_s = 0.0;
+    for (std::size_t b = 0; b < n; b += needs.block_rows) {
+        ComputeOptions bo = options;
+        bo.rows = RowRange{b, std::min(n, b + needs.block_rows)};
+        bo.repair = RepairOptions{};
+        bo.progress = nullptr;
+        ComputeResult block = compute_form_factors(scene, bo);
+        compute_s += sw.lap();
+        if (!builder)
+            builder.emplace(n, block.form_factors.areas, sparse.threshold,
+                            block.form_factors.standard_error.has_value());
+        builder->append(block.form_factors, options.method_options.threads);
+        merge_report(result.report, block.report, result.run.blocks == 0);
+        result.threads = block.threads;
+        ++result.run.blocks;
+        // The CSR so far, extrapolated to every row: stop now when it will not fit.
+        SparseRunNeeds projected = needs;
+        projected.nonzeros =
+            double(builder->current().nonzeros()) * double(n) / double(builder->rows());
+        const double total = estimate_sparse_memory(projected).total();
+        result.run.projected_bytes = std::max(result.run.projected_bytes, total);
+        check_sparse_memory(projected, available, advice);
+        // After the first block, room for the projection (+5 %): the arrays then grow without
+        // the copies (and the doubled capacity) of repeated reallocation.
+        if (result.run.blocks == 1 && builder->rows() < n)
+            builder->reserve(static_cast<std::size_t>(1.05 * projected.nonzeros));
+        threshold_s += sw.lap();
+        progress.advance(bo.rows.size());
+    }
+    progress.finish();
+    if (!builder) builder.emplace(0, std::vector<double>{}, sparse.threshold, false);
+    result.form_factors = builder->finish();
+    result.timings.add("compute", compute_s);
+    result.timings.add("threshold", threshold_s);
+    result.diagnostics = diagnose(result.form_factors);
+    result.timings.add("diagnose", sw.lap());
+    if (options.repair.mode != RepairMode::none) {
+        SparseRepairOptions ro;
+        ro.closure = closure;
+        ro.closure_tolerance = options.repair.closure_tolerance;
+        ro.max_iterations = options.repair.max_iterations;
+        result.repair = repair(result.form_factors, ro);
+        result.timings.add("repair", sw.lap());
+    }
+    needs.nonzeros = double(result.form_factors.nonzeros());
+    result.run.estimate_after = estimate_sparse_memory(needs);
+    result.run.peak_memory_bytes = peak_memory_bytes();
+    return result;
+}
+
+}  // namespace formfactor

@@ -1,0 +1,114 @@
+// `formfactor compute --storage --threshold` with sparse outputs (.mtx, .h5), end to end.
+
+#include <doctest/doctest.h>
+#include <hdf5.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+
+#include "cli_runner.h"
+#include "formfactor/pipeline_sparse.h"
+#include "formfactor/scene/city.h"
+
+using namespace formfactor;
+using formfactor::testing::Cli;
+using formfactor::testing::CliResult;
+
+namespace {
+
+std::string said(const CliResult& r) { return "stdout:\n" + r.out + "stderr:\n" + r.err; }
+
+std::string read_all(const std::string& path) {
+    std::ifstream in(path);
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+}  // namespace
+
+TEST_CASE("cli sparse: auto picks sparse for .mtx and says so") {
+    Cli cli;
+    const CliResult r = cli.run("compute city-2 -o F.mtx --threshold 1e-4 --report r.json");
+    INFO(said(r));
+    REQUIRE(r.code == 0);
+    CHECK(r.err.empty());
+    CHECK(r.out.find("storage    sparse (auto: -o is a sparse format") != std::string::npos);
+    CHECK(r.out.find("peak") != std::string::npos);
+    CHECK(cli.dir().entries() == 2);
+    // The same entries as the library's sparse run (bit for bit through %.17g).
+    SparseOptions so;
+    so.threshold = 1e-4;
+    const SparseFormFactors F = compute_sparse_form_factors(city_scene(2), {}, so).form_factors;
+    std::istringstream in(read_all(cli.file("F.mtx")));
+    std::string line;
+    std::getline(in, line);
+    CHECK(line == "%%MatrixMarket matrix coordinate real general");
+    while (std::getline(in, line) && line[0] == '%') {
+    }
+    CHECK(line == "129 129 " + std::to_string(F.nonzeros()));
+    std::size_t i = 0, j = 0, k = 0;
+    std::string v;
+    for (std::size_t row = 0; row < F.n; ++row)
+        for (auto e = F.indptr[row]; e < F.indptr[row + 1]; ++e, ++k) {
+            REQUIRE(static_cast<bool>(in >> i >> j >> v));
+            CHECK(i == row + 1);
+            CHECK(j == std::size_t(F.indices[std::size_t(e)]) + 1);
+            CHECK(std::stod(v) == F.values[std::size_t(e)]);
+        }
+    CHECK(k == F.nonzeros());
+    const auto report = nlohmann::json::parse(read_all(cli.file("r.json")));
+    CHECK(report["storage"]["kind"] == "sparse");
+    CHECK(report["storage"]["nonzeros"] == F.nonzeros());
+    CHECK(report["memory"]["peak_bytes"].get<double>() > 0.0);
+    CHECK(report["diagnostics"]["dropped_max"].get<double>() > 0.0);
+}
+
+TEST_CASE("cli sparse: .h5 with reciprocity repair and the patch table") {
+    Cli cli;
+    const CliResult r =
+        cli.run("compute city-2 --storage sparse -o F.h5 --threshold 1e-3 --repair reciprocity");
+    INFO(said(r));
+    REQUIRE(r.code == 0);
+    CHECK(r.out.find("storage    sparse (asked for)") != std::string::npos);
+    CHECK(r.out.find("repair     reciprocity") != std::string::npos);
+    CHECK(cli.dir().entries() == 1);
+    const hid_t f = H5Fopen(cli.file("F.h5").c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    REQUIRE(f >= 0);
+    CHECK(H5Lexists(f, "patches/centroid", H5P_DEFAULT) > 0);
+    CHECK(H5Lexists(f, "sky_factor", H5P_DEFAULT) > 0);
+    std::uint64_t n = 0;
+    const hid_t a = H5Aopen(f, "N", H5P_DEFAULT);
+    REQUIRE(a >= 0);
+    H5Aread(a, H5T_NATIVE_UINT64, &n);
+    H5Aclose(a);
+    CHECK(n == 129);
+    H5Fclose(f);
+}
+
+TEST_CASE("cli sparse: wrong combinations are one clear error and write nothing") {
+    Cli cli;
+    const struct {
+        const char* args;
+        const char* message;
+    } cases[] = {
+        {"compute city-1 -o F.csv --storage sparse", "formfactor: --storage: sparse storage"},
+        {"compute city-1 -o F.mtx --storage dense", "formfactor: --storage: dense storage"},
+        {"compute city-1 -o F.mtx --storage huge", "formfactor: --storage: must be auto"},
+        {"compute city-1 -o F.npy --threshold 0.1", "formfactor: --threshold: applies to sparse"},
+        {"compute city-1 -o F.mtx --threshold -1", "formfactor: --threshold: must be"},
+        {"compute city-1 -o F.mtx --repair closure", "formfactor: --repair: closure needs"},
+        {"compute city-1 -o F.h5 --per-surface", "formfactor: --per-surface: is not available"},
+        {"compute city-1 -o no/F.h5", "formfactor: no/F.h5: directory"},
+    };
+    for (const auto& c : cases) {
+        const CliResult r = cli.run(c.args);
+        INFO(c.args, said(r));
+        CHECK(r.code != 0);
+        CHECK(r.one_error_line());
+        CHECK(r.err.rfind(c.message, 0) == 0);
+    }
+    CHECK(cli.dir().entries() == 0);
+}

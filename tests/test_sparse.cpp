@@ -1,0 +1,216 @@
+// Sparse (CSR) form factors: the row-block pipeline against the dense matrix, the threshold's
+// dropped mass, the conservative repair, and the sparse memory estimate.
+
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "formfactor/core/error.h"
+#include "formfactor/matrix/memory.h"
+#include "formfactor/matrix/sparse.h"
+#include "formfactor/matrix/sparse_repair.h"
+#include "formfactor/pipeline.h"
+#include "formfactor/pipeline_sparse.h"
+#include "formfactor/scene/city.h"
+#include "formfactor/scene/room.h"
+
+using namespace formfactor;
+
+namespace {
+
+// Every stored entry equals the dense one bit for bit, every dense entry above the threshold
+// is stored, and each row's dropped mass and computed sum are the dense row's.
+void check_against_dense(const SparseFormFactors& S, const FormFactors& D, double threshold) {
+    REQUIRE(S.n == D.size());
+    S.check();
+    for (std::size_t i = 0; i < S.n; ++i) {
+        std::size_t stored = 0;
+        double dropped = 0.0, sum = 0.0;
+        for (std::size_t j = 0; j < S.n; ++j) {
+            const double d = D.F(Eigen::Index(i), Eigen::Index(j));
+            sum += d;
+            if (d > threshold) {
+                ++stored;
+                CHECK(S.at(i, j) == d);
+            } else {
+                dropped += d;
+                CHECK(S.at(i, j) == 0.0);
+            }
+        }
+        CHECK(std::size_t(S.indptr[i + 1] - S.indptr[i]) == stored);
+        CHECK(S.dropped[i] == doctest::Approx(dropped).epsilon(1e-12));
+        CHECK(S.computed_row_sums[i] == doctest::Approx(sum).epsilon(1e-12));
+    }
+}
+
+// |A_i F_ij − A_j F_ji| ≤ tol · max(...) for every stored pair, both directions stored.
+void check_reciprocity(const SparseFormFactors& F, double tol) {
+    for (std::size_t i = 0; i < F.n; ++i)
+        for (auto k = F.indptr[i]; k < F.indptr[i + 1]; ++k) {
+            const auto j = std::size_t(F.indices[std::size_t(k)]);
+            const double g = F.areas[i] * F.values[std::size_t(k)];
+            const double h = F.areas[j] * F.at(j, i);
+            CHECK(h > 0.0);
+            CHECK(std::abs(g - h) <= tol * std::max(g, h));
+        }
+}
+
+}  // namespace
+
+TEST_CASE("sparse: analytic row blocks equal the dense matrix above the threshold") {
+    const Scene scene = city_scene(2);  // obstructed: the shaft pass runs per block
+    ComputeOptions options;
+    const ComputeResult dense = compute_form_factors(scene, options);
+    for (double threshold : {0.0, 1e-3}) {
+        CAPTURE(threshold);
+        SparseOptions sparse;
+        sparse.threshold = threshold;
+        sparse.block_rows = 37;  // blocks that do not divide N = 129
+        const SparseComputeResult r = compute_sparse_form_factors(scene, options, sparse);
+        CHECK(r.run.blocks == 4);
+        CHECK(r.run.block_rows == 37);
+        check_against_dense(r.form_factors, dense.form_factors, threshold);
+        CHECK(r.diagnostics.nonzeros == r.form_factors.nonzeros());
+        CHECK(r.form_factors.nonzeros() < scene.patches.size() * scene.patches.size() / 2);
+        CHECK(r.run.peak_memory_bytes > 0.0);
+        CHECK_FALSE(r.repair.has_value());
+    }
+}
+
+TEST_CASE("sparse: Monte-Carlo blocks keep their standard errors") {
+    const Scene scene = load_scene("cornell");
+    ComputeOptions options;
+    options.method = MethodKind::mc_hemisphere;
+    options.method_options.samples = 2000;
+    const ComputeResult dense = compute_form_factors(scene, options);
+    SparseOptions sparse;
+    sparse.block_rows = 5;
+    const SparseComputeResult r = compute_sparse_form_factors(scene, options, sparse);
+    check_against_dense(r.form_factors, dense.form_factors, 0.0);
+    REQUIRE(r.form_factors.standard_error.has_value());
+    const SparseFormFactors& S = r.form_factors;
+    for (std::size_t i = 0; i < S.n; ++i)
+        for (auto k = S.indptr[i]; k < S.indptr[i + 1]; ++k)
+            CHECK((*S.standard_error)[std::size_t(k)] ==
+                  (*dense.form_factors.standard_error)(Eigen::Index(i),
+                                                       Eigen::Index(S.indices[std::size_t(k)])));
+}
+
+TEST_CASE("sparse: to_sparse and the builder check their input") {
+    FormFactors ff;
+    ff.F = DenseMatrix::Zero(3, 3);
+    ff.F << 0, 0.5, 0.25, 0.2, 0, 1e-5, 0.1, 2e-5, 0;
+    ff.areas = {1, 2.5, 2.5};
+    const SparseFormFactors S = to_sparse(ff, 1e-4);
+    CHECK(S.nonzeros() == 4);
+    CHECK(S.at(1, 2) == 0.0);
+    CHECK(S.dropped[1] == 1e-5);
+    CHECK(S.row_sum(0) == 0.75);
+    CHECK(S.sky_factor(0) == 0.25);
+    CHECK_THROWS_AS(SparseBuilder(3, {1, 2, 3}, -1.0, false), OptionError);
+    SparseBuilder b(3, {1, 2, 3}, 0.0, false);
+    FormFactors late = ff;
+    late.F = ff.F.middleRows(1, 2);
+    late.first_row = 1;
+    CHECK_THROWS_AS(b.append(late), Error);  // rows must come in order
+    CHECK_THROWS_AS(b.finish(), Error);      // not every row
+}
+
+TEST_CASE("sparse repair: open scene gets reciprocity and no row sum above its computed one") {
+    // The Cornell box is open at the front; its patches differ in area, so that the threshold
+    // keeps F_ij and drops F_ji for some pairs.
+    Scene scene = load_scene("cornell");
+    subdivide(scene, SubdivisionOptions{.n = 2});
+    ComputeOptions options;
+    options.repair.mode = RepairMode::reciprocity;
+    SparseOptions sparse;
+    sparse.threshold = 2e-3;
+    const SparseComputeResult r = compute_sparse_form_factors(scene, options, sparse);
+    REQUIRE(r.repair.has_value());
+    const SparseFormFactors& F = r.form_factors;
+    CHECK(r.diagnostics.asymmetric_entries > 0);  // the threshold made the pattern asymmetric
+    CHECK(r.repair->entries_restored == r.diagnostics.asymmetric_entries);
+    CHECK(r.repair->after.asymmetric_entries == 0);
+    CHECK(r.repair->after.max_reciprocity_defect <= 1e-12);
+    check_reciprocity(F, 1e-12);
+    for (std::size_t i = 0; i < F.n; ++i) {
+        CHECK(F.row_sum(i) <= F.computed_row_sums[i]);  // never raised
+        CHECK(F.dropped[i] >= 0.0);
+        CHECK(F.at(i, i) == 0.0);
+    }
+    CHECK(r.repair->max_row_increase <= 0.0);
+    CHECK(r.repair->after.row_sum_max < 1.0);  // open: energy escapes to the sky
+    CHECK(r.repair->after.sky_min > 0.0);
+}
+
+TEST_CASE("sparse repair: closed scene rows close to 1e-12 with reciprocity") {
+    Scene scene = room_scene(4, RoomBox::kNone);  // a closed cube, 96 patches
+    REQUIRE(scene.enclosure);
+    ComputeOptions options;
+    options.repair.mode = RepairMode::both;
+    SparseOptions sparse;
+    sparse.threshold = 1e-3;
+    sparse.block_rows = 40;
+    const SparseComputeResult r = compute_sparse_form_factors(scene, options, sparse);
+    REQUIRE(r.repair.has_value());
+    CHECK(r.diagnostics.dropped_max > 0.0);
+    CHECK(r.repair->closure);
+    CHECK(r.repair->rows_not_closable == 0);
+    const SparseFormFactors& F = r.form_factors;
+    for (std::size_t i = 0; i < F.n; ++i) CHECK(std::abs(F.row_sum(i) - 1.0) <= 1e-12);
+    check_reciprocity(F, 1e-12);
+    // Closure is refused for an open scene.
+    SparseOptions s2;
+    CHECK_THROWS_AS(compute_sparse_form_factors(city_scene(1), options, s2), OptionError);
+}
+
+TEST_CASE("sparse repair: a hand-made asymmetric pattern is made symmetric from the dropped mass") {
+    // A_0 = 1, A_1 = 4: F_01 = 0.4 is kept, F_10 = 0.1 falls below the threshold 0.2.
+    FormFactors ff;
+    ff.F = DenseMatrix::Zero(2, 2);
+    ff.F << 0, 0.4, 0.1, 0;
+    ff.areas = {1, 4};
+    SparseFormFactors S = to_sparse(ff, 0.2);
+    CHECK(S.nonzeros() == 1);
+    const SparseRepairReport rep = repair(S, SparseRepairOptions{});
+    CHECK(rep.entries_restored == 1);
+    CHECK(S.at(1, 0) == doctest::Approx(0.1).epsilon(1e-13));
+    CHECK(S.at(0, 1) == doctest::Approx(0.4).epsilon(1e-13));
+    CHECK(S.dropped[1] == doctest::Approx(0.0).scale(1.0));
+    // Row 0 computed as 0.3 (noise) cannot keep 0.4: both directions scale down together.
+    SparseFormFactors T = to_sparse(ff, 0.2);
+    T.computed_row_sums[0] = 0.3;
+    repair(T, SparseRepairOptions{});
+    CHECK(T.row_sum(0) <= 0.3);
+    CHECK(T.row_sum(0) == doctest::Approx(0.3).epsilon(1e-12));
+    CHECK(1.0 * T.at(0, 1) == doctest::Approx(4.0 * T.at(1, 0)).epsilon(1e-15));
+    CHECK(T.at(1, 0) < 0.1);
+}
+
+TEST_CASE("sparse memory: estimate, block size, refusal and peak") {
+    SparseRunNeeds needs;
+    needs.patches = 100000;
+    needs.block_strip = true;
+    needs.block_rows = sparse_block_rows(needs, 512e6);
+    CHECK(needs.block_rows == 320);  // 512 MB / (2 × 8 × 10^5 bytes per row)
+    needs.nonzeros = 3e7;
+    const MemoryEstimate e = estimate_sparse_memory(needs);
+    CHECK(e.total() == doctest::Approx(320 * 1.6e6 + 3e7 * 12 + 100001 * 32 + 1e5 * 8192));
+    CHECK_THROWS_AS(check_sparse_memory(needs, 1e9, "raise the threshold"), ResourceError);
+    try {
+        check_sparse_memory(needs, 1e9, "raise the threshold");
+    } catch (const ResourceError& err) {
+        const std::string msg = err.what();
+        CHECK(msg.find("sparse run of 100,000 patches") != std::string::npos);
+        CHECK(msg.find("raise the threshold") != std::string::npos);
+    }
+    CHECK_NOTHROW(check_sparse_memory(needs, 1e10, ""));
+    SparseRunNeeds inside = needs;
+    inside.whole_matrix_inside = true;  // mc-target: N² inside, said so
+    CHECK(estimate_sparse_memory(inside).total() > 1.6e11);
+    CHECK(peak_memory_bytes() > 1e6);
+    CHECK(sparse_block_rows(needs, 1.0) == 1);
+    CHECK(sparse_block_rows(needs, 1e15) == 100000);
+}

@@ -1,0 +1,183 @@
+// Sparse matrix files: Matrix Market read back by a parser of its own, HDF5 read back with the
+// HDF5 C API; both atomic.
+
+#include <doctest/doctest.h>
+#include <hdf5.h>
+
+#include <cstdint>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "formfactor/core/error.h"
+#include "formfactor/output/sparse_io.h"
+#include "formfactor/pipeline_sparse.h"
+#include "formfactor/scene/city.h"
+#include "temp_dir.h"
+
+using namespace formfactor;
+using formfactor::testing::TempDir;
+
+namespace {
+
+struct Mtx {
+    std::vector<std::string> comments;
+    std::string banner;
+    std::size_t rows = 0, cols = 0, entries = 0;
+    std::vector<std::size_t> i, j;  // 1-based, as in the file
+    std::vector<double> v;
+};
+
+Mtx read_mtx(const std::string& path) {
+    std::ifstream in(path);
+    REQUIRE(in);
+    Mtx m;
+    std::string line;
+    REQUIRE(std::getline(in, m.banner));
+    while (std::getline(in, line) && !line.empty() && line[0] == '%') m.comments.push_back(line);
+    std::istringstream size(line);
+    const bool read = static_cast<bool>(size >> m.rows >> m.cols >> m.entries);
+    REQUIRE(read);
+    std::size_t a = 0, b = 0;
+    std::string value;
+    while (in >> a >> b >> value) {
+        m.i.push_back(a);
+        m.j.push_back(b);
+        m.v.push_back(std::stod(value));
+    }
+    return m;
+}
+
+SparseComputeResult city_sparse(double threshold) {
+    SparseOptions sparse;
+    sparse.threshold = threshold;
+    sparse.block_rows = 50;
+    return compute_sparse_form_factors(city_scene(2), {}, sparse);
+}
+
+template <class T>
+std::vector<T> read_dataset(hid_t file, const char* name, hid_t type) {
+    const hid_t set = H5Dopen2(file, name, H5P_DEFAULT);
+    REQUIRE(set >= 0);
+    const hid_t space = H5Dget_space(set);
+    const hssize_t count = H5Sget_simple_extent_npoints(space);
+    std::vector<T> out(static_cast<std::size_t>(count));
+    CHECK(H5Dread(set, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data()) >= 0);
+    H5Sclose(space);
+    H5Dclose(set);
+    return out;
+}
+
+template <class T>
+T read_attribute(hid_t file, const char* name, hid_t type) {
+    T value{};
+    const hid_t a = H5Aopen(file, name, H5P_DEFAULT);
+    REQUIRE(a >= 0);
+    CHECK(H5Aread(a, type, &value) >= 0);
+    H5Aclose(a);
+    return value;
+}
+
+}  // namespace
+
+TEST_CASE("sparse io: Matrix Market round trip is exact") {
+    const SparseComputeResult r = city_sparse(1e-4);
+    const SparseFormFactors& F = r.form_factors;
+    const TempDir dir;
+    const std::string path = dir.file("F.mtx");
+    SparseFileInfo info;
+    info.scene = "city-2";
+    info.method = "analytic";
+    write_sparse_matrix(path, F, info);
+    CHECK(dir.entries() == 1);  // no temporary left behind
+    const Mtx m = read_mtx(path);
+    CHECK(m.banner == "%%MatrixMarket matrix coordinate real general");
+    bool scene_line = false, direction_line = false;
+    for (const std::string& c : m.comments) {
+        scene_line = scene_line || c == "% scene: city-2";
+        direction_line = direction_line || c.find("row i = from patch i") != std::string::npos;
+    }
+    CHECK(scene_line);
+    CHECK(direction_line);
+    CHECK(m.rows == F.n);
+    CHECK(m.cols == F.n);
+    REQUIRE(m.entries == F.nonzeros());
+    REQUIRE(m.v.size() == F.nonzeros());
+    std::size_t k = 0;
+    for (std::size_t i = 0; i < F.n; ++i)
+        for (auto e = F.indptr[i]; e < F.indptr[i + 1]; ++e, ++k) {
+            CHECK(m.i[k] == i + 1);
+            CHECK(m.j[k] == std::size_t(F.indices[std::size_t(e)]) + 1);
+            CHECK(m.v[k] == F.values[std::size_t(e)]);  // %.17g reads back bit for bit
+        }
+}
+
+TEST_CASE("sparse io: HDF5 layout read back with the C API") {
+    const SparseComputeResult r = city_sparse(1e-4);
+    const SparseFormFactors& F = r.form_factors;
+    const Scene scene = city_scene(2);
+    const TempDir dir;
+    const std::string path = dir.file("F.h5");
+    SparseFileInfo info;
+    info.scene = "city-2";
+    info.method = "analytic";
+    info.patches = &scene.patches;
+    write_sparse_matrix(path, F, info);
+    CHECK(dir.entries() == 1);
+    const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    REQUIRE(file >= 0);
+    CHECK(read_dataset<std::int64_t>(file, "indptr", H5T_NATIVE_INT64) == F.indptr);
+    CHECK(read_dataset<std::int32_t>(file, "indices", H5T_NATIVE_INT32) == F.indices);
+    CHECK(read_dataset<double>(file, "data", H5T_NATIVE_DOUBLE) == F.values);
+    CHECK(read_dataset<double>(file, "areas", H5T_NATIVE_DOUBLE) == F.areas);
+    CHECK(read_dataset<double>(file, "dropped", H5T_NATIVE_DOUBLE) == F.dropped);
+    const auto sky = read_dataset<double>(file, "sky_factor", H5T_NATIVE_DOUBLE);
+    REQUIRE(sky.size() == F.n);
+    for (std::size_t i = 0; i < F.n; ++i) CHECK(sky[i] == F.sky_factor(i));
+    CHECK(H5Lexists(file, "standard_error", H5P_DEFAULT) == 0);
+    const auto surface = read_dataset<std::int32_t>(file, "patches/surface", H5T_NATIVE_INT32);
+    const auto centroid = read_dataset<double>(file, "patches/centroid", H5T_NATIVE_DOUBLE);
+    const auto normal = read_dataset<double>(file, "patches/normal", H5T_NATIVE_DOUBLE);
+    REQUIRE(centroid.size() == 3 * F.n);
+    REQUIRE(normal.size() == 3 * F.n);
+    for (std::size_t i = 0; i < F.n; ++i) {
+        CHECK(surface[i] == scene.patches[i].surface);
+        for (int c = 0; c < 3; ++c) {
+            CHECK(centroid[3 * i + std::size_t(c)] == scene.patches[i].centroid[c]);
+            CHECK(normal[3 * i + std::size_t(c)] == scene.patches[i].normal[c]);
+        }
+    }
+    CHECK(read_attribute<std::uint64_t>(file, "N", H5T_NATIVE_UINT64) == F.n);
+    CHECK(read_attribute<std::uint64_t>(file, "nonzeros", H5T_NATIVE_UINT64) == F.nonzeros());
+    CHECK(read_attribute<double>(file, "threshold", H5T_NATIVE_DOUBLE) == 1e-4);
+    CHECK(read_attribute<double>(file, "dropped_mass", H5T_NATIVE_DOUBLE) > 0.0);
+    {
+        const hid_t a = H5Aopen(file, "scene", H5P_DEFAULT);
+        REQUIRE(a >= 0);
+        const hid_t type = H5Aget_type(a);
+        char* s = nullptr;
+        CHECK(H5Aread(a, type, &s) >= 0);
+        CHECK(std::string(s) == "city-2");
+        H5free_memory(s);
+        H5Tclose(type);
+        H5Aclose(a);
+    }
+    H5Fclose(file);
+}
+
+TEST_CASE("sparse io: bad extension or directory writes nothing") {
+    const SparseComputeResult r = city_sparse(1e-3);
+    const TempDir dir;
+    CHECK_THROWS_AS(write_sparse_matrix(dir.file("F.csv"), r.form_factors), OptionError);
+    CHECK_THROWS_AS(write_sparse_matrix(dir.file("no/F.h5"), r.form_factors), InputError);
+    CHECK_THROWS_AS(write_sparse_matrix(dir.file("no/F.mtx"), r.form_factors), InputError);
+    const std::vector<Patch> wrong(3);
+    SparseFileInfo info;
+    info.patches = &wrong;
+    CHECK_THROWS_AS(write_sparse_matrix(dir.file("F.h5"), r.form_factors, info), Error);
+    CHECK(dir.entries() == 0);
+    CHECK(is_sparse_matrix_path("a/F.MTX"));
+    CHECK(is_sparse_matrix_path("F.h5"));
+    CHECK_FALSE(is_sparse_matrix_path("F.npy"));
+}
