@@ -177,8 +177,9 @@ Scene prepare_scene(const SceneArgs& args, StepTimes& times,
                                        "either, one patch per surface: N = {})",
                                        surfaces)
                                  : std::string("use a scene with fewer surfaces");
-        advice += "; or write a sparse matrix (formfactor compute -o F.mtx or F.h5, with "
-                  "--threshold T)";
+        advice +=
+            "; or write a sparse matrix (formfactor compute -o F.mtx or F.h5, with "
+            "--threshold T)";
         check_memory(run, available_memory(), advice);
     });
 }
