@@ -12,9 +12,9 @@
 #include <ostream>
 #include <system_error>
 
+#include "formfactor/core/atomic_file.h"
 #include "formfactor/core/cancel.h"
 #include "formfactor/core/error.h"
-#include "formfactor/core/atomic_file.h"
 #include "output/sparse_hdf5.h"
 
 namespace formfactor {
