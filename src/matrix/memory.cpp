@@ -93,16 +93,27 @@ std::size_t max_dense_patches(const DenseRunNeeds& needs, double available) {
     return n > 0.0 ? static_cast<std::size_t>(std::floor(n)) : 0;
 }
 
-void check_memory(const DenseRunNeeds& needs, double available, const std::string& advice) {
-    if (!(available > 0.0)) return;
-    const MemoryEstimate e = estimate_dense_memory(needs);
+namespace {
+
+/// "F 8.0 GB, standard errors 8.0 GB": the items of `e` that are at least 1 % of its total.
+std::string main_items(const MemoryEstimate& e) {
     const double total = e.total();
-    if (total <= available) return;
     std::string parts;
     for (const MemoryEstimate::Item& i : e.items) {
         if (i.bytes < 0.01 * total) continue;
         parts += (parts.empty() ? "" : ", ") + i.what + " " + format_bytes(i.bytes);
     }
+    return parts;
+}
+
+}  // namespace
+
+void check_memory(const DenseRunNeeds& needs, double available, const std::string& advice) {
+    if (!(available > 0.0)) return;
+    const MemoryEstimate e = estimate_dense_memory(needs);
+    const double total = e.total();
+    if (total <= available) return;
+    const std::string parts = main_items(e);
     std::string msg = fmt::format(
         "not enough memory: {} patches need about {} ({}), this machine has {} available",
         format_count(double(needs.patches)), format_bytes(total), parts, format_bytes(available));
@@ -164,11 +175,7 @@ void check_sparse_memory(const SparseRunNeeds& needs, double available, const st
     const MemoryEstimate e = estimate_sparse_memory(needs);
     const double total = e.total();
     if (total <= available) return;
-    std::string parts;
-    for (const MemoryEstimate::Item& i : e.items) {
-        if (i.bytes < 0.01 * total) continue;
-        parts += (parts.empty() ? "" : ", ") + i.what + " " + format_bytes(i.bytes);
-    }
+    const std::string parts = main_items(e);
     std::string msg = fmt::format(
         "not enough memory: the sparse run of {} patches needs about {} ({}), this machine has {} "
         "available",

@@ -21,20 +21,16 @@
 #include "formfactor/core/atomic_file.h"
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
+#include "output/extension.h"
 
 namespace formfactor {
+
+using detail::lower_extension;
 
 using detail::parse_double;
 using detail::trim;
 
 namespace {
-
-std::string lower_extension(const std::string& path) {
-    std::string ext = std::filesystem::path(path).extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(),
-                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-    return ext;
-}
 
 void write_le_double(std::ostream& out, const double* values, std::size_t count) {
     if constexpr (std::endian::native == std::endian::little) {

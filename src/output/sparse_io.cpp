@@ -15,18 +15,14 @@
 #include "formfactor/core/atomic_file.h"
 #include "formfactor/core/cancel.h"
 #include "formfactor/core/error.h"
+#include "output/extension.h"
 #include "output/sparse_hdf5.h"
 
 namespace formfactor {
 
-namespace {
+using detail::lower_extension;
 
-std::string lower_extension(const std::string& path) {
-    std::string ext = std::filesystem::path(path).extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(),
-                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-    return ext;
-}
+namespace {
 
 // One line of free text for a header comment (no line breaks).
 std::string one_line(std::string s) {
