@@ -50,6 +50,88 @@ bool segment_meets(const Line& l, const std::vector<Vec2>& q, double tol) {
     return (t1 - t0) * d.norm() > tol;
 }
 
+// True when the segment p0 p1 comes within tol of the convex counter-clockwise polygon q
+// (Cyrus–Beck clipping by q's edges moved out by tol).
+bool segment_near(const Vec2& p0, const Vec2& p1, const Poly2& q, double tol) {
+    double t0 = 0.0, t1 = 1.0;
+    const Vec2 d = p1 - p0;
+    for (int k = 0; k < q.n; ++k) {
+        const int m = k + 1 == q.n ? 0 : k + 1;
+        const double vx = q.x[static_cast<std::size_t>(k)], vy = q.y[static_cast<std::size_t>(k)];
+        const double ex = q.x[static_cast<std::size_t>(m)] - vx;
+        const double ey = q.y[static_cast<std::size_t>(m)] - vy;
+        const double el = std::hypot(ex, ey);
+        if (!(el > 0.0)) continue;
+        const double f0 = ex * (p0.y() - vy) - ey * (p0.x() - vx) + tol * el;
+        const double fd = ex * d.y() - ey * d.x();
+        if (fd == 0.0) {
+            if (f0 < 0.0) return false;
+            continue;
+        }
+        const double t = -f0 / fd;
+        if (fd > 0.0)
+            t0 = std::max(t0, t);
+        else
+            t1 = std::min(t1, t);
+        if (t0 > t1) return false;
+    }
+    return true;
+}
+
+// True when the line of l comes within tol of the convex polygon q.
+bool line_near(const Line& l, const Poly2& q, double tol) {
+    bool pos = false, neg = false;
+    for (int k = 0; k < q.n; ++k) {
+        const double d =
+            l.a * q.x[static_cast<std::size_t>(k)] + l.b * q.y[static_cast<std::size_t>(k)] - l.c;
+        pos = pos || d >= -tol;
+        neg = neg || d <= tol;
+    }
+    return pos && neg;
+}
+
+// The sender points (plane ns·y = ds, 2D frame o, su, sv) from which the line through the
+// point w (in front of the sender) meets the convex polygon r beyond w, intersected with the
+// sender s (counter-clockwise, 2D): r's part farther from the sender's plane than w,
+// projected centrally through w onto the sender's plane. False when that set is empty.
+bool shadow_region(const Poly3& r, const Vec3& w, const Vec3& ns, double ds, const Vec3& su,
+                   const Vec3& sv, const Vec3& o, const Poly2& s, Poly2& out) {
+    const double hw = ns.dot(w) - ds;
+    Poly3 above;
+    // Points just above w's height project very far away: 1e-9 of the height leaves out only
+    // what lands beyond 1e9 times the vertex's distance to the receiver.
+    clip3(r, ns, ds + hw * (1.0 + 1e-9), above);
+    if (above.n < 3) return false;
+    Poly2 q;
+    q.n = above.n;
+    for (int k = 0; k < above.n; ++k) {
+        const Vec3& p = above.v[static_cast<std::size_t>(k)];
+        const double hp = ns.dot(p) - ds;
+        const Vec3 x = p + (w - p) * (hp / (hp - hw)) - o;
+        q.x[static_cast<std::size_t>(k)] = su.dot(x);
+        q.y[static_cast<std::size_t>(k)] = sv.dot(x);
+    }
+    if (area2(q) < 0.0) {
+        std::reverse(q.x.begin(), q.x.begin() + q.n);
+        std::reverse(q.y.begin(), q.y.begin() + q.n);
+    }
+    // q ∩ s, clipped by s's edges.
+    Poly2 buf[2];
+    copy2(q, buf[0]);
+    Poly2* cur = &buf[0];
+    Poly2* nxt = &buf[1];
+    for (int k = 0; k < s.n && cur->n >= 3; ++k) {
+        const int m = k + 1 == s.n ? 0 : k + 1;
+        const double ax = s.x[static_cast<std::size_t>(k)], ay = s.y[static_cast<std::size_t>(k)];
+        clip2(*cur, ax, ay, s.x[static_cast<std::size_t>(m)] - ax,
+              s.y[static_cast<std::size_t>(m)] - ay, 1.0, *nxt);
+        std::swap(cur, nxt);
+    }
+    if (cur->n < 3) return false;
+    copy2(*cur, out);
+    return true;
+}
+
 }  // namespace
 
 // The sender cut into convex pieces along the lines where F(x → hidden part of r) has kinks:
@@ -68,13 +150,17 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
     // Per polygon: a bit per edge that cannot be a kink (an edge between two faces of a closed
     // solid that both face the whole sender: inside the union of the shadows).
     thread_local std::vector<std::uint64_t> inner;
+    thread_local std::vector<Plane> plane_of;  // per polygon: its plane
     polys.clear();
     inner.clear();
+    plane_of.clear();
     Poly3 a, b;
     clip3(rc.poly, ns, ds + eps, a);
-    if (a.n >= 3) {
+    const bool have_receiver = a.n >= 3;
+    if (have_receiver) {
         polys.push_back(a);
         inner.push_back(0);
+        plane_of.push_back(Plane{rc.n, rc.d});
     }
     auto faces_sender = [&](int k) {
         const auto& pc = blockers.piece(k);
@@ -108,6 +194,7 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
         }
         polys.push_back(a);
         inner.push_back(mask);
+        plane_of.push_back(pc.plane);
     }
     if (polys.size() < 2) return convex_s;
     Vec3 su, sv;
@@ -119,15 +206,51 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
     lines.clear();
     std::vector<Vec2> s2;
     for (const Vec3& v : s.vertices) s2.emplace_back(su.dot(v - o), sv.dot(v - o));
+    Poly2 s2p;  // the sender, counter-clockwise, for clipping
+    s2p.n = static_cast<int>(std::min<std::size_t>(s2.size(), kCap));
+    for (int k = 0; k < s2p.n; ++k) {
+        s2p.x[static_cast<std::size_t>(k)] = s2[static_cast<std::size_t>(k)].x();
+        s2p.y[static_cast<std::size_t>(k)] = s2[static_cast<std::size_t>(k)].y();
+    }
+    if (area2(s2p) < 0.0) {
+        std::reverse(s2p.x.begin(), s2p.x.begin() + s2p.n);
+        std::reverse(s2p.y.begin(), s2p.y.begin() + s2p.n);
+    }
+    Bounds3 pair_box;
+    for (const Vec3& v : s.vertices) pair_box.extend(v);
+    for (int k = 0; k < rc.poly.n; ++k) pair_box.extend(rc.poly.v[static_cast<std::size_t>(k)]);
+    const double tol_r = 1e-9 * pair_box.diagonal().norm();
+    const double tol_coplanar = 1e-4 * pair_box.diagonal().norm();
+    const bool sender_convex = s.size() <= static_cast<std::size_t>(kCap) && is_convex(s);
+    Poly2 seen;  // where in the sender a blocker vertex's shadow falls on the receiver
     for (std::size_t x = 0; x < polys.size(); ++x)
         for (int w = 0; w < polys[x].n; ++w) {
             // A vertex between two inner edges is inside the union too.
             const int wprev = w == 0 ? polys[x].n - 1 : w - 1;
             if ((inner[x] >> w & 1) && (inner[x] >> wprev & 1)) continue;
             const Vec3& pw = polys[x].v[static_cast<std::size_t>(w)];
+            // The event of a blocker vertex w and an edge e happens where, seen from x, w's
+            // shadow crosses e's shadow (or e, when e is the receiver's): the crossing point is
+            // w's shadow, so F(x → hidden part of r) has a kink there only if w's shadow falls
+            // on the receiver. The sender points x whose line through w meets the receiver
+            // beyond w are the receiver's part above w (farther from the sender's plane)
+            // projected centrally through w onto the sender's plane, a convex polygon; cut to
+            // the (convex) sender it bounds every such event of w. Not for vertices in the
+            // receiver's plane (their shadow is the vertex itself).
+            const bool filter =
+                sender_convex && have_receiver && x != 0 && rc.n.dot(pw) - rc.d > tol_r;
+            const bool seen_some =
+                filter && shadow_region(polys[0], pw, ns, ds, su, sv, o, s2p, seen);
             for (std::size_t y = 0; y < polys.size(); ++y) {
                 if (y == x) continue;
                 const Poly3& q = polys[y];
+                // A vertex in q's plane (a vertex of a face adjacent to q, or of q's own plane)
+                // makes the face-plane event: x in q's plane sees q edge-on, and q's shadow
+                // leaves or joins the union along the whole projected face, wherever the
+                // vertex's shadow falls. Those events are kept.
+                // Nearly coplanar (jittered models) counts as coplanar.
+                const bool only_seen =
+                    filter && std::abs(plane_of[y].signed_distance(pw)) > tol_coplanar;
                 for (int e = 0; e < q.n; ++e) {
                     if (inner[y] >> e & 1) continue;
                     const Vec3& e0 = q.v[static_cast<std::size_t>(e)];
@@ -156,8 +279,11 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
                         l.p0 = Vec2(su.dot(x0), sv.dot(x0));
                         l.p1 = Vec2(su.dot(x1), sv.dot(x1));
                         if (!segment_meets(l, s2, tol)) continue;
+                        if (only_seen && !(seen_some && segment_near(l.p0, l.p1, seen, tol)))
+                            continue;
                     } else {
                         l.bounded = false;
+                        if (only_seen && !(seen_some && line_near(l, seen, tol))) continue;
                     }
                     lines.push_back(l);
                 }
