@@ -112,12 +112,29 @@ PointResult evaluate_point(const Receiver& rc, const Vec3& x, const Vec3& nx,
     }
     // Union of the shadows as disjoint convex fragments: shadow k minus shadows 0..k−1.
     // Fragments below 1e-14 of the receiver's size² are rounding slivers of the subtraction.
+    // A shadow whose box is apart from shadow k's box takes nothing from it.
     const double tiny_area = 1e-14 * (rp.v[0] - rp.v[2]).squaredNorm();
+    thread_local std::vector<std::array<double, 4>> boxes;
+    boxes.resize(shadows.size());
+    for (std::size_t k = 0; k < shadows.size(); ++k) {
+        const Poly2& q = shadows[k];
+        std::array<double, 4>& b = boxes[k];
+        b = {q.x[0], q.y[0], q.x[0], q.y[0]};
+        for (int m = 1; m < q.n; ++m) {
+            b[0] = std::min(b[0], q.x[static_cast<std::size_t>(m)]);
+            b[1] = std::min(b[1], q.y[static_cast<std::size_t>(m)]);
+            b[2] = std::max(b[2], q.x[static_cast<std::size_t>(m)]);
+            b[3] = std::max(b[3], q.y[static_cast<std::size_t>(m)]);
+        }
+    }
     for (std::size_t k = 0; k < shadows.size(); ++k) {
         frags.clear();
         frags.emplace_back();
         copy2(shadows[k], frags.back());
+        const std::array<double, 4>& bk = boxes[k];
         for (std::size_t l = 0; l < k && !frags.empty(); ++l) {
+            const std::array<double, 4>& bl = boxes[l];
+            if (bl[0] > bk[2] || bl[2] < bk[0] || bl[1] > bk[3] || bl[3] < bk[1]) continue;
             next.clear();
             for (const Poly2& f : frags) subtract(f, shadows[l], next);
             std::swap(frags, next);
