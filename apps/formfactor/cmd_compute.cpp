@@ -285,16 +285,19 @@ void run_compute(const ComputeArgs& args) {
     PatchGroups groups;
     FormFactors per_surface_ff;
     std::vector<double> emissivities = patch_emissivities(scene);
+    // Every surface one patch, in order: the per-surface matrix is the patch matrix (no copy).
+    bool aggregated = false;
     if (per_surface) {
         groups = surface_groups(scene);
-        per_surface_ff = aggregate(ff, groups);
+        aggregated = !is_identity(groups);
+        if (aggregated) per_surface_ff = aggregate(ff, groups);
         emissivities.clear();
         for (const auto& members : groups.surfaces)
             emissivities.push_back(
                 scene.material_of_surface(static_cast<std::size_t>(members.front())).emissivity);
         times.add("aggregate", sw.lap());
     }
-    const FormFactors& written = per_surface ? per_surface_ff : ff;
+    const FormFactors& written = aggregated ? per_surface_ff : ff;
 
     OutputTransaction tx;
     MatrixFileInfo info;
@@ -347,14 +350,13 @@ void run_compute(const ComputeArgs& args) {
             for (std::size_t g = 0; g < groups.size(); ++g) {
                 nlohmann::json members = nlohmann::json::array();
                 for (int m : groups.surfaces[g]) members.push_back(m);
-                rows.push_back({{"name", groups.names[g]},
-                                {"area", per_surface_ff.areas[g]},
-                                {"surfaces", members}});
+                rows.push_back(
+                    {{"name", groups.names[g]}, {"area", written.areas[g]}, {"surfaces", members}});
             }
             report["per_surface"] = {
-                {"N", per_surface_ff.size()},
+                {"N", written.size()},
                 {"rows", rows},
-                {"diagnostics", diagnostics_json(diagnose(per_surface_ff), traits.reciprocity)}};
+                {"diagnostics", diagnostics_json(diagnose(written), traits.reciprocity)}};
         }
         stage_report(tx, args.report, report);
     }
@@ -363,11 +365,11 @@ void run_compute(const ComputeArgs& args) {
     print_matrix_summary(scene, to_string(method), threads, ff, d, traits.reciprocity, times,
                          total.seconds());
     if (per_surface) {
-        const Diagnostics ds = diagnose(per_surface_ff);
+        const Diagnostics ds = diagnose(written);
         fmt::print(
             "per surface {} rows (surfaces, subsurfaces cut out, cmb combined); row sums "
             "min {:.10g}, max {:.10g}\n",
-            per_surface_ff.size(), ds.row_sum_min, ds.row_sum_max);
+            written.size(), ds.row_sum_min, ds.row_sum_max);
     }
     std::string wrote = fmt::format("{} ({}×{}{})", args.output, written.F.rows(), written.F.cols(),
                                     per_surface ? ", per surface" : "");

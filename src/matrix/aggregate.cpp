@@ -50,6 +50,13 @@ PatchGroups surface_groups(const Scene& scene) {
     return g;
 }
 
+bool is_identity(const PatchGroups& groups) {
+    if (groups.group_of_patch.size() != groups.size()) return false;
+    for (std::size_t i = 0; i < groups.group_of_patch.size(); ++i)
+        if (groups.group_of_patch[i] != static_cast<int>(i)) return false;
+    return true;
+}
+
 FormFactors aggregate(const FormFactors& f, const PatchGroups& groups) {
     const std::size_t n = f.size();
     const std::size_t m = groups.size();

@@ -35,6 +35,10 @@ struct PatchGroups {
 /// or out of range.
 PatchGroups surface_groups(const Scene& scene);
 
+/// True when every group is one patch and the groups follow the patch order (a VS3 file whose
+/// every surface is one patch): the aggregated matrix is then the patch matrix itself.
+bool is_identity(const PatchGroups& groups);
+
 /// Aggregates a patch matrix over groups: A_G = Σ A_i, F_GH = Σ_{i∈G} Σ_{j∈H} A_i F_ij / A_G.
 /// Standard errors (when f has them) are combined as for independent entries:
 /// σ_GH = sqrt(Σ_{i∈G} Σ_{j∈H} (A_i σ_ij)²) / A_G. (Entries of one Monte Carlo row are in fact
