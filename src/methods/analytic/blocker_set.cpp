@@ -98,8 +98,89 @@ void BlockerSet::mark_closed_solids(const std::vector<std::pair<Bounds3, int>>& 
     std::map<int, std::vector<int>> comps;
     for (std::size_t p = 0; p < np; ++p)
         comps[find(static_cast<int>(p))].push_back(static_cast<int>(p));
+    auto set_neighbors = [&](const std::vector<int>& ps) {
+        if (neighbor_.empty()) neighbor_.assign(verts_.size(), -1);
+        for (int p : ps) {
+            const Piece& pc = pieces_[static_cast<std::size_t>(p)];
+            for (int k = 0; k < pc.count; ++k) {
+                const auto a = key(verts_[static_cast<std::size_t>(pc.first + k)]);
+                const auto b = key(verts_[static_cast<std::size_t>(pc.first + (k + 1) % pc.count)]);
+                const auto it = edges.find({b[0], b[1], b[2], a[0], a[1], a[2]});
+                neighbor_[static_cast<std::size_t>(pc.first + k)] =
+                    it == edges.end() || it->second.size() != 1 ? -1 : it->second[0];
+            }
+        }
+    };
+    // A component that is a convex solid, closed or open along one planar loop of unmatched
+    // edges (the face that would close it runs the other way round that loop): Piece::solid.
+    constexpr std::size_t kMaxSolidPieces = 64;
+    using Key = std::array<long long, 3>;
+    auto add_convex_solid = [&](const std::vector<int>& ps) {
+        std::map<Key, std::pair<Key, Vec3>> next;  // unmatched edge: start → (end, start point)
+        for (int p : ps) {
+            const Piece& pc = pieces_[static_cast<std::size_t>(p)];
+            for (int k = 0; k < pc.count; ++k) {
+                const Vec3& va = verts_[static_cast<std::size_t>(pc.first + k)];
+                const auto a = key(va);
+                const auto b = key(verts_[static_cast<std::size_t>(pc.first + (k + 1) % pc.count)]);
+                const auto it = edges.find({b[0], b[1], b[2], a[0], a[1], a[2]});
+                const bool matched = it != edges.end() && it->second.size() == 1 &&
+                                     edges[{a[0], a[1], a[2], b[0], b[1], b[2]}].size() == 1;
+                if (matched) continue;
+                if (next.count(a)) return;  // two openings meet at a vertex
+                next[a] = {b, va};
+            }
+        }
+        Solid so;
+        so.tol = tol;
+        if (!next.empty()) {
+            std::vector<Vec3> loop;
+            const Key start = next.begin()->first;
+            Key at = start;
+            do {
+                const auto it = next.find(at);
+                if (it == next.end() || loop.size() >= next.size()) return;
+                loop.push_back(it->second.second);
+                at = it->second.first;
+            } while (at != start);
+            if (loop.size() != next.size() || loop.size() < 3) return;
+            Vec3 nn = Vec3::Zero(), c = Vec3::Zero();
+            for (std::size_t k = 0; k < loop.size(); ++k) {
+                nn += loop[k].cross(loop[(k + 1) % loop.size()]);
+                c += loop[k];
+            }
+            c /= static_cast<double>(loop.size());
+            if (!(nn.norm() > 0.0)) return;
+            nn = -nn.normalized();
+            for (const Vec3& v : loop)
+                if (std::abs(nn.dot(v - c)) > tol) return;  // not planar
+            so.open = true;
+            so.opening = Plane{nn, nn.dot(c)};
+        }
+        for (int p : ps) so.faces.push_back(pieces_[static_cast<std::size_t>(p)].plane);
+        // Convex and not flat: every vertex behind or on every face plane and the opening, one
+        // strictly behind some face.
+        bool solid_inside = false;
+        for (int p : ps) {
+            const Piece& pc = pieces_[static_cast<std::size_t>(p)];
+            for (int k = 0; k < pc.count; ++k) {
+                const Vec3& v = verts_[static_cast<std::size_t>(pc.first + k)];
+                if (so.open && so.opening.signed_distance(v) > tol) return;
+                for (const Plane& f : so.faces) {
+                    const double d = f.signed_distance(v);
+                    if (d > tol) return;
+                    solid_inside = solid_inside || d < -tol;
+                }
+            }
+        }
+        if (!solid_inside) return;
+        const int id = static_cast<int>(solids_.size());
+        solids_.push_back(std::move(so));
+        for (int p : ps) pieces_[static_cast<std::size_t>(p)].solid = id;
+    };
     for (const auto& [root, ps] : comps) {
         (void)root;
+        if (ps.size() >= 2 && ps.size() <= kMaxSolidPieces) add_convex_solid(ps);
         bool closed = ps.size() >= 4;
         double volume = 0.0;
         Bounds3 box;
@@ -128,18 +209,39 @@ void BlockerSet::mark_closed_solids(const std::vector<std::pair<Bounds3, int>>& 
             }
         }
         if (!empty_inside) continue;
-        for (int p : ps) pieces_[static_cast<std::size_t>(p)].cull_back = true;
-        if (neighbor_.empty()) neighbor_.assign(verts_.size(), -1);
         for (int p : ps) {
-            const Piece& pc = pieces_[static_cast<std::size_t>(p)];
-            for (int k = 0; k < pc.count; ++k) {
-                const auto a = key(verts_[static_cast<std::size_t>(pc.first + k)]);
-                const auto b = key(verts_[static_cast<std::size_t>(pc.first + (k + 1) % pc.count)]);
-                const auto it = edges.find({b[0], b[1], b[2], a[0], a[1], a[2]});
-                neighbor_[static_cast<std::size_t>(pc.first + k)] = it->second[0];
-            }
+            pieces_[static_cast<std::size_t>(p)].cull_back = true;
+            pieces_[static_cast<std::size_t>(p)].solid = -1;
         }
+        set_neighbors(ps);
     }
+    // The convex solids culled point by point need the neighbours too (inner edges).
+    for (const auto& [root, ps] : comps) {
+        (void)root;
+        const Piece& pc = pieces_[static_cast<std::size_t>(ps.front())];
+        if (pc.solid >= 0) set_neighbors(ps);
+    }
+}
+
+bool BlockerSet::culls_at(int solid, const Vec3& x) const {
+    const Solid& so = solids_[static_cast<std::size_t>(solid)];
+    if (so.open && so.opening.signed_distance(x) > so.tol) return false;
+    for (const Plane& f : so.faces)
+        if (f.signed_distance(x) > so.tol) return true;
+    return false;
+}
+
+bool BlockerSet::culls_all(int solid, const Vec3* v, int n) const {
+    const Solid& so = solids_[static_cast<std::size_t>(solid)];
+    if (so.open)
+        for (int k = 0; k < n; ++k)
+            if (so.opening.signed_distance(v[k]) > so.tol) return false;
+    for (const Plane& f : so.faces) {
+        bool all = true;
+        for (int k = 0; k < n && all; ++k) all = f.signed_distance(v[k]) > so.tol;
+        if (all) return true;
+    }
+    return false;
 }
 
 std::vector<Vec3> planar_convex_hull(const std::vector<Vec3>& points, const Vec3& n) {

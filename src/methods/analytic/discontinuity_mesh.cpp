@@ -162,9 +162,14 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
         inner.push_back(0);
         plane_of.push_back(Plane{rc.n, rc.d});
     }
+    const Vec3* sv_ = s.vertices.data();
+    const int sn_ = static_cast<int>(s.size());
+    // Culling of a piece's solid holds for the whole sender (pieces of closed solids apart
+    // from other geometry, or of convex solids the sender is outside of).
+    auto culls_sender = [&](int k) { return blockers.culls_polygon(k, sv_, sn_); };
     auto faces_sender = [&](int k) {
         const auto& pc = blockers.piece(k);
-        if (!pc.cull_back) return false;
+        if (!culls_sender(k)) return false;
         for (const Vec3& v : s.vertices)
             if (!(pc.plane.signed_distance(v) > 0.0)) return false;
         return true;
@@ -172,7 +177,7 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
     for (int c = 0; c < n; ++c) {
         const auto& pc = blockers.piece(cand[c]);
         const Vec3* pv = blockers.vertices(cand[c]);
-        if (pc.cull_back) {
+        if (culls_sender(cand[c])) {
             bool front = false;
             for (const Vec3& v : s.vertices) front = front || pc.plane.signed_distance(v) > 0.0;
             if (!front) continue;

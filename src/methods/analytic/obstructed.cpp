@@ -74,7 +74,7 @@ PointResult evaluate_point(const Receiver& rc, const Vec3& x, const Vec3& nx,
     for (int c = 0; c < count; ++c) {
         const int pk = cand[c];
         const auto& pc = blockers.piece(pk);
-        if (pc.cull_back && !(pc.plane.signed_distance(x) > 0.0)) continue;
+        if ((pc.cull_back || pc.solid >= 0) && blockers.skip_back_face(pk, x)) continue;
         const Vec3* pv = blockers.vertices(pk);
         Poly3* a = &buf[0];
         Poly3* bp = &buf[1];

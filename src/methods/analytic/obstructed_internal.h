@@ -29,6 +29,9 @@ class BlockerSet {
         /// from a point x that crosses the solid also crosses a piece with x in front, so the
         /// pieces with x behind (or in) their plane can be skipped for x.
         bool cull_back = false;
+        /// A convex solid (closed, or open along one planar loop of edges) whose back faces a
+        /// point may skip only where culls_at() says so: see mark_closed_solids(). −1: none.
+        int solid = -1;
     };
 
     /// Adds polygon p of surface `surface` (split into convex pieces).
@@ -45,7 +48,33 @@ class BlockerSet {
     /// floor under a box resting on it, a face in contact with the solid's face) starts segments
     /// that enter the solid without crossing a face it is in front of. `tol`: length for
     /// matching vertices and for touching.
+    /// The convex solids among the rest get Piece::solid instead, for culling point by point
+    /// (culls_at()): closed ones that touch other patches, and connected pieces whose unmatched
+    /// edges form one planar loop (an open box standing on a floor, a building on the ground),
+    /// convex when closed by that loop.
     void mark_closed_solids(const std::vector<std::pair<Bounds3, int>>& patches, double tol);
+
+    /// True when, for the point x, the pieces of convex solid `solid` that x is behind (or in
+    /// the plane of) can be skipped: x is strictly outside the solid (in front of one of its
+    /// faces by more than the solid's tolerance) and, for a solid open along a planar loop, not
+    /// in front of the plane of that opening. Then a segment from x that meets the solid enters
+    /// it through a face x is in front of (it cannot enter through the opening).
+    bool culls_at(int solid, const Vec3& x) const;
+    /// culls_at() for every point of the convex polygon v[0..n) (checked on its vertices, one
+    /// face for all).
+    bool culls_all(int solid, const Vec3* v, int n) const;
+    /// Whether piece k may be skipped for the point x: x is behind or in its plane, and the
+    /// piece's solid allows it there (always for closed solids apart from other geometry).
+    bool skip_back_face(int k, const Vec3& x) const {
+        const Piece& pc = pieces_[static_cast<std::size_t>(k)];
+        if (pc.plane.signed_distance(x) > 0.0) return false;
+        return pc.cull_back || (pc.solid >= 0 && culls_at(pc.solid, x));
+    }
+    /// True when culling of piece k's solid holds for every point of the convex polygon v.
+    bool culls_polygon(int k, const Vec3* v, int n) const {
+        const Piece& pc = pieces_[static_cast<std::size_t>(k)];
+        return pc.cull_back || (pc.solid >= 0 && culls_all(pc.solid, v, n));
+    }
 
     std::size_t size() const { return pieces_.size(); }
     const Piece& piece(int k) const { return pieces_[static_cast<std::size_t>(k)]; }
@@ -67,6 +96,15 @@ class BlockerSet {
     std::vector<Vec3> verts_;
     std::vector<int> neighbor_;  // per vertex of verts_: the piece across the edge it starts
     std::vector<Piece> pieces_;
+    // The convex solids of Piece::solid: their face planes (outward), the plane of their
+    // opening when open, and the tolerance of "strictly in front".
+    struct Solid {
+        std::vector<Plane> faces;
+        bool open = false;
+        Plane opening;
+        double tol = 0;
+    };
+    std::vector<Solid> solids_;
     BoxTree tree_;  // over the pieces' boxes
 };
 
