@@ -132,6 +132,20 @@ bool shadow_region(const Poly3& r, const Vec3& w, const Vec3& ns, double ds, con
     return true;
 }
 
+// True when the point w of the plane of the convex polygon r (normal n, counter-clockwise)
+// lies in r or within tol of it.
+bool on_polygon(const Poly3& r, const Vec3& n, const Vec3& w, double tol) {
+    for (int k = 0; k < r.n; ++k) {
+        const Vec3& a = r.v[static_cast<std::size_t>(k)];
+        const Vec3& b = r.v[static_cast<std::size_t>(k + 1 == r.n ? 0 : k + 1)];
+        const Vec3 e = b - a;
+        const double el = e.norm();
+        if (!(el > 0.0)) continue;
+        if (n.dot(e.cross(w - a)) < -tol * el) return false;
+    }
+    return true;
+}
+
 }  // namespace
 
 // The sender cut into convex pieces along the lines where F(x → hidden part of r) has kinks:
@@ -241,11 +255,15 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
             // beyond w are the receiver's part above w (farther from the sender's plane)
             // projected centrally through w onto the sender's plane, a convex polygon; cut to
             // the (convex) sender it bounds every such event of w. Not for vertices in the
-            // receiver's plane (their shadow is the vertex itself).
-            const bool filter =
-                sender_convex && have_receiver && x != 0 && rc.n.dot(pw) - rc.d > tol_r;
+            // receiver's plane: their shadow is the vertex itself, so they make kinks only when
+            // they lie on the receiver (within tol).
+            const bool blocker_vertex = have_receiver && x != 0;
+            const bool on_plane = blocker_vertex && !(rc.n.dot(pw) - rc.d > tol_r);
+            const bool filter = blocker_vertex && (on_plane || sender_convex);
             const bool seen_some =
-                filter && shadow_region(polys[0], pw, ns, ds, su, sv, o, s2p, seen);
+                filter && (on_plane ? on_polygon(polys[0], rc.n, pw, tol_r)
+                                    : shadow_region(polys[0], pw, ns, ds, su, sv, o, s2p, seen));
+            const bool filter_off = on_plane && seen_some;  // on r: every event is kept
             for (std::size_t y = 0; y < polys.size(); ++y) {
                 if (y == x) continue;
                 const Poly3& q = polys[y];
@@ -254,8 +272,9 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
                 // leaves or joins the union along the whole projected face, wherever the
                 // vertex's shadow falls. Those events are kept.
                 // Nearly coplanar (jittered models) counts as coplanar.
-                const bool only_seen =
-                    filter && std::abs(plane_of[y].signed_distance(pw)) > tol_coplanar;
+                const bool only_seen = filter && !filter_off &&
+                                       std::abs(plane_of[y].signed_distance(pw)) > tol_coplanar;
+                if (only_seen && on_plane) continue;  // a vertex in r's plane, off r
                 for (int e = 0; e < q.n; ++e) {
                     if (inner[y] >> e & 1) continue;
                     const Vec3& e0 = q.v[static_cast<std::size_t>(e)];
