@@ -209,10 +209,7 @@ void BlockerSet::mark_closed_solids(const std::vector<std::pair<Bounds3, int>>& 
             }
         }
         if (!empty_inside) continue;
-        for (int p : ps) {
-            pieces_[static_cast<std::size_t>(p)].cull_back = true;
-            pieces_[static_cast<std::size_t>(p)].solid = -1;
-        }
+        for (int p : ps) pieces_[static_cast<std::size_t>(p)].cull_back = true;
         set_neighbors(ps);
     }
     // The convex solids culled point by point need the neighbours too (inner edges).

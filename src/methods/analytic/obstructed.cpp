@@ -69,12 +69,21 @@ PointResult evaluate_point(const Receiver& rc, const Vec3& x, const Vec3& nx,
         ++sides;
     }
     thread_local std::vector<Poly2> shadows, frags, next;
+    // Per shadow: the convex solid whose front face cast it, when x culls that solid's back
+    // faces (−1 otherwise). The front faces of a convex solid seen from outside do not overlap,
+    // so shadows of one such solid need not be subtracted from each other.
+    thread_local std::vector<int> solid_of;
     shadows.clear();
+    solid_of.clear();
     Poly3 buf[2];
     for (int c = 0; c < count; ++c) {
         const int pk = cand[c];
         const auto& pc = blockers.piece(pk);
-        if ((pc.cull_back || pc.solid >= 0) && blockers.skip_back_face(pk, x)) continue;
+        bool culled_solid = false;
+        if (pc.cull_back || pc.solid >= 0) {
+            culled_solid = pc.cull_back || blockers.culls_at(pc.solid, x);
+            if (culled_solid && !(pc.plane.signed_distance(x) > 0.0)) continue;
+        }
         const Vec3* pv = blockers.vertices(pk);
         Poly3* a = &buf[0];
         Poly3* bp = &buf[1];
@@ -90,6 +99,7 @@ PointResult evaluate_point(const Receiver& rc, const Vec3& x, const Vec3& nx,
         const Poly3& b = *bp;
         if (b.n < 3) continue;
         shadows.emplace_back();
+        solid_of.push_back(culled_solid ? pc.solid : -1);
         Poly2& q = shadows.back();
         q.n = b.n;
         for (int k = 0; k < b.n; ++k) {
@@ -103,6 +113,7 @@ PointResult evaluate_point(const Receiver& rc, const Vec3& x, const Vec3& nx,
         const double ar = area2(q);
         if (ar == 0.0 || !std::isfinite(ar)) {
             shadows.pop_back();
+            solid_of.pop_back();
             continue;
         }
         if (ar < 0.0) {
@@ -133,6 +144,7 @@ PointResult evaluate_point(const Receiver& rc, const Vec3& x, const Vec3& nx,
         copy2(shadows[k], frags.back());
         const std::array<double, 4>& bk = boxes[k];
         for (std::size_t l = 0; l < k && !frags.empty(); ++l) {
+            if (solid_of[k] >= 0 && solid_of[k] == solid_of[l]) continue;
             const std::array<double, 4>& bl = boxes[l];
             if (bl[0] > bk[2] || bl[2] < bk[0] || bl[1] > bk[3] || bl[3] < bk[1]) continue;
             next.clear();

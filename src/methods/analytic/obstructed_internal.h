@@ -29,8 +29,9 @@ class BlockerSet {
         /// from a point x that crosses the solid also crosses a piece with x in front, so the
         /// pieces with x behind (or in) their plane can be skipped for x.
         bool cull_back = false;
-        /// A convex solid (closed, or open along one planar loop of edges) whose back faces a
-        /// point may skip only where culls_at() says so: see mark_closed_solids(). −1: none.
+        /// The convex solid (closed, or open along one planar loop of edges) of the piece, −1
+        /// for none: unless cull_back, a point may skip its back faces only where culls_at()
+        /// says so (see mark_closed_solids()).
         int solid = -1;
     };
 
