@@ -109,6 +109,43 @@ struct NodePair {
     int ta, a, tb, b;  // tree and node indices
 };
 
+// When the polygons of node nd tile their convex hull (their areas add up to its area within
+// 1e-9): that hull in `out`, as one convex blocker piece. Hull vertices within 1e-11 of the
+// points' extent of the line through their neighbours are dropped first: the boundary vertices
+// of a subdivided face are collinear only up to rounding, and a face split 12 × 12 would
+// otherwise have a hull of more vertices than a piece may have (and block as many pieces).
+bool tiled_hull(const ClusterTree& T, const ClusterTree::Node& nd,
+                const std::vector<TreeItem>& items, double sum, Polygon& out) {
+    std::vector<Vec3> pts;
+    Bounds3 box;
+    for (int k = nd.first; k < nd.first + nd.count; ++k)
+        for (const Vec3& v : items[static_cast<std::size_t>(T.order[static_cast<std::size_t>(k)])]
+                                 .polygon->vertices) {
+            pts.push_back(v);
+            box.extend(v);
+        }
+    std::vector<Vec3> hull = detail::planar_convex_hull(pts, T.normal);
+    const double tol = 1e-11 * box.diagonal().norm();
+    for (bool removed = true; removed && hull.size() > 3;) {
+        removed = false;
+        for (std::size_t k = 0; k < hull.size() && hull.size() > 3; ++k) {
+            const Vec3& a = hull[(k + hull.size() - 1) % hull.size()];
+            const Vec3& b = hull[(k + 1) % hull.size()];
+            const Vec3 e = b - a;
+            const double el = e.norm();
+            if (el > 0.0 && e.cross(hull[k] - a).norm() <= tol * el) {
+                hull.erase(hull.begin() + static_cast<std::ptrdiff_t>(k));
+                removed = true;
+            }
+        }
+    }
+    if (hull.size() < 3 || hull.size() > static_cast<std::size_t>(detail::kMaxPieceVertices))
+        return false;
+    out.vertices = std::move(hull);
+    const double a = area(out);
+    return std::abs(sum - a) <= 1e-9 * a;
+}
+
 // What one surface pair's classification produced.
 struct PairOutput {
     std::vector<NodePair> hidden;
@@ -305,9 +342,7 @@ void AnalyticMethod::apply_obstructions(const MethodContext& ctx, FormFactors& o
                     *items[static_cast<std::size_t>(T.order[static_cast<std::size_t>(nd.first)])]
                          .polygon,
                     T.blocker_id);
-            } else if (std::abs(sum - nd.area) <= 1e-9 * nd.area) {
-                Polygon hp;
-                hp.vertices = nd.hull;
+            } else if (Polygon hp; tiled_hull(T, nd, items, sum, hp)) {
                 blockers.add(hp, T.blocker_id);
                 ++merged_pieces;
             } else {
