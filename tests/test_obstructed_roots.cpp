@@ -343,3 +343,33 @@ TEST_CASE("obstructed roots: an open box on a floor hides as much as rays find")
         CHECK(a.F(0, 16) > 0.01);
     }
 }
+
+TEST_CASE("obstructed roots: a face split 16 x 16 blocks as one piece") {
+    // A trapezoid between two plates, every surface split 16 × 16 (bilinear): the points along
+    // the trapezoid's edges are collinear only up to rounding. Its tiles must still merge into
+    // one convex blocker piece (as the plates' do), not fall apart into many (which made the
+    // Cornell box 12 × 12 block as 100 pieces instead of 16 and cost 50× the time).
+    Scene scene;
+    scene.name = "plates and a trapezoid";
+    scene.materials.push_back(Material{});
+    auto add = [&](std::vector<Vec3> v) {
+        Surface sf;
+        sf.name = "s" + std::to_string(scene.surfaces.size());
+        sf.polygon = poly(std::move(v));
+        scene.surfaces.push_back(std::move(sf));
+    };
+    add({Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0)});  // facing up
+    add({Vec3(0, 0, 1), Vec3(0, 1, 1), Vec3(1, 1, 1), Vec3(1, 0, 1)});  // facing down
+    auto tilted = [](double x, double y) { return Vec3(x, y, 0.5 + 0.05 * x - 0.03 * y); };
+    add({tilted(0.13, 0.21), tilted(0.71, 0.17), tilted(0.66, 0.83), tilted(0.29, 0.69)});
+    SubdivisionOptions sub;
+    sub.n = 16;
+    subdivide(scene, sub);
+    MethodOptions opt;
+    nlohmann::json details;
+    const FormFactors F = run_method(*make_method("analytic"), scene, opt, details);
+    const auto& ob = details["obstructions"];
+    CHECK(ob["blocker_pieces"].get<int>() == 3);
+    CHECK(ob["merged_blocker_pieces"].get<int>() == 3);
+    CHECK(ob["patch_pairs_partly_hidden"].get<std::size_t>() > 0);
+}
