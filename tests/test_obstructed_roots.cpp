@@ -44,6 +44,25 @@ void add_box(BlockerSet& bs, const Vec3& lo, const Vec3& hi, int k, int& id) {
     }
 }
 
+// The unit floor split 4 × 4 (facing up, patches 0–15) and the ceiling z = 1 split 2 × 2
+// (facing down, patches 16–19).
+std::vector<Polygon> floor_and_ceiling() {
+    std::vector<Polygon> patches;
+    for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 4; ++j) {
+            const double x0 = i / 4.0, y0 = j / 4.0, d = 0.25;
+            patches.push_back(poly({Vec3(x0, y0, 0), Vec3(x0 + d, y0, 0), Vec3(x0 + d, y0 + d, 0),
+                                    Vec3(x0, y0 + d, 0)}));
+        }
+    for (int i = 0; i < 2; ++i)
+        for (int j = 0; j < 2; ++j) {
+            const double x0 = i / 2.0, y0 = j / 2.0, d = 0.5;
+            patches.push_back(poly({Vec3(x0, y0, 1), Vec3(x0, y0 + d, 1), Vec3(x0 + d, y0 + d, 1),
+                                    Vec3(x0 + d, y0, 1)}));
+        }
+    return patches;
+}
+
 // 1/A_s ∫ hidden by an n × n midpoint rule over the axis-aligned sender rectangle.
 double brute_hidden(const Polygon& s, const Polygon& r, const BlockerSet& bs,
                     const std::vector<int>& cand, int n) {
@@ -180,19 +199,7 @@ TEST_CASE("obstructed roots: a patch in contact with a closed solid does not see
     // the solid without crossing a face they are in front of, so back-face culling must be off
     // for them; they see nothing (F = 0 exactly: every pair is hidden by the box's top face
     // or integrated to 0 within the tolerance).
-    std::vector<Polygon> patches;
-    for (int i = 0; i < 4; ++i)
-        for (int j = 0; j < 4; ++j) {
-            const double x0 = i / 4.0, y0 = j / 4.0, d = 0.25;
-            patches.push_back(poly({Vec3(x0, y0, 0), Vec3(x0 + d, y0, 0), Vec3(x0 + d, y0 + d, 0),
-                                    Vec3(x0, y0 + d, 0)}));
-        }
-    for (int i = 0; i < 2; ++i)
-        for (int j = 0; j < 2; ++j) {
-            const double x0 = i / 2.0, y0 = j / 2.0, d = 0.5;
-            patches.push_back(poly({Vec3(x0, y0, 1), Vec3(x0, y0 + d, 1), Vec3(x0 + d, y0 + d, 1),
-                                    Vec3(x0 + d, y0, 1)}));
-        }
+    const std::vector<Polygon> patches = floor_and_ceiling();
     BlockerSet faces;
     int id = 0;
     add_box(faces, Vec3(.25, .25, 0), Vec3(.75, .75, .5), 1, id);
@@ -286,19 +293,7 @@ TEST_CASE("obstructed roots: an open box on a floor hides as much as rays find")
     // so that floor patches lie partly under it: the floor patches' rows against mc-target
     // (Embree rays, which know nothing of culling), and the patch wholly under the box sees
     // nothing.
-    std::vector<Polygon> patches;
-    for (int i = 0; i < 4; ++i)
-        for (int j = 0; j < 4; ++j) {
-            const double x0 = i / 4.0, y0 = j / 4.0, d = 0.25;
-            patches.push_back(poly({Vec3(x0, y0, 0), Vec3(x0 + d, y0, 0), Vec3(x0 + d, y0 + d, 0),
-                                    Vec3(x0, y0 + d, 0)}));
-        }
-    for (int i = 0; i < 2; ++i)
-        for (int j = 0; j < 2; ++j) {
-            const double x0 = i / 2.0, y0 = j / 2.0, d = 0.5;
-            patches.push_back(poly({Vec3(x0, y0, 1), Vec3(x0, y0 + d, 1), Vec3(x0 + d, y0 + d, 1),
-                                    Vec3(x0 + d, y0, 1)}));
-        }
+    const std::vector<Polygon> patches = floor_and_ceiling();
     BlockerSet faces;
     int id = 0;
     add_box(faces, Vec3(.2, .3, 0), Vec3(.6, .8, .4), 1, id);

@@ -23,18 +23,22 @@ struct Line {
     Vec2 p0, p1;
 };
 
-// True when the segment of l meets the interior of the convex counter-clockwise polygon q (by
-// more than tol): Cyrus–Beck clipping of the segment by q's edges.
-bool segment_meets(const Line& l, const std::vector<Vec2>& q, double tol) {
-    double t0 = 0.0, t1 = 1.0;
-    const Vec2 d = l.p1 - l.p0;
-    for (std::size_t k = 0; k < q.size(); ++k) {
-        const Vec2& v0 = q[k];
-        const Vec2 e = q[(k + 1) % q.size()] - v0;
+// Cyrus–Beck: the range [t0, t1] of t ∈ [0, 1] where p0 + t (p1 − p0) lies in the convex
+// counter-clockwise polygon of the n vertices at(k), its edges moved inward by `inset`
+// (outward when negative). False when that range is empty.
+template <class At>
+bool clip_segment(const Vec2& p0, const Vec2& p1, int n, At at, double inset, double& t0,
+                  double& t1) {
+    t0 = 0.0;
+    t1 = 1.0;
+    const Vec2 d = p1 - p0;
+    for (int k = 0; k < n; ++k) {
+        const Vec2 v0 = at(k);
+        const Vec2 e = at(k + 1 == n ? 0 : k + 1) - v0;
         const double el = e.norm();
         if (!(el > 0.0)) continue;
-        // Inside: cross(e, p − v0) ≥ tol·|e|.
-        const double f0 = e.x() * (l.p0.y() - v0.y()) - e.y() * (l.p0.x() - v0.x()) - tol * el;
+        // Inside: cross(e, p − v0) ≥ inset·|e|.
+        const double f0 = e.x() * (p0.y() - v0.y()) - e.y() * (p0.x() - v0.x()) - inset * el;
         const double fd = e.x() * d.y() - e.y() * d.x();
         if (fd == 0.0) {
             if (f0 < 0.0) return false;
@@ -47,35 +51,25 @@ bool segment_meets(const Line& l, const std::vector<Vec2>& q, double tol) {
             t1 = std::min(t1, t);
         if (t0 > t1) return false;
     }
-    return (t1 - t0) * d.norm() > tol;
+    return true;
 }
 
-// True when the segment p0 p1 comes within tol of the convex counter-clockwise polygon q
-// (Cyrus–Beck clipping by q's edges moved out by tol).
+// True when the segment of l meets the interior of the convex counter-clockwise polygon q (by
+// more than tol).
+bool segment_meets(const Line& l, const std::vector<Vec2>& q, double tol) {
+    double t0, t1;
+    const auto at = [&](int k) { return q[static_cast<std::size_t>(k)]; };
+    return clip_segment(l.p0, l.p1, static_cast<int>(q.size()), at, tol, t0, t1) &&
+           (t1 - t0) * (l.p1 - l.p0).norm() > tol;
+}
+
+// True when the segment p0 p1 comes within tol of the convex counter-clockwise polygon q.
 bool segment_near(const Vec2& p0, const Vec2& p1, const Poly2& q, double tol) {
-    double t0 = 0.0, t1 = 1.0;
-    const Vec2 d = p1 - p0;
-    for (int k = 0; k < q.n; ++k) {
-        const int m = k + 1 == q.n ? 0 : k + 1;
-        const double vx = q.x[static_cast<std::size_t>(k)], vy = q.y[static_cast<std::size_t>(k)];
-        const double ex = q.x[static_cast<std::size_t>(m)] - vx;
-        const double ey = q.y[static_cast<std::size_t>(m)] - vy;
-        const double el = std::hypot(ex, ey);
-        if (!(el > 0.0)) continue;
-        const double f0 = ex * (p0.y() - vy) - ey * (p0.x() - vx) + tol * el;
-        const double fd = ex * d.y() - ey * d.x();
-        if (fd == 0.0) {
-            if (f0 < 0.0) return false;
-            continue;
-        }
-        const double t = -f0 / fd;
-        if (fd > 0.0)
-            t0 = std::max(t0, t);
-        else
-            t1 = std::min(t1, t);
-        if (t0 > t1) return false;
-    }
-    return true;
+    double t0, t1;
+    const auto at = [&](int k) {
+        return Vec2(q.x[static_cast<std::size_t>(k)], q.y[static_cast<std::size_t>(k)]);
+    };
+    return clip_segment(p0, p1, q.n, at, -tol, t0, t1);
 }
 
 // True when the line of l comes within tol of the convex polygon q.
