@@ -37,9 +37,14 @@ ComputeOptions options_for(MethodKind kind) {
 // Counts what a sink receives.
 class CountingSink final : public ProgressSink {
   public:
-    void update(const std::string&, std::size_t, std::size_t, double) override { ++updates; }
+    void update(const std::string&, std::size_t done, std::size_t total, double) override {
+        ++updates;
+        last_done = done;
+        last_total = total;
+    }
     void finish(const std::string&) override { ++finishes; }
     int updates = 0, finishes = 0;
+    std::size_t last_done = 0, last_total = 1;
 };
 
 }  // namespace
@@ -115,12 +120,14 @@ TEST_CASE("pipeline: the default method, typed report, nothing drawn unless aske
     REQUIRE(r.diagnostics);
     CHECK(r.diagnostics->n == s.patches.size());
 
-    // A sink receives the phases' ends (updates only after ~1 s of work).
+    // A sink receives every phase, however short: an update at its end with done = total.
     CountingSink sink;
     ComputeOptions o = options_for(MethodKind::mc_hemisphere);
     o.progress = &sink;
     const ComputeResult mc = compute_form_factors(s, o);
     CHECK(sink.finishes >= 1);
+    CHECK(sink.updates >= sink.finishes);
+    CHECK(sink.last_done == sink.last_total);
     REQUIRE(mc.report.rays_cast);
     CHECK(*mc.report.rays_cast == 512 * s.patches.size());
     CHECK(mc.form_factors.standard_error);

@@ -9,7 +9,6 @@
 
 #include <chrono>
 #include <future>
-#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -111,7 +110,6 @@ class CallbackProgress final : public ProgressSink {
     };
     std::mutex mutex_;
     std::vector<Update> pending_;
-    std::map<std::string, Update> last_;  ///< the last update delivered, per phase
 };
 
 /// Runs `work(flag)` on a worker thread with the GIL released; the calling thread waits,

@@ -98,24 +98,8 @@ void CallbackProgress::update(const std::string& label, std::size_t done, std::s
     }
 }
 
-void CallbackProgress::finish(const std::string& label) {
-    // The callback sees every phase end at done == total (the library's last update of a
-    // phase may come before its last units).
-    std::lock_guard lock(mutex_);
-    for (auto it = pending_.rbegin(); it != pending_.rend(); ++it) {
-        if (it->label == label) {
-            Update last = *it;
-            last.done = last.total;
-            pending_.push_back(last);
-            return;
-        }
-    }
-    const auto seen = last_.find(label);
-    if (seen != last_.end()) {
-        Update last = seen->second;
-        last.done = last.total;
-        pending_.push_back(last);
-    }
+void CallbackProgress::finish(const std::string&) {
+    // Nothing to add: the library's last update of a phase that ran to its end has done == total.
 }
 
 void CallbackProgress::deliver(const py::object& callback) {
@@ -123,7 +107,6 @@ void CallbackProgress::deliver(const py::object& callback) {
     {
         std::lock_guard lock(mutex_);
         updates.swap(pending_);
-        for (const Update& u : updates) last_[u.label] = u;
     }
     for (const Update& u : updates) callback(u.label, u.done, u.total, u.elapsed);
 }

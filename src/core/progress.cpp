@@ -7,8 +7,8 @@
 namespace formfactor {
 
 namespace {
-constexpr long long kFirstUpdateNs = 1'000'000'000;  // nothing during the first ~1 s
 constexpr long long kUpdateNs = 100'000'000;
+constexpr double kTerminalDelaySeconds = 1.0;  // a bar only for phases that take a while
 }  // namespace
 
 bool stderr_is_terminal() { return ::isatty(STDERR_FILENO) == 1; }
@@ -16,6 +16,7 @@ bool stderr_is_terminal() { return ::isatty(STDERR_FILENO) == 1; }
 void TerminalProgress::update(const std::string& label, std::size_t done, std::size_t total,
                               double elapsed) {
     if (!stderr_is_terminal()) return;
+    if (!drawn_ && elapsed < kTerminalDelaySeconds) return;
     const double frac = total ? static_cast<double>(done) / static_cast<double>(total) : 1.0;
     const int width = 40;
     const int filled = static_cast<int>(frac * width + 0.5);
@@ -38,11 +39,9 @@ Progress::Progress(std::string label, std::size_t total, ProgressSink* sink)
     : label_(std::move(label)),
       total_(total),
       sink_(sink),
-      start_(std::chrono::steady_clock::now()) {
-    next_update_ns_ = kFirstUpdateNs;
-}
+      start_(std::chrono::steady_clock::now()) {}
 
-Progress::~Progress() { finish(); }
+Progress::~Progress() { end(done_.load() >= total_); }
 
 void Progress::advance(std::size_t k) {
     if (!sink_.load(std::memory_order_relaxed)) return;
@@ -58,9 +57,20 @@ void Progress::advance(std::size_t k) {
         sink->update(label_, done, total_, 1e-9 * static_cast<double>(now));
 }
 
-void Progress::finish() {
+void Progress::finish() { end(true); }
+
+void Progress::end(bool completed) {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (ProgressSink* sink = sink_.exchange(nullptr)) sink->finish(label_);
+    ProgressSink* sink = sink_.exchange(nullptr);
+    if (!sink) return;
+    // A phase that ran to its end reports done = total once more, however short it was (a phase
+    // left by an exception does not).
+    if (completed) {
+        const double elapsed =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+        sink->update(label_, total_, total_, elapsed);
+    }
+    sink->finish(label_);
 }
 
 }  // namespace formfactor

@@ -16,8 +16,9 @@ namespace formfactor {
 class ProgressSink {
   public:
     virtual ~ProgressSink() = default;
-    /// Phase `label` has `done` of `total` units done (called at most ~10 times a second, and
-    /// once more with done = total when it ends).
+    /// Phase `label` has `done` of `total` units done: called when its first units are done, then
+    /// at most ~10 times a second, and once more with done = total when it ends (also when it
+    /// took less than 100 ms; not when an error or a cancellation ended it).
     virtual void update(const std::string& label, std::size_t done, std::size_t total,
                         double elapsed_seconds) = 0;
     /// The phase is over: clear what update() drew.
@@ -37,7 +38,8 @@ class TerminalProgress final : public ProgressSink {
 };
 
 /// The handle a method holds for one phase: counts units (thread-safe, cheap) and forwards to
-/// the sink at most every 100 ms. A null sink makes every call a no-op.
+/// the sink at once, then at most every 100 ms, and at its end. A null sink makes every call a
+/// no-op.
 class Progress {
   public:
     Progress(std::string label, std::size_t total, ProgressSink* sink);
@@ -46,10 +48,13 @@ class Progress {
     Progress& operator=(const Progress&) = delete;
     /// Marks `k` more units done.
     void advance(std::size_t k = 1);
-    /// Ends the phase (called by the destructor too).
+    /// Ends the phase, which ran to its end: the sink sees done = total. (The destructor ends a
+    /// phase not finished, as when an exception leaves it: done = total only if it was.)
     void finish();
 
   private:
+    void end(bool completed);
+
     std::string label_;
     std::size_t total_;
     std::atomic<ProgressSink*> sink_;
