@@ -13,6 +13,8 @@
 #include "formfactor/core/atomic_file.h"
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
+#include "formfactor/core/progress.h"
+#include "formfactor/matrix/hierarchical.h"
 #include "formfactor/matrix/memory.h"
 #include "formfactor/methods/traits.h"
 #include "formfactor/output/matrix_io.h"
@@ -36,7 +38,145 @@ struct SolveArgs {
     std::string exchange;
     std::string output;
     std::string report;
+    std::string storage = "dense";  ///< --storage dense|hierarchical
+    double error_target = 1e-6;     ///< --error-target (hierarchical)
 };
+
+// `solve --storage hierarchical`: the operator of formfactor/matrix/hierarchical.h, never F.
+void run_solve_hierarchical(const SolveArgs& args, Stopwatch& total) {
+    if (!args.matrix.empty())
+        throw OptionError("--matrix",
+                          "reads a dense F; --storage hierarchical computes an operator");
+    if (!args.exchange.empty())
+        throw OptionError("--exchange-factors",
+                          "needs the dense F (an O(N^3) inverse); not with --storage hierarchical");
+    if (parse_repair_mode(args.repair.mode) != RepairMode::none)
+        throw OptionError("--repair",
+                          "needs the entries of F; the hierarchical operator is reciprocal by "
+                          "construction (--repair none)");
+    if (!(args.error_target > 0.0 && args.error_target <= 0.1))
+        throw OptionError("--error-target", "must be in (0, 0.1]");
+    const int threads = effective_threads(args.method.options.threads);
+    SolverOptions solver_options = args.solver.options(SolverKind::gmres, threads);
+    if (solver_options.solver != SolverKind::gmres && solver_options.solver != SolverKind::jacobi)
+        throw OptionError("--solver",
+                          "with --storage hierarchical: gmres (default) or jacobi "
+                          "(the others need the entries of F)");
+    StepTimes times;
+    Scene scene = prepare_scene(args.scene, times);
+    warn_single_patch(scene);
+    Stopwatch sw;
+    PatchProperties props = properties_from_scene(scene);
+    if (!args.properties.empty()) apply_properties_csv(args.properties, scene, props);
+    validate_properties(props);
+
+    HierarchicalOptions ho;
+    ho.tolerance = args.error_target;
+    ho.threads = threads;
+    TerminalProgress bar;
+    ho.progress = &bar;
+    const HierarchicalFormFactors H = HierarchicalFormFactors::build(scene, ho);
+    times.add("hierarchical operator", sw.lap());
+    const HierarchicalStats& hs = H.stats();
+    fmt::print(
+        "operator   hierarchical, error target {:g}: {} low-rank blocks (rank mean {:.1f}, max "
+        "{}), {} dense, {} zero; {:.1f} MB ({:.2f}% of dense F)\n",
+        hs.tolerance, hs.low_rank_blocks, hs.mean_rank, hs.max_rank, hs.dense_blocks,
+        hs.zero_blocks, hs.bytes / 1e6,
+        100.0 * static_cast<double>(hs.bytes) /
+            (8.0 * static_cast<double>(hs.patches) * static_cast<double>(hs.patches)));
+
+    OutputTransaction tx;
+    nlohmann::json solve_json;
+    if (args.thermal) {
+        ThermalOptions to;
+        to.solver = solver_options;
+        to.ambient_temperature = args.ambient_temperature;
+        const ThermalResult r = solve_thermal(H, props, to);
+        times.add("solve", sw.lap());
+        print_thermal_summary(r);
+        solve_json = to_json(r);
+        const std::string text = thermal_csv_text(r);
+        tx.stage(args.output, [&](std::ostream& out) { out << text; });
+    } else {
+        const RadiosityResult r = solve_radiosity(H, props, solver_options);
+        times.add("solve", sw.lap());
+        print_radiosity_summary(r);
+        solve_json = to_json(r);
+        const std::string text = radiosity_csv_text(r.radiosity);
+        tx.stage(args.output, [&](std::ostream& out) { out << text; });
+    }
+    times.add("write", sw.lap());
+    if (!args.report.empty()) {
+        const std::vector<double> sums = H.row_sums(threads);
+        double lo = sums.empty() ? 0.0 : sums[0], hi = lo, mean = 0.0;
+        for (double v : sums) {
+            lo = std::min(lo, v);
+            hi = std::max(hi, v);
+            mean += v;
+        }
+        if (!sums.empty()) mean /= static_cast<double>(sums.size());
+        nlohmann::json timings = nlohmann::json::object();
+        for (const auto& [name, seconds] : times.steps) timings[name] = seconds;
+        timings["total"] = std::max(total.seconds(), times.sum());
+        nlohmann::json options = args.method.to_json("analytic");
+        options["storage"] = "hierarchical";
+        options["error_target"] = args.error_target;
+        options["properties"] =
+            args.properties.empty() ? nlohmann::json(nullptr) : nlohmann::json(args.properties);
+        options["thermal"] = args.thermal;
+        options["solver"] = to_string(solver_options.solver);
+        options["residual"] = solver_options.residual;
+        options["max_iterations"] = solver_options.max_iterations;
+        options["output"] = args.output;
+        nlohmann::json report = {
+            {"formfactor_version", FF_VERSION},
+            {"command", "solve"},
+            {"scene", scene_summary_json(scene)},
+            {"N", scene.patches.size()},
+            {"method", "analytic (hierarchical operator)"},
+            {"options", options},
+            {"threads", threads},
+            {"timings", timings},
+            {"diagnostics",
+             {{"row_sum", {{"min", lo}, {"max", hi}, {"mean", mean}}},
+              {"reciprocity", "exact by construction (one block per unordered cluster pair)"}}},
+            {"details",
+             {{"hierarchical",
+               {{"tolerance", hs.tolerance},
+                {"eta", hs.eta},
+                {"leaf_size", hs.leaf_size},
+                {"clusters", hs.clusters},
+                {"leaves", hs.leaves},
+                {"zero_blocks", hs.zero_blocks},
+                {"dense_blocks", hs.dense_blocks},
+                {"low_rank_blocks", hs.low_rank_blocks},
+                {"low_rank_fallbacks", hs.low_rank_fallbacks},
+                {"dense_values", hs.dense_values},
+                {"low_rank_values", hs.low_rank_values},
+                {"mean_rank", hs.mean_rank},
+                {"max_rank", hs.max_rank},
+                {"pairs_zero", hs.pairs_zero},
+                {"pairs_dense", hs.pairs_dense},
+                {"pairs_low_rank", hs.pairs_low_rank},
+                {"entries_computed", hs.entries_computed},
+                {"bytes", hs.bytes},
+                {"seconds", hs.seconds}}}}},
+            {"storage", {{"kind", "hierarchical"}, {"operator_bytes", hs.bytes}}},
+            {"memory", {{"peak_bytes", peak_memory_bytes()}}},
+            {"outputs", {{"result", args.output}, {"report", args.report}}},
+            {"solve", solve_json},
+        };
+        stage_report(tx, args.report, report);
+    }
+    tx.commit();
+    fmt::print("scene      {}: N = {} patches, hierarchical operator (analytic entries)\n",
+               scene.name, scene.patches.size());
+    fmt::print("time       {}\n", format_timings(times, total.seconds()));
+    std::string wrote = args.output;
+    if (!args.report.empty()) wrote += ", " + args.report;
+    fmt::print("wrote      {}\n", wrote);
+}
 
 void run_solve(const SolveArgs& args) {
     Stopwatch total;
@@ -56,6 +196,17 @@ void run_solve(const SolveArgs& args) {
         if (same_file(args.exchange, args.output) ||
             (!args.report.empty() && same_file(args.exchange, args.report)))
             throw OptionError("--exchange-factors", "is the same file as another output");
+    }
+    if (args.storage != "dense" && args.storage != "hierarchical")
+        throw OptionError("--storage", "must be dense or hierarchical, got '" + args.storage + "'");
+    if (args.storage == "hierarchical") {
+        if (!args.solver.solver.empty()) parse_solver(args.solver.solver);
+        if (!(args.ambient_temperature >= 0.0) || !std::isfinite(args.ambient_temperature))
+            throw OptionError("--ambient-temperature", "must be a temperature >= 0 K");
+        if (args.ambient_temperature > 0.0 && !args.thermal)
+            throw OptionError("--ambient-temperature", "needs --thermal");
+        run_solve_hierarchical(args, total);
+        return;
     }
     if (!args.matrix.empty()) matrix_format_for(args.matrix, "--matrix");
     parse_repair_mode(args.repair.mode);
@@ -222,6 +373,16 @@ void add_solve_command(CLI::App& app) {
                     "patch,area,emissivity,temperature,radiosity,net_flux,net_power")
         ->type_name("RESULT.csv");
     cmd->add_option("--report", args->report, "Also write a JSON report")->type_name("REPORT.json");
+    cmd->add_option("--storage", args->storage,
+                    "dense: F as an N x N matrix; hierarchical: a compressed operator (low-rank "
+                    "far blocks, exact near blocks) solved by products, for large scenes without "
+                    "obstructions (docs/hierarchical.md)")
+        ->type_name("dense|hierarchical")
+        ->capture_default_str();
+    cmd->add_option("--error-target", args->error_target,
+                    "Hierarchical storage: relative error of each compressed block")
+        ->type_name("T")
+        ->capture_default_str();
     cmd->callback([args] { run_solve(*args); });
 }
 

@@ -80,17 +80,17 @@ ComputedMatrix use_matrix(const Scene& scene, DenseMatrix F, const std::string& 
 
 void SolverArgs::add_to(CLI::App* cmd) {
     cmd->add_option("--solver", solver,
-                    "jacobi, gauss-seidel, shooting (progressive refinement) or "
-                    "direct (LU); "
-                    "default gauss-seidel (radiosity), direct (--thermal)")
+                    "jacobi, gauss-seidel, shooting (progressive refinement), "
+                    "direct (LU) or gmres; "
+                    "default gauss-seidel (radiosity), direct (--thermal), gmres "
+                    "(--storage hierarchical)")
         ->type_name("NAME");
     cmd->add_option("--residual", residual, "Stop when max|E + rho F B - B| / max|B| is below this")
         ->type_name("R")
         ->capture_default_str();
     cmd->add_option("--max-iterations", max_iterations,
-                    "Sweeps (jacobi, gauss-seidel) or shots (shooting); 0 = "
-                    "10000 sweeps or "
-                    "10000 N shots")
+                    "Sweeps (jacobi, gauss-seidel), shots (shooting) or products "
+                    "(gmres); 0 = 10000 sweeps, 10000 N shots or 1000 products")
         ->type_name("K")
         ->capture_default_str();
     cmd->add_flag("--allow-unconverged", allow_unconverged,
@@ -132,8 +132,11 @@ void print_solve_line(const char* problem, const SolverStats& s) {
         "solve      {}, {}: {} {}, residual {:.3g} (tolerance "
         "{:.3g}), {:.3f} s\n",
         problem, s.solver, s.iterations,
-        s.solver == "shooting" ? "shots" : (s.solver == "direct" ? "LU" : "sweeps"), s.residual,
-        s.tolerance, s.seconds);
+        s.solver == "shooting" ? "shots"
+        : s.solver == "direct" ? "LU"
+        : s.solver == "gmres"  ? "products"
+                               : "sweeps",
+        s.residual, s.tolerance, s.seconds);
 }
 
 }  // namespace

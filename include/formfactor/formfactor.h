@@ -18,6 +18,7 @@
 #include "formfactor/kernels/analytic.h"
 #include "formfactor/matrix/aggregate.h"
 #include "formfactor/matrix/form_factors.h"
+#include "formfactor/matrix/hierarchical.h"
 #include "formfactor/matrix/memory.h"
 #include "formfactor/matrix/reciprocity.h"
 #include "formfactor/matrix/repair.h"

@@ -215,7 +215,155 @@ void run_direct(const DenseMatrix& F, const Columns& d, const Columns& c, Column
     (void)n;
 }
 
+constexpr int kGmresRestart = 30;
+
+double operator_residual(const ApplyF& apply, const Columns& d, const Columns& c, const Columns& x,
+                         Columns& work) {
+    apply(x, work);
+    double r = 0.0;
+    for (Eigen::Index k = 0; k < x.cols(); ++k)
+        for (Eigen::Index i = 0; i < x.rows(); ++i)
+            r = std::max(r, std::abs(c(i, k) + d(i, k) * work(i, k) - x(i, k)));
+    const double xm = max_abs(x);
+    if (xm == 0.0) return r == 0.0 ? 0.0 : std::numeric_limits<double>::infinity();
+    return r / xm;
+}
+
+// Restarted GMRES on (I − diag(dk) F) x = ck, one column: Arnoldi with modified Gram–Schmidt,
+// Givens rotations for the least-squares problem. Stops when the 2-norm of the residual (which
+// bounds its ∞-norm) is below tol·‖x‖_∞, confirmed by a residual from scratch at each restart;
+// returns the products with F used.
+long long gmres_column(const ApplyF& apply, const Columns& dk, const Columns& ck, double tol,
+                       long long max_products, Columns& x) {
+    const Eigen::Index n = ck.rows();
+    const int m = kGmresRestart;
+    Columns V(n, m + 1), w(n, 1), Fx(n, 1);
+    Eigen::MatrixXd H = Eigen::MatrixXd::Zero(m + 1, m);
+    Eigen::VectorXd g(m + 1), cs(m), sn(m);
+    auto apply_a = [&](const Columns& v, Columns& out) {  // out = v − d ∘ (F v)
+        apply(v, Fx);
+        out = v - (dk.array() * Fx.array()).matrix();
+    };
+    long long products = 0;
+    while (true) {
+        apply_a(x, w);
+        ++products;
+        const Columns r = ck - w;
+        const double xm = max_abs(x);
+        const double rinf = max_abs(r);
+        if (rinf <= tol * xm || rinf == 0.0 || products >= max_products) return products;
+        const double beta = r.norm();
+        V.col(0) = r / beta;
+        g.setZero();
+        g(0) = beta;
+        H.setZero();
+        int used = 0;
+        for (int j = 0; j < m && products < max_products; ++j) {
+            apply_a(V.col(j), w);
+            ++products;
+            for (int i = 0; i <= j; ++i) {
+                H(i, j) = w.col(0).dot(V.col(i));
+                w.col(0) -= H(i, j) * V.col(i);
+            }
+            H(j + 1, j) = w.norm();
+            if (H(j + 1, j) > 0.0) V.col(j + 1) = w / H(j + 1, j);
+            for (int i = 0; i < j; ++i) {
+                const double t = cs(i) * H(i, j) + sn(i) * H(i + 1, j);
+                H(i + 1, j) = -sn(i) * H(i, j) + cs(i) * H(i + 1, j);
+                H(i, j) = t;
+            }
+            const double den = std::hypot(H(j, j), H(j + 1, j));
+            cs(j) = den > 0.0 ? H(j, j) / den : 1.0;
+            sn(j) = den > 0.0 ? H(j + 1, j) / den : 0.0;
+            H(j, j) = den;
+            H(j + 1, j) = 0.0;
+            g(j + 1) = -sn(j) * g(j);
+            g(j) = cs(j) * g(j);
+            used = j + 1;
+            if (std::abs(g(j + 1)) <= 0.5 * tol * xm || den == 0.0) break;
+        }
+        if (used == 0) return products;
+        const Eigen::VectorXd y =
+            H.topLeftCorner(used, used).triangularView<Eigen::Upper>().solve(g.head(used));
+        x.col(0) += V.leftCols(used) * y;
+    }
+}
+
 }  // namespace
+
+SolverStats solve_linear_operator(const ApplyF& apply, Eigen::Index n, const Columns& d,
+                                  const Columns& c, const SolverOptions& options, Columns& x) {
+    const auto start = std::chrono::steady_clock::now();
+    FF_ASSERT(d.rows() == n && c.rows() == n && d.cols() == c.cols());
+    if (!(options.residual > 0.0) || !std::isfinite(options.residual))
+        throw OptionError("residual", "must be a positive number");
+    if (options.max_iterations < 0)
+        throw OptionError("max_iterations", "must be ≥ 0 (0 = automatic)");
+    if (options.solver != SolverKind::jacobi && options.solver != SolverKind::gmres)
+        throw OptionError("solver", fmt::format("{} needs the entries of F; an operator that is "
+                                                "never formed is solved by gmres or jacobi",
+                                                to_string(options.solver)));
+    SolverStats st;
+    st.solver = to_string(options.solver);
+    st.tolerance = options.residual;
+    x = c;
+    Columns y(n, c.cols());
+    double residual = 0.0;
+    if (options.solver == SolverKind::jacobi) {
+        const long long max_it = options.max_iterations > 0 ? options.max_iterations : 10000;
+        long long it = 0;
+        residual = std::numeric_limits<double>::infinity();
+        while (it < max_it) {
+            apply(x, y);
+            ++it;
+            double change = 0.0;
+            for (Eigen::Index k = 0; k < x.cols(); ++k)
+                for (Eigen::Index i = 0; i < n; ++i) {
+                    const double v = c(i, k) + d(i, k) * y(i, k);
+                    change = std::max(change, std::abs(v - x(i, k)));
+                    x(i, k) = v;
+                }
+            const double xm = max_abs(x);
+            if (change <= options.residual * xm || xm == 0.0) {
+                residual = operator_residual(apply, d, c, x, y);
+                if (residual <= options.residual) break;
+            }
+        }
+        st.iterations = it;
+        if (!(residual <= options.residual)) residual = operator_residual(apply, d, c, x, y);
+    } else {
+        const long long max_it = options.max_iterations > 0 ? options.max_iterations : 1000;
+        for (Eigen::Index k = 0; k < c.cols(); ++k) {
+            // Channels with the same system and right-hand side share the solution.
+            Eigen::Index same = -1;
+            for (Eigen::Index p = 0; p < k && same < 0; ++p)
+                if (d.col(p) == d.col(k) && c.col(p) == c.col(k)) same = p;
+            if (same >= 0) {
+                x.col(k) = x.col(same);
+                continue;
+            }
+            Columns xk = x.col(k);
+            // The tolerance of one channel relative to the largest solution of all of them
+            // would need that solution first: each channel to its own ∞-norm is stricter.
+            st.iterations += gmres_column(apply, d.col(k), c.col(k), options.residual, max_it, xk);
+            x.col(k) = xk;
+        }
+        residual = operator_residual(apply, d, c, x, y);
+    }
+    st.residual = residual;
+    st.converged = residual <= options.residual;
+    st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (!st.converged) {
+        const std::string msg = fmt::format(
+            "solve: {} did not converge in {} {}: relative residual {:.3g} > tolerance {:.3g} "
+            "(raise --max-iterations or loosen --residual)",
+            st.solver, st.iterations, options.solver == SolverKind::gmres ? "products" : "sweeps",
+            residual, options.residual);
+        if (options.fail_if_not_converged) throw Error(msg);
+        st.warnings.push_back(msg);
+    }
+    return st;
+}
 
 SolverStats solve_linear(const DenseMatrix& F, const std::vector<double>& areas, const Columns& d,
                          const Columns& c, const SolverOptions& options, Columns& x) {
@@ -228,6 +376,10 @@ SolverStats solve_linear(const DenseMatrix& F, const std::vector<double>& areas,
     if (options.max_iterations < 0)
         throw OptionError("max_iterations", "must be ≥ 0 (0 = automatic)");
 
+    if (options.solver == SolverKind::gmres)
+        return solve_linear_operator(
+            [&](const Columns& v, Columns& out) { multiply(F, v, out, options.threads); }, n, d, c,
+            options, x);
     SolverStats st;
     st.solver = to_string(options.solver);
     st.tolerance = options.residual;
@@ -272,6 +424,8 @@ SolverStats solve_linear(const DenseMatrix& F, const std::vector<double>& areas,
             if (options.add_ambient) residual = relative_residual(F, d, c, x, y, options.threads);
             break;
         }
+        case SolverKind::gmres:  // above
+            break;
         case SolverKind::direct:
             run_direct(F, d, c, x);
             st.iterations = 1;

@@ -2,6 +2,7 @@
 // The engine behind solve_radiosity and solve_thermal: x = c + diag(d_k) F x per column k.
 
 #include <Eigen/Core>
+#include <functional>
 #include <vector>
 
 #include "formfactor/matrix/form_factors.h"
@@ -16,6 +17,14 @@ using Columns = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::Col
 /// the shooting order (A_i |r_i|) and the ambient term. x is resized to c's shape.
 SolverStats solve_linear(const DenseMatrix& F, const std::vector<double>& areas, const Columns& d,
                          const Columns& c, const SolverOptions& options, Columns& x);
+
+/// y = F x for an operator that is never formed (the hierarchical operator).
+using ApplyF = std::function<void(const Columns& x, Columns& y)>;
+
+/// solve_linear on an operator: jacobi or gmres (the others need F's entries: OptionError
+/// "solver").
+SolverStats solve_linear_operator(const ApplyF& apply, Eigen::Index n, const Columns& d,
+                                  const Columns& c, const SolverOptions& options, Columns& x);
 
 /// y = F x, rows in parallel (no allocation when y already has x's shape).
 void multiply(const DenseMatrix& F, const Columns& x, Columns& y, int threads);

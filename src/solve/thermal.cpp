@@ -4,19 +4,33 @@
 
 #include <Eigen/LU>
 #include <cmath>
+#include <functional>
 
 #include "formfactor/core/error.h"
 #include "solve/linear_system.h"
 
 namespace formfactor {
 
-ThermalResult solve_thermal(const FormFactors& ff, const PatchProperties& props,
-                            const ThermalOptions& options) {
-    detail::check_sizes(ff, props.size());
+namespace {
+
+// What the thermal solve needs of F: dense, or an operator that is never formed.
+struct ThermalSystem {
+    Eigen::Index n = 0;
+    const std::vector<double>* areas = nullptr;
+    std::vector<double> row_sums;
+    detail::ApplyF apply;  // y = F x
+    std::function<SolverStats(const detail::Columns& d, const detail::Columns& c,
+                              detail::Columns& x)>
+        solve;
+};
+
+ThermalResult thermal_on(const ThermalSystem& sys, const PatchProperties& props,
+                         const ThermalOptions& options) {
     validate_properties(props);
     if (!(options.ambient_temperature >= 0.0) || !std::isfinite(options.ambient_temperature))
         throw OptionError("ambient_temperature", "must be a temperature ≥ 0 K");
-    const Eigen::Index n = ff.F.rows();
+    const Eigen::Index n = sys.n;
+    const std::vector<double>& areas = *sys.areas;
     const double sigma = kStefanBoltzmann;
     const double eb_env = sigma * std::pow(options.ambient_temperature, 4);
 
@@ -28,7 +42,7 @@ ThermalResult solve_thermal(const FormFactors& ff, const PatchProperties& props,
     double min_row_sum = 1.0;
     for (Eigen::Index i = 0; i < n; ++i) {
         const auto si = static_cast<std::size_t>(i);
-        const double s = ff.F.row(i).sum();
+        const double s = sys.row_sums[si];
         min_row_sum = std::min(min_row_sum, s);
         open[si] = 1.0 - s;
         const double eps = props.emissivity[si];
@@ -63,12 +77,12 @@ ThermalResult solve_thermal(const FormFactors& ff, const PatchProperties& props,
             "environment, a black body at {} K",
             min_row_sum, options.ambient_temperature));
 
-    res.stats = detail::solve_linear(ff.F, ff.areas, d, c, options.solver, x);
+    res.stats = sys.solve(d, c, x);
 
     // Irradiation H = F J + (1 − s) σ T_env⁴, then the per-patch outputs.
     detail::Columns H;
-    detail::multiply(ff.F, x, H, options.solver.threads);
-    res.area = ff.areas;
+    sys.apply(x, H);
+    res.area = areas;
     res.emissivity = props.emissivity;
     res.temperature.resize(static_cast<std::size_t>(n));
     res.temperature_prescribed.resize(static_cast<std::size_t>(n));
@@ -103,9 +117,9 @@ ThermalResult solve_thermal(const FormFactors& ff, const PatchProperties& props,
         }
         res.radiosity[si] = J;
         res.net_flux[si] = q;
-        res.net_power[si] = q * ff.areas[si];
+        res.net_power[si] = q * areas[si];
         res.total_net_power += res.net_power[si];
-        res.escaped_power += ff.areas[si] * open[si] * (J - eb_env);
+        res.escaped_power += areas[si] * open[si] * (J - eb_env);
         abs_power += std::abs(res.net_power[si]);
     }
     if (negative_t > 0)
@@ -117,6 +131,44 @@ ThermalResult solve_thermal(const FormFactors& ff, const PatchProperties& props,
         abs_power > 0.0 ? std::abs(res.total_net_power - res.escaped_power) / abs_power : 0.0;
     for (const auto& w : res.stats.warnings) res.warnings.push_back(w);
     return res;
+}
+
+}  // namespace
+
+ThermalResult solve_thermal(const FormFactors& ff, const PatchProperties& props,
+                            const ThermalOptions& options) {
+    detail::check_sizes(ff, props.size());
+    ThermalSystem sys;
+    sys.n = ff.F.rows();
+    sys.areas = &ff.areas;
+    sys.row_sums.resize(ff.size());
+    for (Eigen::Index i = 0; i < sys.n; ++i)
+        sys.row_sums[static_cast<std::size_t>(i)] = ff.F.row(i).sum();
+    const int threads = options.solver.threads;
+    sys.apply = [&](const detail::Columns& x, detail::Columns& y) {
+        detail::multiply(ff.F, x, y, threads);
+    };
+    sys.solve = [&](const detail::Columns& d, const detail::Columns& c, detail::Columns& x) {
+        return detail::solve_linear(ff.F, ff.areas, d, c, options.solver, x);
+    };
+    return thermal_on(sys, props, options);
+}
+
+ThermalResult solve_thermal(const HierarchicalFormFactors& ff, const PatchProperties& props,
+                            const ThermalOptions& options) {
+    if (props.size() != ff.size())
+        throw Error(fmt::format("solve: the scene has {} patches but the operator has {}",
+                                props.size(), ff.size()));
+    ThermalSystem sys;
+    sys.n = static_cast<Eigen::Index>(ff.size());
+    sys.areas = &ff.areas();
+    const int threads = options.solver.threads;
+    sys.row_sums = ff.row_sums(threads);
+    sys.apply = [&](const detail::Columns& x, detail::Columns& y) { ff.multiply(x, y, threads); };
+    sys.solve = [&](const detail::Columns& d, const detail::Columns& c, detail::Columns& x) {
+        return detail::solve_linear_operator(sys.apply, sys.n, d, c, options.solver, x);
+    };
+    return thermal_on(sys, props, options);
 }
 
 DenseMatrix total_exchange_factors(const DenseMatrix& F, const std::vector<double>& emissivity) {

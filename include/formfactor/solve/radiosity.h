@@ -4,6 +4,7 @@
 
 #include "formfactor/core/types.h"
 #include "formfactor/matrix/form_factors.h"
+#include "formfactor/matrix/hierarchical.h"
 #include "formfactor/solve/properties.h"
 #include "formfactor/solve/solver.h"
 
@@ -31,6 +32,11 @@ struct RadiosityResult {
 /// non-convergence when options.fail_if_not_converged.
 RadiosityResult solve_radiosity(const FormFactors& ff, const PatchProperties& props,
                                 const SolverOptions& options = {});
+
+/// The same solve on the hierarchical operator (products only: options.solver must be gmres or
+/// jacobi, OptionError "solver" otherwise).
+RadiosityResult solve_radiosity(const HierarchicalFormFactors& ff, const PatchProperties& props,
+                                const SolverOptions& options);
 
 /// The energy balance of a radiosity solution B (see RadiosityBalance).
 RadiosityBalance radiosity_balance(const FormFactors& ff, const PatchProperties& props,

@@ -28,20 +28,20 @@ enum class SolverKind {
                    ///< the patch with the most unshot power A_i·|Δx_i| (Southwell order);
                    ///< reads columns of F (a transposed copy, N² doubles, up to 8192 patches)
     direct,        ///< LU with partial pivoting of I − D F (Eigen), O(N³): the reference
+    gmres,         ///< restarted GMRES(30) on I − D F, one product with F per iteration (Saad &
+                   ///< Schultz 1986): the solver of operators that are never formed (the
+                   ///< hierarchical operator), few products where Jacobi needs many (small ε)
 };
 
 /// The names of the solvers (then accepted aliases).
 inline constexpr EnumEntry<SolverKind> kSolverNames[] = {
-    {SolverKind::jacobi, "jacobi"},
-    {SolverKind::gauss_seidel, "gauss-seidel"},
-    {SolverKind::shooting, "shooting"},
-    {SolverKind::direct, "direct"},
-    {SolverKind::gauss_seidel, "gauss_seidel"},
-    {SolverKind::shooting, "progressive"},
-    {SolverKind::direct, "lu"},
+    {SolverKind::jacobi, "jacobi"},        {SolverKind::gauss_seidel, "gauss-seidel"},
+    {SolverKind::shooting, "shooting"},    {SolverKind::direct, "direct"},
+    {SolverKind::gmres, "gmres"},          {SolverKind::gauss_seidel, "gauss_seidel"},
+    {SolverKind::shooting, "progressive"}, {SolverKind::direct, "lu"},
 };
 
-/// Parses jacobi | gauss-seidel | shooting | direct (and the aliases); throws
+/// Parses jacobi | gauss-seidel | shooting | direct | gmres (and the aliases); throws
 /// OptionError("solver") otherwise.
 SolverKind parse_solver(const std::string& name);
 /// The name parse_solver() accepts.
@@ -52,8 +52,8 @@ struct SolverOptions {
     SolverKind solver = SolverKind::gauss_seidel;
     /// Stop when the relative residual (∞-norm, see above) is below this.
     double residual = 1e-8;
-    /// Sweeps (jacobi, gauss-seidel) or shots (shooting); 0 = automatic (10000 sweeps, or
-    /// 10000·N shots).
+    /// Sweeps (jacobi, gauss-seidel), shots (shooting) or products (gmres, summed over the
+    /// channels); 0 = automatic (10000 sweeps, 10000·N shots, 1000 products per channel).
     long long max_iterations = 0;
     /// Threads for the parallel products (0 = all cores).
     int threads = 0;
@@ -76,7 +76,8 @@ std::vector<std::string> exchange_factor_dense_matrices();
 /// What a solve reports.
 struct SolverStats {
     std::string solver;           ///< to_string(kind)
-    long long iterations = 0;     ///< sweeps (jacobi, gauss-seidel), shots (shooting), 1 (direct)
+    long long iterations = 0;     ///< sweeps (jacobi, gauss-seidel), shots (shooting), 1 (direct),
+                                  ///< products with F (gmres)
     double residual = 0.0;        ///< final relative residual, recomputed from scratch
     double tolerance = 0.0;       ///< the requested one
     bool converged = true;        ///< residual ≤ tolerance

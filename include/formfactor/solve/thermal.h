@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "formfactor/matrix/form_factors.h"
+#include "formfactor/matrix/hierarchical.h"
 #include "formfactor/solve/properties.h"
 #include "formfactor/solve/solver.h"
 
@@ -59,6 +60,11 @@ struct ThermalResult {
 /// constant), on size mismatches, and on non-convergence when the options ask for it.
 ThermalResult solve_thermal(const FormFactors& ff, const PatchProperties& props,
                             const ThermalOptions& options = {});
+
+/// The same solve on the hierarchical operator (products only: options.solver must be gmres or
+/// jacobi, OptionError "solver" otherwise).
+ThermalResult solve_thermal(const HierarchicalFormFactors& ff, const PatchProperties& props,
+                            const ThermalOptions& options);
 
 /// Hottel's total exchange factors 𝓕 (script-F) for grey diffuse surfaces:
 ///

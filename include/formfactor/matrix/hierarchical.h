@@ -1,0 +1,119 @@
+#pragma once
+/// A hierarchical (H-matrix) form-factor operator for scenes in which everything sees everything
+/// (closed rooms, furnaces, convex cavities): F is never formed. See docs/hierarchical.md.
+///
+/// A cluster tree over the patches (binary, split at the median of the longest axis of the
+/// centroids, leaves of at most leaf_size patches) partitions the unordered cluster pairs into
+///  - zero blocks: one cluster lies in the plane of the other (or behind it), which is then
+///    planar: every entry is 0 exactly (the patches of one wall of a room);
+///  - low-rank blocks: well-separated pairs (max diameter ≤ eta · distance of the bounding
+///    spheres), F_PQ ≈ U Vᵀ by adaptive cross approximation with partial pivoting (ACA; Bebendorf
+///    2000) to the relative Frobenius error `tolerance`, its entries by a Gauss rule whose
+///    a-priori error bound is below tolerance/10 of the kernel's size there;
+///  - dense blocks: the leaf pairs left, exact entries (the double contour integral).
+/// Only F_PQ of each unordered pair is stored: F_QP = diag(1/A_Q) F_PQᵀ diag(A_P) (reciprocity,
+/// which exact form factors satisfy), so the operator is reciprocal by construction.
+///
+/// Why ACA and not hierarchical-radiosity links: a link is a rank-1 block with the kernel's
+/// value at one point pair, whose error falls only as (size/distance)²; ACA finds the rank a
+/// block needs for a stated relative error, so the error target is a parameter, not a property
+/// of the refinement oracle, and it falls when the target is tightened.
+///
+/// Obstruction: blocks are exact only without blockers. A scene in which a surface can block a
+/// segment between two others (AnalyticMethod::may_obstruct) is refused with an Error naming the
+/// alternatives (dense or sparse storage); visibility in blocks is left for later.
+///
+/// Products are deterministic: the blocks are summed in a fixed order of fixed chunks, so y = F x
+/// is bit-identical for any thread count.
+
+#include <Eigen/Core>
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "formfactor/matrix/form_factors.h"
+#include "formfactor/scene/scene.h"
+
+namespace formfactor {
+
+class ProgressSink;
+
+/// How the operator is built.
+struct HierarchicalOptions {
+    /// Error target: relative Frobenius error of each compressed block (the entries of the
+    /// compressed blocks are computed to a tenth of it). Tighter targets cost more ranks.
+    double tolerance = 1e-6;
+    /// Admissibility: a cluster pair is compressed when 2·max(r_P, r_Q) ≤ eta · (|c_P − c_Q| −
+    /// r_P − r_Q) (bounding spheres).
+    double eta = 1.5;
+    /// Patches per leaf cluster at most.
+    std::size_t leaf_size = 32;
+    /// Threads (0 = all cores).
+    int threads = 0;
+    /// Receives the progress of the build (blocks done), or none.
+    ProgressSink* progress = nullptr;
+};
+
+/// What the build made and what it cost.
+struct HierarchicalStats {
+    std::size_t patches = 0;
+    std::size_t clusters = 0, leaves = 0;
+    std::size_t zero_blocks = 0, dense_blocks = 0, low_rank_blocks = 0;
+    /// Low-rank blocks that ACA could not compress below their dense size (stored dense).
+    std::size_t low_rank_fallbacks = 0;
+    std::size_t dense_values = 0;     ///< doubles in dense blocks
+    std::size_t low_rank_values = 0;  ///< doubles in U and V of the low-rank blocks
+    std::size_t max_rank = 0;
+    double mean_rank = 0.0;
+    /// Patch pairs (unordered) covered by each kind of block.
+    double pairs_zero = 0, pairs_dense = 0, pairs_low_rank = 0;
+    std::size_t entries_computed = 0;  ///< F_ij evaluated during the build
+    std::size_t bytes = 0;             ///< memory the operator holds
+    double seconds = 0.0;              ///< wall time of the build
+    double tolerance = 0.0, eta = 0.0;
+    std::size_t leaf_size = 0;
+};
+
+/// The operator. Patch order is the scene's.
+class HierarchicalFormFactors {
+  public:
+    /// Builds the operator of the scene's patches. Throws OptionError for bad options, Error for
+    /// a scene with obstructions (see above), ResourceError when the estimated memory does not
+    /// fit.
+    static HierarchicalFormFactors build(const Scene& scene, const HierarchicalOptions& options);
+
+    std::size_t size() const { return areas_.size(); }
+    const std::vector<double>& areas() const { return areas_; }
+    const HierarchicalStats& stats() const { return stats_; }
+
+    /// Y = F X for an n × k column-major X (one column per channel); Y is resized.
+    void multiply(const Eigen::MatrixXd& X, Eigen::MatrixXd& Y, int threads = 0) const;
+    /// Σ_j F_ij per row (F·1).
+    std::vector<double> row_sums(int threads = 0) const;
+    /// The operator as a dense matrix (N² doubles: for tests and small scenes).
+    DenseMatrix to_dense(int threads = 0) const;
+    /// Per-group factors F_GH = Σ_{i∈G} A_i Σ_{j∈H} F_ij / A_G (groups: a patch's group index,
+    /// 0 ≤ g < groups), from `groups` products with indicator vectors: cost groups × product.
+    DenseMatrix per_group(const std::vector<int>& group_of_patch, std::size_t groups,
+                          int threads = 0) const;
+
+    /// One stored block of the partition, on patch ranges of the cluster order: rows
+    /// [p, p + m), columns [q, q + n) (p ≤ q; p = q only for a dense diagonal block, which holds
+    /// all of F_PP). Dense: F_PQ row-major in `u` (rank 0). Low-rank: F_PQ = U Vᵀ, U m × rank
+    /// and V n × rank column-major in `u` and `v`.
+    struct Block {
+        std::uint32_t p = 0, m = 0, q = 0, n = 0;
+        std::uint32_t rank = 0;
+        std::vector<double> u, v;
+    };
+
+  private:
+    std::vector<double> areas_;              ///< scene order
+    std::vector<std::uint32_t> order_;       ///< cluster order → patch index
+    std::vector<double> tree_areas_;         ///< areas in cluster order
+    std::vector<Block> blocks_;
+    std::vector<std::size_t> chunk_begin_;   ///< blocks [chunk_begin_[c], chunk_begin_[c + 1])
+    HierarchicalStats stats_;
+};
+
+}  // namespace formfactor

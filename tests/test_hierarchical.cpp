@@ -1,0 +1,232 @@
+// The hierarchical operator (formfactor/matrix/hierarchical.h): products against the dense exact
+// matrix within its error target, an error that falls with the target, reciprocity by
+// construction, products bit-identical for any thread count, thermal and radiosity solves on it
+// against the dense solves, and the refusals (obstructed scenes, bad options, solvers that need
+// F's entries).
+
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <random>
+
+#include "formfactor/core/error.h"
+#include "formfactor/matrix/hierarchical.h"
+#include "formfactor/pipeline.h"
+#include "formfactor/scene/room.h"
+#include "formfactor/solve/properties.h"
+#include "formfactor/solve/radiosity.h"
+#include "formfactor/solve/thermal.h"
+
+using namespace formfactor;
+
+namespace {
+
+DenseMatrix dense_of(const Scene& s) {
+    ComputeOptions o;
+    o.method = MethodKind::analytic;
+    return compute_form_factors(s, o).form_factors.F;
+}
+
+// Relative 2-norm error of H x against F x over a few random x ≥ 0 and the column of ones.
+double product_error(const HierarchicalFormFactors& H, const DenseMatrix& F, int threads = 0) {
+    const auto n = static_cast<Eigen::Index>(H.size());
+    std::mt19937_64 rng(7);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    Eigen::MatrixXd X(n, 4), Y;
+    for (Eigen::Index i = 0; i < n; ++i) {
+        X(i, 0) = 1.0;
+        for (int k = 1; k < 4; ++k) X(i, k) = u(rng);
+    }
+    H.multiply(X, Y, threads);
+    const Eigen::MatrixXd exact = F * X;
+    return (Y - exact).norm() / exact.norm();
+}
+
+}  // namespace
+
+TEST_CASE("hierarchical: a closed room's products match the exact matrix within the target") {
+    const Scene s = room_scene(12, RoomBox::kNone);  // 864 patches
+    const DenseMatrix F = dense_of(s);
+    HierarchicalOptions o;
+    o.tolerance = 1e-6;
+    o.leaf_size = 16;
+    const HierarchicalFormFactors H = HierarchicalFormFactors::build(s, o);
+    const HierarchicalStats& st = H.stats();
+    CHECK(st.low_rank_blocks > 0);
+    CHECK(st.zero_blocks > 0);
+    CHECK(st.dense_blocks > 0);
+    // Every unordered pair is covered once.
+    const double n = static_cast<double>(s.patches.size());
+    CHECK(st.pairs_zero + st.pairs_dense + st.pairs_low_rank == doctest::Approx(n * (n - 1) / 2));
+    // Compressed: fewer values than the N²/2 of the pairs.
+    CHECK(static_cast<double>(st.dense_values + st.low_rank_values) < 0.5 * n * n);
+    const double err = product_error(H, F);
+    MESSAGE("relative product error " << err << ", mean rank " << st.mean_rank);
+    CHECK(err <= 10 * o.tolerance);
+    // Rows of the closed room sum to 1 (the exact matrix's closure to 1e-10 plus the target).
+    for (double r : H.row_sums()) CHECK(std::abs(r - 1.0) <= 1e-5);
+    // Reciprocity holds by construction: A_i F_ij = A_j F_ji to rounding (relative to the pair,
+    // or to A_i · 1e-12 for entries at rounding level, which low-rank blocks give to pairs that
+    // touch a plane).
+    const DenseMatrix D = H.to_dense();
+    const double floor = 1e-12 * s.patches[0].area;
+    double worst = 0.0;
+    for (Eigen::Index i = 0; i < D.rows(); ++i)
+        for (Eigen::Index j = 0; j < D.cols(); ++j) {
+            const double a = H.areas()[static_cast<std::size_t>(i)] * D(i, j);
+            const double b = H.areas()[static_cast<std::size_t>(j)] * D(j, i);
+            worst = std::max(worst, std::abs(a - b) / std::max(std::max(a, b), floor));
+        }
+    CHECK(worst <= 1e-12);
+    // The entries of the same wall are exactly zero (zero blocks), the diagonal too.
+    for (Eigen::Index i = 0; i < D.rows(); ++i) CHECK(D(i, i) == 0.0);
+}
+
+TEST_CASE("hierarchical: the error falls when the target is tightened") {
+    const Scene s = room_scene(10, RoomBox::kNone);  // 600 patches
+    const DenseMatrix F = dense_of(s);
+    double previous = 1.0;
+    std::size_t previous_values = 0;
+    for (const double tol : {1e-2, 1e-4, 1e-7}) {
+        HierarchicalOptions o;
+        o.tolerance = tol;
+        o.leaf_size = 8;
+        const HierarchicalFormFactors H = HierarchicalFormFactors::build(s, o);
+        const double err = product_error(H, F);
+        MESSAGE("tolerance " << tol << ": error " << err << ", values "
+                             << H.stats().low_rank_values << ", mean rank " << H.stats().mean_rank);
+        CHECK(err <= 10 * tol);
+        CHECK(err < previous);
+        // Tighter targets store more (higher ranks, or blocks kept dense).
+        const std::size_t values = H.stats().low_rank_values + H.stats().dense_values;
+        CHECK(values >= previous_values);
+        previous = err;
+        previous_values = values;
+    }
+}
+
+TEST_CASE("hierarchical: products are bit-identical for any thread count") {
+    const Scene s = room_scene(8, RoomBox::kNone);
+    HierarchicalOptions o;
+    o.leaf_size = 8;
+    o.threads = 1;
+    const HierarchicalFormFactors H1 = HierarchicalFormFactors::build(s, o);
+    o.threads = 2;
+    const HierarchicalFormFactors H2 = HierarchicalFormFactors::build(s, o);
+    const auto n = static_cast<Eigen::Index>(H1.size());
+    const Eigen::MatrixXd X = Eigen::MatrixXd::Random(n, 2);
+    Eigen::MatrixXd Y1, Y2, Y3;
+    H1.multiply(X, Y1, 1);
+    H2.multiply(X, Y2, 2);
+    H1.multiply(X, Y3, 3);
+    CHECK(Y1 == Y2);
+    CHECK(Y1 == Y3);
+}
+
+TEST_CASE("hierarchical: thermal and radiosity solves agree with the dense solves") {
+    const Scene s = room_scene(10, RoomBox::kNone);
+    ComputeOptions co;
+    co.method = MethodKind::analytic;
+    const FormFactors ff = compute_form_factors(s, co).form_factors;
+    HierarchicalOptions o;
+    o.tolerance = 1e-6;
+    o.leaf_size = 16;
+    const HierarchicalFormFactors H = HierarchicalFormFactors::build(s, o);
+
+    // Thermal: the floor (patches of surface 0) hot, the rest at fixed temperatures or
+    // adiabatic, grey emissivities down to 0.1 (a stiff system for Jacobi).
+    PatchProperties props = properties_from_scene(s);
+    const std::size_t n = s.patches.size();
+    for (std::size_t i = 0; i < n; ++i) {
+        const int surf = s.patches[i].surface;
+        props.emissivity[i] = 0.1 + 0.15 * (surf % 6);
+        props.temperature[i] = std::numeric_limits<double>::quiet_NaN();
+        props.net_flux[i] = std::numeric_limits<double>::quiet_NaN();
+        if (surf % 6 == 0) props.temperature[i] = 1000.0;
+        else if (surf % 6 == 1) props.temperature[i] = 300.0;
+        else if (surf % 6 == 2) props.net_flux[i] = 0.0;
+        else props.temperature[i] = 500.0 + 10.0 * static_cast<double>(i % 7);
+    }
+    ThermalOptions dense_o;  // direct
+    const ThermalResult d = solve_thermal(ff, props, dense_o);
+    ThermalOptions ho;
+    ho.solver.solver = SolverKind::gmres;
+    ho.solver.residual = 1e-10;
+    const ThermalResult h = solve_thermal(H, props, ho);
+    CHECK(h.stats.converged);
+    double emitted = 0.0;
+    for (std::size_t i = 0; i < n; ++i) emitted += std::abs(d.net_power[i]);
+    double worst_j = 0.0, worst_q = 0.0;
+    for (std::size_t i = 0; i < n; ++i) {
+        worst_j = std::max(worst_j, std::abs(h.radiosity[i] - d.radiosity[i]) / d.radiosity[i]);
+        worst_q = std::max(worst_q, std::abs(h.net_power[i] - d.net_power[i]) / emitted);
+    }
+    MESSAGE("thermal: radiosity within " << worst_j << " relative, net power within " << worst_q
+                                         << " of the total; " << h.stats.iterations
+                                         << " products");
+    CHECK(worst_j <= 1e-4);
+    CHECK(worst_q <= 1e-4);
+    CHECK(h.relative_balance_defect <= 1e-6);
+
+    // Radiosity (RGB) with gmres and jacobi on the operator.
+    const RadiosityResult rd = solve_radiosity(ff, props, SolverOptions{SolverKind::direct});
+    for (const SolverKind k : {SolverKind::gmres, SolverKind::jacobi}) {
+        SolverOptions so{k};
+        so.residual = 1e-10;
+        const RadiosityResult rh = solve_radiosity(H, props, so);
+        CHECK(rh.stats.converged);
+        double w = 0.0;
+        for (std::size_t i = 0; i < n; ++i)
+            for (int c = 0; c < 3; ++c)
+                if (rd.radiosity[i][c] > 0.0)
+                    w = std::max(w, std::abs(rh.radiosity[i][c] - rd.radiosity[i][c]) /
+                                        rd.radiosity[i][c]);
+        CHECK(w <= 1e-4);
+    }
+    // Solvers that need F's entries are refused with the option named.
+    CHECK_THROWS_AS(solve_radiosity(H, props, SolverOptions{SolverKind::gauss_seidel}),
+                    OptionError);
+    // gmres on the dense matrix agrees with the direct solve.
+    SolverOptions g{SolverKind::gmres};
+    g.residual = 1e-12;
+    const RadiosityResult rg = solve_radiosity(ff, props, g);
+    for (std::size_t i = 0; i < n; ++i)
+        CHECK((rg.radiosity[i] - rd.radiosity[i]).norm() <= 1e-9 * (1.0 + rd.radiosity[i].norm()));
+}
+
+TEST_CASE("hierarchical: per-surface factors from the operator") {
+    const Scene s = room_scene(8, RoomBox::kNone);
+    const DenseMatrix F = dense_of(s);
+    const HierarchicalFormFactors H = HierarchicalFormFactors::build(s, {});
+    std::vector<int> group(s.patches.size());
+    for (std::size_t i = 0; i < group.size(); ++i) group[i] = s.patches[i].surface;
+    const std::size_t g = s.surfaces.size();
+    const DenseMatrix G = H.per_group(group, g);
+    // The same from the dense matrix.
+    DenseMatrix E = DenseMatrix::Zero(static_cast<Eigen::Index>(g), static_cast<Eigen::Index>(g));
+    std::vector<double> ag(g, 0.0);
+    for (std::size_t i = 0; i < group.size(); ++i) {
+        const double a = s.patches[i].area;
+        ag[static_cast<std::size_t>(group[i])] += a;
+        for (std::size_t j = 0; j < group.size(); ++j)
+            E(group[i], group[j]) += a * F(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j));
+    }
+    for (std::size_t r = 0; r < g; ++r) E.row(static_cast<Eigen::Index>(r)) /= ag[r];
+    CHECK((G - E).cwiseAbs().maxCoeff() <= 1e-6);
+    CHECK_THROWS_AS(H.per_group(std::vector<int>(3, 0), 1), Error);
+}
+
+TEST_CASE("hierarchical: obstructed scenes and bad options are refused") {
+    CHECK_THROWS_WITH_AS(HierarchicalFormFactors::build(room_scene(4), {}),
+                         doctest::Contains("obstructions"), Error);
+    const Scene s = room_scene(4, RoomBox::kNone);
+    HierarchicalOptions o;
+    o.tolerance = 0.0;
+    CHECK_THROWS_AS(HierarchicalFormFactors::build(s, o), OptionError);
+    o = {};
+    o.eta = -1.0;
+    CHECK_THROWS_AS(HierarchicalFormFactors::build(s, o), OptionError);
+    o = {};
+    o.leaf_size = 0;
+    CHECK_THROWS_AS(HierarchicalFormFactors::build(s, o), OptionError);
+}
