@@ -4,6 +4,7 @@
 #include <stb/stb_image.h>
 
 #include <cmath>
+#include <filesystem>
 #include <nlohmann/json.hpp>
 
 #include "cli_runner.h"
@@ -192,4 +193,79 @@ TEST_CASE("cli render: PNG of a solution, false colour, meshes") {
     r = cli.run("render cornell-empty -o c.png");
     CHECK(r.code == 2);
     CHECK(r.err.find("--radiosity") != std::string::npos);
+}
+
+TEST_CASE("cli solve --storage hierarchical: the thermal and radiosity solves of the dense path") {
+    Cli cli;
+    // A closed cube, 6 × 12 × 12 = 864 patches: z0 hot, z1 cold, the rest adiabatic.
+    write_text(cli.file("p.csv"),
+               "surface,emissivity,temperature,net_flux,emission_r,emission_g,emission_b\n"
+               "z0,0.8,1000,,1,2,3\nz1,0.3,300,,,,\nx0,0.5,,0,,,\nx1,0.5,,0,,,\n"
+               "y0,0.2,,0,,,\ny1,0.9,,0,,,\n");
+    const std::string base = "solve cube --subdivide 12 --properties p.csv ";
+    CliResult r = cli.run(base + "--thermal -o dense.csv");
+    INFO(describe(r));
+    REQUIRE(r.code == 0);
+    r = cli.run(base + "--thermal --storage hierarchical -o h.csv --report h.json");
+    INFO(describe(r));
+    REQUIRE(r.code == 0);
+    CHECK(r.out.find("operator   hierarchical, error target 1e-06") != std::string::npos);
+    CHECK(r.out.find("solve      thermal, gmres") != std::string::npos);
+    const SolutionTable d = read_solution_csv(cli.file("dense.csv"), 864);
+    const SolutionTable h = read_solution_csv(cli.file("h.csv"), 864);
+    REQUIRE(h.thermal);
+    double total = 0.0;
+    for (double q : d.net_power) total += std::abs(q);
+    for (std::size_t i = 0; i < 864; ++i) {
+        CHECK(std::abs(h.radiosity[i][0] - d.radiosity[i][0]) <= 1e-5 * d.radiosity[i][0]);
+        CHECK(std::abs(h.net_power[i] - d.net_power[i]) <= 1e-5 * total);
+    }
+    const auto report = nlohmann::json::parse(read_text(cli.file("h.json")));
+    CHECK(report["storage"]["kind"] == "hierarchical");
+    CHECK(report["details"]["hierarchical"]["low_rank_blocks"].get<int>() > 0);
+    CHECK(report["memory"]["peak_bytes"].get<double>() > 0);
+    CHECK(report["solve"]["solver"]["converged"] == true);
+    CHECK(std::abs(report["diagnostics"]["row_sum"]["min"].get<double>() - 1.0) < 1e-5);
+
+    // Radiosity (RGB) with gmres and jacobi on the operator, against the dense direct solve.
+    r = cli.run(base + "--solver direct --residual 1e-12 -o rd.csv");
+    REQUIRE(r.code == 0);
+    const SolutionTable rd = read_solution_csv(cli.file("rd.csv"), 864);
+    for (const char* s : {"gmres", "jacobi"}) {
+        r = cli.run(base + "--storage hierarchical --residual 1e-10 --solver " + s + " -o rh.csv");
+        INFO(describe(r));
+        REQUIRE(r.code == 0);
+        const SolutionTable rh = read_solution_csv(cli.file("rh.csv"), 864);
+        for (std::size_t i = 0; i < 864; ++i)
+            for (int c = 0; c < 3; ++c)
+                CHECK(std::abs(rh.radiosity[i][c] - rd.radiosity[i][c]) <=
+                      1e-5 * rd.radiosity[i][c] + 1e-12);
+    }
+}
+
+TEST_CASE("cli solve --storage hierarchical: what it refuses, with the option named") {
+    Cli cli;
+    struct Case {
+        const char* args;
+        const char* says;
+    };
+    for (const Case& c : {
+             Case{"solve cube --subdivide 4 --storage tiles -o r.csv", "--storage"},
+             Case{"solve cube --subdivide 4 --storage hierarchical --solver direct -o r.csv",
+                  "--solver"},
+             Case{"solve cube --subdivide 4 --storage hierarchical --repair both -o r.csv",
+                  "--repair"},
+             Case{"solve cube --subdivide 4 --storage hierarchical --error-target 0 -o r.csv",
+                  "--error-target"},
+             Case{"solve cube --subdivide 4 --storage hierarchical --exchange-factors X.csv "
+                  "-o r.csv",
+                  "--exchange-factors"},
+             Case{"solve cornell --storage hierarchical -o r.csv", "obstructions"},
+         }) {
+        const CliResult r = cli.run(c.args);
+        INFO(c.args << "\n" << describe(r));
+        CHECK(r.code != 0);
+        CHECK(r.err.find(c.says) != std::string::npos);
+        CHECK_FALSE(std::filesystem::exists(cli.file("r.csv")));
+    }
 }
