@@ -56,11 +56,19 @@ PatchProperties problem(const Scene& s) {
         props.net_flux[i] = nan;
         props.temperature[i] = nan;
         switch (w) {
-            case 4: props.temperature[i] = 1000.0; break;  // floor (+z normal)
-            case 5: props.temperature[i] = 300.0; break;   // ceiling
+            case 4:
+                props.temperature[i] = 1000.0;
+                break;  // floor (+z normal)
+            case 5:
+                props.temperature[i] = 300.0;
+                break;  // ceiling
             case 0:
-            case 1: props.net_flux[i] = 0.0; break;
-            default: props.temperature[i] = 500.0; break;
+            case 1:
+                props.net_flux[i] = 0.0;
+                break;
+            default:
+                props.temperature[i] = 500.0;
+                break;
         }
     }
     return props;
@@ -102,7 +110,8 @@ void BM_HierarchicalVsDense(benchmark::State& state) {
                 wall_h[wall_of(s.patches[i])] += h.net_power[i];
             }
             double dq = 0.0;
-            for (int w = 0; w < 6; ++w) dq = std::max(dq, std::abs(wall_h[w] - wall_ref[w]) / emitted);
+            for (int w = 0; w < 6; ++w)
+                dq = std::max(dq, std::abs(wall_h[w] - wall_ref[w]) / emitted);
             state.counters["radiosity_rel" + tag] = dj;
             state.counters["wall_power_rel" + tag] = dq;
         }

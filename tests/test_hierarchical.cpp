@@ -93,8 +93,8 @@ TEST_CASE("hierarchical: the error falls when the target is tightened") {
         o.leaf_size = 8;
         const HierarchicalFormFactors H = HierarchicalFormFactors::build(s, o);
         const double err = product_error(H, F);
-        MESSAGE("tolerance " << tol << ": error " << err << ", values "
-                             << H.stats().low_rank_values << ", mean rank " << H.stats().mean_rank);
+        MESSAGE("tolerance " << tol << ": error " << err << ", values " << H.stats().low_rank_values
+                             << ", mean rank " << H.stats().mean_rank);
         CHECK(err <= 10 * tol);
         CHECK(err < previous);
         // Tighter targets store more (higher ranks, or blocks kept dense).
@@ -142,10 +142,14 @@ TEST_CASE("hierarchical: thermal and radiosity solves agree with the dense solve
         props.emissivity[i] = 0.1 + 0.15 * (surf % 6);
         props.temperature[i] = std::numeric_limits<double>::quiet_NaN();
         props.net_flux[i] = std::numeric_limits<double>::quiet_NaN();
-        if (surf % 6 == 0) props.temperature[i] = 1000.0;
-        else if (surf % 6 == 1) props.temperature[i] = 300.0;
-        else if (surf % 6 == 2) props.net_flux[i] = 0.0;
-        else props.temperature[i] = 500.0 + 10.0 * static_cast<double>(i % 7);
+        if (surf % 6 == 0)
+            props.temperature[i] = 1000.0;
+        else if (surf % 6 == 1)
+            props.temperature[i] = 300.0;
+        else if (surf % 6 == 2)
+            props.net_flux[i] = 0.0;
+        else
+            props.temperature[i] = 500.0 + 10.0 * static_cast<double>(i % 7);
     }
     ThermalOptions dense_o;  // direct
     const ThermalResult d = solve_thermal(ff, props, dense_o);
@@ -162,8 +166,7 @@ TEST_CASE("hierarchical: thermal and radiosity solves agree with the dense solve
         worst_q = std::max(worst_q, std::abs(h.net_power[i] - d.net_power[i]) / emitted);
     }
     MESSAGE("thermal: radiosity within " << worst_j << " relative, net power within " << worst_q
-                                         << " of the total; " << h.stats.iterations
-                                         << " products");
+                                         << " of the total; " << h.stats.iterations << " products");
     CHECK(worst_j <= 1e-4);
     CHECK(worst_q <= 1e-4);
     CHECK(h.relative_balance_defect <= 1e-6);
@@ -179,8 +182,8 @@ TEST_CASE("hierarchical: thermal and radiosity solves agree with the dense solve
         for (std::size_t i = 0; i < n; ++i)
             for (int c = 0; c < 3; ++c)
                 if (rd.radiosity[i][c] > 0.0)
-                    w = std::max(w, std::abs(rh.radiosity[i][c] - rd.radiosity[i][c]) /
-                                        rd.radiosity[i][c]);
+                    w = std::max(
+                        w, std::abs(rh.radiosity[i][c] - rd.radiosity[i][c]) / rd.radiosity[i][c]);
         CHECK(w <= 1e-4);
     }
     // Solvers that need F's entries are refused with the option named.
@@ -209,7 +212,8 @@ TEST_CASE("hierarchical: per-surface factors from the operator") {
         const double a = s.patches[i].area;
         ag[static_cast<std::size_t>(group[i])] += a;
         for (std::size_t j = 0; j < group.size(); ++j)
-            E(group[i], group[j]) += a * F(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j));
+            E(group[i], group[j]) +=
+                a * F(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j));
     }
     for (std::size_t r = 0; r < g; ++r) E.row(static_cast<Eigen::Index>(r)) /= ag[r];
     CHECK((G - E).cwiseAbs().maxCoeff() <= 1e-6);

@@ -37,10 +37,11 @@ __version__ = _core.__version__
 
 Scene = _core.Scene
 Result = _core.Result
-Scene.__module__ = Result.__module__ = "formfactor"
+HierarchicalOperator = _core.HierarchicalOperator
+Scene.__module__ = Result.__module__ = HierarchicalOperator.__module__ = "formfactor"
 
 __all__ = [
-    "Scene", "Result", "load", "builtin_scenes", "methods", "point_factors", "solve_radiosity",
+    "Scene", "Result", "HierarchicalOperator", "load", "builtin_scenes", "methods", "point_factors", "solve_radiosity",
     "solve_thermal", "RadiosityResult", "ThermalResult", "repair", "exchange_factors", "render",
     "Error", "InputError", "OptionError", "GeometryError", "ResourceError", "Cancelled",
     "TextProgress", "__version__",
@@ -124,6 +125,49 @@ def _form_factors(self, method=None, *, tolerance=None, obstructed_tolerance=Non
 Scene.form_factors = _form_factors
 
 
+def _hierarchical(self, tolerance=1e-6, *, eta=1.5, leaf_size=32, threads=0, progress=None):
+    """The hierarchical (H-matrix) operator of this scene's form factors, for scenes without
+    obstructions (closed rooms, furnaces, convex cavities): far cluster pairs as low-rank blocks
+    (adaptive cross approximation to the relative error ``tolerance``), near ones exact, F never
+    formed (docs/hierarchical.md). Pass it as F to :func:`solve_radiosity` and
+    :func:`solve_thermal` (GMRES by default), apply it with ``op @ x``, or use
+    ``op.as_linear_operator()`` with SciPy. Raises Error for a scene with obstructions."""
+    return _core.hierarchical(self, float(tolerance), float(eta), int(leaf_size), int(threads),
+                              _progress(progress))
+
+
+Scene.hierarchical = _hierarchical
+
+
+def _operator_matmul(self, x):
+    return self.matvec(_np.asarray(x, dtype=float))
+
+
+def _as_linear_operator(self):
+    """A scipy.sparse.linalg.LinearOperator of F: matvec F x, rmatvec Fᵀ y = A ∘ F (y / A)
+    (reciprocity, which the operator satisfies by construction)."""
+    from scipy.sparse.linalg import LinearOperator
+
+    areas = self.areas
+
+    def rmatvec(y):
+        y = _np.asarray(y, dtype=float)
+        if y.ndim == 1:
+            return areas * self.matvec(y / areas)
+        return areas[:, None] * self.matvec(y / areas[:, None])
+
+    return LinearOperator(self.shape, matvec=self.matvec, rmatvec=rmatvec,
+                          matmat=self.matvec, dtype=float)
+
+
+HierarchicalOperator.__matmul__ = _operator_matmul
+HierarchicalOperator.as_linear_operator = _as_linear_operator
+
+
+def _default_solver(F, dense_default):
+    return "gmres" if isinstance(F, HierarchicalOperator) else dense_default
+
+
 def _report(self):
     """The run report as a dict: the same keys as the CLI's ``compute --report`` JSON
     (scene, N, method, options, threads, timings, diagnostics with row sums and reciprocity,
@@ -182,23 +226,25 @@ class ThermalResult:
     warnings: list
 
 
-def solve_radiosity(scene, F, reflectance=None, emission=None, *, solver="gauss-seidel",
+def solve_radiosity(scene, F, reflectance=None, emission=None, *, solver=None,
                     residual=1e-8, max_iterations=0, threads=0, progress=None):
     """Solves the radiosity equation B = E + diag(ρ) F B for each of R, G, B.
 
-    F: a :class:`Result` of this scene (used without a copy) or an (N, N) array, F[i, j] from
-    patch i to patch j. reflectance ρ and emission E: per patch, (N, 3), (N,) (grey) or a
-    scalar; by default the scene's materials (MTL Kd and Ke). solver: ``gauss-seidel``,
-    ``jacobi``, ``shooting`` (progressive refinement) or ``direct`` (LU). Returns a
-    :class:`RadiosityResult`.
+    F: a :class:`Result` of this scene (used without a copy), an (N, N) array, F[i, j] from
+    patch i to patch j, or the scene's :class:`HierarchicalOperator`. reflectance ρ and
+    emission E: per patch, (N, 3), (N,) (grey) or a scalar; by default the scene's materials
+    (MTL Kd and Ke). solver: ``gauss-seidel`` (default for a matrix), ``jacobi``, ``shooting``
+    (progressive refinement), ``direct`` (LU) or ``gmres`` (default for an operator, which
+    takes gmres or jacobi). Returns a :class:`RadiosityResult`.
     """
+    solver = _default_solver(F, "gauss-seidel") if solver is None else solver
     d = _core.radiosity(scene, F, reflectance, emission, solver, float(residual),
                         int(max_iterations), int(threads), _progress(progress))
     return RadiosityResult(**d)
 
 
 def solve_thermal(scene, F, emissivity=None, temperature=None, net_flux=None, *,
-                  ambient_temperature=0.0, solver="direct", residual=1e-8, max_iterations=0,
+                  ambient_temperature=0.0, solver=None, residual=1e-8, max_iterations=0,
                   threads=0, progress=None):
     """Radiative heat exchange between grey diffuse patches (net-radiation method).
 
@@ -206,9 +252,11 @@ def solve_thermal(scene, F, emissivity=None, temperature=None, net_flux=None, *,
     leaving the patch); a patch with neither is adiabatic (q = 0). emissivity, temperature,
     net_flux: per patch (N,) or a scalar; NaN in temperature / net_flux means "not given" for
     that patch. Defaults come from the scene's materials. ambient_temperature: the black
-    environment that the open part of each row sees (K). F as in solve_radiosity. Returns a
+    environment that the open part of each row sees (K). F as in solve_radiosity. solver:
+    ``direct`` by default for a matrix, ``gmres`` for an operator. Returns a
     :class:`ThermalResult` (temperature, radiosity, net_flux, net_power, total_net_power, ...).
     """
+    solver = _default_solver(F, "direct") if solver is None else solver
     d = _core.thermal(scene, F, emissivity, temperature, net_flux, float(ambient_temperature),
                       solver, float(residual), int(max_iterations), int(threads),
                       _progress(progress))

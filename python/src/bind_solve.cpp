@@ -114,18 +114,31 @@ py::dict stats_dict(const SolverStats& s) {
     return d;
 }
 
+/// The hierarchical operator passed as F, or null; checked against the scene.
+const HierarchicalFormFactors* operator_of(const PyScene& s, const py::object& F) {
+    if (!py::isinstance<PyHierarchical>(F)) return nullptr;
+    const PyHierarchical& h = F.cast<const PyHierarchical&>();
+    if (h.op->size() != s.scene->patches.size())
+        throw OptionError("F", "is the operator of another scene (sizes differ)");
+    return h.op.get();
+}
+
 py::dict radiosity(const PyScene& s, const py::object& F, const py::object& reflectance,
                    const py::object& emission, const std::string& solver, double residual,
                    long long max_iterations, int threads, const py::object& progress) {
-    const FormFactors ff = form_factors_of(s, F);
-    const std::size_t n = ff.size();
+    const HierarchicalFormFactors* op = operator_of(s, F);
+    const FormFactors ff = op ? FormFactors{} : form_factors_of(s, F);
+    const std::size_t n = op ? op->size() : ff.size();
     PatchProperties props = properties_from_scene(*s.scene);
     if (!reflectance.is_none()) props.reflectance = per_patch_rgb(reflectance, "reflectance", n);
     if (!emission.is_none()) props.emission = per_patch_rgb(emission, "emission", n);
     validate_properties(props);
     const SolverOptions o = solver_options(solver, residual, max_iterations, threads);
     const RadiosityResult r = run_released(
-        [&](CancellationFlag&, ProgressSink*) { return solve_radiosity(ff, props, o); }, progress);
+        [&](CancellationFlag&, ProgressSink*) {
+            return op ? solve_radiosity(*op, props, o) : solve_radiosity(ff, props, o);
+        },
+        progress);
     py::dict d;
     d["radiosity"] = array_of(r.radiosity);
     d["stats"] = stats_dict(r.stats);
@@ -142,8 +155,9 @@ py::dict thermal(const PyScene& s, const py::object& F, const py::object& emissi
                  const py::object& temperature, const py::object& net_flux,
                  double ambient_temperature, const std::string& solver, double residual,
                  long long max_iterations, int threads, const py::object& progress) {
-    const FormFactors ff = form_factors_of(s, F);
-    const std::size_t n = ff.size();
+    const HierarchicalFormFactors* op = operator_of(s, F);
+    const FormFactors ff = op ? FormFactors{} : form_factors_of(s, F);
+    const std::size_t n = op ? op->size() : ff.size();
     PatchProperties props = properties_from_scene(*s.scene);
     if (!emissivity.is_none()) props.emissivity = per_patch(emissivity, "emissivity", n);
     const double nan = std::numeric_limits<double>::quiet_NaN();
@@ -175,7 +189,10 @@ py::dict thermal(const PyScene& s, const py::object& F, const py::object& emissi
             fmt::format("must be a finite number ≥ 0 (K), got {}", ambient_temperature));
     }
     const ThermalResult r = run_released(
-        [&](CancellationFlag&, ProgressSink*) { return solve_thermal(ff, props, o); }, progress);
+        [&](CancellationFlag&, ProgressSink*) {
+            return op ? solve_thermal(*op, props, o) : solve_thermal(ff, props, o);
+        },
+        progress);
     py::dict d;
     d["area"] = array_of(r.area);
     d["emissivity"] = array_of(r.emissivity);
@@ -198,7 +215,137 @@ py::dict thermal(const PyScene& s, const py::object& F, const py::object& emissi
 
 }  // namespace
 
+py::dict hierarchical_stats(const HierarchicalStats& st) {
+    py::dict d;
+    d["patches"] = st.patches;
+    d["tolerance"] = st.tolerance;
+    d["eta"] = st.eta;
+    d["leaf_size"] = st.leaf_size;
+    d["clusters"] = st.clusters;
+    d["leaves"] = st.leaves;
+    d["zero_blocks"] = st.zero_blocks;
+    d["dense_blocks"] = st.dense_blocks;
+    d["low_rank_blocks"] = st.low_rank_blocks;
+    d["low_rank_fallbacks"] = st.low_rank_fallbacks;
+    d["dense_values"] = st.dense_values;
+    d["low_rank_values"] = st.low_rank_values;
+    d["mean_rank"] = st.mean_rank;
+    d["max_rank"] = st.max_rank;
+    d["entries_computed"] = st.entries_computed;
+    d["bytes"] = st.bytes;
+    d["seconds"] = st.seconds;
+    return d;
+}
+
+void bind_hierarchical(py::module_& m) {
+    py::class_<PyHierarchical>(m, "HierarchicalOperator", R"doc(
+The hierarchical (H-matrix) form-factor operator of a scene without obstructions: F applied to
+vectors without forming it (docs/hierarchical.md). ``op @ x`` or ``op.matvec(x)`` is F x for an
+(N,) or (N, k) array; pass it as F to solve_radiosity / solve_thermal (gmres or jacobi);
+``as_linear_operator()`` gives a scipy.sparse.linalg.LinearOperator.
+)doc")
+        .def_property_readonly(
+            "shape",
+            [](const PyHierarchical& h) { return py::make_tuple(h.op->size(), h.op->size()); })
+        .def_property_readonly(
+            "areas", [](const PyHierarchical& h) { return array_of(h.op->areas()); },
+            "Patch areas (N,)")
+        .def_property_readonly(
+            "stats", [](const PyHierarchical& h) { return hierarchical_stats(h.op->stats()); },
+            "What the build made: blocks by kind, ranks, entries computed, bytes, seconds")
+        .def(
+            "matvec",
+            [](const PyHierarchical& h, const py::object& x, int threads) {
+                const auto a =
+                    py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(x);
+                const auto n = static_cast<py::ssize_t>(h.op->size());
+                if (!a || (a.ndim() != 1 && a.ndim() != 2) || a.shape(0) != n)
+                    throw OptionError("x", fmt::format("must have shape ({0},) or ({0}, k)", n));
+                const Eigen::Index k = a.ndim() == 1 ? 1 : a.shape(1);
+                Eigen::MatrixXd X(n, k), Y;
+                for (Eigen::Index i = 0; i < n; ++i)
+                    for (Eigen::Index c = 0; c < k; ++c) X(i, c) = a.data()[i * k + c];
+                if (!X.allFinite()) throw OptionError("x", "has values that are not finite");
+                {
+                    py::gil_scoped_release nogil;
+                    h.op->multiply(X, Y, threads);
+                }
+                py::array_t<double> out =
+                    a.ndim() == 1 ? py::array_t<double>(n)
+                                  : py::array_t<double>({n, static_cast<py::ssize_t>(k)});
+                double* o = out.mutable_data();
+                for (Eigen::Index i = 0; i < n; ++i)
+                    for (Eigen::Index c = 0; c < k; ++c) o[i * k + c] = Y(i, c);
+                return out;
+            },
+            py::arg("x"), py::arg("threads") = 0, "F x for x of shape (N,) or (N, k)")
+        .def(
+            "row_sums",
+            [](const PyHierarchical& h, int threads) {
+                std::vector<double> r;
+                {
+                    py::gil_scoped_release nogil;
+                    r = h.op->row_sums(threads);
+                }
+                return array_of(r);
+            },
+            py::arg("threads") = 0, "Σ_j F_ij per patch (N,)")
+        .def(
+            "per_surface",
+            [](const PyHierarchical& h, int threads) {
+                std::vector<int> group;
+                for (const Patch& p : h.scene->patches) group.push_back(p.surface);
+                const std::size_t g = h.scene->surfaces.size();
+                DenseMatrix G;
+                {
+                    py::gil_scoped_release nogil;
+                    G = h.op->per_group(group, g, threads);
+                }
+                py::array_t<double> out({g, g});
+                std::copy(G.data(), G.data() + G.size(), out.mutable_data());
+                return out;
+            },
+            py::arg("threads") = 0,
+            "Per-surface factors (S, S) from S products (surfaces few): area-weighted rows")
+        .def(
+            "to_dense",
+            [](const PyHierarchical& h, int threads) {
+                DenseMatrix F;
+                {
+                    py::gil_scoped_release nogil;
+                    F = h.op->to_dense(threads);
+                }
+                const std::size_t n = h.op->size();
+                py::array_t<double> out({n, n});
+                std::copy(F.data(), F.data() + F.size(), out.mutable_data());
+                return out;
+            },
+            py::arg("threads") = 0, "The operator as an (N, N) array (N² doubles: small scenes)");
+    m.def(
+        "hierarchical",
+        [](const PyScene& s, double tolerance, double eta, std::size_t leaf_size, int threads,
+           const py::object& progress) {
+            HierarchicalOptions o;
+            o.tolerance = tolerance;
+            o.eta = eta;
+            o.leaf_size = leaf_size;
+            o.threads = threads;
+            auto op = run_released(
+                [&](CancellationFlag&, ProgressSink* sink) {
+                    HierarchicalOptions oo = o;
+                    oo.progress = sink;
+                    return std::make_shared<const HierarchicalFormFactors>(
+                        HierarchicalFormFactors::build(*s.scene, oo));
+                },
+                progress);
+            return PyHierarchical{s.scene, std::move(op)};
+        },
+        py::arg("scene"), py::arg("tolerance"), py::arg("eta"), py::arg("leaf_size"),
+        py::arg("threads"), py::arg("progress"));
+}
+
 void bind_solve(py::module_& m) {
+    bind_hierarchical(m);
     m.def("radiosity", &radiosity, py::arg("scene"), py::arg("F"), py::arg("reflectance"),
           py::arg("emission"), py::arg("solver"), py::arg("residual"), py::arg("max_iterations"),
           py::arg("threads"), py::arg("progress"));

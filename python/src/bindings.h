@@ -21,6 +21,7 @@
 #include "formfactor/core/error.h"
 #include "formfactor/core/progress.h"
 #include "formfactor/core/types.h"
+#include "formfactor/matrix/hierarchical.h"
 #include "formfactor/pipeline.h"
 #include "formfactor/scene/scene.h"
 
@@ -42,6 +43,12 @@ struct PyResult {
     /// The report, as the CLI writes it (json_text), made when first asked for: the
     /// diagnostics it recomputes cost O(N²), which a caller that never reads it should not pay.
     mutable std::optional<std::string> report_json;
+};
+
+/// The hierarchical operator of a scene (formfactor/matrix/hierarchical.h).
+struct PyHierarchical {
+    std::shared_ptr<const Scene> scene;
+    std::shared_ptr<const HierarchicalFormFactors> op;
 };
 
 /// `value` as a T, or an OptionError naming the keyword (a string for samples=, say, must not

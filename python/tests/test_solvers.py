@@ -92,3 +92,59 @@ def test_solver_arguments_are_checked():
     block = s.form_factors(rows=(0, 1))
     with pytest.raises(ff.OptionError):
         ff.solve_radiosity(s, block)
+
+
+def test_hierarchical_operator_products_solves_and_scipy():
+    scene = ff.load("cube", subdivide=10)  # 600 patches, a closed room without blockers
+    F = scene.form_factors().matrix
+    op = scene.hierarchical(1e-6)
+    n = len(scene.areas)
+    assert op.shape == (n, n)
+    assert op.stats["low_rank_blocks"] > 0
+    x = np.random.default_rng(3).random((n, 2))
+    assert np.linalg.norm(op @ x - F @ x) <= 1e-5 * np.linalg.norm(F @ x)
+    assert np.abs(op.matvec(x[:, 0]) - F @ x[:, 0]).max() <= 1e-5 * np.abs(F @ x[:, 0]).max()
+    np.testing.assert_allclose(op.row_sums(), 1.0, atol=1e-5)
+    # Per-surface factors (6 faces) as from the dense matrix.
+    S = op.per_surface()
+    face = scene.surface_index
+    A = scene.areas
+    E = np.zeros((6, 6))
+    for s in range(6):
+        for t in range(6):
+            E[s, t] = (A[face == s] @ F[np.ix_(face == s, face == t)].sum(axis=1)) / A[face == s].sum()
+    np.testing.assert_allclose(S, E, atol=1e-6)
+    # Solves take the operator as F (gmres by default) and agree with the dense ones.
+    T = np.where(face == 4, 1000.0, 300.0)
+    dense = ff.solve_thermal(scene, F, emissivity=0.3, temperature=T)
+    hier = ff.solve_thermal(scene, op, emissivity=0.3, temperature=T)
+    assert hier.stats["solver"] == "gmres"
+    np.testing.assert_allclose(hier.radiosity, dense.radiosity, rtol=1e-5)
+    rad = ff.solve_radiosity(scene, op, emission=np.where(face == 5, 1.0, 0.0))
+    ref = ff.solve_radiosity(scene, F, emission=np.where(face == 5, 1.0, 0.0), solver="direct")
+    np.testing.assert_allclose(rad.radiosity, ref.radiosity, rtol=1e-5, atol=1e-12)
+    with pytest.raises(ff.OptionError):
+        ff.solve_radiosity(scene, op, solver="gauss-seidel")
+    # SciPy: the LinearOperator solves the radiosity system with scipy's own GMRES.
+    scipy_linalg = pytest.importorskip("scipy.sparse.linalg")
+    L = op.as_linear_operator()
+    np.testing.assert_allclose(L.rmatvec(x[:, 0]), F.T @ x[:, 0], rtol=1e-5, atol=1e-12)
+    rho = 0.5
+    E0 = np.where(face == 5, 1.0, 0.0)
+    system = scipy_linalg.LinearOperator((n, n), matvec=lambda b: b - rho * (L @ b))
+    import inspect
+    rtol = "rtol" if "rtol" in inspect.signature(scipy_linalg.gmres).parameters else "tol"
+    B, info = scipy_linalg.gmres(system, E0, atol=1e-14, **{rtol: 1e-12})
+    assert info == 0
+    B_ref = np.linalg.solve(np.eye(n) - rho * F, E0)
+    np.testing.assert_allclose(B, B_ref, rtol=1e-5, atol=1e-10)
+
+
+def test_hierarchical_refuses_obstructed_scenes_and_bad_options():
+    with pytest.raises(ff.Error, match="obstructions"):
+        ff.load("cornell").hierarchical()
+    with pytest.raises(ff.OptionError):
+        ff.load("cube", subdivide=4).hierarchical(0.0)
+    other = ff.load("cube", subdivide=3).hierarchical()
+    with pytest.raises(ff.OptionError):
+        ff.solve_thermal(ff.load("cube", subdivide=4), other, temperature=300.0)

@@ -21,8 +21,8 @@ namespace formfactor {
 
 namespace {
 
-constexpr int kMaxOwnOrder = 4;         // rules kept per patch for the far entries
-constexpr std::size_t kChunks = 16;     // fixed partial sums of a product (deterministic)
+constexpr int kMaxOwnOrder = 4;               // rules kept per patch for the far entries
+constexpr std::size_t kChunks = 16;           // fixed partial sums of a product (deterministic)
 constexpr std::uint32_t kEstimatedRank = 10;  // for the memory estimate before the build
 
 // A patch in cluster order: what the entries need.
@@ -76,8 +76,10 @@ class Builder {
             const Patch& p = scene_.patches[i];
             const std::array<long long, 4> key = {
                 std::llround(p.normal.x() * 1e8), std::llround(p.normal.y() * 1e8),
-                std::llround(p.normal.z() * 1e8), std::llround(p.normal.dot(p.centroid) / diag * 1e8)};
-            group_[i] = key_to_group.emplace(key, static_cast<int>(key_to_group.size())).first->second;
+                std::llround(p.normal.z() * 1e8),
+                std::llround(p.normal.dot(p.centroid) / diag * 1e8)};
+            group_[i] =
+                key_to_group.emplace(key, static_cast<int>(key_to_group.size())).first->second;
         }
         nodes.reserve(2 * n / std::max<std::size_t>(o_.leaf_size, 1) + 2);
         split(0, static_cast<std::uint32_t>(n));
@@ -89,7 +91,8 @@ class Builder {
             d.c = p.centroid;
             d.n = p.normal;
             d.area = p.area;
-            for (const Vec3& v : p.polygon.vertices) d.radius = std::max(d.radius, (v - d.c).norm());
+            for (const Vec3& v : p.polygon.vertices)
+                d.radius = std::max(d.radius, (v - d.c).norm());
             for (int r = 0; r < kMaxOwnOrder; ++r) d.rules[r] = polygon_rule(p.polygon, r + 1);
         });
     }
@@ -200,7 +203,8 @@ class Builder {
     bool behind(const Node& P, const Node& Q) const {
         if (!P.planar) return false;
         for (int c = 0; c < 8; ++c) {
-            const Vec3 v((c & 1) ? Q.box.hi.x() : Q.box.lo.x(), (c & 2) ? Q.box.hi.y() : Q.box.lo.y(),
+            const Vec3 v((c & 1) ? Q.box.hi.x() : Q.box.lo.x(),
+                         (c & 2) ? Q.box.hi.y() : Q.box.lo.y(),
                          (c & 4) ? Q.box.hi.z() : Q.box.lo.z());
             if (P.plane.signed_distance(v) > eps) return false;
         }
@@ -284,9 +288,9 @@ class Builder {
                 left[groups[k].second] = take;
                 if (take) acc += c;
             }
-            const auto mid = std::stable_partition(
-                order.begin() + first, order.begin() + first + count,
-                [&](std::uint32_t i) { return left[group_[i]]; });
+            const auto mid =
+                std::stable_partition(order.begin() + first, order.begin() + first + count,
+                                      [&](std::uint32_t i) { return left[group_[i]]; });
             half = static_cast<std::uint32_t>(mid - (order.begin() + first));
             const int l = split(first, half);
             const int r = split(first + half, count - half);
@@ -634,7 +638,8 @@ void HierarchicalFormFactors::multiply(const Eigen::MatrixXd& X, Eigen::MatrixXd
             if (b.rank == 0) {
                 const Eigen::Map<const RowMat> D(b.u.data(), m, w);
                 Yk.middleRows(p, m).noalias() += D * Xt.middleRows(q, w);
-                if (b.p != b.q) Zk.middleRows(q, w).noalias() += D.transpose() * AXt.middleRows(p, m);
+                if (b.p != b.q)
+                    Zk.middleRows(q, w).noalias() += D.transpose() * AXt.middleRows(p, m);
             } else {
                 const auto r = static_cast<Eigen::Index>(b.rank);
                 const Eigen::Map<const Eigen::MatrixXd> U(b.u.data(), m, r);
@@ -689,7 +694,8 @@ DenseMatrix HierarchicalFormFactors::per_group(const std::vector<int>& group_of_
     Eigen::MatrixXd X = Eigen::MatrixXd::Zero(n, g), Y;
     for (Eigen::Index i = 0; i < n; ++i) {
         const int gi = group_of_patch[static_cast<std::size_t>(i)];
-        if (gi < 0 || gi >= g) throw Error(fmt::format("per-group factors: patch {} in group {}", i, gi));
+        if (gi < 0 || gi >= g)
+            throw Error(fmt::format("per-group factors: patch {} in group {}", i, gi));
         X(i, gi) = 1.0;
     }
     multiply(X, Y, threads);

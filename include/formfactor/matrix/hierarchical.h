@@ -108,11 +108,11 @@ class HierarchicalFormFactors {
     };
 
   private:
-    std::vector<double> areas_;              ///< scene order
-    std::vector<std::uint32_t> order_;       ///< cluster order → patch index
-    std::vector<double> tree_areas_;         ///< areas in cluster order
+    std::vector<double> areas_;         ///< scene order
+    std::vector<std::uint32_t> order_;  ///< cluster order → patch index
+    std::vector<double> tree_areas_;    ///< areas in cluster order
     std::vector<Block> blocks_;
-    std::vector<std::size_t> chunk_begin_;   ///< blocks [chunk_begin_[c], chunk_begin_[c + 1])
+    std::vector<std::size_t> chunk_begin_;  ///< blocks [chunk_begin_[c], chunk_begin_[c + 1])
     HierarchicalStats stats_;
 };
 
