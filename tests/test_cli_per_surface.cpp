@@ -4,6 +4,7 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
@@ -98,4 +99,42 @@ TEST_CASE("cli: --per-surface on a subdivided cube gives the cube, the flags exc
     CHECK(r.code == 2);
     CHECK(r.one_error_line());
     CHECK(r.err.find("--per-surface") != std::string::npos);
+}
+
+TEST_CASE("cli compute --storage hierarchical --per-surface: the cube's exact face factors") {
+    Cli cli;
+    // 6 × 24 × 24 = 3,456 patches: the per-surface matrix from 6 products of the operator.
+    CliResult r = cli.run(
+        "compute cube --subdivide 24 --storage hierarchical --per-surface -o S.npy --report "
+        "r.json");
+    INFO(describe(r));
+    REQUIRE(r.code == 0);
+    CHECK(r.out.find("operator   hierarchical") != std::string::npos);
+    const DenseMatrix S = read_matrix(cli.file("S.npy"));
+    REQUIRE(S.rows() == 6);
+    for (Eigen::Index i = 0; i < 6; ++i)
+        for (Eigen::Index j = 0; j < 6; ++j) {
+            if (i == j) {
+                CHECK(S(i, j) == 0.0);
+                continue;
+            }
+            // Opposite faces: x0/x1, y0/y1, z0/z1 (surfaces 2k, 2k+1).
+            const double exact = i / 2 == j / 2 ? kOpposite : kAdjacent;
+            CHECK(std::abs(S(i, j) - exact) <= 1e-7);
+        }
+    const auto report = nlohmann::json::parse(read_text(cli.file("r.json")));
+    CHECK(report["storage"]["kind"] == "hierarchical");
+    CHECK(report["per_surface"]["N"] == 6);
+    // The patch matrix is N x N: refused, as are the options that need F's entries.
+    for (const char* bad : {"compute cube --subdivide 4 --storage hierarchical -o F.npy",
+                            "compute cube --subdivide 4 --storage hierarchical --per-surface "
+                            "--repair both -o F.npy",
+                            "compute cube --subdivide 4 --storage hierarchical --per-surface "
+                            "--method mc-area -o F.npy",
+                            "compute cornell --storage hierarchical --per-surface -o F.npy"}) {
+        r = cli.run(bad);
+        INFO(bad << "\n" << describe(r));
+        CHECK(r.code != 0);
+        CHECK_FALSE(std::filesystem::exists(cli.file("F.npy")));
+    }
 }

@@ -13,7 +13,9 @@
 #include "formfactor/core/atomic_file.h"
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
+#include "formfactor/core/progress.h"
 #include "formfactor/matrix/aggregate.h"
+#include "formfactor/matrix/hierarchical.h"
 #include "formfactor/matrix/memory.h"
 #include "formfactor/methods/traits.h"
 #include "formfactor/output/matrix_io.h"
@@ -37,8 +39,9 @@ struct ComputeArgs {
     bool per_surface = false;  ///< --per-surface
     bool per_patch = false;    ///< --per-patch
     RepairArgs repair;
-    std::string storage = "auto";  ///< --storage auto|dense|sparse
+    std::string storage = "auto";  ///< --storage auto|dense|sparse|hierarchical
     double threshold = 0.0;        ///< --threshold T (sparse storage)
+    double error_target = 1e-6;    ///< --error-target (hierarchical storage)
 };
 
 // Rows of -o (and --stderr): per surface when asked, or by default for View3D (.vs3) input,
@@ -50,6 +53,105 @@ bool rows_per_surface(const ComputeArgs& args) {
     std::transform(ext.begin(), ext.end(), ext.begin(),
                    [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
     return ext == ".vs3";
+}
+
+// Hierarchical storage (formfactor/matrix/hierarchical.h): the per-surface matrix from the
+// operator's products (one per surface), F never formed.
+void run_compute_hierarchical(const ComputeArgs& args) {
+    Stopwatch total;
+    if (!rows_per_surface(args))
+        throw OptionError("--storage",
+                          "hierarchical storage writes the per-surface matrix (--per-surface); "
+                          "the patch matrix is N x N: use dense or sparse storage for it");
+    if (!args.standard_error.empty())
+        throw OptionError("--stderr",
+                          "the hierarchical operator has analytic entries (no standard "
+                          "errors)");
+    if (parse_repair_mode(args.repair.mode) != RepairMode::none)
+        throw OptionError("--repair",
+                          "needs the entries of F; the hierarchical operator is "
+                          "reciprocal by construction (--repair none)");
+    if (args.threshold > 0.0) throw OptionError("--threshold", "applies to sparse storage");
+    if (!(args.error_target > 0.0 && args.error_target <= 0.1))
+        throw OptionError("--error-target", "must be in (0, 0.1]");
+    if (!args.method.method.empty() && parse_method(args.method.method) != MethodKind::analytic)
+        throw OptionError("--method", "hierarchical storage computes analytic entries");
+    const int threads = effective_threads(args.method.options.threads);
+    StepTimes times;
+    Scene scene = prepare_scene(args.scene, times);
+    warn_single_patch(scene);
+    Stopwatch sw;
+    HierarchicalOptions ho;
+    ho.tolerance = args.error_target;
+    ho.threads = threads;
+    TerminalProgress bar;
+    ho.progress = &bar;
+    const HierarchicalFormFactors H = HierarchicalFormFactors::build(scene, ho);
+    times.add("hierarchical operator", sw.lap());
+    const PatchGroups groups = surface_groups(scene);
+    FormFactors written;
+    written.F = H.per_group(groups.group_of_patch, groups.size(), threads);
+    written.areas.assign(groups.size(), 0.0);
+    for (std::size_t i = 0; i < scene.patches.size(); ++i)
+        written.areas[static_cast<std::size_t>(groups.group_of_patch[i])] += scene.patches[i].area;
+    times.add("per-surface products", sw.lap());
+    MatrixFileInfo info;
+    info.areas = written.areas;
+    for (const auto& members : groups.surfaces)
+        info.emissivities.push_back(
+            scene.material_of_surface(static_cast<std::size_t>(members.front())).emissivity);
+    info.enclosure = scene.enclosure;
+    OutputTransaction tx;
+    tx.stage(args.output, [&](std::ostream& out) {
+        write_matrix(out, matrix_format_for(args.output), written.F, info);
+    });
+    if (!args.patches.empty())
+        tx.stage(args.patches, [&](std::ostream& out) { write_patch_table(out, scene); });
+    times.add("write", sw.lap());
+    const HierarchicalStats& hs = H.stats();
+    const Diagnostics d = diagnose(written);
+    if (!args.report.empty()) {
+        nlohmann::json timings = nlohmann::json::object();
+        for (const auto& [name, seconds] : times.steps) timings[name] = seconds;
+        timings["total"] = std::max(total.seconds(), times.sum());
+        nlohmann::json report = {
+            {"formfactor_version", FF_VERSION},
+            {"command", "compute"},
+            {"scene", scene_summary_json(scene)},
+            {"N", scene.patches.size()},
+            {"method", "analytic (hierarchical operator)"},
+            {"storage",
+             {{"kind", "hierarchical"},
+              {"error_target", hs.tolerance},
+              {"operator_bytes", hs.bytes},
+              {"low_rank_blocks", hs.low_rank_blocks},
+              {"dense_blocks", hs.dense_blocks},
+              {"zero_blocks", hs.zero_blocks},
+              {"mean_rank", hs.mean_rank},
+              {"max_rank", hs.max_rank},
+              {"entries_computed", hs.entries_computed},
+              {"seconds", hs.seconds}}},
+            {"threads", threads},
+            {"timings", timings},
+            {"memory", {{"peak_bytes", peak_memory_bytes()}}},
+            {"per_surface", {{"N", written.size()}, {"diagnostics", diagnostics_json(d)}}},
+            {"outputs", {{"matrix", args.output}, {"report", args.report}}},
+        };
+        stage_report(tx, args.report, report);
+    }
+    tx.commit();
+    fmt::print(
+        "operator   hierarchical, error target {:g}: {} low-rank blocks (rank mean {:.1f}), "
+        "{} dense, {} zero; {}\n",
+        hs.tolerance, hs.low_rank_blocks, hs.mean_rank, hs.dense_blocks, hs.zero_blocks,
+        format_bytes(static_cast<double>(hs.bytes)));
+    fmt::print("scene      {}: N = {} patches, {} surfaces; rows sum to {:.9f} .. {:.9f}\n",
+               scene.name, scene.patches.size(), written.size(), d.row_sum_min, d.row_sum_max);
+    fmt::print("time       {}\n", format_timings(times, total.seconds()));
+    std::string wrote = args.output;
+    if (!args.patches.empty()) wrote += ", " + args.patches;
+    if (!args.report.empty()) wrote += ", " + args.report;
+    fmt::print("wrote      {}\n", wrote);
 }
 
 // Sparse storage (formfactor/pipeline_sparse.h): rows in blocks into CSR, written as .mtx or
@@ -200,8 +302,10 @@ void run_compute(const ComputeArgs& args) {
     if (args.output.empty()) {
         throw OptionError("-o", "an output file is required (.csv, .npy, .txt, .mtx or .h5)");
     }
-    if (args.storage != "auto" && args.storage != "dense" && args.storage != "sparse")
-        throw OptionError("--storage", "must be auto, dense or sparse, got '" + args.storage + "'");
+    if (args.storage != "auto" && args.storage != "dense" && args.storage != "sparse" &&
+        args.storage != "hierarchical")
+        throw OptionError(
+            "--storage", "must be auto, dense, sparse or hierarchical, got '" + args.storage + "'");
     if (!(args.threshold >= 0.0) || !std::isfinite(args.threshold))
         throw OptionError("--threshold", "must be a finite number ≥ 0");
     const bool sparse_file = is_sparse_matrix_path(args.output);
@@ -240,6 +344,14 @@ void run_compute(const ComputeArgs& args) {
         }
     }
 
+    if (args.storage == "hierarchical") {
+        if (sparse_file)
+            throw OptionError("--storage",
+                              "hierarchical storage writes the per-surface matrix "
+                              "as .csv, .npy or .txt");
+        run_compute_hierarchical(args);
+        return;
+    }
     if (sparse_file) {
         std::string why = args.storage == "sparse" ? "asked for" : "auto: -o is a sparse format";
         if (args.storage == "auto") {
@@ -414,9 +526,14 @@ void add_compute_command(CLI::App& app) {
     ps->excludes(pp);
     cmd->add_option("--storage", args->storage,
                     "auto (default: sparse for -o .mtx or .h5, dense otherwise, and says which), "
-                    "dense (N×N in memory) or sparse (rows in blocks into CSR; the dense matrix "
-                    "is never made)")
+                    "dense (N×N in memory), sparse (rows in blocks into CSR; the dense matrix "
+                    "is never made) or hierarchical (per-surface factors from a compressed "
+                    "operator, scenes without obstructions: docs/hierarchical.md)")
         ->type_name("KIND");
+    cmd->add_option("--error-target", args->error_target,
+                    "Hierarchical storage: relative error of each compressed block")
+        ->type_name("T")
+        ->capture_default_str();
     cmd->add_option("--threshold", args->threshold,
                     "Sparse storage: drop entries F_ij ≤ T, keeping the dropped mass per row "
                     "(--repair reciprocity then restores reciprocity without raising a row sum)")

@@ -3,12 +3,14 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
 #include <map>
 #include <numeric>
 
+#include "formfactor/core/cancel.h"
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
 #include "formfactor/core/progress.h"
@@ -557,21 +559,29 @@ HierarchicalFormFactors HierarchicalFormFactors::build(const Scene& scene,
     };
     std::stable_sort(by_size.begin(), by_size.end(),
                      [&](std::size_t x, std::size_t y) { return count_of(x) > count_of(y); });
-    parallel_for(stored.size(), options.threads, [&](std::size_t t) {
-        const std::size_t k = by_size[t];
-        const Spec& sp = b.specs[stored[k]];
-        const Node& P = b.nodes[static_cast<std::size_t>(sp.a)];
-        const Node& Q = b.nodes[static_cast<std::size_t>(sp.b)];
-        Block& blk = H.blocks_[k];
-        blk.p = P.first;
-        blk.m = P.count;
-        blk.q = Q.first;
-        blk.n = Q.count;
-        if (sp.kind == Kind::dense || !fill_low_rank(b, blk, options.tolerance, computed[k])) {
-            if (sp.kind == Kind::low_rank) fell_back[k] = 1;
-            fill_dense(b, blk, computed[k]);
+    // Largest first, one block at a time from a shared counter (a range of the largest blocks
+    // on one thread would leave the other idle: 10^6 patches ran at 1.4 cores before this).
+    const CancellationFlag& cancel = current_cancellation();
+    std::atomic<std::size_t> next{0};
+    const auto workers = static_cast<std::size_t>(effective_threads(options.threads));
+    parallel_for(workers, options.threads, [&](std::size_t) {
+        for (std::size_t t; (t = next.fetch_add(1)) < stored.size();) {
+            cancel.throw_if_requested();
+            const std::size_t k = by_size[t];
+            const Spec& sp = b.specs[stored[k]];
+            const Node& P = b.nodes[static_cast<std::size_t>(sp.a)];
+            const Node& Q = b.nodes[static_cast<std::size_t>(sp.b)];
+            Block& blk = H.blocks_[k];
+            blk.p = P.first;
+            blk.m = P.count;
+            blk.q = Q.first;
+            blk.n = Q.count;
+            if (sp.kind == Kind::dense || !fill_low_rank(b, blk, options.tolerance, computed[k])) {
+                if (sp.kind == Kind::low_rank) fell_back[k] = 1;
+                fill_dense(b, blk, computed[k]);
+            }
+            progress.advance();
         }
-        progress.advance();
     });
     progress.finish();
 
