@@ -22,8 +22,13 @@ void TerminalProgress::update(const std::string& label, std::size_t done, std::s
     const int filled = static_cast<int>(frac * width + 0.5);
     std::string bar(static_cast<std::size_t>(filled), '#');
     bar.resize(width, '.');
-    std::fprintf(stderr, "\r%s [%s] %5.1f%%  %.1fs", label.c_str(), bar.c_str(), 100.0 * frac,
-                 elapsed);
+    // Time left at the rate so far (units of a phase cost about the same on average).
+    char left[48] = "";
+    if (done > 0 && done < total)
+        std::snprintf(left, sizeof left, ", about %.0fs left",
+                      elapsed * static_cast<double>(total - done) / static_cast<double>(done));
+    std::fprintf(stderr, "\r%s [%s] %5.1f%%  %.1fs%s\033[K", label.c_str(), bar.c_str(),
+                 100.0 * frac, elapsed, left);
     std::fflush(stderr);
     drawn_ = true;
 }

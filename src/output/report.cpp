@@ -8,6 +8,7 @@
 #include <ostream>
 
 #include "formfactor/core/atomic_file.h"
+#include "formfactor/matrix/memory.h"
 
 namespace formfactor {
 
@@ -149,6 +150,7 @@ json make_report(const Scene& scene, const FormFactors& ff, const ReportContext&
         {"timings", timings},
         {"diagnostics", diagnostics},
         {"details", ctx.details},
+        {"memory", {{"peak_bytes", peak_memory_bytes()}}},
         {"outputs", ctx.outputs},
     };
 }
