@@ -104,11 +104,13 @@ ComputeResult compute_form_factors(const Scene& scene, const ComputeOptions& opt
     method->check(scene);
     Stopwatch sw;
     std::unique_ptr<Visibility> visibility;
-    if (method->needs_visibility() && n > 0) {
+    const Visibility* vis = options.prebuilt_visibility;
+    if (method->needs_visibility() && n > 0 && !vis) {
         visibility = make_visibility(scene, options.visibility);
+        vis = visibility.get();
         result.timings.add("visibility", sw.lap());
     }
-    MethodContext ctx{scene, options.method_options, visibility.get(), options.progress, rows};
+    MethodContext ctx{scene, options.method_options, vis, options.progress, rows};
     MethodResult computed = method->compute(ctx);
     result.timings.add("compute", sw.lap());
     result.form_factors = std::move(computed.form_factors);

@@ -4,9 +4,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
+#include "formfactor/methods/method.h"
+#include "formfactor/visibility/visibility.h"
 
 namespace formfactor {
 
@@ -71,6 +74,16 @@ SparseComputeResult compute_sparse_form_factors(const Scene& scene, const Comput
     check_sparse_memory(needs, available, advice);
 
     std::optional<SparseBuilder> builder;  // made with the areas of the first block
+    // One ray tracer for every block (a BVH of the whole scene per block was most of a
+    // 10^5-patch Monte-Carlo run).
+    std::unique_ptr<Visibility> visibility;
+    {
+        const MethodKind kind = options.method ? *options.method : default_method(scene);
+        if (!options.prebuilt_visibility && make_method(kind)->needs_visibility() && n > 0)
+            visibility = make_visibility(scene, options.visibility);
+    }
+    const Visibility* vis =
+        options.prebuilt_visibility ? options.prebuilt_visibility : visibility.get();
     Progress progress("sparse rows", n, options.progress);
     Stopwatch sw;
     double compute_s = 0.0, threshold_s = 0.0;
@@ -79,6 +92,7 @@ SparseComputeResult compute_sparse_form_factors(const Scene& scene, const Comput
         bo.rows = RowRange{b, std::min(n, b + needs.block_rows)};
         bo.repair = RepairOptions{};
         bo.progress = nullptr;
+        bo.prebuilt_visibility = vis;
         ComputeResult block = compute_form_factors(scene, bo);
         compute_s += sw.lap();
         if (!builder)

@@ -55,6 +55,10 @@ struct ComputeOptions {
     MethodOptions method_options;
     /// The ray tracer's options, for the methods that cast rays.
     VisibilityOptions visibility;
+    /// A ray tracer already built for this scene (make_visibility(scene, visibility)) to use
+    /// instead of building one: a caller computing many row blocks of one scene builds it once.
+    /// Null (the default): built here when the method casts rays.
+    const Visibility* prebuilt_visibility = nullptr;
     /// The rows of F to compute (every row by default).
     RowRange rows;
     /// Repair of F after the method (whole matrices only); RepairMode::none by default. The

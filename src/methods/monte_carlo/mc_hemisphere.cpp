@@ -22,6 +22,7 @@ constexpr std::size_t kBatch = 256;
 // patches they touch, one batch of queries, hits and point coordinates.
 struct Buffers {
     std::vector<std::uint32_t> count, touched;
+    std::vector<std::uint32_t> row_touched;  // the row's patches hit in any replicate
     std::vector<RayQuery> queries = std::vector<RayQuery>(kBatch);
     std::vector<RayHit> hits = std::vector<RayHit>(kBatch);
     std::vector<double> u[4] = {std::vector<double>(kBatch), std::vector<double>(kBatch),
@@ -30,6 +31,7 @@ struct Buffers {
     void prepare(std::size_t n) {
         if (!clean || count.size() != n) count.assign(n, 0);
         touched.clear();
+        row_touched.clear();
         clean = false;
     }
 };
@@ -97,6 +99,7 @@ class McHemisphereMethod final : public mc::MonteCarloMethod {
                 }
                 for (std::uint32_t j : touched) {
                     const double c = count[j];
+                    if (F[j] == 0.0) buf.row_touched.push_back(j);
                     F[j] += c;
                     Q[j] += c * c / (double(nr) * n_bar);
                     count[j] = 0;
@@ -104,8 +107,10 @@ class McHemisphereMethod final : public mc::MonteCarloMethod {
                 touched.clear();
             }
             buf.clean = true;
-            for (Eigen::Index j = 0; j < F.size(); ++j) {
-                if (F[j] == 0.0) continue;
+            // Only the entries the row's rays reached (not all N: a 10^5-patch row has a few
+            // hundred).
+            for (const std::uint32_t jj : buf.row_touched) {
+                const auto j = static_cast<Eigen::Index>(jj);
                 mc::ReplicateMean acc{F[j], Q[j]};
                 const double f = F[j] / double(run.N);
                 Q[j] = run.R > 1 ? mc::replicate_standard_error(acc, double(run.N), run.R)
