@@ -2,9 +2,14 @@
 // Shared set-up of the visibility and Monte-Carlo benchmarks: scenes and pre-generated
 // incoherent rays (the "raw" ray-tracer throughput that the estimators are compared with).
 
+#include <benchmark/benchmark.h>
+#include <time.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
+#include <cstdlib>
+#include <string>
 #include <vector>
 
 #include "formfactor/core/parallel.h"
@@ -14,6 +19,33 @@
 #include "formfactor/visibility/visibility.h"
 
 namespace formfactor::bench {
+
+/// CPU seconds of the whole process so far (all threads).
+inline double process_cpu_seconds() {
+    timespec t{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+    return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+
+/// Registers `fn` as benchmark `name` once per size listed in the environment variable `env`
+/// (comma-separated integers > 0; nothing when unset), each run once, in seconds, wall time.
+template <class Fn>
+bool register_sizes_from_env(const char* name, Fn fn, const char* env) {
+    const char* list = std::getenv(env);
+    std::string rest = list ? list : "";
+    while (!rest.empty()) {
+        const std::size_t comma = rest.find(',');
+        const int n = std::atoi(rest.substr(0, comma).c_str());
+        if (n > 0)
+            benchmark::RegisterBenchmark(name, fn)
+                ->Arg(n)
+                ->Iterations(1)
+                ->Unit(benchmark::kSecond)
+                ->UseRealTime();
+        rest = comma == std::string::npos ? "" : rest.substr(comma + 1);
+    }
+    return true;
+}
 
 /// The Cornell box (with blocks) subdivided n×n per surface.
 inline Scene cornell(int n) {

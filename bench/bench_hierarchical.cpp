@@ -21,6 +21,7 @@
 #include <ctime>
 #include <string>
 
+#include "bench_common.h"
 #include "formfactor/matrix/hierarchical.h"
 #include "formfactor/matrix/memory.h"
 #include "formfactor/pipeline.h"
@@ -30,13 +31,9 @@
 
 using namespace formfactor;
 
-namespace {
+using bench::process_cpu_seconds;
 
-double process_cpu_seconds() {
-    timespec t{};
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-    return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
-}
+namespace {
 
 // Wall index 0..5 of a patch of the room, from its inward normal.
 int wall_of(const Patch& p) {
@@ -159,21 +156,7 @@ BENCHMARK(BM_HierarchicalClosedRoom)
     ->UseRealTime();
 
 // Other sizes on request (FF_BENCH_HIER_N, comma-separated n).
-static const bool kLarger = [] {
-    const char* list = std::getenv("FF_BENCH_HIER_N");
-    std::string rest = list ? list : "";
-    while (!rest.empty()) {
-        const std::size_t comma = rest.find(',');
-        const int n = std::atoi(rest.substr(0, comma).c_str());
-        if (n > 0)
-            benchmark::RegisterBenchmark("BM_HierarchicalClosedRoom", BM_HierarchicalClosedRoom)
-                ->Arg(n)
-                ->Iterations(1)
-                ->Unit(benchmark::kSecond)
-                ->UseRealTime();
-        rest = comma == std::string::npos ? "" : rest.substr(comma + 1);
-    }
-    return true;
-}();
+static const bool kLarger = bench::register_sizes_from_env(
+    "BM_HierarchicalClosedRoom", BM_HierarchicalClosedRoom, "FF_BENCH_HIER_N");
 
 BENCHMARK_MAIN();

@@ -14,19 +14,16 @@
 #include <ctime>
 #include <string>
 
+#include "bench_common.h"
 #include "formfactor/matrix/memory.h"
 #include "formfactor/pipeline_sparse.h"
 #include "formfactor/scene/city.h"
 
 using namespace formfactor;
 
-namespace {
+using bench::process_cpu_seconds;
 
-double process_cpu_seconds() {
-    timespec t{};
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-    return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
-}
+namespace {
 
 void BM_SparseCity(benchmark::State& state) {
     const Scene scene = city_scene(static_cast<int>(state.range(0)));
@@ -53,21 +50,7 @@ void BM_SparseCity(benchmark::State& state) {
 BENCHMARK(BM_SparseCity)->Arg(2)->Arg(4)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
 
 // Larger cities only on request (FF_BENCH_SPARSE_N, comma-separated N): every pair is evaluated.
-static const bool kLarger = [] {
-    const char* list = std::getenv("FF_BENCH_SPARSE_N");
-    std::string rest = list ? list : "";
-    while (!rest.empty()) {
-        const std::size_t comma = rest.find(',');
-        const int n = std::atoi(rest.substr(0, comma).c_str());
-        if (n > 0)
-            benchmark::RegisterBenchmark("BM_SparseCity", BM_SparseCity)
-                ->Arg(n)
-                ->Iterations(1)
-                ->Unit(benchmark::kSecond)
-                ->UseRealTime();
-        rest = comma == std::string::npos ? "" : rest.substr(comma + 1);
-    }
-    return true;
-}();
+static const bool kLarger =
+    bench::register_sizes_from_env("BM_SparseCity", BM_SparseCity, "FF_BENCH_SPARSE_N");
 
 BENCHMARK_MAIN();

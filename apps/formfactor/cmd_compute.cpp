@@ -73,21 +73,15 @@ void run_compute_hierarchical(const ComputeArgs& args) {
                           "reciprocal by construction (--repair none)");
     if (args.threshold > 0.0) throw OptionError("--threshold", "applies to sparse storage");
     if (!(args.error_target > 0.0 && args.error_target <= 0.1))
-        throw OptionError("--error-target", "must be in (0, 0.1]");
+        throw OptionError("--error-target", "must be in (0, 0.1]");  // before the work
     if (!args.method.method.empty() && parse_method(args.method.method) != MethodKind::analytic)
         throw OptionError("--method", "hierarchical storage computes analytic entries");
     const int threads = effective_threads(args.method.options.threads);
     StepTimes times;
     Scene scene = prepare_scene(args.scene, times);
     warn_single_patch(scene);
+    const HierarchicalFormFactors H = build_hierarchical(scene, args.error_target, threads, times);
     Stopwatch sw;
-    HierarchicalOptions ho;
-    ho.tolerance = args.error_target;
-    ho.threads = threads;
-    TerminalProgress bar;
-    ho.progress = &bar;
-    const HierarchicalFormFactors H = HierarchicalFormFactors::build(scene, ho);
-    times.add("hierarchical operator", sw.lap());
     const PatchGroups groups = surface_groups(scene);
     FormFactors written;
     written.F = H.per_group(groups.group_of_patch, groups.size(), threads);
@@ -111,28 +105,16 @@ void run_compute_hierarchical(const ComputeArgs& args) {
     const HierarchicalStats& hs = H.stats();
     const Diagnostics d = diagnose(written);
     if (!args.report.empty()) {
-        nlohmann::json timings = nlohmann::json::object();
-        for (const auto& [name, seconds] : times.steps) timings[name] = seconds;
-        timings["total"] = std::max(total.seconds(), times.sum());
         nlohmann::json report = {
             {"formfactor_version", FF_VERSION},
             {"command", "compute"},
             {"scene", scene_summary_json(scene)},
             {"N", scene.patches.size()},
             {"method", "analytic (hierarchical operator)"},
-            {"storage",
-             {{"kind", "hierarchical"},
-              {"error_target", hs.tolerance},
-              {"operator_bytes", hs.bytes},
-              {"low_rank_blocks", hs.low_rank_blocks},
-              {"dense_blocks", hs.dense_blocks},
-              {"zero_blocks", hs.zero_blocks},
-              {"mean_rank", hs.mean_rank},
-              {"max_rank", hs.max_rank},
-              {"entries_computed", hs.entries_computed},
-              {"seconds", hs.seconds}}},
+            {"storage", {{"kind", "hierarchical"}, {"operator_bytes", hs.bytes}}},
+            {"details", {{"hierarchical", to_json(hs)}}},
             {"threads", threads},
-            {"timings", timings},
+            {"timings", timings_json(times, total)},
             {"memory", {{"peak_bytes", peak_memory_bytes()}}},
             {"per_surface", {{"N", written.size()}, {"diagnostics", diagnostics_json(d)}}},
             {"outputs", {{"matrix", args.output}, {"report", args.report}}},
@@ -140,11 +122,6 @@ void run_compute_hierarchical(const ComputeArgs& args) {
         stage_report(tx, args.report, report);
     }
     tx.commit();
-    fmt::print(
-        "operator   hierarchical, error target {:g}: {} low-rank blocks (rank mean {:.1f}), "
-        "{} dense, {} zero; {}\n",
-        hs.tolerance, hs.low_rank_blocks, hs.mean_rank, hs.dense_blocks, hs.zero_blocks,
-        format_bytes(static_cast<double>(hs.bytes)));
     fmt::print("scene      {}: N = {} patches, {} surfaces; rows sum to {:.9f} .. {:.9f}\n",
                scene.name, scene.patches.size(), written.size(), d.row_sum_min, d.row_sum_max);
     fmt::print("time       {}\n", format_timings(times, total.seconds()));

@@ -70,42 +70,13 @@ void run_solve_hierarchical(const SolveArgs& args, Stopwatch& total) {
     if (!args.properties.empty()) apply_properties_csv(args.properties, scene, props);
     validate_properties(props);
 
-    HierarchicalOptions ho;
-    ho.tolerance = args.error_target;
-    ho.threads = threads;
-    TerminalProgress bar;
-    ho.progress = &bar;
-    const HierarchicalFormFactors H = HierarchicalFormFactors::build(scene, ho);
-    times.add("hierarchical operator", sw.lap());
+    const HierarchicalFormFactors H = build_hierarchical(scene, args.error_target, threads, times);
+    sw.lap();
     const HierarchicalStats& hs = H.stats();
-    fmt::print(
-        "operator   hierarchical, error target {:g}: {} low-rank blocks (rank mean {:.1f}, max "
-        "{}), {} dense, {} zero; {:.1f} MB ({:.2f}% of dense F)\n",
-        hs.tolerance, hs.low_rank_blocks, hs.mean_rank, hs.max_rank, hs.dense_blocks,
-        hs.zero_blocks, hs.bytes / 1e6,
-        100.0 * static_cast<double>(hs.bytes) /
-            (8.0 * static_cast<double>(hs.patches) * static_cast<double>(hs.patches)));
-
     OutputTransaction tx;
-    nlohmann::json solve_json;
-    if (args.thermal) {
-        ThermalOptions to;
-        to.solver = solver_options;
-        to.ambient_temperature = args.ambient_temperature;
-        const ThermalResult r = solve_thermal(H, props, to);
-        times.add("solve", sw.lap());
-        print_thermal_summary(r);
-        solve_json = to_json(r);
-        const std::string text = thermal_csv_text(r);
-        tx.stage(args.output, [&](std::ostream& out) { out << text; });
-    } else {
-        const RadiosityResult r = solve_radiosity(H, props, solver_options);
-        times.add("solve", sw.lap());
-        print_radiosity_summary(r);
-        solve_json = to_json(r);
-        const std::string text = radiosity_csv_text(r.radiosity);
-        tx.stage(args.output, [&](std::ostream& out) { out << text; });
-    }
+    const nlohmann::json solve_json =
+        solve_and_stage(H, props, args.thermal, args.ambient_temperature, solver_options,
+                        args.output, times, sw, tx);
     times.add("write", sw.lap());
     if (!args.report.empty()) {
         const std::vector<double> sums = H.row_sums(threads);
@@ -116,9 +87,6 @@ void run_solve_hierarchical(const SolveArgs& args, Stopwatch& total) {
             mean += v;
         }
         if (!sums.empty()) mean /= static_cast<double>(sums.size());
-        nlohmann::json timings = nlohmann::json::object();
-        for (const auto& [name, seconds] : times.steps) timings[name] = seconds;
-        timings["total"] = std::max(total.seconds(), times.sum());
         nlohmann::json options = args.method.to_json("analytic");
         options["storage"] = "hierarchical";
         options["error_target"] = args.error_target;
@@ -137,31 +105,11 @@ void run_solve_hierarchical(const SolveArgs& args, Stopwatch& total) {
             {"method", "analytic (hierarchical operator)"},
             {"options", options},
             {"threads", threads},
-            {"timings", timings},
+            {"timings", timings_json(times, total)},
             {"diagnostics",
              {{"row_sum", {{"min", lo}, {"max", hi}, {"mean", mean}}},
               {"reciprocity", "exact by construction (one block per unordered cluster pair)"}}},
-            {"details",
-             {{"hierarchical",
-               {{"tolerance", hs.tolerance},
-                {"eta", hs.eta},
-                {"leaf_size", hs.leaf_size},
-                {"clusters", hs.clusters},
-                {"leaves", hs.leaves},
-                {"zero_blocks", hs.zero_blocks},
-                {"dense_blocks", hs.dense_blocks},
-                {"low_rank_blocks", hs.low_rank_blocks},
-                {"low_rank_fallbacks", hs.low_rank_fallbacks},
-                {"dense_values", hs.dense_values},
-                {"low_rank_values", hs.low_rank_values},
-                {"mean_rank", hs.mean_rank},
-                {"max_rank", hs.max_rank},
-                {"pairs_zero", hs.pairs_zero},
-                {"pairs_dense", hs.pairs_dense},
-                {"pairs_low_rank", hs.pairs_low_rank},
-                {"entries_computed", hs.entries_computed},
-                {"bytes", hs.bytes},
-                {"seconds", hs.seconds}}}}},
+            {"details", {{"hierarchical", to_json(hs)}}},
             {"storage", {{"kind", "hierarchical"}, {"operator_bytes", hs.bytes}}},
             {"memory", {{"peak_bytes", peak_memory_bytes()}}},
             {"outputs", {{"result", args.output}, {"report", args.report}}},
@@ -266,25 +214,9 @@ void run_solve(const SolveArgs& args) {
     const std::optional<RepairReport>& repaired = computed.repaired;
 
     OutputTransaction tx;
-    nlohmann::json solve_json;
-    if (args.thermal) {
-        ThermalOptions to;
-        to.solver = solver_options;
-        to.ambient_temperature = args.ambient_temperature;
-        const ThermalResult r = solve_thermal(ff, props, to);
-        times.add("solve", sw.lap());
-        print_thermal_summary(r);
-        solve_json = to_json(r);
-        const std::string text = thermal_csv_text(r);
-        tx.stage(args.output, [&](std::ostream& out) { out << text; });
-    } else {
-        const RadiosityResult r = solve_radiosity(ff, props, solver_options);
-        times.add("solve", sw.lap());
-        print_radiosity_summary(r);
-        solve_json = to_json(r);
-        const std::string text = radiosity_csv_text(r.radiosity);
-        tx.stage(args.output, [&](std::ostream& out) { out << text; });
-    }
+    const nlohmann::json solve_json =
+        solve_and_stage(ff, props, args.thermal, args.ambient_temperature, solver_options,
+                        args.output, times, sw, tx);
     if (!args.exchange.empty()) {
         const DenseMatrix X = total_exchange_factors(ff.F, props.emissivity);
         times.add("exchange factors", sw.lap());

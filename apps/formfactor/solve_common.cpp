@@ -2,10 +2,14 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cstdio>
 
 #include "formfactor/core/error.h"
+#include "formfactor/core/progress.h"
+#include "formfactor/matrix/memory.h"
 #include "formfactor/output/report.h"
+#include "formfactor/output/solution_io.h"
 #include "formfactor/pipeline.h"
 
 namespace formfactor::cli {
@@ -111,6 +115,95 @@ SolverOptions SolverArgs::options(SolverKind default_kind, int threads) const {
     o.threads = threads;
     return o;
 }
+
+HierarchicalFormFactors build_hierarchical(const Scene& scene, double error_target, int threads,
+                                           StepTimes& times) {
+    if (!(error_target > 0.0 && error_target <= 0.1))
+        throw OptionError("--error-target", "must be in (0, 0.1]");
+    Stopwatch sw;
+    HierarchicalOptions ho;
+    ho.tolerance = error_target;
+    ho.threads = threads;
+    TerminalProgress bar;
+    ho.progress = &bar;
+    HierarchicalFormFactors H = HierarchicalFormFactors::build(scene, ho);
+    times.add("hierarchical operator", sw.lap());
+    const HierarchicalStats& hs = H.stats();
+    fmt::print(
+        "operator   hierarchical, error target {:g}: {} low-rank blocks (rank mean {:.1f}, max "
+        "{}), {} dense, {} zero; {} ({:.2f}% of dense F)\n",
+        hs.tolerance, hs.low_rank_blocks, hs.mean_rank, hs.max_rank, hs.dense_blocks,
+        hs.zero_blocks, format_bytes(static_cast<double>(hs.bytes)),
+        100.0 * static_cast<double>(hs.bytes) /
+            (8.0 * static_cast<double>(hs.patches) * static_cast<double>(hs.patches)));
+    return H;
+}
+
+nlohmann::json to_json(const HierarchicalStats& hs) {
+    return {{"tolerance", hs.tolerance},
+            {"eta", hs.eta},
+            {"leaf_size", hs.leaf_size},
+            {"clusters", hs.clusters},
+            {"leaves", hs.leaves},
+            {"zero_blocks", hs.zero_blocks},
+            {"dense_blocks", hs.dense_blocks},
+            {"low_rank_blocks", hs.low_rank_blocks},
+            {"low_rank_fallbacks", hs.low_rank_fallbacks},
+            {"dense_values", hs.dense_values},
+            {"low_rank_values", hs.low_rank_values},
+            {"mean_rank", hs.mean_rank},
+            {"max_rank", hs.max_rank},
+            {"pairs_zero", hs.pairs_zero},
+            {"pairs_dense", hs.pairs_dense},
+            {"pairs_low_rank", hs.pairs_low_rank},
+            {"entries_computed", hs.entries_computed},
+            {"bytes", hs.bytes},
+            {"seconds", hs.seconds}};
+}
+
+nlohmann::json timings_json(const StepTimes& times, const Stopwatch& total) {
+    nlohmann::json t = nlohmann::json::object();
+    for (const auto& [name, seconds] : times.steps) t[name] = seconds;
+    t["total"] = std::max(total.seconds(), times.sum());
+    return t;
+}
+
+template <class Matrix>
+nlohmann::json solve_and_stage(const Matrix& F, const PatchProperties& props, bool thermal,
+                               double ambient_temperature, const SolverOptions& options,
+                               const std::string& output, StepTimes& times, Stopwatch& sw,
+                               OutputTransaction& tx) {
+    nlohmann::json out;
+    std::string text;
+    if (thermal) {
+        ThermalOptions to;
+        to.solver = options;
+        to.ambient_temperature = ambient_temperature;
+        const ThermalResult r = solve_thermal(F, props, to);
+        times.add("solve", sw.lap());
+        print_thermal_summary(r);
+        out = to_json(r);
+        text = thermal_csv_text(r);
+    } else {
+        const RadiosityResult r = solve_radiosity(F, props, options);
+        times.add("solve", sw.lap());
+        print_radiosity_summary(r);
+        out = to_json(r);
+        text = radiosity_csv_text(r.radiosity);
+    }
+    tx.stage(output, [text](std::ostream& o) { o << text; });
+    return out;
+}
+
+template nlohmann::json solve_and_stage<FormFactors>(const FormFactors&, const PatchProperties&,
+                                                     bool, double, const SolverOptions&,
+                                                     const std::string&, StepTimes&, Stopwatch&,
+                                                     OutputTransaction&);
+template nlohmann::json solve_and_stage<HierarchicalFormFactors>(const HierarchicalFormFactors&,
+                                                                 const PatchProperties&, bool,
+                                                                 double, const SolverOptions&,
+                                                                 const std::string&, StepTimes&,
+                                                                 Stopwatch&, OutputTransaction&);
 
 std::vector<bool> emitting_patches(const Scene& scene) {
     std::vector<bool> e(scene.patches.size(), false);

@@ -8,6 +8,8 @@
 #include <string>
 
 #include "common.h"
+#include "formfactor/core/atomic_file.h"
+#include "formfactor/matrix/hierarchical.h"
 #include "formfactor/matrix/repair.h"
 #include "formfactor/output/render.h"
 #include "formfactor/scene/scene.h"
@@ -58,6 +60,24 @@ struct SolverArgs {
     /// Throws OptionError for a bad value.
     SolverOptions options(SolverKind default_kind, int threads) const;
 };
+
+/// The hierarchical operator of `scene` at `error_target` (--error-target, checked here),
+/// progress on the terminal; adds its step to `times` and prints the operator line.
+HierarchicalFormFactors build_hierarchical(const Scene& scene, double error_target, int threads,
+                                           StepTimes& times);
+/// The operator's statistics for a report (details.hierarchical / storage).
+nlohmann::json to_json(const HierarchicalStats& s);
+/// The timings of a report: each step, and `total` (≥ their sum).
+nlohmann::json timings_json(const StepTimes& times, const Stopwatch& total);
+
+/// Solves the radiosity or (thermal) the thermal problem on F (a FormFactors or the
+/// hierarchical operator), prints the summary, stages the result table at `output` and returns
+/// the report's "solve" section; `options` as for solve_thermal / solve_radiosity.
+template <class Matrix>
+nlohmann::json solve_and_stage(const Matrix& F, const PatchProperties& props, bool thermal,
+                               double ambient_temperature, const SolverOptions& options,
+                               const std::string& output, StepTimes& times, Stopwatch& sw,
+                               OutputTransaction& tx);
 
 /// Patches whose material emits (left out of the automatic exposure).
 std::vector<bool> emitting_patches(const Scene& scene);

@@ -48,16 +48,25 @@ void multiply(const DenseMatrix& F, const Columns& x, Columns& y, int threads) {
     }
 }
 
-double relative_residual(const DenseMatrix& F, const Columns& d, const Columns& c, const Columns& x,
-                         Columns& work, int threads) {
-    multiply(F, x, work, threads);
+namespace {
+
+// ‖c + D y − x‖_∞ / ‖x‖_∞ for y = F x (0 when x = 0).
+double residual_of(const Columns& d, const Columns& c, const Columns& x, const Columns& y) {
     double r = 0.0;
     for (Eigen::Index k = 0; k < x.cols(); ++k)
         for (Eigen::Index i = 0; i < x.rows(); ++i)
-            r = std::max(r, std::abs(c(i, k) + d(i, k) * work(i, k) - x(i, k)));
+            r = std::max(r, std::abs(c(i, k) + d(i, k) * y(i, k) - x(i, k)));
     const double xm = max_abs(x);
     if (xm == 0.0) return r == 0.0 ? 0.0 : std::numeric_limits<double>::infinity();
     return r / xm;
+}
+
+}  // namespace
+
+double relative_residual(const DenseMatrix& F, const Columns& d, const Columns& c, const Columns& x,
+                         Columns& work, int threads) {
+    multiply(F, x, work, threads);
+    return residual_of(d, c, x, work);
 }
 
 namespace {
@@ -220,13 +229,7 @@ constexpr int kGmresRestart = 30;
 double operator_residual(const ApplyF& apply, const Columns& d, const Columns& c, const Columns& x,
                          Columns& work) {
     apply(x, work);
-    double r = 0.0;
-    for (Eigen::Index k = 0; k < x.cols(); ++k)
-        for (Eigen::Index i = 0; i < x.rows(); ++i)
-            r = std::max(r, std::abs(c(i, k) + d(i, k) * work(i, k) - x(i, k)));
-    const double xm = max_abs(x);
-    if (xm == 0.0) return r == 0.0 ? 0.0 : std::numeric_limits<double>::infinity();
-    return r / xm;
+    return residual_of(d, c, x, work);
 }
 
 // Restarted GMRES on (I − diag(dk) F) x = ck, one column: Arnoldi with modified Gram–Schmidt,
