@@ -103,9 +103,10 @@ TEST_CASE("cli: --per-surface on a subdivided cube gives the cube, the flags exc
 
 TEST_CASE("cli compute --storage hierarchical --per-surface: the cube's exact face factors") {
     Cli cli;
-    // 6 × 24 × 24 = 3,456 patches: the per-surface matrix from 6 products of the operator.
+    // 6 × 16 × 16 = 1,536 patches (384 compressed blocks): the per-surface matrix from 6
+    // products of the operator.
     CliResult r = cli.run(
-        "compute cube --subdivide 24 --storage hierarchical --per-surface -o S.npy --report "
+        "compute cube --subdivide 16 --storage hierarchical --per-surface -o S.npy --report "
         "r.json");
     INFO(describe(r));
     REQUIRE(r.code == 0);
