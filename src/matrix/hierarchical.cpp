@@ -26,6 +26,7 @@ namespace {
 constexpr int kMaxOwnOrder = 4;               // rules kept per patch for the far entries
 constexpr std::size_t kChunks = 16;           // fixed partial sums of a product (deterministic)
 constexpr std::uint32_t kEstimatedRank = 10;  // for the memory estimate before the build
+constexpr double kNearlyInPlane = 1e-6;       // relative to the scene's diagonal
 
 // A patch in cluster order: what the entries need.
 struct PatchData {
@@ -480,7 +481,10 @@ HierarchicalFormFactors HierarchicalFormFactors::build(const Scene& scene,
     const std::size_t n = scene.patches.size();
     if (n == 0) throw Error("hierarchical: the scene has no patches");
     if (n >= (1ull << 31)) throw Error("hierarchical: more than 2^31 patches");
-    if (AnalyticMethod::may_obstruct(scene))
+    // Vertices within 1e-6 of the scene's size of a plane count as in it (the planarity
+    // tolerance of the scene readers): a jittered mesh of a convex room is still a convex room,
+    // and what it could hide lies in a sliver that thin.
+    if (AnalyticMethod::may_obstruct(scene, kNearlyInPlane))
         throw Error(
             "hierarchical storage: a surface of this scene can block the view between two others "
             "(obstructions); the hierarchical operator of this version is exact only without "

@@ -22,7 +22,9 @@ class AnalyticMethod final : public Method {
 
     /// True when some surface may block a segment between two others (an obstruction-only
     /// surface, or a surface with vertices of other surfaces on both sides of its plane).
-    static bool may_obstruct(const Scene& scene);
+    /// `relative_tolerance` × the scene's diagonal is the distance from a plane below which a
+    /// vertex counts as in it.
+    static bool may_obstruct(const Scene& scene, double relative_tolerance = 1e-9);
 
     /// Largest tolerance of the unobstructed values in an obstructed scene (see compute()).
     static constexpr double kVisibleTolerance = 1e-10;

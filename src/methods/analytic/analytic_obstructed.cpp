@@ -236,7 +236,7 @@ class Classifier {
 
 }  // namespace
 
-bool AnalyticMethod::may_obstruct(const Scene& scene) {
+bool AnalyticMethod::may_obstruct(const Scene& scene, double relative_tolerance) {
     for (const Surface& s : scene.surfaces)
         if (s.obstruction) return true;
     std::vector<const Polygon*> polys;
@@ -249,7 +249,7 @@ bool AnalyticMethod::may_obstruct(const Scene& scene) {
     for (const Polygon* p : polys)
         for (const Vec3& v : p->vertices) box.extend(v);
     if (box.empty()) return false;
-    const double eps = 1e-9 * box.diagonal().norm();
+    const double eps = relative_tolerance * box.diagonal().norm();
     // Surface k cannot block any segment between two other surfaces when all their vertices are
     // in one closed half-space of k's plane.
     for (std::size_t k = 0; k < polys.size(); ++k) {
