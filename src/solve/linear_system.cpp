@@ -72,39 +72,47 @@ double relative_residual(const DenseMatrix& F, const Columns& d, const Columns& 
 namespace {
 
 // Runs sweeps (each returns its largest update) until the update is small and the exact
-// relative residual is below o.residual, or max_it sweeps; returns the sweep count.
-template <class Sweep>
-long long iterate(const DenseMatrix& F, const Columns& d, const Columns& c, const SolverOptions& o,
-                  long long max_it, Columns& x, Columns& y, double& residual, Sweep&& sweep) {
+// relative residual (from `exact_residual()`) is below o.residual, or max_it sweeps; returns
+// the sweep count.
+template <class Sweep, class Residual>
+long long iterate(const SolverOptions& o, long long max_it, Columns& x, double& residual,
+                  Sweep&& sweep, Residual&& exact_residual) {
     long long it = 0;
     while (it < max_it) {
         const double change = sweep();
         ++it;
         const double xm = max_abs(x);
         if (change <= o.residual * xm || xm == 0.0) {
-            residual = relative_residual(F, d, c, x, y, o.threads);
+            residual = exact_residual();
             if (residual <= o.residual) return it;
         }
     }
-    residual = relative_residual(F, d, c, x, y, o.threads);
+    residual = exact_residual();
     return it;
 }
 
-// x ← c + D F x until the update (= the residual of the previous iterate) is below tolerance.
-long long run_jacobi(const DenseMatrix& F, const Columns& d, const Columns& c,
-                     const SolverOptions& o, long long max_it, Columns& x, Columns& y,
-                     double& residual) {
-    return iterate(F, d, c, o, max_it, x, y, residual, [&] {
-        multiply(F, x, y, o.threads);
-        double change = 0.0;
-        for (Eigen::Index k = 0; k < x.cols(); ++k)
-            for (Eigen::Index i = 0; i < x.rows(); ++i) {
-                const double v = c(i, k) + d(i, k) * y(i, k);
-                change = std::max(change, std::abs(v - x(i, k)));
-                x(i, k) = v;
-            }
-        return change;
-    });
+// x ← c + D F x until the update (= the residual of the previous iterate) is below tolerance;
+// `apply(x, y)` is y = F x (a dense product or an operator's).
+template <class Apply>
+long long run_jacobi(const Apply& apply, const Columns& d, const Columns& c, const SolverOptions& o,
+                     long long max_it, Columns& x, Columns& y, double& residual) {
+    return iterate(
+        o, max_it, x, residual,
+        [&] {
+            apply(x, y);
+            double change = 0.0;
+            for (Eigen::Index k = 0; k < x.cols(); ++k)
+                for (Eigen::Index i = 0; i < x.rows(); ++i) {
+                    const double v = c(i, k) + d(i, k) * y(i, k);
+                    change = std::max(change, std::abs(v - x(i, k)));
+                    x(i, k) = v;
+                }
+            return change;
+        },
+        [&] {
+            apply(x, y);
+            return residual_of(d, c, x, y);
+        });
 }
 
 // In-place sweeps. In the ∞-norm the residual after a sweep is at most the largest update
@@ -113,19 +121,22 @@ long long run_gauss_seidel(const DenseMatrix& F, const Columns& d, const Columns
                            const SolverOptions& o, long long max_it, Columns& x, Columns& y,
                            double& residual) {
     const Eigen::Index n = F.rows();
-    return iterate(F, d, c, o, max_it, x, y, residual, [&] {
-        double change = 0.0;
-        for (Eigen::Index i = 0; i < n; ++i) {
-            const double fii = F(i, i);
-            for (Eigen::Index k = 0; k < x.cols(); ++k) {
-                const double s = F.row(i).dot(x.col(k)) - fii * x(i, k);
-                const double v = (c(i, k) + d(i, k) * s) / (1.0 - d(i, k) * fii);
-                change = std::max(change, std::abs(v - x(i, k)));
-                x(i, k) = v;
+    return iterate(
+        o, max_it, x, residual,
+        [&] {
+            double change = 0.0;
+            for (Eigen::Index i = 0; i < n; ++i) {
+                const double fii = F(i, i);
+                for (Eigen::Index k = 0; k < x.cols(); ++k) {
+                    const double s = F.row(i).dot(x.col(k)) - fii * x(i, k);
+                    const double v = (c(i, k) + d(i, k) * s) / (1.0 - d(i, k) * fii);
+                    change = std::max(change, std::abs(v - x(i, k)));
+                    x(i, k) = v;
+                }
             }
-        }
-        return change;
-    });
+            return change;
+        },
+        [&] { return relative_residual(F, d, c, x, y, o.threads); });
 }
 
 // Progressive refinement as Southwell iteration: r = c + D F x − x is the unshot quantity;
@@ -226,6 +237,14 @@ void run_direct(const DenseMatrix& F, const Columns& d, const Columns& c, Column
 
 constexpr int kGmresRestart = 30;
 
+// The stopping rule's options (both solve_linear and solve_linear_operator).
+void check_options(const SolverOptions& options) {
+    if (!(options.residual > 0.0) || !std::isfinite(options.residual))
+        throw OptionError("residual", "must be a positive number");
+    if (options.max_iterations < 0)
+        throw OptionError("max_iterations", "must be ≥ 0 (0 = automatic)");
+}
+
 double operator_residual(const ApplyF& apply, const Columns& d, const Columns& c, const Columns& x,
                          Columns& work) {
     apply(x, work);
@@ -298,10 +317,7 @@ SolverStats solve_linear_operator(const ApplyF& apply, Eigen::Index n, const Col
                                   const Columns& c, const SolverOptions& options, Columns& x) {
     const auto start = std::chrono::steady_clock::now();
     FF_ASSERT(d.rows() == n && c.rows() == n && d.cols() == c.cols());
-    if (!(options.residual > 0.0) || !std::isfinite(options.residual))
-        throw OptionError("residual", "must be a positive number");
-    if (options.max_iterations < 0)
-        throw OptionError("max_iterations", "must be ≥ 0 (0 = automatic)");
+    check_options(options);
     if (options.solver != SolverKind::jacobi && options.solver != SolverKind::gmres)
         throw OptionError("solver", fmt::format("{} needs the entries of F; an operator that is "
                                                 "never formed is solved by gmres or jacobi",
@@ -314,26 +330,7 @@ SolverStats solve_linear_operator(const ApplyF& apply, Eigen::Index n, const Col
     double residual = 0.0;
     if (options.solver == SolverKind::jacobi) {
         const long long max_it = options.max_iterations > 0 ? options.max_iterations : 10000;
-        long long it = 0;
-        residual = std::numeric_limits<double>::infinity();
-        while (it < max_it) {
-            apply(x, y);
-            ++it;
-            double change = 0.0;
-            for (Eigen::Index k = 0; k < x.cols(); ++k)
-                for (Eigen::Index i = 0; i < n; ++i) {
-                    const double v = c(i, k) + d(i, k) * y(i, k);
-                    change = std::max(change, std::abs(v - x(i, k)));
-                    x(i, k) = v;
-                }
-            const double xm = max_abs(x);
-            if (change <= options.residual * xm || xm == 0.0) {
-                residual = operator_residual(apply, d, c, x, y);
-                if (residual <= options.residual) break;
-            }
-        }
-        st.iterations = it;
-        if (!(residual <= options.residual)) residual = operator_residual(apply, d, c, x, y);
+        st.iterations = run_jacobi(apply, d, c, options, max_it, x, y, residual);
     } else {
         const long long max_it = options.max_iterations > 0 ? options.max_iterations : 1000;
         for (Eigen::Index k = 0; k < c.cols(); ++k) {
@@ -374,10 +371,7 @@ SolverStats solve_linear(const DenseMatrix& F, const std::vector<double>& areas,
     const Eigen::Index n = F.rows();
     FF_ASSERT(F.cols() == n && d.rows() == n && c.rows() == n && d.cols() == c.cols());
     FF_ASSERT(static_cast<Eigen::Index>(areas.size()) == n);
-    if (!(options.residual > 0.0) || !std::isfinite(options.residual))
-        throw OptionError("residual", "must be a positive number");
-    if (options.max_iterations < 0)
-        throw OptionError("max_iterations", "must be ≥ 0 (0 = automatic)");
+    check_options(options);
 
     if (options.solver == SolverKind::gmres)
         return solve_linear_operator(
@@ -393,9 +387,12 @@ SolverStats solve_linear(const DenseMatrix& F, const std::vector<double>& areas,
         case SolverKind::jacobi:
         case SolverKind::gauss_seidel: {
             const long long max_it = options.max_iterations > 0 ? options.max_iterations : 10000;
-            st.iterations = options.solver == SolverKind::jacobi
-                                ? run_jacobi(F, d, c, options, max_it, x, y, residual)
-                                : run_gauss_seidel(F, d, c, options, max_it, x, y, residual);
+            st.iterations =
+                options.solver == SolverKind::jacobi
+                    ? run_jacobi([&](const Columns& v,
+                                     Columns& out) { multiply(F, v, out, options.threads); },
+                                 d, c, options, max_it, x, y, residual)
+                    : run_gauss_seidel(F, d, c, options, max_it, x, y, residual);
             break;
         }
         case SolverKind::shooting: {
