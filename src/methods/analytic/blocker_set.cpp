@@ -113,7 +113,10 @@ void BlockerSet::mark_closed_solids(const std::vector<std::pair<Bounds3, int>>& 
     };
     // A component that is a convex solid, closed or open along one planar loop of unmatched
     // edges (the face that would close it runs the other way round that loop): Piece::solid.
-    constexpr std::size_t kMaxSolidPieces = 64;
+    // The test below is exact and costs pieces² × vertices (4,096 pieces: ~0.1 s): a faceted
+    // sphere of a few thousand triangles is one solid, whose front faces then need no shadow
+    // subtraction among themselves (evaluate_point()).
+    constexpr std::size_t kMaxSolidPieces = 4096;
     using Key = std::array<long long, 3>;
     auto add_convex_solid = [&](const std::vector<int>& ps) {
         std::map<Key, std::pair<Key, Vec3>> next;  // unmatched edge: start → (end, start point)
@@ -226,6 +229,12 @@ bool BlockerSet::culls_at(int solid, const Vec3& x) const {
     for (const Plane& f : so.faces)
         if (f.signed_distance(x) > so.tol) return true;
     return false;
+}
+
+bool BlockerSet::culls_at(int solid, const Vec3& x, double face_distance) const {
+    const Solid& so = solids_[static_cast<std::size_t>(solid)];
+    if (!(face_distance > so.tol)) return culls_at(solid, x);
+    return !(so.open && so.opening.signed_distance(x) > so.tol);
 }
 
 bool BlockerSet::culls_all(int solid, const Vec3* v, int n) const {

@@ -159,9 +159,16 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
     // solid that both face the whole sender: inside the union of the shadows).
     thread_local std::vector<std::uint64_t> inner;
     thread_local std::vector<Plane> plane_of;  // per polygon: its plane
+    // Per polygon: its convex solid when every point of the sender is outside it (culls it),
+    // else −1. Seen from such a point the solid's shadow is convex, the projection of its
+    // silhouette: a vertex and an edge of two faces of that solid make a kink only when the
+    // vertex lies in the edge's face plane (the silhouette gains or loses that face); any other
+    // crossing of the two happens inside the shadow or would break its convexity.
+    thread_local std::vector<int> solid_of;
     polys.clear();
     inner.clear();
     plane_of.clear();
+    solid_of.clear();
     Poly3 a, b;
     clip3(rc.poly, ns, ds + eps, a);
     const bool have_receiver = a.n >= 3;
@@ -169,12 +176,22 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
         polys.push_back(a);
         inner.push_back(0);
         plane_of.push_back(Plane{rc.n, rc.d});
+        solid_of.push_back(-1);
     }
     const Vec3* sv_ = s.vertices.data();
     const int sn_ = static_cast<int>(s.size());
     // Culling of a piece's solid holds for the whole sender (pieces of closed solids apart
     // from other geometry, or of convex solids the sender is outside of).
-    auto culls_sender = [&](int k) { return blockers.culls_polygon(k, sv_, sn_); };
+    // One answer per solid for this sender (culls_all() loops over the solid's faces).
+    thread_local std::vector<signed char> solid_culls;
+    solid_culls.assign(static_cast<std::size_t>(blockers.solid_count()), 0);
+    auto culls_sender = [&](int k) {
+        const auto& pc = blockers.piece(k);
+        if (pc.cull_back || pc.solid < 0) return blockers.culls_polygon(k, sv_, sn_);
+        signed char& st = solid_culls[static_cast<std::size_t>(pc.solid)];
+        if (st == 0) st = blockers.culls_polygon(k, sv_, sn_) ? 1 : 2;
+        return st == 1;
+    };
     auto faces_sender = [&](int k) {
         const auto& pc = blockers.piece(k);
         if (!culls_sender(k)) return false;
@@ -208,6 +225,7 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
         polys.push_back(a);
         inner.push_back(mask);
         plane_of.push_back(pc.plane);
+        solid_of.push_back(pc.solid >= 0 && culls_sender(cand[c]) ? pc.solid : -1);
     }
     if (polys.size() < 2) return convex_s;
     Vec3 su, sv;
@@ -269,6 +287,9 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
                 const bool only_seen = filter && !filter_off &&
                                        std::abs(plane_of[y].signed_distance(pw)) > tol_coplanar;
                 if (only_seen && on_plane) continue;  // a vertex in r's plane, off r
+                if (solid_of[x] >= 0 && solid_of[x] == solid_of[y] &&
+                    std::abs(plane_of[y].signed_distance(pw)) > tol_coplanar)
+                    continue;  // two faces of one convex solid, no face-plane event
                 for (int e = 0; e < q.n; ++e) {
                     if (inner[y] >> e & 1) continue;
                     const Vec3& e0 = q.v[static_cast<std::size_t>(e)];

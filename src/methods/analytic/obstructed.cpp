@@ -30,6 +30,85 @@ struct PointResult {
     double unobstructed = 0.0;  // F(x → r), when asked for
 };
 
+// The shadows that the front faces of one convex solid cast from x (solid_of[k] ≥ 0, the same
+// for all) are disjoint and their union is convex: the central projection of the solid's part
+// inside the pyramid from x over the receiver (a segment from x that meets the solid enters it
+// through a front face). Each such group becomes one polygon, the convex hull of its vertices,
+// when that fits a Poly2: the union below then subtracts one polygon per solid rather than one
+// per face, and Lambert's formula runs over the silhouette rather than over every face's edges
+// (the inner edges of the faces cancel in the sum). Groups whose hull has more than kCap
+// vertices stay as they are (still not subtracted from each other).
+void merge_solid_shadows(std::vector<Poly2>& shadows, std::vector<int>& solid_of) {
+    const std::size_t n = shadows.size();
+    bool repeated = false;
+    for (std::size_t k = 1; k < n && !repeated; ++k)
+        for (std::size_t l = 0; l < k && !repeated; ++l)
+            repeated = solid_of[k] >= 0 && solid_of[k] == solid_of[l];
+    if (!repeated) return;
+    struct P {
+        double x, y;
+    };
+    thread_local std::vector<P> pts, hull;
+    thread_local std::vector<Poly2> out;
+    thread_local std::vector<int> out_solid;
+    thread_local std::vector<char> done;
+    out.clear();
+    out_solid.clear();
+    done.assign(n, 0);
+    auto cross = [](const P& o, const P& a, const P& b) {
+        return (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x);
+    };
+    for (std::size_t k = 0; k < n; ++k) {
+        if (done[k]) continue;
+        const int so = solid_of[k];
+        std::size_t members = 1;
+        for (std::size_t l = k + 1; l < n && so >= 0; ++l) members += solid_of[l] == so;
+        if (so < 0 || members == 1) {
+            out.push_back(shadows[k]);
+            out_solid.push_back(so);
+            continue;
+        }
+        pts.clear();
+        for (std::size_t l = k; l < n; ++l) {
+            if (solid_of[l] != so) continue;
+            for (int m = 0; m < shadows[l].n; ++m)
+                pts.push_back({shadows[l].x[static_cast<std::size_t>(m)],
+                               shadows[l].y[static_cast<std::size_t>(m)]});
+        }
+        std::sort(pts.begin(), pts.end(),
+                  [](const P& a, const P& b) { return a.x < b.x || (a.x == b.x && a.y < b.y); });
+        // Andrew's monotone chain, counter-clockwise, collinear points dropped.
+        hull.assign(2 * pts.size(), P{});
+        std::size_t h = 0;
+        for (std::size_t m = 0; m < pts.size(); ++m) {
+            while (h >= 2 && cross(hull[h - 2], hull[h - 1], pts[m]) <= 0.0) --h;
+            hull[h++] = pts[m];
+        }
+        for (std::size_t m = pts.size() - 1, t = h + 1; m-- > 0;) {
+            while (h >= t && cross(hull[h - 2], hull[h - 1], pts[m]) <= 0.0) --h;
+            hull[h++] = pts[m];
+        }
+        const std::size_t hn = h > 0 ? h - 1 : 0;
+        if (hn >= 3 && hn <= static_cast<std::size_t>(kCap)) {
+            out.emplace_back();
+            Poly2& q = out.back();
+            q.n = static_cast<int>(hn);
+            for (std::size_t m = 0; m < hn; ++m) {
+                q.x[m] = hull[m].x;
+                q.y[m] = hull[m].y;
+            }
+            out_solid.push_back(so);
+            for (std::size_t l = k; l < n; ++l)
+                if (solid_of[l] == so) done[l] = 1;
+        } else {
+            out.push_back(shadows[k]);
+            out_solid.push_back(so);
+        }
+    }
+    shadows.swap(out);
+    solid_of.swap(out_solid);
+}
+
 // F(x → part of the receiver hidden by the candidate pieces); see point_hidden().
 PointResult evaluate_point(const Receiver& rc, const Vec3& x, const Vec3& nx,
                            const BlockerSet& blockers, const int* cand, int count, double eps,
@@ -75,14 +154,30 @@ PointResult evaluate_point(const Receiver& rc, const Vec3& x, const Vec3& nx,
     thread_local std::vector<int> solid_of;
     shadows.clear();
     solid_of.clear();
+    // Per convex solid, whether x culls it (0 unknown, 1 yes, 2 no): one answer per point.
+    thread_local std::vector<signed char> culls;
+    thread_local std::vector<int> culls_set;
+    culls.resize(static_cast<std::size_t>(blockers.solid_count()), 0);
+    for (int so : culls_set) culls[static_cast<std::size_t>(so)] = 0;
+    culls_set.clear();
     Poly3 buf[2];
     for (int c = 0; c < count; ++c) {
         const int pk = cand[c];
         const auto& pc = blockers.piece(pk);
         bool culled_solid = false;
         if (pc.cull_back || pc.solid >= 0) {
-            culled_solid = pc.cull_back || blockers.culls_at(pc.solid, x);
-            if (culled_solid && !(pc.plane.signed_distance(x) > 0.0)) continue;
+            const double dist = pc.plane.signed_distance(x);
+            if (pc.cull_back) {
+                culled_solid = true;
+            } else {
+                signed char& st = culls[static_cast<std::size_t>(pc.solid)];
+                if (st == 0) {
+                    st = blockers.culls_at(pc.solid, x, dist) ? 1 : 2;
+                    culls_set.push_back(pc.solid);
+                }
+                culled_solid = st == 1;
+            }
+            if (culled_solid && !(dist > 0.0)) continue;
         }
         const Vec3* pv = blockers.vertices(pk);
         Poly3* a = &buf[0];
@@ -121,6 +216,7 @@ PointResult evaluate_point(const Receiver& rc, const Vec3& x, const Vec3& nx,
             std::reverse(q.y.begin(), q.y.begin() + q.n);
         }
     }
+    merge_solid_shadows(shadows, solid_of);
     // Union of the shadows as disjoint convex fragments: shadow k minus shadows 0..k−1.
     // Fragments below 1e-14 of the receiver's size² are rounding slivers of the subtraction.
     // A shadow whose box is apart from shadow k's box takes nothing from it.

@@ -61,6 +61,11 @@ class BlockerSet {
     /// in front of the plane of that opening. Then a segment from x that meets the solid enters
     /// it through a face x is in front of (it cannot enter through the opening).
     bool culls_at(int solid, const Vec3& x) const;
+    /// culls_at() when x's signed distance to the plane of one of the solid's faces is known:
+    /// in front of it by more than the tolerance decides at once (no loop over the faces).
+    bool culls_at(int solid, const Vec3& x, double face_distance) const;
+    /// The number of convex solids (the range of Piece::solid).
+    int solid_count() const { return static_cast<int>(solids_.size()); }
     /// culls_at() for every point of the convex polygon v[0..n) (checked on its vertices, one
     /// face for all).
     bool culls_all(int solid, const Vec3* v, int n) const;
