@@ -73,7 +73,7 @@ SANITIZE_SKIP_LABELS ?= slow|issue9
 # The golden outputs are byte-exact for the Release toolchain (GCC), not for clang at -O1. The
 # CLI's hierarchical solves against the dense ones (five 864-patch solves, 106 s under ASan)
 # leave the sanitized run to the library's hierarchical tests, which cover the same code.
-SANITIZE_SKIP_TESTS ?= differential: analytic against mc-target|large polygons: (a 1000-gon|Monte-Carlo methods on 1000-gon)|obstructed: room scene|golden: |cli solve --storage hierarchical: the thermal
+SANITIZE_SKIP_TESTS ?= differential: analytic against mc-target|large polygons: (a 1000-gon|Monte-Carlo methods on 1000-gon)|obstructed: room scene|golden: |cli solve --storage hierarchical: the thermal|cli solve --storage auto
 
 sanitize-configure: deps
 	@if [ ! -f $(SANITIZE_DIR)/CMakeCache.txt ]; then \

@@ -88,6 +88,10 @@ ComputeResult compute_form_factors(const Scene& scene, const ComputeOptions& opt
     // Memory before anything big exists: the rows, their standard errors, repair's copy.
     // mc-target still builds the whole matrix for a block of rows; the analytic method's block
     // holds its rows and, for the rows before it, their pairs with the block (≤ N × rows).
+    const auto method = make_method(kind);
+    const bool emit_sparse = options.sparse_rows && method->emits_sparse_rows();
+    if (emit_sparse && options.repair.mode != RepairMode::none)
+        throw OptionError("repair", "rows emitted sparse are repaired by the sparse pipeline");
     const bool full_inside = kind == MethodKind::mc_target;
     const bool strip = kind == MethodKind::analytic && !whole;
     DenseRunNeeds needs;
@@ -95,12 +99,14 @@ ComputeResult compute_form_factors(const Scene& scene, const ComputeOptions& opt
     needs.matrix = whole || full_inside;
     needs.standard_errors = result.traits.standard_errors && (whole || full_inside);
     needs.output_rows =
-        whole ? 0 : rows.size() * ((result.traits.standard_errors ? 2 : 1) + (strip ? 1 : 0));
+        whole || emit_sparse
+            ? 0
+            : rows.size() * ((result.traits.standard_errors ? 2 : 1) + (strip ? 1 : 0));
+    if (emit_sparse) needs.matrix = needs.standard_errors = false;
     needs.repair = options.repair.mode != RepairMode::none;
     check_memory(needs, available_memory(),
                  "use a coarser subdivision, or compute the rows in blocks (ComputeOptions::rows)");
 
-    const auto method = make_method(kind);
     method->check(scene);
     Stopwatch sw;
     std::unique_ptr<Visibility> visibility;
@@ -110,14 +116,16 @@ ComputeResult compute_form_factors(const Scene& scene, const ComputeOptions& opt
         vis = visibility.get();
         result.timings.add("visibility", sw.lap());
     }
-    MethodContext ctx{scene, options.method_options, vis, options.progress, rows};
+    MethodContext ctx{scene, options.method_options,
+                      vis,   options.progress,
+                      rows,  emit_sparse ? options.sparse_rows : nullptr};
     MethodResult computed = method->compute(ctx);
     result.timings.add("compute", sw.lap());
     result.form_factors = std::move(computed.form_factors);
     result.report = std::move(computed.report);
     result.threads = effective_threads(options.method_options.threads);
 
-    if (whole) result.diagnostics = diagnose(result.form_factors);  // before repair
+    if (whole && !emit_sparse) result.diagnostics = diagnose(result.form_factors);
     if (options.repair.mode != RepairMode::none) {
         RepairOptions ro = options.repair;
         ro.enclosure = scene.enclosure;

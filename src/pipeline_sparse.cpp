@@ -61,12 +61,19 @@ SparseComputeResult compute_sparse_form_factors(const Scene& scene, const Comput
     needs.block_strip = kind == MethodKind::analytic;
     needs.whole_matrix_inside = kind == MethodKind::mc_target;
     needs.repair = options.repair.mode != RepairMode::none;
+    // Rows emitted sparse: no rows × N block. Blocks of at most 8,192 rows still keep the rows
+    // waiting for the CSR small and let the projection below stop a run that will not fit.
+    const bool emit_sparse = make_method(kind)->emits_sparse_rows();
+    needs.rows_sparse = emit_sparse;
+    needs.threads = effective_threads(options.method_options.threads);
     const double available = available_memory();
     double budget = sparse.block_memory;
     if (!(budget > 0.0)) budget = available > 0.0 ? std::min(512e6, available / 4) : 512e6;
     needs.block_rows = sparse.block_rows > 0
                            ? std::min(sparse.block_rows, std::max<std::size_t>(n, 1))
                            : sparse_block_rows(needs, budget);
+    if (emit_sparse && sparse.block_rows == 0)
+        needs.block_rows = std::min<std::size_t>(needs.block_rows, 8192);
     result.run.block_rows = needs.block_rows;
     result.run.estimate_before = estimate_sparse_memory(needs);
     const std::string advice =
@@ -84,6 +91,7 @@ SparseComputeResult compute_sparse_form_factors(const Scene& scene, const Comput
     }
     const Visibility* vis =
         options.prebuilt_visibility ? options.prebuilt_visibility : visibility.get();
+    SparseRows emitted;
     Progress progress("sparse rows", n, options.progress);
     Stopwatch sw;
     double compute_s = 0.0, threshold_s = 0.0;
@@ -93,12 +101,17 @@ SparseComputeResult compute_sparse_form_factors(const Scene& scene, const Comput
         bo.repair = RepairOptions{};
         bo.progress = nullptr;
         bo.prebuilt_visibility = vis;
+        bo.sparse_rows = emit_sparse ? &emitted : nullptr;
         ComputeResult block = compute_form_factors(scene, bo);
         compute_s += sw.lap();
         if (!builder)
             builder.emplace(n, block.form_factors.areas, sparse.threshold,
-                            block.form_factors.standard_error.has_value());
-        builder->append(block.form_factors, options.method_options.threads);
+                            emit_sparse ? emitted.has_standard_errors()
+                                        : block.form_factors.standard_error.has_value());
+        if (emit_sparse)
+            builder->append(emitted, options.method_options.threads);
+        else
+            builder->append(block.form_factors, options.method_options.threads);
         merge_report(result.report, block.report, result.run.blocks == 0);
         result.threads = block.threads;
         ++result.run.blocks;
@@ -106,6 +119,11 @@ SparseComputeResult compute_sparse_form_factors(const Scene& scene, const Comput
         SparseRunNeeds projected = needs;
         projected.nonzeros =
             double(builder->current().nonzeros()) * double(n) / double(builder->rows());
+        if (emit_sparse) {
+            double entries = 0;
+            for (const auto& row : emitted.values) entries += double(row.size());
+            projected.row_entries = entries / double(std::max<std::size_t>(emitted.size(), 1));
+        }
         const double total = estimate_sparse_memory(projected).total();
         result.run.projected_bytes = std::max(result.run.projected_bytes, total);
         check_sparse_memory(projected, available, advice);

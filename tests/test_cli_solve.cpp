@@ -269,3 +269,32 @@ TEST_CASE("cli solve --storage hierarchical: what it refuses, with the option na
         CHECK_FALSE(std::filesystem::exists(cli.file("r.csv")));
     }
 }
+
+TEST_CASE("cli solve --storage auto: the hierarchical operator for a large unobstructed scene") {
+    // 6 × 53² = 16,854 patches (> 16,384): auto takes the operator and says why; a small scene
+    // and any option that needs F's entries keep the dense F.
+    Cli cli;
+    write_text(cli.file("p.csv"),
+               "surface,emissivity,temperature,net_flux\nz0,0.8,1000,\nz1,0.3,300,\n"
+               "x0,0.5,,0\nx1,0.5,,0\ny0,0.2,,0\ny1,0.9,,0\n");
+    CliResult r =
+        cli.run("solve cube --subdivide 53 --thermal --properties p.csv -o h.csv --report h.json");
+    INFO(describe(r));
+    REQUIRE(r.code == 0);
+    CHECK(r.out.find("storage    hierarchical (auto: 16,854 patches without obstructions") !=
+          std::string::npos);
+    const auto report = nlohmann::json::parse(read_text(cli.file("h.json")));
+    CHECK(report["storage"]["kind"] == "hierarchical");
+    CHECK(report["storage"]["why"].get<std::string>().rfind("auto: ", 0) == 0);
+    CHECK(report["solve"]["solver"]["converged"] == true);
+    const SolutionTable h = read_solution_csv(cli.file("h.csv"), 16854);
+    CHECK(h.thermal);
+
+    r = cli.run("solve cube --subdivide 4 --thermal --properties p.csv -o d.csv --report d.json");
+    INFO(describe(r));
+    REQUIRE(r.code == 0);
+    CHECK(r.out.find("hierarchical") == std::string::npos);
+    const auto dense = nlohmann::json::parse(read_text(cli.file("d.json")));
+    CHECK(dense["method"] == "analytic");
+    CHECK(cli.run("solve cube --subdivide 4 --storage auto --error-target 0 -o r.csv").code == 2);
+}

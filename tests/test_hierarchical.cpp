@@ -7,6 +7,7 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include "formfactor/core/error.h"
@@ -195,6 +196,25 @@ TEST_CASE("hierarchical: thermal and radiosity solves agree with the dense solve
     const RadiosityResult rg = solve_radiosity(ff, props, g);
     for (std::size_t i = 0; i < n; ++i)
         CHECK((rg.radiosity[i] - rd.radiosity[i]).norm() <= 1e-9 * (1.0 + rd.radiosity[i].norm()));
+}
+
+TEST_CASE("hierarchical: a closed room with no temperature is refused, as with the dense F") {
+    // Row sums of the operator are 1 only to its error target: the closed-enclosure check must
+    // still see a closed room (every patch adiabatic: temperatures only up to a constant).
+    const Scene s = room_scene(8, RoomBox::kNone);
+    HierarchicalOptions o;
+    o.tolerance = 1e-6;
+    o.leaf_size = 16;
+    const HierarchicalFormFactors H = HierarchicalFormFactors::build(s, o);
+    PatchProperties props = properties_from_scene(s);
+    for (std::size_t i = 0; i < s.patches.size(); ++i) {
+        props.temperature[i] = std::numeric_limits<double>::quiet_NaN();
+        props.net_flux[i] = 0.0;
+    }
+    ThermalOptions t;
+    t.solver.solver = SolverKind::gmres;
+    CHECK_THROWS_WITH_AS(solve_thermal(H, props, t),
+                         doctest::Contains("defined only up to a constant"), Error);
 }
 
 TEST_CASE("hierarchical: per-surface factors from the operator") {

@@ -38,9 +38,37 @@ struct SolveArgs {
     std::string exchange;
     std::string output;
     std::string report;
-    std::string storage = "dense";  ///< --storage dense|hierarchical
-    double error_target = 1e-6;     ///< --error-target (hierarchical)
+    std::string storage = "auto";  ///< --storage auto|dense|hierarchical
+    double error_target = 1e-6;    ///< --error-target (hierarchical)
 };
+
+void solve_hierarchical_scene(const SolveArgs& args, Scene& scene, StepTimes& times,
+                              Stopwatch& total, const std::string& why);
+
+// Whether `solve --storage auto` takes the hierarchical operator for `loaded` (before
+// subdivision; n patches after it), and why; empty when it takes the dense F. Only where the
+// operator can do the whole job: the analytic method, no F read or repaired, no exchange
+// factors, an iterative solver it supports, a scene without obstructions; and only when the
+// dense run would be large: more than 16,384 patches (F alone 2.1 GB, an O(N^3) direct solve)
+// or more than half the memory available.
+std::string auto_hierarchical(const SolveArgs& args, const Scene& loaded, std::size_t n,
+                              const DenseRunNeeds& dense) {
+    if (!args.matrix.empty() || !args.exchange.empty()) return {};
+    if (parse_repair_mode(args.repair.mode) != RepairMode::none) return {};
+    if (args.method.resolved_kind(loaded) != MethodKind::analytic) return {};
+    if (!args.solver.solver.empty()) {
+        const SolverKind k = parse_solver(args.solver.solver);
+        if (k != SolverKind::gmres && k != SolverKind::jacobi) return {};
+    }
+    DenseRunNeeds needs = dense;
+    needs.patches = n;
+    const double bytes = estimate_dense_memory(needs).total();
+    const double available = available_memory();
+    const bool big = n > 16384 || (available > 0.0 && bytes > 0.5 * available);
+    if (!big || !hierarchical_accepts(loaded)) return {};
+    return fmt::format("auto: {} patches without obstructions, the dense run would need {}",
+                       format_count(double(n)), format_bytes(bytes));
+}
 
 // `solve --storage hierarchical`: the operator of formfactor/matrix/hierarchical.h, never F.
 void run_solve_hierarchical(const SolveArgs& args, Stopwatch& total) {
@@ -64,6 +92,14 @@ void run_solve_hierarchical(const SolveArgs& args, Stopwatch& total) {
                           "(the others need the entries of F)");
     StepTimes times;
     Scene scene = prepare_scene(args.scene, times);
+    solve_hierarchical_scene(args, scene, times, total, "asked for");
+}
+
+// The hierarchical solve of a prepared scene (options checked); `why` says why this storage.
+void solve_hierarchical_scene(const SolveArgs& args, Scene& scene, StepTimes& times,
+                              Stopwatch& total, const std::string& why) {
+    const int threads = effective_threads(args.method.options.threads);
+    const SolverOptions solver_options = args.solver.options(SolverKind::gmres, threads);
     warn_single_patch(scene);
     Stopwatch sw;
     PatchProperties props = properties_from_scene(scene);
@@ -110,7 +146,7 @@ void run_solve_hierarchical(const SolveArgs& args, Stopwatch& total) {
              {{"row_sum", {{"min", lo}, {"max", hi}, {"mean", mean}}},
               {"reciprocity", "exact by construction (one block per unordered cluster pair)"}}},
             {"details", {{"hierarchical", to_json(hs)}}},
-            {"storage", {{"kind", "hierarchical"}, {"operator_bytes", hs.bytes}}},
+            {"storage", {{"kind", "hierarchical"}, {"why", why}, {"operator_bytes", hs.bytes}}},
             {"memory", {{"peak_bytes", peak_memory_bytes()}}},
             {"outputs", {{"result", args.output}, {"report", args.report}}},
             {"solve", solve_json},
@@ -120,6 +156,7 @@ void run_solve_hierarchical(const SolveArgs& args, Stopwatch& total) {
     tx.commit();
     fmt::print("scene      {}: N = {} patches, hierarchical operator (analytic entries)\n",
                scene.name, scene.patches.size());
+    fmt::print("storage    hierarchical ({}), operator {}\n", why, format_bytes(double(hs.bytes)));
     fmt::print("time       {}\n", format_timings(times, total.seconds()));
     std::string wrote = args.output;
     if (!args.report.empty()) wrote += ", " + args.report;
@@ -145,8 +182,11 @@ void run_solve(const SolveArgs& args) {
             (!args.report.empty() && same_file(args.exchange, args.report)))
             throw OptionError("--exchange-factors", "is the same file as another output");
     }
-    if (args.storage != "dense" && args.storage != "hierarchical")
-        throw OptionError("--storage", "must be dense or hierarchical, got '" + args.storage + "'");
+    if (args.storage != "auto" && args.storage != "dense" && args.storage != "hierarchical")
+        throw OptionError("--storage",
+                          "must be auto, dense or hierarchical, got '" + args.storage + "'");
+    if (args.storage == "auto" && !(args.error_target > 0.0 && args.error_target <= 0.1))
+        throw OptionError("--error-target", "must be in (0, 0.1]");
     if (args.storage == "hierarchical") {
         if (!args.solver.solver.empty()) parse_solver(args.solver.solver);
         if (!(args.ambient_temperature >= 0.0) || !std::isfinite(args.ambient_temperature))
@@ -168,6 +208,7 @@ void run_solve(const SolveArgs& args) {
         args.solver.options(args.thermal ? SolverKind::direct : SolverKind::gauss_seidel, threads);
 
     StepTimes times;
+    std::string hierarchical_why;  // set when --storage auto takes the operator
     Scene scene = prepare_scene(args.scene, times, [&](const Scene& loaded) {
         // The memory of F (computed or read), its standard errors, the repair copy, the solver
         // and the exchange factors, checked before the patches and F exist.
@@ -183,8 +224,20 @@ void run_solve(const SolveArgs& args) {
         if (!args.exchange.empty())
             for (const std::string& m : exchange_factor_dense_matrices())
                 needs.extra_matrices.push_back(m);
+        if (args.storage == "auto") {
+            hierarchical_why = auto_hierarchical(args, loaded, n, needs);
+            if (!hierarchical_why.empty()) {
+                DenseRunNeeds none;  // the operator checks its own memory before it is built
+                none.matrix = false;
+                return none;
+            }
+        }
         return needs;
     });
+    if (!hierarchical_why.empty()) {
+        solve_hierarchical_scene(args, scene, times, total, hierarchical_why);
+        return;
+    }
     warn_single_patch(scene);
     Stopwatch sw;
     // Properties first: a bad CSV fails before the expensive part.
@@ -306,10 +359,13 @@ void add_solve_command(CLI::App& app) {
         ->type_name("RESULT.csv");
     cmd->add_option("--report", args->report, "Also write a JSON report")->type_name("REPORT.json");
     cmd->add_option("--storage", args->storage,
-                    "dense: F as an N x N matrix; hierarchical: a compressed operator (low-rank "
-                    "far blocks, exact near blocks) solved by products, for large scenes without "
-                    "obstructions (docs/hierarchical.md)")
-        ->type_name("dense|hierarchical")
+                    "auto (default): hierarchical for more than 16,384 patches (or a dense run "
+                    "over half the memory) in a scene without obstructions when nothing needs F's "
+                    "entries, else dense, and says which; dense: F as an N x N matrix; "
+                    "hierarchical: a compressed operator (low-rank far blocks, exact near blocks) "
+                    "solved by products, for large scenes without obstructions "
+                    "(docs/hierarchical.md)")
+        ->type_name("auto|dense|hierarchical")
         ->capture_default_str();
     cmd->add_option("--error-target", args->error_target,
                     "Hierarchical storage: relative error of each compressed block")

@@ -59,6 +59,11 @@ struct ComputeOptions {
     /// instead of building one: a caller computing many row blocks of one scene builds it once.
     /// Null (the default): built here when the method casts rays.
     const Visibility* prebuilt_visibility = nullptr;
+    /// Rows emitted sparse: when set and the method emits sparse rows
+    /// (Method::emits_sparse_rows()), the rows go here and the result's form_factors.F is empty
+    /// (0 × N); no rows × N block is made. compute_sparse_form_factors() uses it; null (the
+    /// default): dense rows.
+    SparseRows* sparse_rows = nullptr;
     /// The rows of F to compute (every row by default).
     RowRange rows;
     /// Repair of F after the method (whole matrices only); RepairMode::none by default. The

@@ -469,6 +469,10 @@ bool fill_low_rank(const Builder& b, Block& blk, double tol, std::size_t& comput
 
 }  // namespace
 
+bool hierarchical_accepts(const Scene& scene) {
+    return !AnalyticMethod::may_obstruct(scene, kNearlyInPlane);
+}
+
 HierarchicalFormFactors HierarchicalFormFactors::build(const Scene& scene,
                                                        const HierarchicalOptions& options) {
     const auto start = std::chrono::steady_clock::now();
@@ -484,7 +488,7 @@ HierarchicalFormFactors HierarchicalFormFactors::build(const Scene& scene,
     // Vertices within 1e-6 of the scene's size of a plane count as in it (the planarity
     // tolerance of the scene readers): a jittered mesh of a convex room is still a convex room,
     // and what it could hide lies in a sliver that thin.
-    if (AnalyticMethod::may_obstruct(scene, kNearlyInPlane))
+    if (!hierarchical_accepts(scene))
         throw Error(
             "hierarchical storage: a surface of this scene can block the view between two others "
             "(obstructions); the hierarchical operator of this version is exact only without "

@@ -6,8 +6,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <fstream>
 #include <sstream>
+#include <vector>
 
 #include "formfactor/core/error.h"
 #include "formfactor/matrix/sparse.h"
@@ -128,6 +130,12 @@ namespace {
 // Bytes of the block buffers per row of a block.
 double block_bytes_per_row(const SparseRunNeeds& needs) {
     const double n = static_cast<double>(needs.patches);
+    if (needs.rows_sparse) {
+        const double entries = needs.row_entries > 0 ? needs.row_entries : 256.0;
+        const double per_entry =
+            sizeof(std::int32_t) + sizeof(double) * (needs.standard_errors ? 2 : 1);
+        return 3 * sizeof(std::vector<double>) + entries * per_entry;
+    }
     double per_row = dense_matrix_bytes(1, n) * (needs.standard_errors ? 2 : 1);
     if (needs.block_strip) per_row += dense_matrix_bytes(1, n);
     return per_row;
@@ -139,10 +147,20 @@ MemoryEstimate estimate_sparse_memory(const SparseRunNeeds& needs) {
     MemoryEstimate e;
     const double n = static_cast<double>(needs.patches);
     const double m = static_cast<double>(needs.block_rows);
-    e.add(fmt::format("a block of {} rows ({} × {} doubles{}{})", format_count(m), format_count(m),
-                      format_count(n), needs.standard_errors ? ", with standard errors" : "",
-                      needs.block_strip ? ", and the strip of earlier rows' pairs" : ""),
-          m * block_bytes_per_row(needs));
+    if (needs.rows_sparse) {
+        e.add(fmt::format("a block of {} rows emitted sparse", format_count(m)),
+              m * block_bytes_per_row(needs));
+        e.add(
+            fmt::format("a row of {} accumulators per thread ({} threads)", format_count(n),
+                        needs.threads),
+            double(std::max(needs.threads, 1)) * n * (sizeof(std::uint32_t) + 2 * sizeof(double)));
+    } else {
+        e.add(fmt::format("a block of {} rows ({} × {} doubles{}{})", format_count(m),
+                          format_count(m), format_count(n),
+                          needs.standard_errors ? ", with standard errors" : "",
+                          needs.block_strip ? ", and the strip of earlier rows' pairs" : ""),
+              m * block_bytes_per_row(needs));
+    }
     if (needs.whole_matrix_inside) {
         const double nn = dense_matrix_bytes(n, n);
         e.add(fmt::format("the whole unobstructed matrix and its standard errors, which the method "

@@ -131,6 +131,77 @@ void SparseBuilder::append(const FormFactors& block, int threads) {
     }
 }
 
+void SparseRows::reset(std::size_t first, std::size_t rows, bool standard_errors) {
+    first_row = first;
+    indices.assign(rows, {});
+    values.assign(rows, {});
+    standard_error.assign(standard_errors ? rows : 0, {});
+}
+
+double SparseRows::memory_bytes() const {
+    double b = 0.0;
+    for (std::size_t r = 0; r < size(); ++r)
+        b += double(indices[r].capacity()) * sizeof(std::int32_t) +
+             double(values[r].capacity()) * sizeof(double) +
+             (has_standard_errors() ? double(standard_error[r].capacity()) * sizeof(double) : 0.0);
+    return b + double(size()) * 3 * sizeof(std::vector<double>);
+}
+
+void SparseBuilder::append(const SparseRows& block, int threads) {
+    const std::size_t m = block.size(), n = m_.n, first = rows();
+    if (block.first_row != first || first + m > n)
+        throw Error("SparseBuilder: blocks must come in row order");
+    const bool se = m_.standard_error.has_value();
+    if (se && !block.has_standard_errors())
+        throw Error("SparseBuilder: the block has no standard errors");
+    const double t = m_.threshold;
+    std::vector<std::size_t> count(m), offset(m + 1, 0);
+    std::vector<double> sum(m), drop(m);
+    parallel_for(m, threads, [&](std::size_t r) {
+        const std::vector<double>& v = block.values[r];
+        if (block.indices[r].size() != v.size() ||
+            (se && block.standard_error[r].size() != v.size()))
+            throw Error("SparseBuilder: a row's arrays differ in length");
+        std::size_t c = 0;
+        double s = 0.0, d = 0.0;
+        for (std::size_t k = 0; k < v.size(); ++k) {
+            const std::int32_t j = block.indices[r][k];
+            if (j < 0 || static_cast<std::size_t>(j) >= n ||
+                (k > 0 && j <= block.indices[r][k - 1]))
+                throw Error("SparseBuilder: a row's columns must ascend within [0, N)");
+            s += v[k];
+            if (v[k] > t)
+                ++c;
+            else
+                d += v[k];
+        }
+        count[r] = c;
+        sum[r] = s;
+        drop[r] = d;
+    });
+    for (std::size_t r = 0; r < m; ++r) offset[r + 1] = offset[r] + count[r];
+    const std::size_t base = m_.values.size();
+    m_.values.resize(base + offset[m]);
+    m_.indices.resize(base + offset[m]);
+    if (se) m_.standard_error->resize(base + offset[m]);
+    parallel_for(m, threads, [&](std::size_t r) {
+        const std::vector<double>& v = block.values[r];
+        std::size_t k = base + offset[r];
+        for (std::size_t e = 0; e < v.size(); ++e) {
+            if (!(v[e] > t)) continue;
+            m_.values[k] = v[e];
+            m_.indices[k] = block.indices[r][e];
+            if (se) (*m_.standard_error)[k] = block.standard_error[r][e];
+            ++k;
+        }
+    });
+    for (std::size_t r = 0; r < m; ++r) {
+        m_.indptr.push_back(static_cast<std::int64_t>(base + offset[r + 1]));
+        m_.computed_row_sums.push_back(sum[r]);
+        m_.dropped.push_back(drop[r]);
+    }
+}
+
 SparseFormFactors SparseBuilder::finish() {
     if (rows() != m_.n)
         throw Error("SparseBuilder: " + std::to_string(rows()) + " of " + std::to_string(m_.n) +

@@ -74,6 +74,11 @@ struct HierarchicalStats {
     std::size_t leaf_size = 0;
 };
 
+/// True when HierarchicalFormFactors::build() accepts the scene's geometry: no surface can
+/// block the view between two others (within 1e-6 of the scene's size; surfaces, or patches when
+/// the scene has none). What `solve --storage auto` asks before it picks the operator.
+bool hierarchical_accepts(const Scene& scene);
+
 /// The operator. Patch order is the scene's.
 class HierarchicalFormFactors {
   public:

@@ -75,6 +75,12 @@ struct SparseRunNeeds {
     double nonzeros = 0;
     /// The repair's working copies (the transposed pattern and the symmetrised matrix).
     bool repair = false;
+    /// The method emits its rows sparse (Method::emits_sparse_rows()): no rows × N block, but
+    /// per thread a row of N accumulators, and the block's rows until they join the CSR
+    /// (`row_entries` expected entries a row, 0: not known yet, counted as 256).
+    bool rows_sparse = false;
+    double row_entries = 0;
+    int threads = 1;
 };
 
 /// The estimate of a sparse run: the block buffers, the whole matrix when the method builds it

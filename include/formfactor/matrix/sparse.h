@@ -51,6 +51,25 @@ struct SparseFormFactors {
     void check() const;
 };
 
+/// Rows of F as a method emits them (Method::emits_sparse_rows()), never as a dense block: rows
+/// [first_row, first_row + size()), each with the entries the method computed (every non-zero,
+/// before any threshold), columns ascending. Each row is written by one task, so rows may be
+/// filled in parallel without locks.
+struct SparseRows {
+    std::size_t first_row = 0;
+    std::vector<std::vector<std::int32_t>> indices;
+    std::vector<std::vector<double>> values;
+    /// Per row, aligned with values (Monte-Carlo methods); empty when there are none.
+    std::vector<std::vector<double>> standard_error;
+
+    /// Empties it for `rows` rows from `first` (with standard errors or not).
+    void reset(std::size_t first, std::size_t rows, bool standard_errors);
+    std::size_t size() const { return indices.size(); }
+    bool has_standard_errors() const { return !standard_error.empty(); }
+    /// Bytes held by the rows' entries.
+    double memory_bytes() const;
+};
+
 /// Bytes of a CSR matrix of n rows and `nonzeros` entries (with standard errors or not), with
 /// its per-row arrays (areas, computed row sums, dropped mass).
 double sparse_matrix_bytes(double n, double nonzeros, bool standard_errors);
@@ -64,6 +83,9 @@ class SparseBuilder {
     /// columns), which must follow the rows appended so far. Rows are thresholded on `threads`
     /// threads (0: all cores).
     void append(const FormFactors& block, int threads = 0);
+    /// The same for rows a method emitted sparse (rows.first_row must follow the rows appended
+    /// so far); only their entries are touched, never N per row.
+    void append(const SparseRows& rows, int threads = 0);
     /// Reserves room for `nonzeros` stored entries (avoids the copies of growing arrays).
     void reserve(std::size_t nonzeros);
     /// Rows appended so far.

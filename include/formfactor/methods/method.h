@@ -16,6 +16,7 @@
 #include "formfactor/core/fields.h"
 #include "formfactor/core/random.h"
 #include "formfactor/matrix/form_factors.h"
+#include "formfactor/matrix/sparse.h"
 #include "formfactor/scene/scene.h"
 
 namespace formfactor {
@@ -73,6 +74,11 @@ struct MethodContext {
     ProgressSink* progress = nullptr;
     /// The rows to compute (clamped to the patch count).
     RowRange rows;
+    /// Where a method that emits sparse rows (Method::emits_sparse_rows()) puts them instead of
+    /// a dense block: it resets it to ctx.rows and leaves form_factors.F empty (0 × N, areas
+    /// and first_row set). Null (the default), or a method that does not emit sparse rows:
+    /// the dense rows × N block as always.
+    SparseRows* sparse_rows = nullptr;
 };
 
 /// How the method classified patch pairs (methods that classify them: analytic, mc-target).
@@ -113,6 +119,9 @@ class Method {
     virtual void check(const Scene& scene) const = 0;
     /// True when the method casts rays: the caller then builds a Visibility for the context.
     virtual bool needs_visibility() const { return false; }
+    /// True when compute() can emit its rows into MethodContext::sparse_rows, touching only the
+    /// entries a row reaches (no rows × N block).
+    virtual bool emits_sparse_rows() const { return false; }
     /// Computes rows ctx.rows of F for ctx.scene.patches (form_factors.first_row = the range's
     /// begin). Any split of the rows gives the same values, bit for bit, as one run.
     virtual MethodResult compute(const MethodContext& ctx) const = 0;

@@ -86,6 +86,18 @@ struct Run {
             vis = own.get();
         }
     }
+    /// The result of a method that emits its rows into ctx.sparse_rows: F empty (0 × n), the
+    /// areas, the rows reset (with standard errors).
+    MethodResult sparse_rows(MethodKind method, SparseRows& out) const {
+        MethodResult result;
+        result.report.method = method;
+        FormFactors& ff = result.form_factors;
+        ff.first_row = rows.begin;
+        ff.F = DenseMatrix::Zero(0, static_cast<Eigen::Index>(n));
+        for (const Patch& p : scene.patches) ff.areas.push_back(p.area);
+        out.reset(rows.begin, rows.size(), true);
+        return result;
+    }
     /// The result the row-by-row methods fill: F and its standard errors zero for the rows
     /// (rows × n), the patches' areas, the method named in the report.
     MethodResult zero_rows(MethodKind method) const {
@@ -112,10 +124,44 @@ struct Run {
     const Visibility* vis = nullptr;
 };
 
-/// Fills what every Monte-Carlo method reports.
-inline void report(MethodReport& rep, const FormFactors& ff, SamplerKind kind,
-                   std::uint64_t samples, std::uint32_t replicates, std::uint64_t rays,
-                   double seconds, const std::string& visibility,
+/// The standard errors' summary of a report: largest, mean over every entry of the rows (zeros
+/// included), largest root-sum-square of a row.
+struct StandardErrorSummary {
+    double max = 0.0, mean = 0.0, row_rss_max = 0.0;
+};
+
+inline StandardErrorSummary summarize(const DenseMatrix& se) {
+    StandardErrorSummary s;
+    s.max = se.size() ? se.maxCoeff() : 0.0;
+    s.mean = se.size() ? se.mean() : 0.0;
+    for (Eigen::Index i = 0; i < se.rows(); ++i)
+        s.row_rss_max = std::max(s.row_rss_max, std::sqrt(se.row(i).squaredNorm()));
+    return s;
+}
+
+/// The same from rows emitted sparse (the entries not stored are 0), n columns.
+inline StandardErrorSummary summarize(const SparseRows& rows, std::size_t n) {
+    StandardErrorSummary s;
+    double sum = 0.0;
+    for (const std::vector<double>& row : rows.standard_error) {
+        double sq = 0.0;
+        for (double e : row) {
+            s.max = std::max(s.max, e);
+            sum += e;
+            sq += e * e;
+        }
+        s.row_rss_max = std::max(s.row_rss_max, std::sqrt(sq));
+    }
+    const double entries = double(rows.size()) * double(n);
+    s.mean = entries > 0 ? sum / entries : 0.0;
+    return s;
+}
+
+/// Fills what every Monte-Carlo method reports; `se` from the rows' standard errors, when the
+/// method has them.
+inline void report(MethodReport& rep, const std::optional<StandardErrorSummary>& se,
+                   SamplerKind kind, std::uint64_t samples, std::uint32_t replicates,
+                   std::uint64_t rays, double seconds, const std::string& visibility,
                    const std::string& samples_meaning) {
     Fields& details = rep.details;
     details["samples"] = samples;
@@ -129,15 +175,20 @@ inline void report(MethodReport& rep, const FormFactors& ff, SamplerKind kind,
     rep.seconds = seconds;
     details["rays_per_second"] = seconds > 0 ? rays / seconds : 0.0;
     details["visibility"] = visibility;
-    if (ff.standard_error) {
-        const DenseMatrix& se = *ff.standard_error;
-        details["standard_error_max"] = se.size() ? se.maxCoeff() : 0.0;
-        details["standard_error_mean"] = se.size() ? se.mean() : 0.0;
-        double rms_row = 0;
-        for (Eigen::Index i = 0; i < se.rows(); ++i)
-            rms_row = std::max(rms_row, std::sqrt(se.row(i).squaredNorm()));
-        details["row_sum_standard_error_max"] = rms_row;  // rows' entries are near-independent
+    if (se) {
+        details["standard_error_max"] = se->max;
+        details["standard_error_mean"] = se->mean;
+        details["row_sum_standard_error_max"] = se->row_rss_max;  // entries near-independent
     }
+}
+
+inline void report(MethodReport& rep, const FormFactors& ff, SamplerKind kind,
+                   std::uint64_t samples, std::uint32_t replicates, std::uint64_t rays,
+                   double seconds, const std::string& visibility,
+                   const std::string& samples_meaning) {
+    std::optional<StandardErrorSummary> se;
+    if (ff.standard_error) se = summarize(*ff.standard_error);
+    report(rep, se, kind, samples, replicates, rays, seconds, visibility, samples_meaning);
 }
 
 inline double seconds_since(Clock::time_point t0) {

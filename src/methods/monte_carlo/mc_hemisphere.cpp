@@ -5,6 +5,7 @@
 // arriving on the front of patch j)/N. Rays that escape, hit an obstruction or the back of a
 // patch count for no patch, so row sums are exactly (front hits)/N. --samples = rays per row.
 // Standard error: sqrt(F(1−F)/N) for the random sampler (binomial), else the replicate spread.
+#include <algorithm>
 #include <atomic>
 
 #include "formfactor/core/parallel.h"
@@ -23,13 +24,20 @@ constexpr std::size_t kBatch = 256;
 struct Buffers {
     std::vector<std::uint32_t> count, touched;
     std::vector<std::uint32_t> row_touched;  // the row's patches hit in any replicate
+    // Running totals and replicate second moments of a row emitted sparse (all zero between
+    // rows; a dense row keeps them in its F and SE rows).
+    std::vector<double> total, moment;
     std::vector<RayQuery> queries = std::vector<RayQuery>(kBatch);
     std::vector<RayHit> hits = std::vector<RayHit>(kBatch);
     std::vector<double> u[4] = {std::vector<double>(kBatch), std::vector<double>(kBatch),
                                 std::vector<double>(kBatch), std::vector<double>(kBatch)};
     bool clean = true;  // false while a row is in flight (an exception may leave counts)
-    void prepare(std::size_t n) {
+    void prepare(std::size_t n, bool sparse) {
         if (!clean || count.size() != n) count.assign(n, 0);
+        if (sparse && (!clean || total.size() != n)) {
+            total.assign(n, 0.0);
+            moment.assign(n, 0.0);
+        }
         touched.clear();
         row_touched.clear();
         clean = false;
@@ -40,10 +48,14 @@ class McHemisphereMethod final : public mc::MonteCarloMethod {
   public:
     MethodKind kind() const override { return MethodKind::mc_hemisphere; }
 
+    bool emits_sparse_rows() const override { return true; }
+
     MethodResult compute(const MethodContext& ctx) const override {
         const mc::Run run(*this, ctx, 10000);
 
-        MethodResult result = run.zero_rows(this->kind());
+        SparseRows* const out = ctx.sparse_rows;
+        MethodResult result =
+            out ? run.sparse_rows(this->kind(), *out) : run.zero_rows(this->kind());
         FormFactors& ff = result.form_factors;
         std::atomic<std::uint64_t> rays{0}, escaped{0}, back_hits{0}, obstruction_hits{0};
         Progress progress("mc-hemisphere", run.rows.size(), ctx.progress);
@@ -54,12 +66,14 @@ class McHemisphereMethod final : public mc::MonteCarloMethod {
             const PolygonSampler sampler(pi.polygon);
             Vec3 t, b;
             orthonormal_basis(pi.normal, t, b);
-            // F row holds the running totals; Q (replicate second moments) lives in the SE row.
-            auto F = ff.F.row(static_cast<Eigen::Index>(row));
-            auto Q = ff.standard_error->row(static_cast<Eigen::Index>(row));
             // Per-thread buffers, reused across rows (no allocation per row or batch).
             thread_local Buffers buf;
-            buf.prepare(run.n);
+            buf.prepare(run.n, out != nullptr);
+            // F holds the running totals, Q the replicate second moments: the dense row and its
+            // SE row, or the thread's buffers for a row emitted sparse.
+            const auto dense_row = static_cast<Eigen::Index>(row);
+            double* const F = out ? buf.total.data() : ff.F.row(dense_row).data();
+            double* const Q = out ? buf.moment.data() : ff.standard_error->row(dense_row).data();
             std::vector<std::uint32_t>& count = buf.count;
             std::vector<std::uint32_t>& touched = buf.touched;
             RayQuery* queries = buf.queries.data();
@@ -106,17 +120,31 @@ class McHemisphereMethod final : public mc::MonteCarloMethod {
                 }
                 touched.clear();
             }
-            buf.clean = true;
             // Only the entries the row's rays reached (not all N: a 10^5-patch row has a few
             // hundred).
-            for (const std::uint32_t jj : buf.row_touched) {
-                const auto j = static_cast<Eigen::Index>(jj);
+            if (out) std::sort(buf.row_touched.begin(), buf.row_touched.end());
+            for (const std::uint32_t j : buf.row_touched) {
                 mc::ReplicateMean acc{F[j], Q[j]};
                 const double f = F[j] / double(run.N);
                 Q[j] = run.R > 1 ? mc::replicate_standard_error(acc, double(run.N), run.R)
                                  : std::sqrt(f * (1 - f) / double(run.N));
                 F[j] = f;
             }
+            if (out) {
+                std::vector<std::int32_t>& idx = out->indices[row];
+                std::vector<double>& val = out->values[row];
+                std::vector<double>& se = out->standard_error[row];
+                idx.reserve(buf.row_touched.size());
+                val.reserve(buf.row_touched.size());
+                se.reserve(buf.row_touched.size());
+                for (const std::uint32_t j : buf.row_touched) {
+                    idx.push_back(static_cast<std::int32_t>(j));
+                    val.push_back(F[j]);
+                    se.push_back(Q[j]);
+                    F[j] = Q[j] = 0.0;
+                }
+            }
+            buf.clean = true;
             rays += run.N;
             escaped += esc;
             back_hits += back;
@@ -124,7 +152,9 @@ class McHemisphereMethod final : public mc::MonteCarloMethod {
             progress.advance();
         });
         progress.finish();
-        mc::report(result.report, ff, run.kind, run.N, run.R, rays.load(),
+        const std::optional<mc::StandardErrorSummary> se =
+            out ? mc::summarize(*out, run.n) : mc::summarize(*ff.standard_error);
+        mc::report(result.report, se, run.kind, run.N, run.R, rays.load(),
                    mc::seconds_since(run.t0), run.vis->description(), "rays per patch (row)");
         Fields& details = result.report.details;
         const double total = double(rays.load());
