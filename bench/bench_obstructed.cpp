@@ -5,7 +5,8 @@
 // the box as six obstruction-only faces (the VS3 `O` version) read back from a VS3 file.
 // Reported: wall time, process CPU time (the machine is shared), peak RSS, the pair classes,
 // refinement, the error estimate, and the row sums of the closed room. BM_RoomAccuracy compares
-// n = 8 at tolerance 1e-6 with the same at 1e-9 (max |ΔF| over all entries).
+// n = 8 at tolerance 1e-6 with the same at 1e-9 (max |ΔF| over all entries). BM_Curved: the
+// room with a faceted sphere and cylinder (curved geometry, every facet a surface).
 //
 // View3D 3.2 on the same scenes (single-threaded, eps 1e-4): ~9 s (n = 16), ~215 s (n = 32).
 
@@ -85,6 +86,72 @@ BENCHMARK(BM_Room)
     ->Args({16, 0})
     ->Args({32, 0})
     ->Args({32, 1})
+    ->Unit(benchmark::kSecond)
+    ->Iterations(1)
+    ->UseRealTime();
+
+// Curved geometry (issue 9): the room n × n without its box, with a faceted UV sphere (centre
+// (0.35, 0.5, 0.45), radius 0.2, `seg` segments, seg/2 rings, triangles) and a closed faceted
+// cylinder (centre (0.72, 0.5), radius 0.12, z 0.15…0.75, `seg` sides, fan caps), every facet a
+// radiating surface: args {n, seg}; {4, 16} is 368 patches, {8, 40} is 2,024.
+Scene curved_room(int n, int seg) {
+    Scene scene = room_scene(n, RoomBox::kNone);
+    scene.patches.clear();
+    auto add = [&](std::vector<Vec3> v) {
+        Surface sf;
+        sf.name = "c" + std::to_string(scene.surfaces.size());
+        sf.polygon.vertices = std::move(v);
+        scene.surfaces.push_back(std::move(sf));
+    };
+    const int rings = seg / 2;
+    auto sp = [&](int i, int j) {
+        const double th = kPi * i / rings, ph = 2 * kPi * j / seg;
+        return Vec3(0.35 + 0.2 * std::sin(th) * std::cos(ph),
+                    0.5 + 0.2 * std::sin(th) * std::sin(ph), 0.45 + 0.2 * std::cos(th));
+    };
+    for (int i = 0; i < rings; ++i)
+        for (int j = 0; j < seg; ++j) {
+            if (i > 0) add({sp(i, j), sp(i + 1, j), sp(i, j + 1)});
+            if (i < rings - 1) add({sp(i + 1, j), sp(i + 1, j + 1), sp(i, j + 1)});
+        }
+    auto cp = [&](int j, double z) {
+        const double ph = 2 * kPi * j / seg;
+        return Vec3(0.72 + 0.12 * std::cos(ph), 0.5 + 0.12 * std::sin(ph), z);
+    };
+    for (int j = 0; j < seg; ++j) {
+        add({cp(j, 0.15), cp(j + 1, 0.15), cp(j + 1, 0.75), cp(j, 0.75)});
+        add({Vec3(0.72, 0.5, 0.75), cp(j, 0.75), cp(j + 1, 0.75)});
+        add({Vec3(0.72, 0.5, 0.15), cp(j + 1, 0.15), cp(j, 0.15)});
+    }
+    subdivide(scene, SubdivisionOptions{});
+    return scene;
+}
+
+void BM_Curved(benchmark::State& state) {
+    const Scene scene =
+        curved_room(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+    const auto method = make_method("analytic");
+    MethodOptions opt;  // defaults: 1e-10 visible, 1e-6 partly hidden
+    nlohmann::json details;
+    double cpu = 0;
+    for (auto _ : state) {
+        details = nlohmann::json::object();
+        const double c0 = process_cpu_seconds();
+        benchmark::DoNotOptimize(run_method(*method, scene, opt, details));
+        cpu += process_cpu_seconds() - c0;
+    }
+    const auto& ob = details["obstructions"];
+    state.counters["patches"] = static_cast<double>(scene.patches.size());
+    state.counters["cpu_s"] = cpu / static_cast<double>(state.iterations());
+    state.counters["peak_rss_MB"] = peak_rss_mb();
+    state.counters["partly_hidden"] = ob["patch_pairs_partly_hidden"].get<double>();
+    state.counters["cells"] = ob["cells"].get<double>();
+    state.counters["point_evals"] = ob["point_evaluations"].get<double>();
+    state.counters["max_err_est"] = ob["max_error_estimate"].get<double>();
+}
+BENCHMARK(BM_Curved)
+    ->Args({4, 16})
+    ->Args({8, 40})
     ->Unit(benchmark::kSecond)
     ->Iterations(1)
     ->UseRealTime();

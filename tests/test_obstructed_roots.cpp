@@ -63,6 +63,15 @@ std::vector<Polygon> floor_and_ceiling() {
     return patches;
 }
 
+// Appends p to the scene as surface "s<k>" (an obstruction-only one when asked).
+void add_surface(Scene& scene, const Polygon& p, bool obstruction) {
+    Surface sf;
+    sf.name = "s" + std::to_string(scene.surfaces.size());
+    sf.polygon = p;
+    sf.obstruction = obstruction;
+    scene.surfaces.push_back(std::move(sf));
+}
+
 // 1/A_s ∫ hidden by an n × n midpoint rule over the axis-aligned sender rectangle.
 double brute_hidden(const Polygon& s, const Polygon& r, const BlockerSet& bs,
                     const std::vector<int>& cand, int n) {
@@ -206,13 +215,7 @@ TEST_CASE("obstructed roots: a patch in contact with a closed solid does not see
     Scene scene;
     scene.name = "box on the floor";
     scene.materials.push_back(Material{});
-    auto add = [&](const Polygon& p, bool obstruction) {
-        Surface sf;
-        sf.name = "s" + std::to_string(scene.surfaces.size());
-        sf.polygon = p;
-        sf.obstruction = obstruction;
-        scene.surfaces.push_back(std::move(sf));
-    };
+    auto add = [&](const Polygon& p, bool obstruction) { add_surface(scene, p, obstruction); };
     for (const Polygon& p : patches) add(p, false);
     for (std::size_t k = 0; k < faces.size(); ++k) {
         Polygon p;
@@ -302,13 +305,7 @@ TEST_CASE("obstructed roots: an open box on a floor hides as much as rays find")
         Scene scene;
         scene.name = "open box on the floor";
         scene.materials.push_back(Material{});
-        auto add = [&](const Polygon& p, bool obstruction) {
-            Surface sf;
-            sf.name = "s" + std::to_string(scene.surfaces.size());
-            sf.polygon = p;
-            sf.obstruction = obstruction;
-            scene.surfaces.push_back(std::move(sf));
-        };
+        auto add = [&](const Polygon& p, bool obstruction) { add_surface(scene, p, obstruction); };
         for (const Polygon& p : patches) add(p, false);
         for (int k = 1; k < 6; ++k) {  // no bottom face
             Polygon p;
@@ -411,13 +408,7 @@ TEST_CASE("obstructed roots: a faceted sphere is one convex solid, and hides wha
     Scene scene;
     scene.name = "faceted sphere between floor and ceiling";
     scene.materials.push_back(Material{});
-    auto add = [&](const Polygon& p, bool obstruction) {
-        Surface sf;
-        sf.name = "s" + std::to_string(scene.surfaces.size());
-        sf.polygon = p;
-        sf.obstruction = obstruction;
-        scene.surfaces.push_back(std::move(sf));
-    };
+    auto add = [&](const Polygon& p, bool obstruction) { add_surface(scene, p, obstruction); };
     for (const Polygon& p : floor_and_ceiling()) add(p, false);
     for (const Polygon& p : sphere) add(p, true);
     subdivide(scene, SubdivisionOptions{});

@@ -81,6 +81,32 @@ void SparseBuilder::reserve(std::size_t nonzeros) {
     if (m_.standard_error) m_.standard_error->reserve(nonzeros);
 }
 
+namespace {
+
+// Appends m thresholded rows to `out`: count(r, stored, sum, dropped) counts row r's entries
+// above the threshold and sums the row and its dropped part; fill(r, k) writes its stored
+// entries from position k on. Each row by one task, in its own slice.
+template <class Count, class Fill>
+void append_rows(SparseFormFactors& out, std::size_t m, int threads, const Count& count_row,
+                 const Fill& fill_row) {
+    std::vector<std::size_t> count(m), offset(m + 1, 0);
+    std::vector<double> sum(m), drop(m);
+    parallel_for(m, threads, [&](std::size_t r) { count_row(r, count[r], sum[r], drop[r]); });
+    for (std::size_t r = 0; r < m; ++r) offset[r + 1] = offset[r] + count[r];
+    const std::size_t base = out.values.size();
+    out.values.resize(base + offset[m]);
+    out.indices.resize(base + offset[m]);
+    if (out.standard_error) out.standard_error->resize(base + offset[m]);
+    parallel_for(m, threads, [&](std::size_t r) { fill_row(r, base + offset[r]); });
+    for (std::size_t r = 0; r < m; ++r) {
+        out.indptr.push_back(static_cast<std::int64_t>(base + offset[r + 1]));
+        out.computed_row_sums.push_back(sum[r]);
+        out.dropped.push_back(drop[r]);
+    }
+}
+
+}  // namespace
+
 void SparseBuilder::append(const FormFactors& block, int threads) {
     const std::size_t m = block.size(), n = m_.n, first = rows();
     if (block.first_row != first || static_cast<std::size_t>(block.F.cols()) != n || first + m > n)
@@ -88,47 +114,32 @@ void SparseBuilder::append(const FormFactors& block, int threads) {
     const bool se = m_.standard_error.has_value();
     if (se && !block.standard_error) throw Error("SparseBuilder: the block has no standard errors");
     const double t = m_.threshold;
-    // Count, then fill: each row thresholded by one task into its own slice.
-    std::vector<std::size_t> count(m), offset(m + 1, 0);
-    std::vector<double> sum(m), drop(m);
-    parallel_for(m, threads, [&](std::size_t r) {
-        const double* row = block.F.data() + r * n;
-        std::size_t c = 0;
-        double s = 0.0, d = 0.0;
-        for (std::size_t j = 0; j < n; ++j) {
-            const double v = row[j];
-            s += v;
-            if (v > t)
-                ++c;
-            else
-                d += v;
-        }
-        count[r] = c;
-        sum[r] = s;
-        drop[r] = d;
-    });
-    for (std::size_t r = 0; r < m; ++r) offset[r + 1] = offset[r] + count[r];
-    const std::size_t base = m_.values.size();
-    m_.values.resize(base + offset[m]);
-    m_.indices.resize(base + offset[m]);
-    if (se) m_.standard_error->resize(base + offset[m]);
-    parallel_for(m, threads, [&](std::size_t r) {
-        const double* row = block.F.data() + r * n;
-        const double* err = se ? block.standard_error->data() + r * n : nullptr;
-        std::size_t k = base + offset[r];
-        for (std::size_t j = 0; j < n; ++j) {
-            if (!(row[j] > t)) continue;
-            m_.values[k] = row[j];
-            m_.indices[k] = static_cast<std::int32_t>(j);
-            if (se) (*m_.standard_error)[k] = err[j];
-            ++k;
-        }
-    });
-    for (std::size_t r = 0; r < m; ++r) {
-        m_.indptr.push_back(static_cast<std::int64_t>(base + offset[r + 1]));
-        m_.computed_row_sums.push_back(sum[r]);
-        m_.dropped.push_back(drop[r]);
-    }
+    append_rows(
+        m_, m, threads,
+        [&](std::size_t r, std::size_t& c, double& s, double& d) {
+            const double* row = block.F.data() + r * n;
+            c = 0;
+            s = d = 0.0;
+            for (std::size_t j = 0; j < n; ++j) {
+                const double v = row[j];
+                s += v;
+                if (v > t)
+                    ++c;
+                else
+                    d += v;
+            }
+        },
+        [&](std::size_t r, std::size_t k) {
+            const double* row = block.F.data() + r * n;
+            const double* err = se ? block.standard_error->data() + r * n : nullptr;
+            for (std::size_t j = 0; j < n; ++j) {
+                if (!(row[j] > t)) continue;
+                m_.values[k] = row[j];
+                m_.indices[k] = static_cast<std::int32_t>(j);
+                if (se) (*m_.standard_error)[k] = err[j];
+                ++k;
+            }
+        });
 }
 
 void SparseRows::reset(std::size_t first, std::size_t rows, bool standard_errors) {
@@ -155,51 +166,36 @@ void SparseBuilder::append(const SparseRows& block, int threads) {
     if (se && !block.has_standard_errors())
         throw Error("SparseBuilder: the block has no standard errors");
     const double t = m_.threshold;
-    std::vector<std::size_t> count(m), offset(m + 1, 0);
-    std::vector<double> sum(m), drop(m);
-    parallel_for(m, threads, [&](std::size_t r) {
-        const std::vector<double>& v = block.values[r];
-        if (block.indices[r].size() != v.size() ||
-            (se && block.standard_error[r].size() != v.size()))
-            throw Error("SparseBuilder: a row's arrays differ in length");
-        std::size_t c = 0;
-        double s = 0.0, d = 0.0;
-        for (std::size_t k = 0; k < v.size(); ++k) {
-            const std::int32_t j = block.indices[r][k];
-            if (j < 0 || static_cast<std::size_t>(j) >= n ||
-                (k > 0 && j <= block.indices[r][k - 1]))
-                throw Error("SparseBuilder: a row's columns must ascend within [0, N)");
-            s += v[k];
-            if (v[k] > t)
-                ++c;
-            else
-                d += v[k];
-        }
-        count[r] = c;
-        sum[r] = s;
-        drop[r] = d;
-    });
-    for (std::size_t r = 0; r < m; ++r) offset[r + 1] = offset[r] + count[r];
-    const std::size_t base = m_.values.size();
-    m_.values.resize(base + offset[m]);
-    m_.indices.resize(base + offset[m]);
-    if (se) m_.standard_error->resize(base + offset[m]);
-    parallel_for(m, threads, [&](std::size_t r) {
-        const std::vector<double>& v = block.values[r];
-        std::size_t k = base + offset[r];
-        for (std::size_t e = 0; e < v.size(); ++e) {
-            if (!(v[e] > t)) continue;
-            m_.values[k] = v[e];
-            m_.indices[k] = block.indices[r][e];
-            if (se) (*m_.standard_error)[k] = block.standard_error[r][e];
-            ++k;
-        }
-    });
-    for (std::size_t r = 0; r < m; ++r) {
-        m_.indptr.push_back(static_cast<std::int64_t>(base + offset[r + 1]));
-        m_.computed_row_sums.push_back(sum[r]);
-        m_.dropped.push_back(drop[r]);
-    }
+    append_rows(
+        m_, m, threads,
+        [&](std::size_t r, std::size_t& c, double& s, double& d) {
+            const std::vector<double>& v = block.values[r];
+            const std::vector<std::int32_t>& idx = block.indices[r];
+            if (idx.size() != v.size() || (se && block.standard_error[r].size() != v.size()))
+                throw Error("SparseBuilder: a row's arrays differ in length");
+            c = 0;
+            s = d = 0.0;
+            for (std::size_t k = 0; k < v.size(); ++k) {
+                if (idx[k] < 0 || static_cast<std::size_t>(idx[k]) >= n ||
+                    (k > 0 && idx[k] <= idx[k - 1]))
+                    throw Error("SparseBuilder: a row's columns must ascend within [0, N)");
+                s += v[k];
+                if (v[k] > t)
+                    ++c;
+                else
+                    d += v[k];
+            }
+        },
+        [&](std::size_t r, std::size_t k) {
+            const std::vector<double>& v = block.values[r];
+            for (std::size_t e = 0; e < v.size(); ++e) {
+                if (!(v[e] > t)) continue;
+                m_.values[k] = v[e];
+                m_.indices[k] = block.indices[r][e];
+                if (se) (*m_.standard_error)[k] = block.standard_error[r][e];
+                ++k;
+            }
+        });
 }
 
 SparseFormFactors SparseBuilder::finish() {
