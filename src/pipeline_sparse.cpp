@@ -84,11 +84,8 @@ SparseComputeResult compute_sparse_form_factors(const Scene& scene, const Comput
     // One ray tracer for every block (a BVH of the whole scene per block was most of a
     // 10^5-patch Monte-Carlo run).
     std::unique_ptr<Visibility> visibility;
-    {
-        const MethodKind kind = options.method ? *options.method : default_method(scene);
-        if (!options.prebuilt_visibility && make_method(kind)->needs_visibility() && n > 0)
-            visibility = make_visibility(scene, options.visibility);
-    }
+    if (!options.prebuilt_visibility && make_method(kind)->needs_visibility() && n > 0)
+        visibility = make_visibility(scene, options.visibility);
     const Visibility* vis =
         options.prebuilt_visibility ? options.prebuilt_visibility : visibility.get();
     SparseRows emitted;
