@@ -263,22 +263,8 @@ std::vector<Vec3> planar_convex_hull(const std::vector<Vec3>& points, const Vec3
     p.reserve(points.size());
     for (std::size_t k = 0; k < points.size(); ++k)
         p.push_back({u.dot(points[k] - o), v.dot(points[k] - o), static_cast<int>(k)});
-    std::sort(p.begin(), p.end(),
-              [](const P2& a, const P2& b) { return a.x < b.x || (a.x == b.x && a.y < b.y); });
-    auto cross = [](const P2& o2, const P2& a, const P2& b) {
-        return (a.x - o2.x) * (b.y - o2.y) - (a.y - o2.y) * (b.x - o2.x);
-    };
-    std::vector<P2> h(2 * p.size());
-    std::size_t m = 0;
-    for (std::size_t k = 0; k < p.size(); ++k) {
-        while (m >= 2 && cross(h[m - 2], h[m - 1], p[k]) <= 0) --m;
-        h[m++] = p[k];
-    }
-    for (std::size_t k = p.size() - 1, t = m + 1; k-- > 0;) {
-        while (m >= t && cross(h[m - 2], h[m - 1], p[k]) <= 0) --m;
-        h[m++] = p[k];
-    }
-    h.resize(m > 0 ? m - 1 : 0);
+    std::vector<P2> h;
+    convex_hull_2d(p, h);
     std::vector<Vec3> out;
     for (const P2& q : h) out.push_back(points[static_cast<std::size_t>(q.k)]);
     return out;

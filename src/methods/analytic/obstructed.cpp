@@ -55,9 +55,6 @@ void merge_solid_shadows(std::vector<Poly2>& shadows, std::vector<int>& solid_of
     out.clear();
     out_solid.clear();
     done.assign(n, 0);
-    auto cross = [](const P& o, const P& a, const P& b) {
-        return (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x);
-    };
     for (std::size_t k = 0; k < n; ++k) {
         if (done[k]) continue;
         const int so = solid_of[k];
@@ -75,20 +72,8 @@ void merge_solid_shadows(std::vector<Poly2>& shadows, std::vector<int>& solid_of
                 pts.push_back({shadows[l].x[static_cast<std::size_t>(m)],
                                shadows[l].y[static_cast<std::size_t>(m)]});
         }
-        std::sort(pts.begin(), pts.end(),
-                  [](const P& a, const P& b) { return a.x < b.x || (a.x == b.x && a.y < b.y); });
-        // Andrew's monotone chain, counter-clockwise, collinear points dropped.
-        hull.assign(2 * pts.size(), P{});
-        std::size_t h = 0;
-        for (std::size_t m = 0; m < pts.size(); ++m) {
-            while (h >= 2 && cross(hull[h - 2], hull[h - 1], pts[m]) <= 0.0) --h;
-            hull[h++] = pts[m];
-        }
-        for (std::size_t m = pts.size() - 1, t = h + 1; m-- > 0;) {
-            while (h >= t && cross(hull[h - 2], hull[h - 1], pts[m]) <= 0.0) --h;
-            hull[h++] = pts[m];
-        }
-        const std::size_t hn = h > 0 ? h - 1 : 0;
+        convex_hull_2d(pts, hull);
+        const std::size_t hn = hull.size();
         if (hn >= 3 && hn <= static_cast<std::size_t>(kCap)) {
             out.emplace_back();
             Poly2& q = out.back();

@@ -4,6 +4,7 @@
 // the adaptive integration of the hidden part of a partly hidden pair (obstructed.cpp, with
 // discontinuity_mesh.cpp and shadow_clip.{h,cpp}). See docs/analytic.md, "Obstructed scenes".
 
+#include <algorithm>
 #include <cstdint>
 #include <vector>
 
@@ -159,6 +160,32 @@ ShaftClass classify_shaft(const Shaft& shaft, const BlockerSet& blockers, const 
 /// Convex hull of the planar points (counter-clockwise about the unit normal n), collinear
 /// points dropped.
 std::vector<Vec3> planar_convex_hull(const std::vector<Vec3>& points, const Vec3& n);
+
+/// Andrew's monotone chain on points with members x and y: sorts `points` and writes their convex
+/// hull, counter-clockwise, collinear points dropped, to `hull` (resized to its vertex count; 0,
+/// 1 or 2 vertices for degenerate input). The one hull routine of planar_convex_hull() and the
+/// point kernel's shadow merge.
+template <class P>
+void convex_hull_2d(std::vector<P>& points, std::vector<P>& hull) {
+    hull.clear();
+    if (points.empty()) return;
+    std::sort(points.begin(), points.end(),
+              [](const P& a, const P& b) { return a.x < b.x || (a.x == b.x && a.y < b.y); });
+    auto cross = [](const P& o, const P& a, const P& b) {
+        return (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x);
+    };
+    hull.resize(2 * points.size());
+    std::size_t m = 0;
+    for (std::size_t k = 0; k < points.size(); ++k) {
+        while (m >= 2 && cross(hull[m - 2], hull[m - 1], points[k]) <= 0) --m;
+        hull[m++] = points[k];
+    }
+    for (std::size_t k = points.size() - 1, t = m + 1; k-- > 0;) {
+        while (m >= t && cross(hull[m - 2], hull[m - 1], points[k]) <= 0) --m;
+        hull[m++] = points[k];
+    }
+    hull.resize(m > 0 ? m - 1 : 0);
+}
 
 /// The result of integrating the hidden part of a partly hidden pair over the sender.
 struct HiddenIntegral {
