@@ -85,13 +85,14 @@ ComputeResult compute_form_factors(const Scene& scene, const ComputeOptions& opt
         throw OptionError("repair", "needs the whole matrix (a row range was asked for)");
     result.traits = method_traits(kind, options.method_options, &scene);
 
-    // Memory before anything big exists: the rows, their standard errors, repair's copy.
-    // mc-target still builds the whole matrix for a block of rows; the analytic method's block
-    // holds its rows and, for the rows before it, their pairs with the block (≤ N × rows).
     const auto method = make_method(kind);
     const bool emit_sparse = options.sparse_rows && method->emits_sparse_rows();
     if (emit_sparse && options.repair.mode != RepairMode::none)
         throw OptionError("repair", "rows emitted sparse are repaired by the sparse pipeline");
+    // Memory before anything big exists: the rows, their standard errors, repair's copy.
+    // mc-target still builds the whole matrix for a block of rows; the analytic method's block
+    // holds its rows and, for the rows before it, their pairs with the block (≤ N × rows).
+    // Rows emitted sparse need none of it.
     const bool full_inside = kind == MethodKind::mc_target;
     const bool strip = kind == MethodKind::analytic && !whole;
     DenseRunNeeds needs;

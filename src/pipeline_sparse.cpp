@@ -63,7 +63,8 @@ SparseComputeResult compute_sparse_form_factors(const Scene& scene, const Comput
     needs.repair = options.repair.mode != RepairMode::none;
     // Rows emitted sparse: no rows × N block. Blocks of at most 8,192 rows still keep the rows
     // waiting for the CSR small and let the projection below stop a run that will not fit.
-    const bool emit_sparse = make_method(kind)->emits_sparse_rows();
+    const auto method = make_method(kind);
+    const bool emit_sparse = method->emits_sparse_rows();
     needs.rows_sparse = emit_sparse;
     needs.threads = effective_threads(options.method_options.threads);
     const double available = available_memory();
@@ -84,7 +85,7 @@ SparseComputeResult compute_sparse_form_factors(const Scene& scene, const Comput
     // One ray tracer for every block (a BVH of the whole scene per block was most of a
     // 10^5-patch Monte-Carlo run).
     std::unique_ptr<Visibility> visibility;
-    if (!options.prebuilt_visibility && make_method(kind)->needs_visibility() && n > 0)
+    if (!options.prebuilt_visibility && method->needs_visibility() && n > 0)
         visibility = make_visibility(scene, options.visibility);
     const Visibility* vis =
         options.prebuilt_visibility ? options.prebuilt_visibility : visibility.get();

@@ -149,15 +149,6 @@ void SparseRows::reset(std::size_t first, std::size_t rows, bool standard_errors
     standard_error.assign(standard_errors ? rows : 0, {});
 }
 
-double SparseRows::memory_bytes() const {
-    double b = 0.0;
-    for (std::size_t r = 0; r < size(); ++r)
-        b += double(indices[r].capacity()) * sizeof(std::int32_t) +
-             double(values[r].capacity()) * sizeof(double) +
-             (has_standard_errors() ? double(standard_error[r].capacity()) * sizeof(double) : 0.0);
-    return b + double(size()) * 3 * sizeof(std::vector<double>);
-}
-
 void SparseBuilder::append(const SparseRows& block, int threads) {
     const std::size_t m = block.size(), n = m_.n, first = rows();
     if (block.first_row != first || first + m > n)

@@ -66,8 +66,6 @@ struct SparseRows {
     void reset(std::size_t first, std::size_t rows, bool standard_errors);
     std::size_t size() const { return indices.size(); }
     bool has_standard_errors() const { return !standard_error.empty(); }
-    /// Bytes held by the rows' entries.
-    double memory_bytes() const;
 };
 
 /// Bytes of a CSR matrix of n rows and `nonzeros` entries (with standard errors or not), with
