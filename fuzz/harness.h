@@ -27,6 +27,7 @@
 #include "formfactor/matrix/aggregate.h"
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/solution_io.h"
+#include "formfactor/output/sparse_io.h"
 #include "formfactor/scene/points.h"
 #include "formfactor/scene/scene.h"
 #include "formfactor/solve/properties.h"
@@ -41,6 +42,7 @@ enum class Target {
     matrix_csv,  ///< read_csv_matrix
     matrix_npy,  ///< read_npy_matrix
     matrix_txt,  ///< read_view3d_text
+    matrix_mtx,  ///< read_matrix_market (sparse F, Matrix Market coordinate)
     solution,    ///< read_solution_csv (radiosity and thermal tables)
     points,      ///< parse_points_csv (the point elements of `formfactor point --points`)
 };
@@ -51,13 +53,14 @@ struct TargetName {
 };
 
 /// Every target with the name of its fuzzer (`fuzz_NAME`) and corpus folder.
-inline constexpr std::array<TargetName, 8> kTargets = {{
+inline constexpr std::array<TargetName, 9> kTargets = {{
     {"obj", Target::obj},
     {"vs3", Target::vs3},
     {"properties", Target::properties},
     {"matrix_csv", Target::matrix_csv},
     {"matrix_npy", Target::matrix_npy},
     {"matrix_txt", Target::matrix_txt},
+    {"matrix_mtx", Target::matrix_mtx},
     {"solution", Target::solution},
     {"points", Target::points},
 }};
@@ -205,6 +208,15 @@ inline bool run(Target target, const std::uint8_t* data, std::size_t size) {
                 require(f.areas.size() == static_cast<std::size_t>(f.F.rows()) &&
                             f.emissivities.size() == f.areas.size() && f.F.rows() == f.F.cols(),
                         "sizes agree");
+                break;
+            }
+            case Target::matrix_mtx: {
+                std::istringstream in{std::string(bytes)};
+                SparseFormFactors F = read_matrix_market(in, "fuzz.mtx");
+                F.areas.assign(F.n, 1.0);
+                F.check();  // throws formfactor::Error: a bug here, the reader promised CSR
+                require(F.computed_row_sums.size() == F.n && F.dropped.size() == F.n,
+                        "per-row arrays");
                 break;
             }
             case Target::solution: {

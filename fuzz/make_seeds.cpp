@@ -17,6 +17,7 @@
 
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/solution_io.h"
+#include "formfactor/output/sparse_io.h"
 #include "formfactor/scene/scene.h"
 #include "formfactor/scene/scene_io.h"
 #include "fuzz/harness.h"
@@ -151,6 +152,17 @@ int main(int argc, char** argv) {
                   to_bytes([&](std::ostream& o) { write_view3d_text(o, F, info); }));
     }
     seeds.add("matrix_csv", "comments.csv", "# F\n0, 0.5\n\n  0.25 ,0\n");
+    for (int n : {1, 2, 5}) {
+        FormFactors ff;
+        ff.F = small_matrix(n);
+        ff.areas.assign(static_cast<std::size_t>(n), 0.25);
+        const SparseFormFactors S = to_sparse(ff);
+        seeds.add("matrix_mtx", std::to_string(n) + ".mtx",
+                  to_bytes([&](std::ostream& o) { write_matrix_market(o, S); }));
+    }
+    seeds.add("matrix_mtx", "unordered.mtx",
+              "%%MatrixMarket matrix coordinate real general\n% any order\n3 3 3\n3 1 0.25\n"
+              "1 2 5e-1\n2 3 1\n");
     {
         // float32, Fortran order, NPY version 2.0.
         std::string dict = "{'descr': '<f4', 'fortran_order': True, 'shape': (2, 3), }";

@@ -2,6 +2,8 @@
 
 #include "formfactor/pipeline_sparse.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <memory>
@@ -33,7 +35,73 @@ void merge_report(MethodReport& total, const MethodReport& block, bool first) {
             std::max(*total.error_bound_per_entry, *block.error_bound_per_entry);
 }
 
+// Closure is asked for (closure or both); refused for an open scene unless forced.
+bool sparse_closure(const Scene& scene, const RepairOptions& repair) {
+    const bool closure = repair.mode == RepairMode::closure || repair.mode == RepairMode::both;
+    if (closure && !scene.enclosure && !repair.force_closure)
+        throw OptionError("repair",
+                          "closure needs a closed enclosure (this scene is open: radiation "
+                          "escapes); use reciprocity, which never raises a row sum");
+    return closure;
+}
+
+// The diagnosis and the repair of result.form_factors, timed.
+void diagnose_and_repair(SparseComputeResult& result, const RepairOptions& repair, bool closure,
+                         Stopwatch& sw) {
+    result.diagnostics = diagnose(result.form_factors);
+    result.timings.add("diagnose", sw.lap());
+    if (repair.mode != RepairMode::none) {
+        SparseRepairOptions ro;
+        ro.closure = closure;
+        ro.closure_tolerance = repair.closure_tolerance;
+        ro.max_iterations = repair.max_iterations;
+        result.repair = formfactor::repair(result.form_factors, ro);
+        result.timings.add("repair", sw.lap());
+    }
+}
+
 }  // namespace
+
+SparseComputeResult sparse_form_factors_from_matrix(const Scene& scene, SparseFormFactors F,
+                                                    const RepairOptions& repair,
+                                                    const std::string& source) {
+    const bool closure = sparse_closure(scene, repair);
+    const std::size_t n = scene.patches.size();
+    if (F.n != n)
+        throw InputError(source, 0,
+                         fmt::format("a {}x{} matrix for a scene of {} patches (same scene and "
+                                     "subdivision?)",
+                                     F.n, F.n, n));
+    if (F.areas.empty()) {
+        F.areas.resize(n);
+        for (std::size_t i = 0; i < n; ++i) F.areas[i] = scene.patches[i].area;
+    } else {
+        double largest = 0.0;
+        for (const Patch& p : scene.patches) largest = std::max(largest, p.area);
+        for (std::size_t i = 0; i < n; ++i)
+            if (!(std::abs(F.areas[i] - scene.patches[i].area) <= 1e-9 * largest))
+                throw InputError(source, 0,
+                                 fmt::format("patch {} has area {:.17g} in the file, {:.17g} in "
+                                             "the scene (same scene and subdivision?)",
+                                             i, F.areas[i], scene.patches[i].area));
+    }
+    if (F.computed_row_sums.size() != n || F.dropped.size() != n) {
+        F.computed_row_sums.resize(n);
+        for (std::size_t i = 0; i < n; ++i) F.computed_row_sums[i] = F.row_sum(i);
+        F.dropped.assign(n, 0.0);
+    }
+    try {
+        F.check();
+    } catch (const Error& e) {
+        throw InputError(source, 0, e.what());
+    }
+    SparseComputeResult result;
+    result.form_factors = std::move(F);
+    Stopwatch sw;
+    diagnose_and_repair(result, repair, closure, sw);
+    result.run.peak_memory_bytes = peak_memory_bytes();
+    return result;
+}
 
 SparseComputeResult compute_sparse_form_factors(const Scene& scene, const ComputeOptions& options,
                                                 const SparseOptions& sparse) {
@@ -45,12 +113,7 @@ SparseComputeResult compute_sparse_form_factors(const Scene& scene, const Comput
     const std::size_t n = scene.patches.size();
     const RowRange rows = options.rows.clamped(n);
     if (rows.size() != n) throw OptionError("rows", "a sparse run computes every row");
-    const bool closure =
-        options.repair.mode == RepairMode::closure || options.repair.mode == RepairMode::both;
-    if (closure && !scene.enclosure && !options.repair.force_closure)
-        throw OptionError("repair",
-                          "closure needs a closed enclosure (this scene is open: radiation "
-                          "escapes); use reciprocity, which never raises a row sum");
+    const bool closure = sparse_closure(scene, options.repair);
 
     SparseComputeResult result;
     const MethodKind kind = options.method ? *options.method : default_method(scene);
@@ -137,16 +200,7 @@ SparseComputeResult compute_sparse_form_factors(const Scene& scene, const Comput
     result.form_factors = builder->finish();
     result.timings.add("compute", compute_s);
     result.timings.add("threshold", threshold_s);
-    result.diagnostics = diagnose(result.form_factors);
-    result.timings.add("diagnose", sw.lap());
-    if (options.repair.mode != RepairMode::none) {
-        SparseRepairOptions ro;
-        ro.closure = closure;
-        ro.closure_tolerance = options.repair.closure_tolerance;
-        ro.max_iterations = options.repair.max_iterations;
-        result.repair = repair(result.form_factors, ro);
-        result.timings.add("repair", sw.lap());
-    }
+    diagnose_and_repair(result, options.repair, closure, sw);
     needs.nonzeros = double(result.form_factors.nonzeros());
     result.run.estimate_after = estimate_sparse_memory(needs);
     result.run.peak_memory_bytes = peak_memory_bytes();

@@ -1,6 +1,7 @@
 // End-to-end tests of `formfactor solve` and `formfactor render`.
 
 #include <doctest/doctest.h>
+#include <fmt/format.h>
 #include <stb/stb_image.h>
 
 #include <cmath>
@@ -297,4 +298,169 @@ TEST_CASE("cli solve --storage auto: the hierarchical operator for a large unobs
     const auto dense = nlohmann::json::parse(read_text(cli.file("d.json")));
     CHECK(dense["method"] == "analytic");
     CHECK(cli.run("solve cube --subdivide 4 --storage auto --error-target 0 -o r.csv").code == 2);
+}
+
+TEST_CASE("cli solve --storage sparse: the dense path's solutions from CSR, and what it refuses") {
+    Cli cli;
+    // The Cornell box with its blocks (obstructed analytic), 2 × 2 per surface: radiosity with
+    // every solver the sparse storage has, against the dense direct solve.
+    const std::string base = "solve cornell --subdivide 2 ";
+    CliResult r = cli.run(base + "--solver direct --residual 1e-12 -o d.csv");
+    INFO(describe(r));
+    REQUIRE(r.code == 0);
+    const std::size_t n = 80;  // 20 surfaces of the published box, 2 × 2 patches each
+    const SolutionTable d = read_solution_csv(cli.file("d.csv"), n);
+    for (const char* s : {"gauss-seidel", "gmres", "jacobi"}) {
+        r = cli.run(base + "--storage sparse --residual 1e-11 --report s.json -o s.csv --solver " +
+                    s);
+        INFO(describe(r));
+        REQUIRE(r.code == 0);
+        CHECK(r.out.find("storage    sparse (asked for); threshold 0") != std::string::npos);
+        const SolutionTable t = read_solution_csv(cli.file("s.csv"), n);
+        // The residual is relative to ‖B‖∞: ‖B − B*‖∞ ≤ 1e-11 ‖B‖∞ / (1 − ρ_max) (ρ ≤ 0.8 in
+        // the box), plus the direct solve's 1e-12.
+        for (int c = 0; c < 3; ++c) {
+            double bmax = 0.0;
+            for (std::size_t i = 0; i < n; ++i) bmax = std::max(bmax, d.radiosity[i][c]);
+            for (std::size_t i = 0; i < n; ++i)
+                CHECK(std::abs(t.radiosity[i][c] - d.radiosity[i][c]) <= 6e-11 * bmax);
+        }
+        const auto report = nlohmann::json::parse(read_text(cli.file("s.json")));
+        CHECK(report["storage"]["kind"] == "sparse");
+        CHECK(report["options"]["solver"] == s);
+        CHECK(report["memory"]["peak_bytes"].get<double>() > 0);
+        CHECK(report["solve"]["solver"]["converged"] == true);
+    }
+    // A threshold in the closed cube (z0 hot, z1 cold, the rest adiabatic): without a repair the
+    // dropped mass is said; the conservative closure makes F reciprocal and closed again, so the
+    // energy balance holds.
+    write_text(cli.file("p.csv"),
+               "surface,emissivity,temperature,net_flux\nz0,0.8,1000,\nz1,0.3,300,\n"
+               "x0,0.5,,0\nx1,0.5,,0\ny0,0.2,,0\ny1,0.9,,0\n");
+    const std::string cube = "solve cube --subdivide 4 --thermal --properties p.csv ";
+    r = cli.run(cube + "--threshold 1e-3 -o t.csv");
+    INFO(describe(r));
+    REQUIRE(r.code == 0);
+    CHECK(r.out.find("storage    sparse (auto: --threshold given)") != std::string::npos);
+    CHECK(r.err.find("dropped mass") != std::string::npos);
+    r = cli.run(cube + "--storage sparse --threshold 1e-3 --repair both -o t.csv --report t.json");
+    INFO(describe(r));
+    REQUIRE(r.code == 0);
+    CHECK(r.err.find("dropped mass") == std::string::npos);
+    const auto report = nlohmann::json::parse(read_text(cli.file("t.json")));
+    CHECK(report["repair"]["closure"] == true);
+    CHECK(report["solve"]["energy_balance"]["relative_defect"].get<double>() < 1e-9);
+
+    struct Case {
+        const char* args;
+        const char* says;
+    };
+    for (const Case& c : {
+             Case{"solve cube --storage sparse --solver direct -o r.csv", "--solver"},
+             Case{"solve cube --storage sparse --solver shooting -o r.csv", "--solver"},
+             Case{"solve cube --storage sparse --exchange-factors X.csv -o r.csv",
+                  "--exchange-factors"},
+             Case{"solve cube --storage dense --threshold 1e-4 -o r.csv", "--threshold"},
+             Case{"solve cube --storage sparse --threshold -1 -o r.csv", "--threshold"},
+             Case{"solve cube --storage sparse --threshold nan -o r.csv", "--threshold"},
+         }) {
+        const CliResult e = cli.run(c.args);
+        INFO(c.args << "\n" << describe(e));
+        CHECK(e.code == 2);
+        CHECK(e.err.find(c.says) != std::string::npos);
+        CHECK_FALSE(std::filesystem::exists(cli.file("r.csv")));
+    }
+}
+
+TEST_CASE("cli solve --storage auto: sparse storage for a large scene the operator cannot take") {
+    // city-24: 16,849 patches (> 16,384), open, with obstructions (the buildings), F from
+    // mc-hemisphere: auto computes F in CSR form and solves the thermal problem on it (GMRES).
+    Cli cli;
+    const std::size_t n = 16849;
+    std::string p = "patch,emissivity,temperature\n";
+    for (std::size_t i = 0; i < n; ++i)
+        p += fmt::format("{},{},{}\n", i, 0.5 + 0.05 * double(i % 9), 280 + int(i % 37));
+    write_text(cli.file("p.csv"), p);
+    CliResult r = cli.run(
+        "solve city-24 --method mc-hemisphere --samples 64 --threads 2 --thermal "
+        "--ambient-temperature 260 --properties p.csv --repair reciprocity -o t.csv "
+        "--report t.json");
+    INFO(describe(r));
+    REQUIRE(r.code == 0);
+    CHECK(r.out.find("storage    sparse (auto: 16,849 patches, the dense run would need") !=
+          std::string::npos);
+    CHECK(r.out.find("solve      thermal, gmres") != std::string::npos);
+    const auto report = nlohmann::json::parse(read_text(cli.file("t.json")));
+    CHECK(report["storage"]["kind"] == "sparse");
+    CHECK(report["storage"]["nonzeros"].get<double>() < 0.01 * double(n) * double(n));
+    CHECK(report["solve"]["solver"]["converged"] == true);
+    const SolutionTable t = read_solution_csv(cli.file("t.csv"), n);
+    REQUIRE(t.thermal);
+    // Open to a 260 K sky, every patch at 280–316 K: the hottest patches lose heat, and what
+    // the patches lose together goes to the sky (the balance holds: the repaired F is
+    // reciprocal; Monte-Carlo rows alone are reciprocal only to their noise).
+    double total = 0.0;
+    for (std::size_t i = 0; i < n; ++i) {
+        if (i % 37 == 36) CHECK(t.net_flux[i] > 0.0);
+        total += t.net_power[i];
+    }
+    CHECK(report["repair"]["after"]["max_reciprocity_defect"].get<double>() < 1e-12);
+    CHECK(report["solve"]["energy_balance"]["relative_defect"].get<double>() < 1e-8);
+    CHECK(total > 0.0);
+}
+
+TEST_CASE("cli solve --matrix F.mtx|F.h5: the sparse F that compute wrote, solved as computed") {
+    Cli cli;
+    std::string p = "patch,emissivity,temperature\n";
+    for (int i = 0; i < 129; ++i)
+        p += fmt::format("{},{},{}\n", i, 0.6 + 0.03 * (i % 10), 270 + i % 41);
+    write_text(cli.file("p.csv"), p);
+    for (const char* f : {"F.h5", "F.mtx"}) {
+        const CliResult c = cli.run(std::string("compute city-2 --threshold 1e-6 -o ") + f);
+        INFO(describe(c));
+        REQUIRE(c.code == 0);
+    }
+    const std::string base = "solve city-2 --thermal --properties p.csv --ambient-temperature 250 ";
+    CliResult r = cli.run(base + "--storage sparse --threshold 1e-6 -o ref.csv");
+    INFO(describe(r));
+    REQUIRE(r.code == 0);
+    const std::string ref = read_text(cli.file("ref.csv"));
+    for (const char* f : {"F.h5", "F.mtx"}) {
+        r = cli.run(base + "--matrix " + f + " -o t.csv --report t.json");
+        INFO(describe(r));
+        REQUIRE(r.code == 0);
+        CHECK(r.out.find(std::string("storage    sparse (read from ") + f + ")") !=
+              std::string::npos);
+        CHECK(read_text(cli.file("t.csv")) == ref);  // the same entries, bit for bit
+        const auto report = nlohmann::json::parse(read_text(cli.file("t.json")));
+        CHECK(report["method"] == "matrix file");
+        CHECK(report["options"]["matrix"] == f);
+    }
+    struct Case {
+        const char* args;
+        int code;
+        const char* says;
+    };
+    for (const Case& c : {
+             Case{"solve city-4 --matrix F.h5 -o r.csv", 1, "same scene"},
+             Case{"solve city-4 --matrix F.mtx -o r.csv", 1, "same scene"},
+             Case{"solve city-2 --matrix F.mtx --storage dense -o r.csv", 2, "--matrix"},
+             Case{"solve city-2 --matrix F.mtx --threshold 1e-3 -o r.csv", 2, "--threshold"},
+             Case{"solve city-2 --matrix F.mtx --solver direct -o r.csv", 2, "--solver"},
+             Case{"solve city-2 --matrix missing.mtx -o r.csv", 1, "missing.mtx"},
+             Case{"solve city-2 --matrix F.h5 --repair closure -o r.csv", 2, "closure"},
+         }) {
+        const CliResult e = cli.run(c.args);
+        INFO(c.args << "\n" << describe(e));
+        CHECK(e.code == c.code);
+        CHECK(e.err.find(c.says) != std::string::npos);
+        CHECK_FALSE(std::filesystem::exists(cli.file("r.csv")));
+    }
+    // Reciprocity repair of the read F (an open scene: rows never raised).
+    r = cli.run(base + "--matrix F.h5 --repair reciprocity -o t.csv --report t.json");
+    INFO(describe(r));
+    REQUIRE(r.code == 0);
+    const auto report = nlohmann::json::parse(read_text(cli.file("t.json")));
+    CHECK(report["repair"]["after"]["max_reciprocity_defect"].get<double>() < 1e-12);
+    CHECK(report["repair"]["max_row_increase"].get<double>() <= 1e-15);
 }

@@ -181,3 +181,95 @@ TEST_CASE("sparse io: bad extension or directory writes nothing") {
     CHECK(is_sparse_matrix_path("F.h5"));
     CHECK_FALSE(is_sparse_matrix_path("F.npy"));
 }
+
+TEST_CASE("sparse io: read_sparse_matrix gives back what the writers wrote, bit for bit") {
+    const SparseComputeResult r = city_sparse(1e-4);
+    const SparseFormFactors& F = r.form_factors;
+    const Scene scene = city_scene(2);
+    const TempDir dir;
+    SparseFileInfo info;
+    info.patches = &scene.patches;
+    write_sparse_matrix(dir.file("F.mtx"), F, info);
+    write_sparse_matrix(dir.file("F.h5"), F, info);
+    for (const char* name : {"F.mtx", "F.h5"}) {
+        CAPTURE(name);
+        const SparseFormFactors G = read_sparse_matrix(dir.file(name));
+        CHECK(G.n == F.n);
+        CHECK(G.indptr == F.indptr);
+        CHECK(G.indices == F.indices);
+        CHECK(G.values == F.values);
+        if (std::string(name) == "F.h5") {
+            CHECK(G.areas == F.areas);
+            CHECK(G.computed_row_sums == F.computed_row_sums);
+            CHECK(G.dropped == F.dropped);
+        } else {
+            CHECK(G.areas.empty());  // a .mtx file holds no areas: the scene gives them
+            for (std::size_t i = 0; i < G.n; ++i) CHECK(G.dropped[i] == 0.0);
+        }
+        // Made ready for the scene: the areas are the scene's.
+        const SparseComputeResult ready = sparse_form_factors_from_matrix(scene, G);
+        CHECK(ready.form_factors.areas == F.areas);
+    }
+    // Another scene, or another subdivision: refused, naming the file.
+    Scene other = city_scene(2);
+    other.patches.pop_back();
+    CHECK_THROWS_AS(sparse_form_factors_from_matrix(other, read_sparse_matrix(dir.file("F.h5")), {},
+                                                    dir.file("F.h5")),
+                    InputError);
+    Scene scaled = city_scene(2);
+    for (Patch& p : scaled.patches) p.area *= 4.0;
+    CHECK_THROWS_AS(sparse_form_factors_from_matrix(scaled, read_sparse_matrix(dir.file("F.h5")),
+                                                    {}, dir.file("F.h5")),
+                    InputError);
+}
+
+TEST_CASE("sparse io: Matrix Market input that is not a form-factor matrix names its line") {
+    struct Case {
+        const char* text;
+        int line;
+        const char* says;
+    };
+    const char* banner = "%%MatrixMarket matrix coordinate real general\n";
+    for (const Case& c : {
+             Case{"", 1, "empty"},
+             Case{"%%MatrixMarket matrix array real general\n2 2\n", 1, "coordinate"},
+             Case{"%%MatrixMarket matrix coordinate complex general\n", 1, "real"},
+             Case{"%%MatrixMarket matrix coordinate real symmetric\n", 1, "symmetric"},
+             Case{"%%MatrixMarket matrix coordinate pattern general\n", 1, "real"},
+             Case{"hello\n", 1, "not a Matrix Market file"},
+             Case{"B% c\n2 3 1\n", 3, "square"},
+             Case{"B2 2\n", 2, "size line"},
+             Case{"B2 2 1\n1 3 0.5\n", 3, "outside"},
+             Case{"B2 2 1\n0 1 0.5\n", 3, "outside"},
+             Case{"B2 2 1\n1 2 nan\n", 3, "finite"},
+             Case{"B2 2 1\n1 2 0.5 7\n", 3, "entry"},
+             Case{"B2 2 1\n1 2 x\n", 3, "entry"},
+             Case{"B2 2 2\n1 2 0.5\n", 3, "1 entries, the size line says 2"},
+             Case{"B2 2 1\n1 2 0.5\n2 1 0.5\n", 4, "more entries"},
+             Case{"B2 2 2\n1 2 0.5\n1 2 0.25\n", 0, "given twice"},
+             Case{"B2 2 5\n", 2, "5 entries in a 2 x 2"},
+             Case{"B3000000000 3000000000 1\n", 2, "2^31"},
+         }) {
+        std::string text = c.text;
+        if (!text.empty() && text[0] == 'B') text = banner + text.substr(1);
+        CAPTURE(text);
+        std::istringstream in(text);
+        try {
+            read_matrix_market(in, "F.mtx");
+            FAIL("accepted");
+        } catch (const InputError& e) {
+            const std::string what = e.what();
+            CAPTURE(what);
+            CHECK(what.find(c.says) != std::string::npos);
+            CHECK(e.file() == "F.mtx");
+            CHECK(e.line() == c.line);
+        }
+    }
+    // Integer values, comments and blank lines between entries, any order: accepted.
+    std::istringstream in(std::string(banner) + "% c\n3 3 3\n\n3 1 1\n% mid\n1 2 0.5\n1 3 0.25\n");
+    const SparseFormFactors F = read_matrix_market(in, "F.mtx");
+    CHECK(F.indptr == std::vector<std::int64_t>{0, 2, 2, 3});
+    CHECK(F.indices == std::vector<std::int32_t>{1, 2, 0});
+    CHECK(F.values == std::vector<double>{0.5, 0.25, 1.0});
+    CHECK_THROWS_AS(read_sparse_matrix("F.csv"), OptionError);
+}

@@ -24,6 +24,7 @@
 #include "formfactor/output/sparse_io.h"
 #include "formfactor/pipeline_sparse.h"
 #include "solve_common.h"
+#include "sparse_common.h"
 
 namespace formfactor::cli {
 
@@ -145,20 +146,9 @@ void run_compute_sparse(const ComputeArgs& args, const std::string& why) {
     Scene scene = prepare_scene(args.scene, times);
     warn_single_patch(scene);
     const MethodKind method = args.method.resolved_kind(scene);
-    ComputeOptions o;
-    o.method = method;
-    o.method_options = args.method.method_options();
-    o.visibility = args.method.visibility;
-    o.repair = args.repair.options(scene);
-    TerminalProgress bar;
-    o.progress = &bar;
-    o.cancel = &process_cancellation();
-    SparseOptions so;
-    so.threshold = args.threshold;
-    const SparseComputeResult r = compute_sparse_form_factors(scene, o, so);
-    times.add(r.timings);
+    const SparseComputeResult r =
+        compute_sparse_matrix(scene, args.method, args.repair, args.threshold, times);
     const SparseFormFactors& F = r.form_factors;
-    const SparseDiagnostics d = r.repair ? r.repair->after : r.diagnostics;
     Stopwatch sw;
 
     // The report and the patch table are staged first, the matrix written, then both renamed.
@@ -166,64 +156,16 @@ void run_compute_sparse(const ComputeArgs& args, const std::string& why) {
     if (!args.patches.empty())
         tx.stage(args.patches, [&](std::ostream& out) { write_patch_table(out, scene); });
     if (!args.report.empty()) {
-        auto diag = [](const SparseDiagnostics& x) {
-            return nlohmann::json{{"N", x.n},
-                                  {"nonzeros", x.nonzeros},
-                                  {"row_sum_min", x.row_sum_min},
-                                  {"row_sum_max", x.row_sum_max},
-                                  {"row_sum_mean", x.row_sum_mean},
-                                  {"sky_factor_min", x.sky_min},
-                                  {"sky_factor_max", x.sky_max},
-                                  {"max_reciprocity_defect", x.max_reciprocity_defect},
-                                  {"asymmetric_entries", x.asymmetric_entries},
-                                  {"dropped_max", x.dropped_max},
-                                  {"dropped_area_weighted", x.dropped_area_weighted},
-                                  {"negative_entries", x.negative_entries},
-                                  {"entries_above_one", x.entries_above_one}};
-        };
-        auto items = [](const MemoryEstimate& e) {
-            nlohmann::json j = nlohmann::json::array();
-            for (const auto& i : e.items) j.push_back({{"what", i.what}, {"bytes", i.bytes}});
-            return j;
-        };
         nlohmann::json report = {{"command", "compute"},
                                  {"scene", scene_summary_json(scene)},
-                                 {"method", to_string(method)},
-                                 {"storage",
-                                  {{"kind", "sparse"},
-                                   {"why", why},
-                                   {"threshold", args.threshold},
-                                   {"blocks", r.run.blocks},
-                                   {"block_rows", r.run.block_rows},
-                                   {"nonzeros", F.nonzeros()},
-                                   {"csr_bytes", F.memory_bytes()}}},
-                                 {"details", to_json(r.report)},
-                                 {"diagnostics", diag(r.diagnostics)},
-                                 {"memory",
-                                  {{"estimate_before", items(r.run.estimate_before)},
-                                   {"estimate_after", items(r.run.estimate_after)},
-                                   {"projected_bytes", r.run.projected_bytes},
-                                   {"peak_bytes", r.run.peak_memory_bytes}}},
-                                 {"threads", effective_threads(args.method.options.threads)},
-                                 {"outputs", {{"matrix", args.output}}}};
-        if (r.repair)
-            report["repair"] = {{"mode", args.repair.mode},
-                                {"closure", r.repair->closure},
-                                {"entries_restored", r.repair->entries_restored},
-                                {"entries_removed", r.repair->entries_removed},
-                                {"rows_lowered", r.repair->rows_lowered},
-                                {"min_scale", r.repair->min_scale},
-                                {"closure_iterations", r.repair->closure_iterations},
-                                {"closure_residual", r.repair->closure_residual},
-                                {"max_row_increase", r.repair->max_row_increase},
-                                {"after", diag(r.repair->after)}};
+                                 {"method", to_string(method)}};
+        report.update(sparse_report_sections(r, why, args.threshold, args.repair.mode));
+        report["threads"] = effective_threads(args.method.options.threads);
+        report["outputs"] = {{"matrix", args.output}};
         nlohmann::json timings = nlohmann::json::object();
         for (const auto& [step, seconds] : times.steps) timings[step] = seconds;
         report["timings"] = timings;
-        const std::string text = json_text(report);
-        tx.stage(args.report, [text](std::ostream& out) {
-            out.write(text.data(), static_cast<std::streamsize>(text.size()));
-        });
+        stage_report(tx, args.report, report);
     }
     SparseFileInfo info;
     info.scene = scene.name;
@@ -239,29 +181,7 @@ void run_compute_sparse(const ComputeArgs& args, const std::string& why) {
     fmt::print("scene      {}: N = {} patches\n", scene.name, format_count(n));
     fmt::print("method     {} ({} thread{})\n", to_string(method), threads,
                threads == 1 ? "" : "s");
-    fmt::print("storage    sparse ({}); threshold {:g}, {} block{} of {} rows\n", why,
-               args.threshold, r.run.blocks, r.run.blocks == 1 ? "" : "s",
-               format_count(double(r.run.block_rows)));
-    fmt::print("matrix     {} stored entries ({:.1f} per row, {:.3g} % of N²), CSR {}\n",
-               format_count(double(F.nonzeros())), n > 0 ? double(F.nonzeros()) / n : 0.0,
-               n > 0 ? 100.0 * double(F.nonzeros()) / (n * n) : 0.0,
-               format_bytes(F.memory_bytes()));
-    fmt::print("dropped    max {:.3g} per row, {:.3g} area-weighted (threshold)\n",
-               r.diagnostics.dropped_max, r.diagnostics.dropped_area_weighted);
-    fmt::print(
-        "row sums   min {:.10g}, max {:.10g}, mean {:.10g}; sky factor min {:.6g}, max {:.6g}\n",
-        d.row_sum_min, d.row_sum_max, d.row_sum_mean, d.sky_min, d.sky_max);
-    fmt::print("reciprocity max defect {:.3g}, {} entries without their reverse\n",
-               d.max_reciprocity_defect, d.asymmetric_entries);
-    if (r.repair)
-        fmt::print(
-            "repair     {}: {} reverse entries restored, {} rows lowered, closure residual "
-            "{:.3g}\n",
-            args.repair.mode, r.repair->entries_restored, r.repair->rows_lowered,
-            r.repair->closure_residual);
-    fmt::print("memory     estimated {} before the blocks, {} projected; peak {} (RSS)\n",
-               format_bytes(r.run.estimate_before.total()), format_bytes(r.run.projected_bytes),
-               format_bytes(r.run.peak_memory_bytes));
+    print_sparse_summary(r, why, args.threshold, args.repair.mode);
     fmt::print("time       {}\n", format_timings(times, total.seconds()));
     std::string wrote = fmt::format("{} (sparse, {}×{}, {} entries)", args.output, format_count(n),
                                     format_count(n), format_count(double(F.nonzeros())));

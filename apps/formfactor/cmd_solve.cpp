@@ -20,7 +20,10 @@
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/report.h"
 #include "formfactor/output/solution_io.h"
+#include "formfactor/output/sparse_io.h"
+#include "formfactor/pipeline_sparse.h"
 #include "solve_common.h"
+#include "sparse_common.h"
 
 namespace formfactor::cli {
 
@@ -38,12 +41,16 @@ struct SolveArgs {
     std::string exchange;
     std::string output;
     std::string report;
-    std::string storage = "auto";  ///< --storage auto|dense|hierarchical
+    std::string storage = "auto";  ///< --storage auto|dense|sparse|hierarchical
     double error_target = 1e-6;    ///< --error-target (hierarchical)
+    double threshold = 0.0;        ///< --threshold (sparse)
 };
 
 void solve_hierarchical_scene(const SolveArgs& args, Scene& scene, StepTimes& times,
                               Stopwatch& total, const std::string& why);
+void solve_sparse_scene(const SolveArgs& args, Scene& scene, StepTimes& times, Stopwatch& total,
+                        const std::string& why);
+std::string dense_run_is_large(std::size_t n, const DenseRunNeeds& dense);
 
 // Whether `solve --storage auto` takes the hierarchical operator for `loaded` (before
 // subdivision; n patches after it), and why; empty when it takes the dense F. Only where the
@@ -60,14 +67,40 @@ std::string auto_hierarchical(const SolveArgs& args, const Scene& loaded, std::s
         const SolverKind k = parse_solver(args.solver.solver);
         if (k != SolverKind::gmres && k != SolverKind::jacobi) return {};
     }
+    const std::string big = dense_run_is_large(n, dense);
+    if (big.empty() || !hierarchical_accepts(loaded)) return {};
+    return fmt::format("auto: {} patches without obstructions, {}", format_count(double(n)), big);
+}
+
+// Why the dense run of n patches is large enough for another storage ("the dense run would need
+// 11 GB"), or empty: more than 16,384 patches or more than half the available memory.
+std::string dense_run_is_large(std::size_t n, const DenseRunNeeds& dense) {
     DenseRunNeeds needs = dense;
     needs.patches = n;
     const double bytes = estimate_dense_memory(needs).total();
     const double available = available_memory();
-    const bool big = n > 16384 || (available > 0.0 && bytes > 0.5 * available);
-    if (!big || !hierarchical_accepts(loaded)) return {};
-    return fmt::format("auto: {} patches without obstructions, the dense run would need {}",
-                       format_count(double(n)), format_bytes(bytes));
+    if (!(n > 16384 || (available > 0.0 && bytes > 0.5 * available))) return {};
+    return fmt::format("the dense run would need {}", format_bytes(bytes));
+}
+
+// Whether `solve --storage auto` takes sparse storage where the hierarchical operator is not
+// taken (obstructions, another method, a repair): when the dense run would be large, F is
+// neither read nor inverted, and the solver works on CSR. Empty: dense.
+std::string auto_sparse(const SolveArgs& args, const Scene& loaded, std::size_t n,
+                        const DenseRunNeeds& dense) {
+    if (!args.matrix.empty() || !args.exchange.empty()) return {};
+    if (!args.solver.solver.empty()) {
+        const SolverKind k = parse_solver(args.solver.solver);
+        if (k == SolverKind::direct || k == SolverKind::shooting) return {};
+    }
+    const std::string big = dense_run_is_large(n, dense);
+    if (big.empty()) return {};
+    const MethodKind method = args.method.resolved_kind(loaded);
+    return fmt::format("auto: {} patches, {}; {}", format_count(double(n)), big,
+                       method == MethodKind::analytic && !hierarchical_accepts(loaded)
+                           ? "obstructions: no hierarchical operator"
+                       : method != MethodKind::analytic ? to_string(method) + " rows"
+                                                        : "F's entries are needed (--repair)");
 }
 
 // `solve --storage hierarchical`: the operator of formfactor/matrix/hierarchical.h, never F.
@@ -163,6 +196,101 @@ void solve_hierarchical_scene(const SolveArgs& args, Scene& scene, StepTimes& ti
     fmt::print("wrote      {}\n", wrote);
 }
 
+// `solve --storage sparse` (or --matrix F.mtx|F.h5): the checks that need no scene.
+void check_sparse_options(const SolveArgs& args) {
+    if (!args.matrix.empty() && !is_sparse_matrix_path(args.matrix))
+        throw OptionError("--matrix",
+                          "with --storage sparse: a sparse F (.mtx or .h5), or no --matrix to "
+                          "compute F in CSR form");
+    if (!args.matrix.empty() && args.threshold > 0.0)
+        throw OptionError("--threshold",
+                          "applies when F is computed; the entries of --matrix are used as they "
+                          "are");
+    if (!args.exchange.empty())
+        throw OptionError("--exchange-factors",
+                          "needs the dense F (an O(N^3) inverse); not with --storage sparse");
+    if (!args.solver.solver.empty()) {
+        const SolverKind k = parse_solver(args.solver.solver);
+        if (k == SolverKind::direct || k == SolverKind::shooting)
+            throw OptionError("--solver",
+                              "with --storage sparse: gauss-seidel, gmres or jacobi (direct needs "
+                              "the dense system, shooting F's columns)");
+    }
+}
+
+// The sparse solve of a prepared scene (options checked): F computed in CSR form, or read from
+// --matrix F.mtx|F.h5; `why` says why this storage.
+void solve_sparse_scene(const SolveArgs& args, Scene& scene, StepTimes& times, Stopwatch& total,
+                        const std::string& why) {
+    const int threads = effective_threads(args.method.options.threads);
+    const SolverOptions solver_options =
+        args.solver.options(args.thermal ? SolverKind::gmres : SolverKind::gauss_seidel, threads);
+    warn_single_patch(scene);
+    PatchProperties props = properties_from_scene(scene);
+    if (!args.properties.empty()) apply_properties_csv(args.properties, scene, props);
+    validate_properties(props);
+    const bool read = !args.matrix.empty();
+    const MethodKind method = args.method.resolved_kind(scene);
+    const std::string method_name = read ? "matrix file" : to_string(method);
+    SparseComputeResult r;
+    if (read) {
+        Stopwatch sw;
+        SparseFormFactors F = read_sparse_matrix(args.matrix);
+        times.add("read matrix", sw.lap());
+        r = sparse_form_factors_from_matrix(scene, std::move(F), args.repair.options(scene),
+                                            args.matrix);
+        times.add(r.timings);
+    } else {
+        r = compute_sparse_matrix(scene, args.method, args.repair, args.threshold, times);
+    }
+    const SparseFormFactors& F = r.form_factors;
+    Stopwatch sw;
+    OutputTransaction tx;
+    const nlohmann::json solve_json =
+        solve_and_stage(F, props, args.thermal, args.ambient_temperature, solver_options,
+                        args.output, times, sw, tx);
+    times.add("write", sw.lap());
+    if (!args.report.empty()) {
+        nlohmann::json options =
+            read ? nlohmann::json::object() : args.method.to_json(to_string(method));
+        options["matrix"] = read ? nlohmann::json(args.matrix) : nlohmann::json(nullptr);
+        options["storage"] = "sparse";
+        options["threshold"] = args.threshold;
+        options["repair"] = args.repair.mode;
+        options["properties"] =
+            args.properties.empty() ? nlohmann::json(nullptr) : nlohmann::json(args.properties);
+        options["thermal"] = args.thermal;
+        options["solver"] = to_string(solver_options.solver);
+        options["residual"] = solver_options.residual;
+        options["max_iterations"] = solver_options.max_iterations;
+        options["output"] = args.output;
+        nlohmann::json report = {
+            {"formfactor_version", FF_VERSION},
+            {"command", "solve"},
+            {"scene", scene_summary_json(scene)},
+            {"N", scene.patches.size()},
+            {"method", method_name},
+            {"options", options},
+            {"threads", threads},
+            {"timings", timings_json(times, total)},
+            {"outputs", {{"result", args.output}, {"report", args.report}}},
+            {"solve", solve_json},
+        };
+        report.update(sparse_report_sections(r, why, F.threshold, args.repair.mode));
+        report["memory"]["peak_bytes"] = peak_memory_bytes();  // the solve's too
+        stage_report(tx, args.report, report);
+    }
+    tx.commit();
+    fmt::print("scene      {}: N = {} patches, F from {} ({} thread{})\n", scene.name,
+               format_count(double(scene.patches.size())), read ? args.matrix : method_name,
+               threads, threads == 1 ? "" : "s");
+    print_sparse_summary(r, why, F.threshold, args.repair.mode);
+    fmt::print("time       {}\n", format_timings(times, total.seconds()));
+    std::string wrote = args.output;
+    if (!args.report.empty()) wrote += ", " + args.report;
+    fmt::print("wrote      {}\n", wrote);
+}
+
 void run_solve(const SolveArgs& args) {
     Stopwatch total;
     args.scene.validate();
@@ -182,33 +310,50 @@ void run_solve(const SolveArgs& args) {
             (!args.report.empty() && same_file(args.exchange, args.report)))
             throw OptionError("--exchange-factors", "is the same file as another output");
     }
-    if (args.storage != "auto" && args.storage != "dense" && args.storage != "hierarchical")
-        throw OptionError("--storage",
-                          "must be auto, dense or hierarchical, got '" + args.storage + "'");
+    if (args.storage != "auto" && args.storage != "dense" && args.storage != "sparse" &&
+        args.storage != "hierarchical")
+        throw OptionError(
+            "--storage", "must be auto, dense, sparse or hierarchical, got '" + args.storage + "'");
+    if (!(args.threshold >= 0.0) || !std::isfinite(args.threshold))
+        throw OptionError("--threshold", "must be a finite number >= 0");
+    if (args.threshold > 0.0 && args.storage != "sparse" && args.storage != "auto")
+        throw OptionError("--threshold", "applies to sparse storage (--storage sparse)");
     if (args.storage == "auto" && !(args.error_target > 0.0 && args.error_target <= 0.1))
         throw OptionError("--error-target", "must be in (0, 0.1]");
-    if (args.storage == "hierarchical") {
-        if (!args.solver.solver.empty()) parse_solver(args.solver.solver);
-        if (!(args.ambient_temperature >= 0.0) || !std::isfinite(args.ambient_temperature))
-            throw OptionError("--ambient-temperature", "must be a temperature >= 0 K");
-        if (args.ambient_temperature > 0.0 && !args.thermal)
-            throw OptionError("--ambient-temperature", "needs --thermal");
-        run_solve_hierarchical(args, total);
-        return;
-    }
-    if (!args.matrix.empty()) matrix_format_for(args.matrix, "--matrix");
-    parse_repair_mode(args.repair.mode);
-    if (!args.solver.solver.empty()) parse_solver(args.solver.solver);
     if (!(args.ambient_temperature >= 0.0) || !std::isfinite(args.ambient_temperature))
         throw OptionError("--ambient-temperature", "must be a temperature >= 0 K");
     if (args.ambient_temperature > 0.0 && !args.thermal)
         throw OptionError("--ambient-temperature", "needs --thermal");
+    if (args.storage == "hierarchical") {
+        if (!args.solver.solver.empty()) parse_solver(args.solver.solver);
+        run_solve_hierarchical(args, total);
+        return;
+    }
+    parse_repair_mode(args.repair.mode);
+    // --threshold, or a sparse --matrix file, asks for sparse storage.
+    const bool sparse_matrix = !args.matrix.empty() && is_sparse_matrix_path(args.matrix);
+    if (sparse_matrix && args.storage != "auto" && args.storage != "sparse")
+        throw OptionError("--matrix", "a sparse F (.mtx, .h5) is solved with sparse storage");
+    if (args.storage == "sparse" || (args.storage == "auto" && args.threshold > 0.0) ||
+        sparse_matrix) {
+        check_sparse_options(args);
+        StepTimes times;
+        Scene scene = prepare_scene(args.scene, times);
+        solve_sparse_scene(args, scene, times, total,
+                           sparse_matrix              ? "read from " + args.matrix
+                           : args.storage == "sparse" ? std::string("asked for")
+                                                      : std::string("auto: --threshold given"));
+        return;
+    }
+    if (!args.matrix.empty()) matrix_format_for(args.matrix, "--matrix");
+    if (!args.solver.solver.empty()) parse_solver(args.solver.solver);
     const int threads = effective_threads(args.method.options.threads);
     const SolverOptions solver_options =
         args.solver.options(args.thermal ? SolverKind::direct : SolverKind::gauss_seidel, threads);
 
     StepTimes times;
     std::string hierarchical_why;  // set when --storage auto takes the operator
+    std::string sparse_why;        // set when --storage auto takes sparse storage
     Scene scene = prepare_scene(args.scene, times, [&](const Scene& loaded) {
         // The memory of F (computed or read), its standard errors, the repair copy, the solver
         // and the exchange factors, checked before the patches and F exist.
@@ -226,8 +371,10 @@ void run_solve(const SolveArgs& args) {
                 needs.extra_matrices.push_back(m);
         if (args.storage == "auto") {
             hierarchical_why = auto_hierarchical(args, loaded, n, needs);
-            if (!hierarchical_why.empty()) {
-                DenseRunNeeds none;  // the operator checks its own memory before it is built
+            if (hierarchical_why.empty()) sparse_why = auto_sparse(args, loaded, n, needs);
+            if (!hierarchical_why.empty() || !sparse_why.empty()) {
+                // The operator and the sparse run check their own memory.
+                DenseRunNeeds none;
                 none.matrix = false;
                 return none;
             }
@@ -236,6 +383,10 @@ void run_solve(const SolveArgs& args) {
     });
     if (!hierarchical_why.empty()) {
         solve_hierarchical_scene(args, scene, times, total, hierarchical_why);
+        return;
+    }
+    if (!sparse_why.empty()) {
+        solve_sparse_scene(args, scene, times, total, sparse_why);
         return;
     }
     warn_single_patch(scene);
@@ -330,9 +481,8 @@ void add_solve_command(CLI::App& app) {
     args->scene.add_to(cmd);
     args->method.add_to(cmd);
     cmd->add_option("--matrix", args->matrix,
-                    "Read F (.csv, .npy or .txt) instead of computing it; rows = "
-                    "the scene's "
-                    "patches after subdivision")
+                    "Read F (.csv, .npy or .txt; sparse: .mtx or .h5 as compute writes them) "
+                    "instead of computing it; rows = the scene's patches after subdivision")
         ->type_name("F.npy");
     cmd->add_option("--properties", args->properties,
                     "Per-patch or per-surface overrides: reflectance_r/g/b, "
@@ -361,11 +511,20 @@ void add_solve_command(CLI::App& app) {
     cmd->add_option("--storage", args->storage,
                     "auto (default): hierarchical for more than 16,384 patches (or a dense run "
                     "over half the memory) in a scene without obstructions when nothing needs F's "
-                    "entries, else dense, and says which; dense: F as an N x N matrix; "
+                    "entries, sparse when the dense run would be as large but the operator "
+                    "does not apply (obstructions, another method, --repair), else dense, and "
+                    "says which; dense: F as an N x N matrix; sparse: F in CSR form (rows in "
+                    "blocks, docs/sparse.md), solved by gauss-seidel, gmres or jacobi; "
                     "hierarchical: a compressed operator (low-rank far blocks, exact near blocks) "
                     "solved by products, for large scenes without obstructions "
                     "(docs/hierarchical.md)")
-        ->type_name("auto|dense|hierarchical")
+        ->type_name("auto|dense|sparse|hierarchical")
+        ->capture_default_str();
+    cmd->add_option("--threshold", args->threshold,
+                    "Sparse storage: drop entries F_ij <= T (the dropped mass per row is kept; "
+                    "--repair closure|both puts it back in a closed scene); implies "
+                    "--storage sparse under auto")
+        ->type_name("T")
         ->capture_default_str();
     cmd->add_option("--error-target", args->error_target,
                     "Hierarchical storage: relative error of each compressed block")

@@ -205,6 +205,12 @@ template nlohmann::json solve_and_stage<HierarchicalFormFactors>(const Hierarchi
                                                                  const std::string&, StepTimes&,
                                                                  Stopwatch&, OutputTransaction&);
 
+template nlohmann::json solve_and_stage<SparseFormFactors>(const SparseFormFactors&,
+                                                           const PatchProperties&, bool, double,
+                                                           const SolverOptions&, const std::string&,
+                                                           StepTimes&, Stopwatch&,
+                                                           OutputTransaction&);
+
 std::vector<bool> emitting_patches(const Scene& scene) {
     std::vector<bool> e(scene.patches.size(), false);
     for (std::size_t i = 0; i < e.size(); ++i)

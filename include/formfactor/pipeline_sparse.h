@@ -18,6 +18,7 @@
 
 #include <cstddef>
 #include <optional>
+#include <string>
 
 #include "formfactor/matrix/memory.h"
 #include "formfactor/matrix/sparse.h"
@@ -79,5 +80,16 @@ struct SparseComputeResult {
 /// N rows will not fit.
 SparseComputeResult compute_sparse_form_factors(const Scene& scene, const ComputeOptions& options,
                                                 const SparseOptions& sparse);
+
+/// A sparse F read from a file (read_sparse_matrix(), formfactor/output/sparse_io.h) made ready
+/// for a solve of `scene`, as form_factors_from_matrix() does for a dense F: its size checked
+/// against scene.patches, the areas given when the file has none (`.mtx`) or checked against
+/// the scene's (relative 1e-9 of the largest: an `.h5` file of another scene or subdivision is
+/// refused), diagnosed, and repaired as compute_sparse_form_factors() repairs. `source` names
+/// the file in errors (InputError(source, 0, ...)). The result's report names no method and its
+/// run report has no blocks.
+SparseComputeResult sparse_form_factors_from_matrix(const Scene& scene, SparseFormFactors F,
+                                                    const RepairOptions& repair = {},
+                                                    const std::string& source = "matrix");
 
 }  // namespace formfactor

@@ -5,14 +5,18 @@
 
 #include "output/sparse_hdf5.h"
 
+#include <fmt/format.h>
 #include <hdf5.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
+#include <filesystem>
 #include <string>
 #include <vector>
 
 #include "formfactor/core/error.h"
+#include "formfactor/matrix/memory.h"
 
 namespace formfactor::detail {
 
@@ -171,6 +175,111 @@ void write_sparse_hdf5(const std::string& file, const std::string& target,
     w.attribute(root, "repair", info.repair);
     w.attribute(root, "program", std::string("formfactor ") + FF_VERSION);
     w.check(H5Fflush(root, H5F_SCOPE_GLOBAL), "flush");
+}
+
+}  // namespace formfactor::detail
+
+namespace formfactor::detail {
+
+namespace {
+
+// Reads whole one-dimensional datasets of a file opened for reading, every failure an
+// InputError naming the file.
+class Reader {
+  public:
+    explicit Reader(const std::string& path) : path_(path) {}
+
+    [[noreturn]] void fail(const std::string& what) const { throw InputError(path_, 0, what); }
+
+    bool has(hid_t loc, const char* name) const { return H5Lexists(loc, name, H5P_DEFAULT) > 0; }
+
+    // The length of the one-dimensional dataset `name`.
+    hsize_t length(hid_t loc, const char* name) const {
+        if (!has(loc, name)) fail(std::string("no dataset '") + name + "'");
+        const Handle set(H5Dopen2(loc, name, H5P_DEFAULT), H5Dclose);
+        if (set.get() < 0) fail(std::string("cannot open dataset '") + name + "'");
+        const Handle space(H5Dget_space(set.get()), H5Sclose);
+        if (space.get() < 0 || H5Sget_simple_extent_ndims(space.get()) != 1)
+            fail(std::string("dataset '") + name + "' is not one-dimensional");
+        hsize_t dims[1] = {0};
+        H5Sget_simple_extent_dims(space.get(), dims, nullptr);
+        return dims[0];
+    }
+
+    // Dataset `name` of `count` elements, converted to `type` (T's native type).
+    template <class T>
+    std::vector<T> read(hid_t loc, const char* name, hid_t type, hsize_t count) const {
+        if (length(loc, name) != count)
+            fail(fmt::format("dataset '{}' has {} elements, expected {}", name, length(loc, name),
+                             count));
+        const Handle set(H5Dopen2(loc, name, H5P_DEFAULT), H5Dclose);
+        std::vector<T> v(static_cast<std::size_t>(count));
+        if (count > 0 && H5Dread(set.get(), type, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()) < 0)
+            fail(std::string("cannot read dataset '") + name + "' as numbers of its kind");
+        return v;
+    }
+
+    std::uint64_t attribute_u64(hid_t loc, const char* name) const {
+        if (H5Aexists(loc, name) <= 0) fail(std::string("no attribute '") + name + "'");
+        const Handle a(H5Aopen(loc, name, H5P_DEFAULT), H5Aclose);
+        std::uint64_t v = 0;
+        if (a.get() < 0 || H5Aread(a.get(), H5T_NATIVE_UINT64, &v) < 0)
+            fail(std::string("cannot read attribute '") + name + "' as a whole number");
+        return v;
+    }
+
+  private:
+    std::string path_;
+};
+
+}  // namespace
+
+SparseFormFactors read_sparse_hdf5(const std::string& path) {
+    const QuietErrors quiet;
+    const Reader r(path);
+    if (!std::filesystem::exists(path)) r.fail("cannot open file");
+    if (H5Fis_hdf5(path.c_str()) <= 0) r.fail("not an HDF5 file (or it cannot be read)");
+    const Handle f(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+    if (f.get() < 0) r.fail("cannot open the HDF5 file");
+    const hid_t root = f.get();
+    const std::uint64_t n = r.attribute_u64(root, "N");
+    if (n > std::uint64_t(INT32_MAX)) r.fail(fmt::format("N = {}: more than 2^31 - 1 patches", n));
+    const hsize_t nnz = r.length(root, "data");
+    const double bytes = sparse_matrix_bytes(double(n), double(nnz), r.has(root, "standard_error"));
+    if (const double available = available_memory(); available > 0.0 && bytes > available)
+        r.fail(fmt::format("{} entries need {:.3g} GB, more than the {:.3g} GB available", nnz,
+                           bytes / 1e9, available / 1e9));
+    SparseFormFactors F;
+    F.n = static_cast<std::size_t>(n);
+    F.indptr = r.read<std::int64_t>(root, "indptr", H5T_NATIVE_INT64, n + 1);
+    F.indices = r.read<std::int32_t>(root, "indices", H5T_NATIVE_INT32, nnz);
+    F.values = r.read<double>(root, "data", H5T_NATIVE_DOUBLE, nnz);
+    F.areas = r.read<double>(root, "areas", H5T_NATIVE_DOUBLE, n);
+    if (r.has(root, "standard_error")) {
+        F.standard_error = r.read<double>(root, "standard_error", H5T_NATIVE_DOUBLE, nnz);
+        for (double e : *F.standard_error)
+            if (!(e >= 0.0) || !std::isfinite(e))
+                r.fail("a standard error is not a finite number >= 0");
+    }
+    F.computed_row_sums.resize(F.n);
+    F.dropped.assign(F.n, 0.0);
+    try {
+        F.check();
+    } catch (const Error& e) {
+        r.fail(e.what());
+    }
+    for (double a : F.areas)
+        if (!(a > 0.0) || !std::isfinite(a)) r.fail("an area is not a finite positive number");
+    if (r.has(root, "computed_row_sum") && r.has(root, "dropped")) {
+        F.computed_row_sums = r.read<double>(root, "computed_row_sum", H5T_NATIVE_DOUBLE, n);
+        F.dropped = r.read<double>(root, "dropped", H5T_NATIVE_DOUBLE, n);
+        for (std::size_t i = 0; i < F.n; ++i)
+            if (!std::isfinite(F.computed_row_sums[i]) || !std::isfinite(F.dropped[i]))
+                r.fail(fmt::format("row {}: computed_row_sum or dropped is not finite", i));
+    } else {
+        for (std::size_t i = 0; i < F.n; ++i) F.computed_row_sums[i] = F.row_sum(i);
+    }
+    return F;
 }
 
 }  // namespace formfactor::detail

@@ -13,4 +13,8 @@ namespace formfactor::detail {
 void write_sparse_hdf5(const std::string& file, const std::string& target,
                        const SparseFormFactors& F, const SparseFileInfo& info);
 
+/// Reads the CSR arrays, areas and per-row arrays of an HDF5 file of that layout. Throws
+/// InputError(path, 0, ...) naming what is missing or inconsistent.
+SparseFormFactors read_sparse_hdf5(const std::string& path);
+
 }  // namespace formfactor::detail

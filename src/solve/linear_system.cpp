@@ -237,6 +237,13 @@ void run_direct(const DenseMatrix& F, const Columns& d, const Columns& c, Column
 
 constexpr int kGmresRestart = 30;
 
+// The message of a solve that stopped at its iteration limit (st filled but for warnings).
+std::string not_converged(const SolverStats& st, const char* unit, const char* advice) {
+    return fmt::format(
+        "solve: {} did not converge in {} {}: relative residual {:.3g} > tolerance {:.3g} ({})",
+        st.solver, st.iterations, unit, st.residual, st.tolerance, advice);
+}
+
 // The stopping rule's options (both solve_linear and solve_linear_operator).
 void check_options(const SolverOptions& options) {
     if (!(options.residual > 0.0) || !std::isfinite(options.residual))
@@ -354,11 +361,9 @@ SolverStats solve_linear_operator(const ApplyF& apply, Eigen::Index n, const Col
     st.converged = residual <= options.residual;
     st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (!st.converged) {
-        const std::string msg = fmt::format(
-            "solve: {} did not converge in {} {}: relative residual {:.3g} > tolerance {:.3g} "
-            "(raise --max-iterations or loosen --residual)",
-            st.solver, st.iterations, options.solver == SolverKind::gmres ? "products" : "sweeps",
-            residual, options.residual);
+        const std::string msg =
+            not_converged(st, options.solver == SolverKind::gmres ? "products" : "sweeps",
+                          "raise --max-iterations or loosen --residual");
         if (options.fail_if_not_converged) throw Error(msg);
         st.warnings.push_back(msg);
     }
@@ -443,12 +448,8 @@ SolverStats solve_linear(const DenseMatrix& F, const std::vector<double>& areas,
                 "(ill-conditioned system)",
                 residual, options.residual);
         else
-            msg = fmt::format(
-                "solve: {} did not converge in {} {}: relative residual {:.3g} > tolerance {:.3g} "
-                "(raise --max-iterations, loosen --residual or use --solver direct)",
-                st.solver, st.iterations,
-                options.solver == SolverKind::shooting ? "shots" : "sweeps", residual,
-                options.residual);
+            msg = not_converged(st, options.solver == SolverKind::shooting ? "shots" : "sweeps",
+                                "raise --max-iterations, loosen --residual or use --solver direct");
         if (options.fail_if_not_converged && options.solver != SolverKind::direct &&
             !options.add_ambient)
             throw Error(msg);
@@ -469,6 +470,137 @@ void check_sizes(const FormFactors& ff, std::size_t properties) {
             fmt::format("solve: the scene has {} patches but the matrix is {}x{} (same scene and "
                         "subdivision?)",
                         properties, n, n));
+}
+
+void multiply(const SparseFormFactors& F, const Columns& x, Columns& y, int threads) {
+    const auto n = static_cast<Eigen::Index>(F.n);
+    const Eigen::Index k = x.cols();
+    FF_ASSERT(x.rows() == n);
+    if (y.rows() != n || y.cols() != k) y.resize(n, k);
+    constexpr Eigen::Index kSparseRowBlock = 256;
+    const std::size_t blocks =
+        static_cast<std::size_t>((n + kSparseRowBlock - 1) / kSparseRowBlock);
+    auto body = [&](std::size_t b) {
+        const Eigen::Index lo = static_cast<Eigen::Index>(b) * kSparseRowBlock;
+        const Eigen::Index hi = std::min(n, lo + kSparseRowBlock);
+        for (Eigen::Index i = lo; i < hi; ++i) {
+            const auto begin = static_cast<std::size_t>(F.indptr[static_cast<std::size_t>(i)]);
+            const auto end = static_cast<std::size_t>(F.indptr[static_cast<std::size_t>(i) + 1]);
+            for (Eigen::Index c = 0; c < k; ++c) {
+                double s = 0.0;
+                for (std::size_t e = begin; e < end; ++e) s += F.values[e] * x(F.indices[e], c);
+                y(i, c) = s;
+            }
+        }
+    };
+    if (F.nonzeros() < 4096) {
+        for (std::size_t b = 0; b < blocks; ++b) body(b);
+    } else {
+        parallel_for(blocks, threads, body);
+    }
+}
+
+namespace {
+
+// Gauss–Seidel sweeps over the stored entries of row i, the diagonal (F_ii, stored when
+// non-zero) solved for as in the dense sweep.
+long long run_gauss_seidel(const SparseFormFactors& F, const Columns& d, const Columns& c,
+                           const SolverOptions& o, long long max_it, Columns& x, Columns& y,
+                           double& residual) {
+    const auto n = static_cast<Eigen::Index>(F.n);
+    return iterate(
+        o, max_it, x, residual,
+        [&] {
+            double change = 0.0;
+            for (Eigen::Index i = 0; i < n; ++i) {
+                const auto begin = static_cast<std::size_t>(F.indptr[static_cast<std::size_t>(i)]);
+                const auto end =
+                    static_cast<std::size_t>(F.indptr[static_cast<std::size_t>(i) + 1]);
+                for (Eigen::Index k = 0; k < x.cols(); ++k) {
+                    double s = 0.0, fii = 0.0;
+                    for (std::size_t e = begin; e < end; ++e) {
+                        const Eigen::Index j = F.indices[e];
+                        if (j == i)
+                            fii = F.values[e];
+                        else
+                            s += F.values[e] * x(j, k);
+                    }
+                    const double v = (c(i, k) + d(i, k) * s) / (1.0 - d(i, k) * fii);
+                    change = std::max(change, std::abs(v - x(i, k)));
+                    x(i, k) = v;
+                }
+            }
+            return change;
+        },
+        [&] {
+            multiply(F, x, y, o.threads);
+            return residual_of(d, c, x, y);
+        });
+}
+
+}  // namespace
+
+void check_sparse_solver(SolverKind kind) {
+    if (kind == SolverKind::direct || kind == SolverKind::shooting)
+        throw OptionError("solver",
+                          fmt::format("{} needs the dense F ({}); a sparse F is solved by "
+                                      "gauss-seidel, gmres or jacobi",
+                                      to_string(kind),
+                                      kind == SolverKind::direct ? "an LU of the N x N system"
+                                                                 : "the columns of F"));
+}
+
+SolverStats solve_linear(const SparseFormFactors& F, const Columns& d, const Columns& c,
+                         const SolverOptions& options, Columns& x) {
+    const auto start = std::chrono::steady_clock::now();
+    const auto n = static_cast<Eigen::Index>(F.n);
+    FF_ASSERT(d.rows() == n && c.rows() == n && d.cols() == c.cols());
+    check_options(options);
+    if (options.solver == SolverKind::gmres || options.solver == SolverKind::jacobi)
+        return solve_linear_operator(
+            [&](const Columns& v, Columns& out) { multiply(F, v, out, options.threads); }, n, d, c,
+            options, x);
+    check_sparse_solver(options.solver);
+    SolverStats st;
+    st.solver = to_string(options.solver);
+    st.tolerance = options.residual;
+    x = c;
+    Columns y(n, c.cols());
+    double residual = 0.0;
+    const long long max_it = options.max_iterations > 0 ? options.max_iterations : 10000;
+    st.iterations = run_gauss_seidel(F, d, c, options, max_it, x, y, residual);
+    st.residual = residual;
+    st.converged = residual <= options.residual;
+    st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (!st.converged) {
+        const std::string msg =
+            not_converged(st, "sweeps", "raise --max-iterations or loosen --residual");
+        if (options.fail_if_not_converged) throw Error(msg);
+        st.warnings.push_back(msg);
+    }
+    return st;
+}
+
+std::string dropped_mass_warning(const SparseFormFactors& F) {
+    double dropped = 0.0;
+    for (double v : F.dropped) dropped = std::max(dropped, v);
+    if (!(dropped > 1e-9)) return {};
+    return fmt::format(
+        "the stored entries of a row carry up to {:.3g} less than the method computed (dropped "
+        "mass: what a threshold dropped or an open-scene repair lowered): the solve treats it as "
+        "seen by the environment; in a closed scene --repair closure or both puts it back",
+        dropped);
+}
+
+void check_sizes(const SparseFormFactors& F, std::size_t properties) {
+    if (F.indptr.size() != F.n + 1 || F.areas.size() != F.n)
+        throw Error(fmt::format("solve: a sparse matrix of {} rows with {} offsets and {} areas",
+                                F.n, F.indptr.size(), F.areas.size()));
+    if (properties != F.n)
+        throw Error(
+            fmt::format("solve: the scene has {} patches but the matrix is {}x{} (same scene and "
+                        "subdivision?)",
+                        properties, F.n, F.n));
 }
 
 }  // namespace detail

@@ -3,9 +3,11 @@
 
 #include <Eigen/Core>
 #include <functional>
+#include <string>
 #include <vector>
 
 #include "formfactor/matrix/form_factors.h"
+#include "formfactor/matrix/sparse.h"
 #include "formfactor/solve/solver.h"
 
 namespace formfactor::detail {
@@ -35,5 +37,25 @@ double relative_residual(const DenseMatrix& F, const Columns& d, const Columns& 
 
 /// Throws Error unless F is n×n with n areas and n patch properties.
 void check_sizes(const FormFactors& ff, std::size_t properties);
+
+/// y = F x for a CSR matrix: rows in fixed chunks in parallel, each row's entries summed in
+/// column order (bit-identical for any thread count).
+void multiply(const SparseFormFactors& F, const Columns& x, Columns& y, int threads);
+
+/// solve_linear on a CSR matrix: gauss-seidel (sweeps over the stored entries), jacobi or
+/// gmres (products); direct and shooting need the dense F (OptionError "solver").
+SolverStats solve_linear(const SparseFormFactors& F, const Columns& d, const Columns& c,
+                         const SolverOptions& options, Columns& x);
+
+/// A warning when the stored entries of some row carry less than the method computed (what a
+/// threshold dropped and no repair put back, above 1e-9), which a solve sees as environment;
+/// empty otherwise.
+std::string dropped_mass_warning(const SparseFormFactors& F);
+
+/// Throws OptionError("solver") for a solver that needs the dense F (direct, shooting).
+void check_sparse_solver(SolverKind kind);
+
+/// Throws Error unless the CSR matrix has n areas and n patch properties.
+void check_sizes(const SparseFormFactors& F, std::size_t properties);
 
 }  // namespace formfactor::detail

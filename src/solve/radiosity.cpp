@@ -101,4 +101,26 @@ RadiosityResult solve_radiosity(const HierarchicalFormFactors& ff, const PatchPr
     return res;
 }
 
+RadiosityResult solve_radiosity(const SparseFormFactors& ff, const PatchProperties& props,
+                                const SolverOptions& options) {
+    detail::check_sizes(ff, props.size());
+    detail::check_sparse_solver(options.solver);
+    validate_properties(props);
+    const auto n = static_cast<Eigen::Index>(ff.n);
+    detail::Columns d, c, x;
+    system_of(props, d, c);
+    RadiosityResult res;
+    res.stats = detail::solve_linear(ff, d, c, options, x);
+    res.radiosity.resize(ff.n);
+    for (Eigen::Index i = 0; i < n; ++i) res.radiosity[static_cast<std::size_t>(i)] = x.row(i);
+    detail::Columns H;
+    detail::multiply(ff, x, H, options.threads);
+    std::vector<double> sums(ff.n);
+    for (std::size_t i = 0; i < ff.n; ++i) sums[i] = ff.row_sum(i);
+    res.balance = balance_of(ff.areas, sums, props, x, H);
+    if (std::string w = detail::dropped_mass_warning(ff); !w.empty())
+        res.stats.warnings.push_back(w);
+    return res;
+}
+
 }  // namespace formfactor

@@ -178,6 +178,32 @@ ThermalResult solve_thermal(const HierarchicalFormFactors& ff, const PatchProper
     return thermal_on(sys, props, options);
 }
 
+ThermalResult solve_thermal(const SparseFormFactors& ff, const PatchProperties& props,
+                            const ThermalOptions& options) {
+    detail::check_sizes(ff, props.size());
+    detail::check_sparse_solver(options.solver.solver);
+    ThermalSystem sys;
+    sys.n = static_cast<Eigen::Index>(ff.n);
+    sys.areas = &ff.areas;
+    sys.row_sums.resize(ff.n);
+    double dropped = 0.0;
+    for (std::size_t i = 0; i < ff.n; ++i) {
+        sys.row_sums[i] = ff.row_sum(i);
+        if (i < ff.dropped.size()) dropped = std::max(dropped, ff.dropped[i]);
+    }
+    sys.row_sum_tolerance = std::max(1e-9, 2.0 * dropped);
+    const int threads = options.solver.threads;
+    sys.apply = [&](const detail::Columns& x, detail::Columns& y) {
+        detail::multiply(ff, x, y, threads);
+    };
+    sys.solve = [&](const detail::Columns& d, const detail::Columns& c, detail::Columns& x) {
+        return detail::solve_linear(ff, d, c, options.solver, x);
+    };
+    ThermalResult res = thermal_on(sys, props, options);
+    if (std::string w = detail::dropped_mass_warning(ff); !w.empty()) res.warnings.push_back(w);
+    return res;
+}
+
 DenseMatrix total_exchange_factors(const DenseMatrix& F, const std::vector<double>& emissivity) {
     const Eigen::Index n = F.rows();
     if (F.cols() != n || static_cast<Eigen::Index>(emissivity.size()) != n)

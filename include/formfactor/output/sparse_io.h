@@ -54,6 +54,18 @@ struct SparseFileInfo {
 void write_sparse_matrix(const std::string& path, const SparseFormFactors& F,
                          const SparseFileInfo& info = {});
 
+/// Reads a sparse F back from a `.mtx` file (Matrix Market `coordinate real general` or
+/// `integer general`, 1-based, entries in any order, none repeated, N × N) or a `.h5` file of
+/// the layout above (its `indptr`, `indices`, `data`, `areas` and, when present,
+/// `computed_row_sum`, `dropped`, `standard_error`). A `.mtx` file holds no areas: they are left
+/// empty for the caller to give (the scene's), the computed row sums are the stored ones and
+/// nothing counts as dropped. Throws OptionError for another extension and InputError(path,
+/// line, what is wrong) for a file that is not such a matrix: a bad header or size line, an
+/// index out of range, a repeated entry, a non-finite value, a missing or extra entry,
+/// inconsistent CSR arrays, sizes that would not fit in memory.
+SparseFormFactors read_sparse_matrix(const std::string& path);
+/// The Matrix Market reader behind read_sparse_matrix (`name` names the input in messages).
+SparseFormFactors read_matrix_market(std::istream& in, const std::string& name);
 /// The Matrix Market writer behind write_sparse_matrix (rows formatted in blocks).
 void write_matrix_market(std::ostream& out, const SparseFormFactors& F,
                          const SparseFileInfo& info = {});

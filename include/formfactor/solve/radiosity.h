@@ -5,6 +5,7 @@
 #include "formfactor/core/types.h"
 #include "formfactor/matrix/form_factors.h"
 #include "formfactor/matrix/hierarchical.h"
+#include "formfactor/matrix/sparse.h"
 #include "formfactor/solve/properties.h"
 #include "formfactor/solve/solver.h"
 
@@ -38,6 +39,12 @@ RadiosityResult solve_radiosity(const FormFactors& ff, const PatchProperties& pr
 RadiosityResult solve_radiosity(const HierarchicalFormFactors& ff, const PatchProperties& props,
                                 const SolverOptions& options);
 
+/// The same solve on a sparse F (CSR, formfactor/matrix/sparse.h): options.solver gauss-seidel
+/// (sweeps over the stored entries), gmres or jacobi; direct and shooting need the dense F
+/// (OptionError "solver"). The balance's `escaped` counts what the stored entries do not carry,
+/// the threshold's dropped mass included (a conservative repair puts it back).
+RadiosityResult solve_radiosity(const SparseFormFactors& ff, const PatchProperties& props,
+                                const SolverOptions& options);
 /// The energy balance of a radiosity solution B (see RadiosityBalance).
 RadiosityBalance radiosity_balance(const FormFactors& ff, const PatchProperties& props,
                                    const std::vector<Rgb>& radiosity, int threads = 0);

@@ -20,6 +20,7 @@
 
 #include "formfactor/matrix/form_factors.h"
 #include "formfactor/matrix/hierarchical.h"
+#include "formfactor/matrix/sparse.h"
 #include "formfactor/solve/properties.h"
 #include "formfactor/solve/solver.h"
 
@@ -66,6 +67,13 @@ ThermalResult solve_thermal(const FormFactors& ff, const PatchProperties& props,
 ThermalResult solve_thermal(const HierarchicalFormFactors& ff, const PatchProperties& props,
                             const ThermalOptions& options);
 
+/// The same solve on a sparse F (CSR): options.solver gmres, jacobi or gauss-seidel (direct
+/// and shooting need the dense F: OptionError "solver"). Row sums are those of the stored
+/// entries: what a threshold dropped is seen as environment (a warning says how much; a
+/// conservative repair, formfactor/matrix/sparse_repair.h, puts it back), and a closed room is
+/// told from an open scene within twice the largest dropped mass of a row.
+ThermalResult solve_thermal(const SparseFormFactors& ff, const PatchProperties& props,
+                            const ThermalOptions& options);
 /// Hottel's total exchange factors 𝓕 (script-F) for grey diffuse surfaces:
 ///
 ///     𝓕 = diag(ε) · F · (I − diag(1 − ε) F)⁻¹ · diag(ε)
