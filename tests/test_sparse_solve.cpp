@@ -88,7 +88,7 @@ TEST_CASE("sparse solve: radiosity on CSR agrees with the dense direct solve, ev
     }
 }
 
-TEST_CASE("sparse solve: thermal on CSR agrees with the dense solve; products thread-independent") {
+TEST_CASE("sparse solve: thermal on CSR agrees with the dense solve, products thread-independent") {
     const FormFactors& ff = cube6();
     const SparseFormFactors sf = to_sparse(ff);
     const std::size_t n = ff.size();
@@ -131,7 +131,7 @@ TEST_CASE("sparse solve: thermal on CSR agrees with the dense solve; products th
     CHECK((y1 - yd).cwiseAbs().maxCoeff() < 1e-14);
 }
 
-TEST_CASE("sparse solve: direct and shooting are refused; sizes are checked") {
+TEST_CASE("sparse solve: direct and shooting are refused, sizes are checked") {
     const SparseFormFactors sf = to_sparse(cube_matrix());
     const PatchProperties p = grey_props(6, 0.5, 0.9);
     for (SolverKind k : {SolverKind::direct, SolverKind::shooting}) {

@@ -164,8 +164,33 @@ HierarchicalOperator.__matmul__ = _operator_matmul
 HierarchicalOperator.as_linear_operator = _as_linear_operator
 
 
+def _is_scipy_sparse(F):
+    return type(F).__module__.startswith("scipy.sparse")
+
+
+def _core_matrix(F):
+    """F as _core takes it: a scipy.sparse matrix becomes ("csr", indptr, indices, data) with
+    sorted, summed entries; anything else is passed as it is."""
+    if not _is_scipy_sparse(F):
+        return F
+    import scipy.sparse as sp
+    if not sp.issparse(F):
+        return F
+    if F.shape[0] != F.shape[1]:
+        raise OptionError("F: a sparse F must be square, got %dx%d" % F.shape, "F")
+    c = sp.csr_matrix(F, dtype=float, copy=True)
+    c.sum_duplicates()
+    c.sort_indices()
+    return ("csr", _np.asarray(c.indptr, dtype=_np.int64), _np.asarray(c.indices, dtype=_np.int32),
+            _np.asarray(c.data, dtype=float))
+
+
 def _default_solver(F, dense_default):
-    return "gmres" if isinstance(F, HierarchicalOperator) else dense_default
+    if isinstance(F, HierarchicalOperator):
+        return "gmres"
+    if _is_scipy_sparse(F):
+        return "gmres" if dense_default == "direct" else "gauss-seidel"
+    return dense_default
 
 
 def _report(self):
@@ -231,14 +256,16 @@ def solve_radiosity(scene, F, reflectance=None, emission=None, *, solver=None,
     """Solves the radiosity equation B = E + diag(ρ) F B for each of R, G, B.
 
     F: a :class:`Result` of this scene (used without a copy), an (N, N) array, F[i, j] from
-    patch i to patch j, or the scene's :class:`HierarchicalOperator`. reflectance ρ and
+    patch i to patch j, a scipy.sparse matrix (N, N) (``Result.sparse()``, a Matrix Market or
+    HDF5 file read with SciPy/h5py; solved by ``gauss-seidel``, ``gmres`` or ``jacobi`` on its
+    stored entries, never densified), or the scene's :class:`HierarchicalOperator`. reflectance ρ and
     emission E: per patch, (N, 3), (N,) (grey) or a scalar; by default the scene's materials
     (MTL Kd and Ke). solver: ``gauss-seidel`` (default for a matrix), ``jacobi``, ``shooting``
     (progressive refinement), ``direct`` (LU) or ``gmres`` (default for an operator, which
     takes gmres or jacobi). Returns a :class:`RadiosityResult`.
     """
     solver = _default_solver(F, "gauss-seidel") if solver is None else solver
-    d = _core.radiosity(scene, F, reflectance, emission, solver, float(residual),
+    d = _core.radiosity(scene, _core_matrix(F), reflectance, emission, solver, float(residual),
                         int(max_iterations), int(threads), _progress(progress))
     return RadiosityResult(**d)
 
@@ -253,11 +280,12 @@ def solve_thermal(scene, F, emissivity=None, temperature=None, net_flux=None, *,
     net_flux: per patch (N,) or a scalar; NaN in temperature / net_flux means "not given" for
     that patch. Defaults come from the scene's materials. ambient_temperature: the black
     environment that the open part of each row sees (K). F as in solve_radiosity. solver:
-    ``direct`` by default for a matrix, ``gmres`` for an operator. Returns a
+    ``direct`` by default for a matrix, ``gmres`` for an operator or a sparse F. Returns a
     :class:`ThermalResult` (temperature, radiosity, net_flux, net_power, total_net_power, ...).
     """
     solver = _default_solver(F, "direct") if solver is None else solver
-    d = _core.thermal(scene, F, emissivity, temperature, net_flux, float(ambient_temperature),
+    d = _core.thermal(scene, _core_matrix(F), emissivity, temperature, net_flux,
+                      float(ambient_temperature),
                       solver, float(residual), int(max_iterations), int(threads),
                       _progress(progress))
     return ThermalResult(**d)

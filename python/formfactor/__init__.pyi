@@ -143,11 +143,11 @@ class HierarchicalOperator:
     def to_dense(self, threads: int = ...) -> np.ndarray: ...
     def as_linear_operator(self) -> Any: ...
 
-def solve_radiosity(scene: Scene, F: Union[Result, HierarchicalOperator, ArrayLike], reflectance: Optional[ArrayLike] = ...,
+def solve_radiosity(scene: Scene, F: Union[Result, HierarchicalOperator, scipy.sparse.spmatrix, ArrayLike], reflectance: Optional[ArrayLike] = ...,
                     emission: Optional[ArrayLike] = ..., *, solver: Optional[str] = ..., residual: float = ...,
                     max_iterations: int = ..., threads: int = ...,
                     progress: Progress = ...) -> RadiosityResult: ...
-def solve_thermal(scene: Scene, F: Union[Result, HierarchicalOperator, ArrayLike], emissivity: Optional[ArrayLike] = ...,
+def solve_thermal(scene: Scene, F: Union[Result, HierarchicalOperator, scipy.sparse.spmatrix, ArrayLike], emissivity: Optional[ArrayLike] = ...,
                   temperature: Optional[ArrayLike] = ..., net_flux: Optional[ArrayLike] = ..., *,
                   ambient_temperature: float = ..., solver: Optional[str] = ..., residual: float = ...,
                   max_iterations: int = ..., threads: int = ...,

@@ -4,10 +4,12 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <optional>
 
 #include "bindings.h"
 #include "formfactor/core/error.h"
 #include "formfactor/matrix/repair.h"
+#include "formfactor/matrix/sparse.h"
 #include "formfactor/output/report.h"
 #include "formfactor/solve/properties.h"
 #include "formfactor/solve/radiosity.h"
@@ -114,6 +116,39 @@ py::dict stats_dict(const SolverStats& s) {
     return d;
 }
 
+/// A sparse F passed as ("csr", indptr, indices, data) (the Python layer's form of a
+/// scipy.sparse matrix), with the scene's areas; nullopt for anything else.
+std::optional<SparseFormFactors> sparse_of(const PyScene& s, const py::object& F) {
+    if (!py::isinstance<py::tuple>(F)) return std::nullopt;
+    const py::tuple t = F.cast<py::tuple>();
+    if (t.size() != 4 || !py::isinstance<py::str>(t[0]) || t[0].cast<std::string>() != "csr")
+        return std::nullopt;
+    const std::size_t n = s.scene->patches.size();
+    const auto indptr =
+        t[1].cast<py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>>();
+    const auto indices =
+        t[2].cast<py::array_t<std::int32_t, py::array::c_style | py::array::forcecast>>();
+    const auto data = t[3].cast<py::array_t<double, py::array::c_style | py::array::forcecast>>();
+    if (static_cast<std::size_t>(indptr.size()) != n + 1)
+        throw OptionError("F", fmt::format("must be {0}×{0} (the scene's patches), got {1} rows", n,
+                                           indptr.size() - 1));
+    SparseFormFactors sf;
+    sf.n = n;
+    sf.indptr.assign(indptr.data(), indptr.data() + indptr.size());
+    sf.indices.assign(indices.data(), indices.data() + indices.size());
+    sf.values.assign(data.data(), data.data() + data.size());
+    for (const Patch& p : s.scene->patches) sf.areas.push_back(p.area);
+    sf.dropped.assign(n, 0.0);
+    sf.computed_row_sums.assign(n, 0.0);
+    try {
+        sf.check();
+    } catch (const Error& e) {
+        throw OptionError("F", e.what());
+    }
+    for (std::size_t i = 0; i < n; ++i) sf.computed_row_sums[i] = sf.row_sum(i);
+    return sf;
+}
+
 /// The hierarchical operator passed as F, or null; checked against the scene.
 const HierarchicalFormFactors* operator_of(const PyScene& s, const py::object& F) {
     if (!py::isinstance<PyHierarchical>(F)) return nullptr;
@@ -127,8 +162,9 @@ py::dict radiosity(const PyScene& s, const py::object& F, const py::object& refl
                    const py::object& emission, const std::string& solver, double residual,
                    long long max_iterations, int threads, const py::object& progress) {
     const HierarchicalFormFactors* op = operator_of(s, F);
-    const FormFactors ff = op ? FormFactors{} : form_factors_of(s, F);
-    const std::size_t n = op ? op->size() : ff.size();
+    const std::optional<SparseFormFactors> sp = op ? std::nullopt : sparse_of(s, F);
+    const FormFactors ff = op || sp ? FormFactors{} : form_factors_of(s, F);
+    const std::size_t n = op ? op->size() : sp ? sp->n : ff.size();
     PatchProperties props = properties_from_scene(*s.scene);
     if (!reflectance.is_none()) props.reflectance = per_patch_rgb(reflectance, "reflectance", n);
     if (!emission.is_none()) props.emission = per_patch_rgb(emission, "emission", n);
@@ -136,7 +172,9 @@ py::dict radiosity(const PyScene& s, const py::object& F, const py::object& refl
     const SolverOptions o = solver_options(solver, residual, max_iterations, threads);
     const RadiosityResult r = run_released(
         [&](CancellationFlag&, ProgressSink*) {
-            return op ? solve_radiosity(*op, props, o) : solve_radiosity(ff, props, o);
+            return op   ? solve_radiosity(*op, props, o)
+                   : sp ? solve_radiosity(*sp, props, o)
+                        : solve_radiosity(ff, props, o);
         },
         progress);
     py::dict d;
@@ -156,8 +194,9 @@ py::dict thermal(const PyScene& s, const py::object& F, const py::object& emissi
                  double ambient_temperature, const std::string& solver, double residual,
                  long long max_iterations, int threads, const py::object& progress) {
     const HierarchicalFormFactors* op = operator_of(s, F);
-    const FormFactors ff = op ? FormFactors{} : form_factors_of(s, F);
-    const std::size_t n = op ? op->size() : ff.size();
+    const std::optional<SparseFormFactors> sp = op ? std::nullopt : sparse_of(s, F);
+    const FormFactors ff = op || sp ? FormFactors{} : form_factors_of(s, F);
+    const std::size_t n = op ? op->size() : sp ? sp->n : ff.size();
     PatchProperties props = properties_from_scene(*s.scene);
     if (!emissivity.is_none()) props.emissivity = per_patch(emissivity, "emissivity", n);
     const double nan = std::numeric_limits<double>::quiet_NaN();
@@ -190,7 +229,9 @@ py::dict thermal(const PyScene& s, const py::object& F, const py::object& emissi
     }
     const ThermalResult r = run_released(
         [&](CancellationFlag&, ProgressSink*) {
-            return op ? solve_thermal(*op, props, o) : solve_thermal(ff, props, o);
+            return op   ? solve_thermal(*op, props, o)
+                   : sp ? solve_thermal(*sp, props, o)
+                        : solve_thermal(ff, props, o);
         },
         progress);
     py::dict d;

@@ -148,3 +148,36 @@ def test_hierarchical_refuses_obstructed_scenes_and_bad_options():
     other = ff.load("cube", subdivide=3).hierarchical()
     with pytest.raises(ff.OptionError):
         ff.solve_thermal(ff.load("cube", subdivide=4), other, temperature=300.0)
+
+
+def test_sparse_F_from_scipy_is_solved_on_its_stored_entries():
+    sp = pytest.importorskip("scipy.sparse")
+    scene = ff.load("cornell", subdivide=2)  # 80 patches, obstructed, open
+    r = scene.form_factors()
+    S = r.sparse()  # every positive entry: the dense matrix's entries
+    ref = ff.solve_radiosity(scene, r, solver="direct", residual=1e-13)
+    for kind in (None, "gmres", "jacobi", "gauss-seidel"):
+        b = ff.solve_radiosity(scene, S, solver=kind, residual=1e-11)
+        assert b.stats["converged"]
+        assert b.stats["solver"] == (kind or "gauss-seidel")
+        # ‖ΔB‖∞ ≤ residual ‖B‖∞ / (1 − ρ_max), ρ ≤ 0.78 in the box, + the direct solve's 1e-13
+        assert np.max(np.abs(b.radiosity - ref.radiosity)) <= 6e-11 * np.max(ref.radiosity)
+    T = np.full(80, np.nan)
+    T[:8] = 600.0
+    T[8:16] = 300.0
+    t_ref = ff.solve_thermal(scene, r, emissivity=0.7, temperature=T, solver="direct",
+                             residual=1e-13)
+    for M in (S, S.tocoo(), sp.csc_matrix(S)):  # any scipy format
+        t = ff.solve_thermal(scene, M, emissivity=0.7, temperature=T, residual=1e-12)
+        assert t.stats["solver"] == "gmres"
+        np.testing.assert_allclose(t.temperature, t_ref.temperature, rtol=1e-9)
+    with pytest.raises(ff.OptionError) as e:
+        ff.solve_thermal(scene, S, temperature=T, solver="direct")
+    assert e.value.option == "solver"
+    with pytest.raises(ff.OptionError) as e:
+        ff.solve_radiosity(scene, sp.csr_matrix((79, 79)))
+    assert e.value.option == "F"
+    bad = S.copy()
+    bad.data[0] = np.nan
+    with pytest.raises(ff.OptionError):
+        ff.solve_radiosity(scene, bad)
