@@ -103,6 +103,33 @@ std::string auto_sparse(const SolveArgs& args, const Scene& loaded, std::size_t 
                                                         : "F's entries are needed (--repair)");
 }
 
+// The report of a solve on the hierarchical operator or a sparse F (the dense path's comes from
+// make_report): the keys every solve report has, `options` completed with the solve's own.
+nlohmann::json solve_report(const SolveArgs& args, const Scene& scene, const std::string& method,
+                            nlohmann::json options, const SolverOptions& solver_options,
+                            int threads, const StepTimes& times, const Stopwatch& total,
+                            const nlohmann::json& solve_json) {
+    options["properties"] =
+        args.properties.empty() ? nlohmann::json(nullptr) : nlohmann::json(args.properties);
+    options["thermal"] = args.thermal;
+    options["solver"] = to_string(solver_options.solver);
+    options["residual"] = solver_options.residual;
+    options["max_iterations"] = solver_options.max_iterations;
+    options["output"] = args.output;
+    return {
+        {"formfactor_version", FF_VERSION},
+        {"command", "solve"},
+        {"scene", scene_summary_json(scene)},
+        {"N", scene.patches.size()},
+        {"method", method},
+        {"options", options},
+        {"threads", threads},
+        {"timings", timings_json(times, total)},
+        {"outputs", {{"result", args.output}, {"report", args.report}}},
+        {"solve", solve_json},
+    };
+}
+
 // `solve --storage hierarchical`: the operator of formfactor/matrix/hierarchical.h, never F.
 void run_solve_hierarchical(const SolveArgs& args, Stopwatch& total) {
     if (!args.matrix.empty())
@@ -159,31 +186,15 @@ void solve_hierarchical_scene(const SolveArgs& args, Scene& scene, StepTimes& ti
         nlohmann::json options = args.method.to_json("analytic");
         options["storage"] = "hierarchical";
         options["error_target"] = args.error_target;
-        options["properties"] =
-            args.properties.empty() ? nlohmann::json(nullptr) : nlohmann::json(args.properties);
-        options["thermal"] = args.thermal;
-        options["solver"] = to_string(solver_options.solver);
-        options["residual"] = solver_options.residual;
-        options["max_iterations"] = solver_options.max_iterations;
-        options["output"] = args.output;
-        nlohmann::json report = {
-            {"formfactor_version", FF_VERSION},
-            {"command", "solve"},
-            {"scene", scene_summary_json(scene)},
-            {"N", scene.patches.size()},
-            {"method", "analytic (hierarchical operator)"},
-            {"options", options},
-            {"threads", threads},
-            {"timings", timings_json(times, total)},
-            {"diagnostics",
-             {{"row_sum", {{"min", lo}, {"max", hi}, {"mean", mean}}},
-              {"reciprocity", "exact by construction (one block per unordered cluster pair)"}}},
-            {"details", {{"hierarchical", to_json(hs)}}},
-            {"storage", {{"kind", "hierarchical"}, {"why", why}, {"operator_bytes", hs.bytes}}},
-            {"memory", {{"peak_bytes", peak_memory_bytes()}}},
-            {"outputs", {{"result", args.output}, {"report", args.report}}},
-            {"solve", solve_json},
-        };
+        nlohmann::json report =
+            solve_report(args, scene, "analytic (hierarchical operator)", options, solver_options,
+                         threads, times, total, solve_json);
+        report["diagnostics"] = {
+            {"row_sum", {{"min", lo}, {"max", hi}, {"mean", mean}}},
+            {"reciprocity", "exact by construction (one block per unordered cluster pair)"}};
+        report["details"] = {{"hierarchical", to_json(hs)}};
+        report["storage"] = {{"kind", "hierarchical"}, {"why", why}, {"operator_bytes", hs.bytes}};
+        report["memory"] = {{"peak_bytes", peak_memory_bytes()}};
         stage_report(tx, args.report, report);
     }
     tx.commit();
@@ -257,25 +268,8 @@ void solve_sparse_scene(const SolveArgs& args, Scene& scene, StepTimes& times, S
         options["storage"] = "sparse";
         options["threshold"] = args.threshold;
         options["repair"] = args.repair.mode;
-        options["properties"] =
-            args.properties.empty() ? nlohmann::json(nullptr) : nlohmann::json(args.properties);
-        options["thermal"] = args.thermal;
-        options["solver"] = to_string(solver_options.solver);
-        options["residual"] = solver_options.residual;
-        options["max_iterations"] = solver_options.max_iterations;
-        options["output"] = args.output;
-        nlohmann::json report = {
-            {"formfactor_version", FF_VERSION},
-            {"command", "solve"},
-            {"scene", scene_summary_json(scene)},
-            {"N", scene.patches.size()},
-            {"method", method_name},
-            {"options", options},
-            {"threads", threads},
-            {"timings", timings_json(times, total)},
-            {"outputs", {{"result", args.output}, {"report", args.report}}},
-            {"solve", solve_json},
-        };
+        nlohmann::json report = solve_report(args, scene, method_name, options, solver_options,
+                                             threads, times, total, solve_json);
         report.update(sparse_report_sections(r, why, F.threshold, args.repair.mode));
         report["memory"]["peak_bytes"] = peak_memory_bytes();  // the solve's too
         stage_report(tx, args.report, report);
