@@ -11,14 +11,15 @@ namespace formfactor::testing {
 
 inline FormFactors run_method(const Method& method, const Scene& scene,
                               const MethodOptions& options, nlohmann::json& details) {
-    MethodResult r = method.compute(MethodContext{scene, options});
+    MethodResult r = method.compute(MethodContext{scene, options, nullptr, nullptr, {}});
     details = to_json(r.report);
     return std::move(r.form_factors);
 }
 
 inline FormFactors run_method(const Method& method, const Scene& scene,
                               const MethodOptions& options) {
-    return std::move(method.compute(MethodContext{scene, options}).form_factors);
+    return std::move(
+        method.compute(MethodContext{scene, options, nullptr, nullptr, {}}).form_factors);
 }
 
 }  // namespace formfactor::testing

@@ -3,12 +3,15 @@
 #include <doctest/doctest.h>
 #include <hdf5.h>
 
+#include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 
 #include "cli_runner.h"
+#include "formfactor/output/matrix_io.h"
+#include "formfactor/output/sparse_io.h"
 #include "formfactor/pipeline_sparse.h"
 #include "formfactor/scene/city.h"
 
@@ -100,7 +103,7 @@ TEST_CASE("cli sparse: wrong combinations are one clear error and write nothing"
         {"compute city-1 -o F.npy --threshold 0.1", "formfactor: --threshold: applies to sparse"},
         {"compute city-1 -o F.mtx --threshold -1", "formfactor: --threshold: must be"},
         {"compute city-1 -o F.mtx --repair closure", "formfactor: --repair: closure needs"},
-        {"compute city-1 -o F.h5 --per-surface", "formfactor: --per-surface: is not available"},
+        {"compute city-1 -o F.h5 --stderr SE.npy", "formfactor: --stderr: with sparse storage"},
         {"compute city-1 -o no/F.h5", "formfactor: no/F.h5: directory"},
     };
     for (const auto& c : cases) {
@@ -111,4 +114,28 @@ TEST_CASE("cli sparse: wrong combinations are one clear error and write nothing"
         CHECK(r.err.rfind(c.message, 0) == 0);
     }
     CHECK(cli.dir().entries() == 0);
+}
+
+TEST_CASE("cli sparse: --per-surface writes the surfaces' matrix, aggregated on the CSR") {
+    Cli cli;
+    CliResult r = cli.run("compute cube --subdivide 3 -o S.mtx --per-surface --report r.json");
+    INFO(said(r));
+    REQUIRE(r.code == 0);
+    CHECK(r.out.find("S.mtx (sparse, 6×6 per surface") != std::string::npos);
+    r = cli.run("compute cube --subdivide 3 -o D.csv --per-surface");
+    REQUIRE(r.code == 0);
+    const SparseFormFactors S = read_sparse_matrix(cli.file("S.mtx"));
+    const DenseMatrix D = read_matrix(cli.file("D.csv"));
+    REQUIRE(S.n == 6);
+    for (std::size_t g = 0; g < 6; ++g)
+        for (std::size_t h = 0; h < 6; ++h)
+            CHECK(std::abs(S.at(g, h) - D(Eigen::Index(g), Eigen::Index(h))) < 1e-15);
+    const auto report = nlohmann::json::parse(read_all(cli.file("r.json")));
+    CHECK(report["per_surface"]["N"] == 6);
+    // The .h5 file of a per-surface matrix has no patch table (its rows are surfaces).
+    r = cli.run("compute cube --subdivide 3 -o S.h5 --per-surface");
+    REQUIRE(r.code == 0);
+    const SparseFormFactors H = read_sparse_matrix(cli.file("S.h5"));
+    CHECK(H.values == S.values);
+    CHECK(H.areas.size() == 6);
 }

@@ -8,6 +8,8 @@
 
 #include "formfactor/core/error.h"
 #include "formfactor/matrix/aggregate.h"
+#include "formfactor/matrix/sparse.h"
+#include "formfactor/pipeline.h"
 #include "formfactor/scene/scene.h"
 #include "scene_test_util.h"
 
@@ -131,4 +133,43 @@ TEST_CASE("aggregate: surface groups follow surfaces, cmb merges into the target
     const PatchGroups go = surface_groups(o);
     CHECK(go.size() == 3);
     CHECK(go.names == std::vector<std::string>{"bottom", "top", "window"});
+}
+
+TEST_CASE("aggregate: a sparse F gives the dense per-surface matrix, dropped mass carried") {
+    // The closed cube, 3 × 3 patches a face, Monte-Carlo rows (standard errors): 6 surfaces.
+    Scene scene = load_scene("cube");
+    subdivide(scene, SubdivisionOptions{3, 0.0});
+    ComputeOptions co;
+    co.method = MethodKind::mc_hemisphere;
+    co.method_options.samples = 500;
+    const FormFactors f = compute_form_factors(scene, co).form_factors;
+    const PatchGroups groups = surface_groups(scene);
+    const FormFactors dense = aggregate(f, groups);
+    const SparseFormFactors sparse = aggregate(to_sparse(f), groups);
+    REQUIRE(sparse.n == 6);
+    sparse.check();
+    REQUIRE(sparse.standard_error.has_value());
+    for (std::size_t g = 0; g < 6; ++g) {
+        CHECK(sparse.areas[g] == doctest::Approx(dense.areas[g]).epsilon(1e-15));
+        for (std::size_t h = 0; h < 6; ++h) {
+            CHECK(sparse.at(g, h) ==
+                  doctest::Approx(dense.F(Eigen::Index(g), Eigen::Index(h))).epsilon(1e-14));
+        }
+        for (auto e = sparse.indptr[g]; e < sparse.indptr[g + 1]; ++e) {
+            const auto h = static_cast<Eigen::Index>(sparse.indices[std::size_t(e)]);
+            CHECK((*sparse.standard_error)[std::size_t(e)] ==
+                  doctest::Approx((*dense.standard_error)(Eigen::Index(g), h)).epsilon(1e-14));
+        }
+    }
+    // A threshold: the per-surface rows carry what their patches' rows dropped (area-weighted),
+    // so stored + dropped = the computed row sums, as for the patches.
+    const SparseFormFactors thr = aggregate(to_sparse(f, 0.02), groups);
+    for (std::size_t g = 0; g < 6; ++g) {
+        CHECK(thr.dropped[g] > 0.0);
+        CHECK(thr.row_sum(g) + thr.dropped[g] ==
+              doctest::Approx(dense.F.row(Eigen::Index(g)).sum()).epsilon(1e-13));
+    }
+    PatchGroups bad = groups;
+    bad.group_of_patch[0] = 9;
+    CHECK_THROWS_AS(aggregate(to_sparse(f), bad), GeometryError);
 }

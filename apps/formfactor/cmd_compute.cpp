@@ -7,6 +7,7 @@
 #include <cmath>
 #include <filesystem>
 #include <memory>
+#include <optional>
 
 #include "commands.h"
 #include "common.h"
@@ -136,8 +137,6 @@ void run_compute_hierarchical(const ComputeArgs& args) {
 // .h5; `why` says why it was picked.
 void run_compute_sparse(const ComputeArgs& args, const std::string& why) {
     Stopwatch total;
-    if (args.per_surface)
-        throw OptionError("--per-surface", "is not available with sparse storage yet");
     if (!args.standard_error.empty())
         throw OptionError("--stderr",
                           "with sparse storage the standard errors go into the .h5 file "
@@ -148,8 +147,16 @@ void run_compute_sparse(const ComputeArgs& args, const std::string& why) {
     const MethodKind method = args.method.resolved_kind(scene);
     const SparseComputeResult r =
         compute_sparse_matrix(scene, args.method, args.repair, args.threshold, times);
-    const SparseFormFactors& F = r.form_factors;
     Stopwatch sw;
+    // --per-surface: the surfaces' matrix, aggregated on the CSR (rows are surfaces; the .h5
+    // file then has no patch table).
+    std::optional<SparseFormFactors> per_surface;
+    if (args.per_surface) {
+        const PatchGroups groups = surface_groups(scene);
+        if (!is_identity(groups)) per_surface = aggregate(r.form_factors, groups);
+        times.add("per surface", sw.lap());
+    }
+    const SparseFormFactors& F = per_surface ? *per_surface : r.form_factors;
 
     // The report and the patch table are staged first, the matrix written, then both renamed.
     OutputTransaction tx;
@@ -162,6 +169,7 @@ void run_compute_sparse(const ComputeArgs& args, const std::string& why) {
         report.update(sparse_report_sections(r, why, args.threshold, args.repair.mode));
         report["threads"] = effective_threads(args.method.options.threads);
         report["outputs"] = {{"matrix", args.output}};
+        if (args.per_surface) report["per_surface"] = {{"N", F.n}, {"nonzeros", F.nonzeros()}};
         nlohmann::json timings = nlohmann::json::object();
         for (const auto& [step, seconds] : times.steps) timings[step] = seconds;
         report["timings"] = timings;
@@ -171,20 +179,22 @@ void run_compute_sparse(const ComputeArgs& args, const std::string& why) {
     info.scene = scene.name;
     info.method = to_string(method);
     info.repair = args.repair.mode;
-    info.patches = &scene.patches;
+    info.patches = per_surface ? nullptr : &scene.patches;
     write_sparse_matrix(args.output, F, info);
     tx.commit();
     times.add("write", sw.lap());
 
     const int threads = effective_threads(args.method.options.threads);
     const double n = static_cast<double>(F.n);
-    fmt::print("scene      {}: N = {} patches\n", scene.name, format_count(n));
+    fmt::print("scene      {}: N = {} patches\n", scene.name,
+               format_count(double(scene.patches.size())));
     fmt::print("method     {} ({} thread{})\n", to_string(method), threads,
                threads == 1 ? "" : "s");
     print_sparse_summary(r, why, args.threshold, args.repair.mode);
     fmt::print("time       {}\n", format_timings(times, total.seconds()));
-    std::string wrote = fmt::format("{} (sparse, {}×{}, {} entries)", args.output, format_count(n),
-                                    format_count(n), format_count(double(F.nonzeros())));
+    std::string wrote = fmt::format(
+        "{} (sparse, {}×{}{}, {} entries)", args.output, format_count(n), format_count(n),
+        args.per_surface ? " per surface" : "", format_count(double(F.nonzeros())));
     if (!args.patches.empty()) wrote += ", " + args.patches;
     if (!args.report.empty()) wrote += ", " + args.report;
     fmt::print("wrote      {}\n", wrote);

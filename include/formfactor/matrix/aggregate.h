@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "formfactor/matrix/form_factors.h"
+#include "formfactor/matrix/sparse.h"
 #include "formfactor/scene/scene.h"
 
 namespace formfactor {
@@ -47,6 +48,13 @@ bool is_identity(const PatchGroups& groups);
 /// groups.group_of_patch does not match f, names a group out of range, or a group is empty.
 FormFactors aggregate(const FormFactors& f, const PatchGroups& groups);
 
+/// The same for a sparse F, in CSR: row G holds the groups H that some stored F_ij (i ∈ G,
+/// j ∈ H) reaches, F_GH = Σ A_i F_ij / A_G over the stored entries, the standard errors as
+/// above, and the computed row sums and the dropped mass as the rows (area-weighted means), so
+/// that what a threshold dropped stays accounted for. O(nonzeros + groups log groups) time,
+/// O(groups) scratch: never a groups × groups block. Throws GeometryError as aggregate(), and
+/// Error for inconsistent CSR arrays.
+SparseFormFactors aggregate(const SparseFormFactors& f, const PatchGroups& groups);
 /// aggregate(f, surface_groups(scene)): the per-surface matrix that View3D reports.
 FormFactors aggregate_per_surface(const Scene& scene, const FormFactors& f);
 
