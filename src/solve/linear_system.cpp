@@ -244,6 +244,19 @@ std::string not_converged(const SolverStats& st, const char* unit, const char* a
         st.solver, st.iterations, unit, st.residual, st.tolerance, advice);
 }
 
+// The end of an iterative solve on products or CSR sweeps: residual, convergence, time, and the
+// not-converged error (or warning when the options allow it).
+void finish_iterative(SolverStats& st, double residual, const SolverOptions& options,
+                      std::chrono::steady_clock::time_point start, const char* unit) {
+    st.residual = residual;
+    st.converged = residual <= options.residual;
+    st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (st.converged) return;
+    const std::string msg = not_converged(st, unit, "raise --max-iterations or loosen --residual");
+    if (options.fail_if_not_converged) throw Error(msg);
+    st.warnings.push_back(msg);
+}
+
 // The stopping rule's options (both solve_linear and solve_linear_operator).
 void check_options(const SolverOptions& options) {
     if (!(options.residual > 0.0) || !std::isfinite(options.residual))
@@ -357,16 +370,8 @@ SolverStats solve_linear_operator(const ApplyF& apply, Eigen::Index n, const Col
         }
         residual = operator_residual(apply, d, c, x, y);
     }
-    st.residual = residual;
-    st.converged = residual <= options.residual;
-    st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    if (!st.converged) {
-        const std::string msg =
-            not_converged(st, options.solver == SolverKind::gmres ? "products" : "sweeps",
-                          "raise --max-iterations or loosen --residual");
-        if (options.fail_if_not_converged) throw Error(msg);
-        st.warnings.push_back(msg);
-    }
+    finish_iterative(st, residual, options, start,
+                     options.solver == SolverKind::gmres ? "products" : "sweeps");
     return st;
 }
 
@@ -569,21 +574,18 @@ SolverStats solve_linear(const SparseFormFactors& F, const Columns& d, const Col
     double residual = 0.0;
     const long long max_it = options.max_iterations > 0 ? options.max_iterations : 10000;
     st.iterations = run_gauss_seidel(F, d, c, options, max_it, x, y, residual);
-    st.residual = residual;
-    st.converged = residual <= options.residual;
-    st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    if (!st.converged) {
-        const std::string msg =
-            not_converged(st, "sweeps", "raise --max-iterations or loosen --residual");
-        if (options.fail_if_not_converged) throw Error(msg);
-        st.warnings.push_back(msg);
-    }
+    finish_iterative(st, residual, options, start, "sweeps");
     return st;
 }
 
-std::string dropped_mass_warning(const SparseFormFactors& F) {
+double max_dropped(const SparseFormFactors& F) {
     double dropped = 0.0;
     for (double v : F.dropped) dropped = std::max(dropped, v);
+    return dropped;
+}
+
+std::string dropped_mass_warning(const SparseFormFactors& F) {
+    const double dropped = max_dropped(F);
     if (!(dropped > 1e-9)) return {};
     return fmt::format(
         "the stored entries of a row carry up to {:.3g} less than the method computed (dropped "

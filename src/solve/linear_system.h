@@ -47,6 +47,9 @@ void multiply(const SparseFormFactors& F, const Columns& x, Columns& y, int thre
 SolverStats solve_linear(const SparseFormFactors& F, const Columns& d, const Columns& c,
                          const SolverOptions& options, Columns& x);
 
+/// The largest dropped mass of a row (F.dropped; 0 when none is positive).
+double max_dropped(const SparseFormFactors& F);
+
 /// A warning when the stored entries of some row carry less than the method computed (what a
 /// threshold dropped and no repair put back, above 1e-9), which a solve sees as environment;
 /// empty otherwise.

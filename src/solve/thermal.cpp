@@ -186,12 +186,8 @@ ThermalResult solve_thermal(const SparseFormFactors& ff, const PatchProperties& 
     sys.n = static_cast<Eigen::Index>(ff.n);
     sys.areas = &ff.areas;
     sys.row_sums.resize(ff.n);
-    double dropped = 0.0;
-    for (std::size_t i = 0; i < ff.n; ++i) {
-        sys.row_sums[i] = ff.row_sum(i);
-        if (i < ff.dropped.size()) dropped = std::max(dropped, ff.dropped[i]);
-    }
-    sys.row_sum_tolerance = std::max(1e-9, 2.0 * dropped);
+    for (std::size_t i = 0; i < ff.n; ++i) sys.row_sums[i] = ff.row_sum(i);
+    sys.row_sum_tolerance = std::max(1e-9, 2.0 * detail::max_dropped(ff));
     const int threads = options.solver.threads;
     sys.apply = [&](const detail::Columns& x, detail::Columns& y) {
         detail::multiply(ff, x, y, threads);
