@@ -143,7 +143,9 @@ std::vector<FormResult> check_geometry(const gen::Geometry& g, const HarnessOpti
         const std::size_t n = radiate ? n_all : n_room;
         AnalyticRun run;
         try {
-            const Scene s = gen::load_form(g, f, dir.path().string());
+            // FF_DIFFERENTIAL_KEEP=dir keeps the written files there (a development aid).
+            const char* keep = std::getenv("FF_DIFFERENTIAL_KEEP");
+            const Scene s = gen::load_form(g, f, keep ? std::string(keep) : dir.path().string());
             if (s.patches.size() != n)
                 throw std::runtime_error("loaded " + std::to_string(s.patches.size()) +
                                          " patches, expected " + std::to_string(n));
@@ -404,6 +406,7 @@ TEST_CASE("differential: seeds from FF_DIFFERENTIAL_SEEDS (a development aid)" *
     // settings; FF_DIFFERENTIAL_FORMS="scene vs3-O ..." limits the forms;
     // FF_DIFFERENTIAL_STYLE=bits sets the foreign writers' style; FF_DIFFERENTIAL_REFEREE=N adds
     // the high-sample referee.
+    // FF_DIFFERENTIAL_KEEP=dir keeps the files every form was written to.
     const char* env = std::getenv("FF_DIFFERENTIAL_SEEDS");
     REQUIRE(env != nullptr);
     std::istringstream in(env);

@@ -30,8 +30,9 @@ struct ObstructedFormFactor {
 };
 
 /// F_ab with obstructions: the exact unobstructed F_ab minus 1/A_a ∫_a F_{dA_x → hidden part of
-/// b} dA_x, the integral by adaptive subdivision of a (Gauss 2×2 against 3×3 per cell; cells whose
-/// shafts no blocker meets are skipped) until the estimated absolute error ≤ tolerance.
+/// b} dA_x, the integral by adaptive subdivision of a, cut first along the integrand's kink lines
+/// (tensor Gauss rules of orders 2, 3 and 4 per cell, the larger difference the estimate; cells
+/// whose shafts no blocker meets are skipped) until the estimated absolute error ≤ tolerance.
 ObstructedFormFactor polygon_to_polygon_obstructed(const Polygon& a, const Polygon& b,
                                                    const std::vector<Polygon>& blockers,
                                                    double tolerance);

@@ -328,6 +328,41 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
                 }
             }
         }
+    // Near contact (jittered models: a box resting on a wall with a gap of 1e-5, walls whose
+    // edges nearly meet): an edge hovering a small height h > 0 above the sender's plane, over
+    // or next to the sender, makes F(x → hidden part of r) change over distances ~h from the
+    // edge's projection, where Gauss points a cell's size away see only the tail. The sender is
+    // cut along lines parallel to that projection at offsets growing geometrically (×4) from h to
+    // the sender's size (a graded mesh toward the near-singular line), so that each piece is
+    // smooth at its own scale and the rules' error estimates hold. Edges in the sender's plane
+    // (touching, crossing) are clipped exactly and need nothing.
+    // "Small" against the sender's width (area / diameter), not its length: a thin sender
+    // (the side of a plate) has nothing to grade across it beyond its width.
+    const double diam_s = diameter(s);
+    const double contact_max = 1e-2 * std::min(diam_s, area(s) / diam_s);
+    // Heights up to a few eps are touching (the receiver is clipped at eps in front).
+    const double touch = std::max(tol, 4.0 * eps);
+    for (std::size_t x = 0; x < polys.size(); ++x) {
+        const Poly3& q = polys[x];
+        for (int e = 0; e < q.n; ++e) {
+            const Vec3& e0 = q.v[static_cast<std::size_t>(e)];
+            const Vec3& e1 = q.v[static_cast<std::size_t>(e + 1 == q.n ? 0 : e + 1)];
+            const double h = std::max(ns.dot(e0) - ds, ns.dot(e1) - ds);
+            if (!(h > touch) || h > contact_max) continue;
+            const Vec2 p0(su.dot(e0 - o), sv.dot(e0 - o)), p1(su.dot(e1 - o), sv.dot(e1 - o));
+            const double len = (p1 - p0).norm();
+            if (!(len > tol)) continue;
+            const Vec2 t = (p1 - p0) / len, nn(-t.y(), t.x());
+            const double c0 = nn.dot(p0);
+            for (double off = h; off < 0.5 * diam_s; off *= 4.0)
+                for (double sign : {-1.0, 1.0}) {
+                    Line l{nn.x(), nn.y(), c0 + sign * off, true, {}, {}};
+                    l.p0 = p0 - off * t + sign * off * nn;
+                    l.p1 = p1 + off * t + sign * off * nn;
+                    if (segment_meets(l, s2, tol)) lines.push_back(l);
+                }
+        }
+    }
     if (lines.empty()) return convex_s;
     // Cut (in the sender's plane coordinates).
     std::vector<Poly2> cur, nxt;

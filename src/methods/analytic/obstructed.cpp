@@ -243,6 +243,90 @@ PointResult evaluate_point(const Receiver& rc, const Vec3& x, const Vec3& nx,
 // it such a shadow is a sliver along a shadow boundary, whose part the normal estimate covers.
 constexpr int kSuspiciousLevels = 4;
 
+// Squared distance between the segments p0 p1 and q0 q1 (the closest pair of points, clamped
+// to both segments).
+double segment_distance2(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1) {
+    const Vec3 d1 = p1 - p0, d2 = q1 - q0, r = p0 - q0;
+    const double a = d1.squaredNorm(), e = d2.squaredNorm(), f = d2.dot(r);
+    double sp = 0.0, tq = 0.0;
+    if (a <= 0.0 && e <= 0.0) return r.squaredNorm();
+    if (a <= 0.0) {
+        tq = std::clamp(f / e, 0.0, 1.0);
+    } else {
+        const double c = d1.dot(r);
+        if (e <= 0.0) {
+            sp = std::clamp(-c / a, 0.0, 1.0);
+        } else {
+            const double b = d1.dot(d2), den = a * e - b * b;
+            sp = den > 0.0 ? std::clamp((b * f - c * e) / den, 0.0, 1.0) : 0.0;
+            tq = (b * sp + f) / e;
+            if (tq < 0.0) {
+                tq = 0.0;
+                sp = std::clamp(-c / a, 0.0, 1.0);
+            } else if (tq > 1.0) {
+                tq = 1.0;
+                sp = std::clamp((b - c) / a, 0.0, 1.0);
+            }
+        }
+    }
+    return (p0 + sp * d1 - (q0 + tq * d2)).squaredNorm();
+}
+
+// Squared distance from x to the planar convex polygon p (n vertices): to its plane when x
+// projects inside it, else to its nearest edge.
+double point_polygon_distance2(const Vec3& x, const Vec3* p, int n) {
+    double best = INFINITY;
+    for (int k = 0; k < n; ++k)
+        best = std::min(best, segment_distance2(x, x, p[k], p[k + 1 == n ? 0 : k + 1]));
+    if (n < 3) return best;
+    Vec3 nrm = Vec3::Zero();
+    for (int k = 0; k < n; ++k) nrm += p[k].cross(p[k + 1 == n ? 0 : k + 1]);
+    const double len = nrm.norm();
+    if (!(len > 0.0)) return best;
+    nrm /= len;
+    bool inside = true;
+    for (int k = 0; k < n && inside; ++k) {
+        const Vec3& a = p[k];
+        const Vec3& b = p[k + 1 == n ? 0 : k + 1];
+        inside = (b - a).cross(x - a).dot(nrm) >= 0.0;
+    }
+    if (!inside) return best;
+    const double h = nrm.dot(x - p[0]);
+    return std::min(best, h * h);
+}
+
+// A lower bound on the distance between two planar convex polygons (exact when they do not
+// intersect): the closest of vertex-polygon and edge-edge distances; 0 when they meet.
+double polygon_distance(const Vec3* a, int na, const Vec3* b, int nb) {
+    double best = INFINITY;
+    for (int i = 0; i < na; ++i) best = std::min(best, point_polygon_distance2(a[i], b, nb));
+    for (int j = 0; j < nb; ++j) best = std::min(best, point_polygon_distance2(b[j], a, na));
+    for (int i = 0; i < na; ++i)
+        for (int j = 0; j < nb; ++j)
+            best = std::min(best, segment_distance2(a[i], a[i + 1 == na ? 0 : i + 1], b[j],
+                                                    b[j + 1 == nb ? 0 : j + 1]));
+    // Two polygons that cross each other have every such distance > 0: test an edge of each
+    // through the other's interior.
+    auto pierces = [](const Vec3* p, int np, const Vec3* q, int nq) {
+        if (nq < 3) return false;
+        const Vec3 nrm = (q[1] - q[0]).cross(q[2] - q[0]);
+        for (int i = 0; i < np; ++i) {
+            const Vec3& e0 = p[i];
+            const Vec3& e1 = p[i + 1 == np ? 0 : i + 1];
+            const double h0 = nrm.dot(e0 - q[0]), h1 = nrm.dot(e1 - q[0]);
+            if ((h0 < 0.0) == (h1 < 0.0) || h0 == h1) continue;
+            const Vec3 x = e0 + (e1 - e0) * (h0 / (h0 - h1));
+            bool inside = true;
+            for (int k = 0; k < nq && inside; ++k)
+                inside = (q[k + 1 == nq ? 0 : k + 1] - q[k]).cross(x - q[k]).dot(nrm) >= 0.0;
+            if (inside) return true;
+        }
+        return false;
+    };
+    if (pierces(a, na, b, nb) || pierces(b, nb, a, na)) return 0.0;
+    return std::sqrt(best);
+}
+
 // The tensor Gauss–Legendre rules of a cell: the result is the highest order's, the larger
 // difference between consecutive orders its error estimate.
 constexpr int kLowOrder = 2, kMidOrder = 3, kHighOrder = 4;
@@ -297,6 +381,20 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
     if (!(area_s > 0.0) || n == 0) return out;
     const Vec3 ns = normal(s);
     const Receiver rc(r);
+    // The lowest elevation above the sender's plane at which a point of s sees a point of r:
+    // sin θ_r ≥ (the receiver's lowest height above that plane) / (the largest sender–receiver
+    // vertex distance); 0 when r reaches down to the plane. Directions below θ_r meet no part
+    // of r, so nothing seen only below θ_r hides any of it.
+    double sin_receiver = 0.0;
+    {
+        double hmin = INFINITY, dmax = 0.0;
+        for (const Vec3& q : r.vertices) {
+            hmin = std::min(hmin, ns.dot(q - s[0]));
+            for (const Vec3& v : s.vertices) dmax = std::max(dmax, (q - v).norm());
+        }
+        if (hmin > 0.0 && dmax > 0.0) sin_receiver = std::min(1.0, hmin / dmax);
+    }
+    const double sin2_receiver = sin_receiver * sin_receiver;
     // Sender pieces: the sender cut along the lines where the integrand has kinks, then
     // triangles (or the sender's own quad when nothing cuts it).
     const std::vector<Polygon> pieces = split_by_events(s, ns, rc, blockers, cand, n, eps);
@@ -411,15 +509,42 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
         // between the points; what it can hide is at most the cell's unobstructed part.
         if (!hidden && !any_hidden && c.level < kSuspiciousLevels) {
             // Unless the exact test finds that no piece meets the cell's shaft after all.
+            // What a piece meeting the shaft can hide from a point x: the directions from x
+            // to it rise at most h/δ above the sender's plane (h the piece's largest height
+            // above it, δ ≤ |y − x| the distance from the cell to its part in front), the
+            // directions to r at least θ_r, and the cosine-weighted share of the directions
+            // between elevations θ_r and θ is sin²θ − sin²θ_r. For a piece hovering just above
+            // the sender (jittered contact) this is far below the cell's whole unobstructed
+            // part, and 0 once the piece is seen lower than any part of r.
             bool meets = false;
+            double share = 0.0;  // bound on the hidden share of the hemisphere, summed
             for (int k : cell_cand) {
                 const auto& pc = blockers.piece(k);
-                if (!sh.piece_outside(blockers.vertices(k), pc.count, pc.plane, true)) {
-                    meets = true;
-                    break;
+                const Vec3* pv = blockers.vertices(k);
+                if (sh.piece_outside(pv, pc.count, pc.plane, true)) continue;
+                // The piece's part in front of the sender's plane, its height and its distance
+                // from the cell.
+                double h = 0.0;
+                Vec3 front[2 * kMaxPieceVertices + 2];
+                int nf = 0;
+                for (int q = 0; q < pc.count && nf + 2 <= 2 * kMaxPieceVertices + 2; ++q) {
+                    const Vec3& p0 = pv[q];
+                    const Vec3& p1 = pv[q + 1 == pc.count ? 0 : q + 1];
+                    const double h0 = ns.dot(p0 - poly[0]), h1 = ns.dot(p1 - poly[0]);
+                    h = std::max(h, h0);
+                    if (h0 >= 0.0) front[nf++] = p0;
+                    if ((h0 < 0.0) != (h1 < 0.0)) front[nf++] = p0 + (p1 - p0) * (h0 / (h0 - h1));
                 }
+                if (nf == 0) continue;  // nothing in front: cannot block
+                meets = true;
+                const double gap = polygon_distance(poly, np, front, nf);
+                const double gap2 = gap * gap;
+                // The directions to it rise at most h/δ above the plane: the share between θ_r
+                // and that elevation.
+                share += std::max(0.0, (gap2 > h * h ? h * h / gap2 : 1.0) - sin2_receiver);
+                if (share >= 1.0) break;
             }
-            if (meets) {
+            if (meets && share > 0.0) {
                 // What the cell sees of the receiver: a bound on what a shadow can hide.
                 for (std::size_t i = 0; i < kMidOrder; ++i)
                     for (std::size_t j = 0; j < kMidOrder; ++j) {
@@ -428,7 +553,15 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
                             evaluate_point(rc, m.at(u, v), ns, blockers, nullptr, 0, eps, true);
                         u3 += rules.g3.w[i] * rules.g3.w[j] * m.jacobian(u, v) * pr.unobstructed;
                     }
-                c.error = std::max(c.error, u3 * scale);
+                double cell_area = 0.0;
+                if (share < 1.0)
+                    for (std::size_t i = 0; i < kMidOrder; ++i)
+                        for (std::size_t j = 0; j < kMidOrder; ++j)
+                            cell_area +=
+                                rules.g3.w[i] * rules.g3.w[j] *
+                                m.jacobian(c.u0 + du * rules.g3.x[i], c.v0 + dv * rules.g3.x[j]);
+                c.error = std::max(
+                    c.error, share < 1.0 ? std::min(u3, share * cell_area) * scale : u3 * scale);
             }
         }
     };
