@@ -331,6 +331,19 @@ long long gmres_column(const ApplyF& apply, const Columns& dk, const Columns& ck
     }
 }
 
+// The stats of a solve before it starts: the solver's name and the residual it aims for.
+SolverStats initial_stats(const SolverOptions& options) {
+    SolverStats st;
+    st.solver = to_string(options.solver);
+    st.tolerance = options.residual;
+    return st;
+}
+
+// options.max_iterations, or the solver's default when it is 0.
+long long max_iterations(const SolverOptions& options, long long fallback) {
+    return options.max_iterations > 0 ? options.max_iterations : fallback;
+}
+
 }  // namespace
 
 SolverStats solve_linear_operator(const ApplyF& apply, Eigen::Index n, const Columns& d,
@@ -342,17 +355,15 @@ SolverStats solve_linear_operator(const ApplyF& apply, Eigen::Index n, const Col
         throw OptionError("solver", fmt::format("{} needs the entries of F; an operator that is "
                                                 "never formed is solved by gmres or jacobi",
                                                 to_string(options.solver)));
-    SolverStats st;
-    st.solver = to_string(options.solver);
-    st.tolerance = options.residual;
+    SolverStats st = initial_stats(options);
     x = c;
     Columns y(n, c.cols());
     double residual = 0.0;
     if (options.solver == SolverKind::jacobi) {
-        const long long max_it = options.max_iterations > 0 ? options.max_iterations : 10000;
+        const long long max_it = max_iterations(options, 10000);
         st.iterations = run_jacobi(apply, d, c, options, max_it, x, y, residual);
     } else {
-        const long long max_it = options.max_iterations > 0 ? options.max_iterations : 1000;
+        const long long max_it = max_iterations(options, 1000);
         for (Eigen::Index k = 0; k < c.cols(); ++k) {
             // Channels with the same system and right-hand side share the solution.
             Eigen::Index same = -1;
@@ -387,16 +398,14 @@ SolverStats solve_linear(const DenseMatrix& F, const std::vector<double>& areas,
         return solve_linear_operator(
             [&](const Columns& v, Columns& out) { multiply(F, v, out, options.threads); }, n, d, c,
             options, x);
-    SolverStats st;
-    st.solver = to_string(options.solver);
-    st.tolerance = options.residual;
+    SolverStats st = initial_stats(options);
     x = c;
     Columns y(n, c.cols());
     double residual = 0.0;
     switch (options.solver) {
         case SolverKind::jacobi:
         case SolverKind::gauss_seidel: {
-            const long long max_it = options.max_iterations > 0 ? options.max_iterations : 10000;
+            const long long max_it = max_iterations(options, 10000);
             st.iterations =
                 options.solver == SolverKind::jacobi
                     ? run_jacobi([&](const Columns& v,
@@ -566,13 +575,11 @@ SolverStats solve_linear(const SparseFormFactors& F, const Columns& d, const Col
             [&](const Columns& v, Columns& out) { multiply(F, v, out, options.threads); }, n, d, c,
             options, x);
     check_sparse_solver(options.solver);
-    SolverStats st;
-    st.solver = to_string(options.solver);
-    st.tolerance = options.residual;
+    SolverStats st = initial_stats(options);
     x = c;
     Columns y(n, c.cols());
     double residual = 0.0;
-    const long long max_it = options.max_iterations > 0 ? options.max_iterations : 10000;
+    const long long max_it = max_iterations(options, 10000);
     st.iterations = run_gauss_seidel(F, d, c, options, max_it, x, y, residual);
     finish_iterative(st, residual, options, start, "sweeps");
     return st;

@@ -524,20 +524,16 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
                 if (sh.piece_outside(pv, pc.count, pc.plane, true)) continue;
                 // The piece's part in front of the sender's plane, its height and its distance
                 // from the cell.
-                double h = 0.0;
-                Vec3 front[2 * kMaxPieceVertices + 2];
-                int nf = 0;
-                for (int q = 0; q < pc.count && nf + 2 <= 2 * kMaxPieceVertices + 2; ++q) {
-                    const Vec3& p0 = pv[q];
-                    const Vec3& p1 = pv[q + 1 == pc.count ? 0 : q + 1];
-                    const double h0 = ns.dot(p0 - poly[0]), h1 = ns.dot(p1 - poly[0]);
-                    h = std::max(h, h0);
-                    if (h0 >= 0.0) front[nf++] = p0;
-                    if ((h0 < 0.0) != (h1 < 0.0)) front[nf++] = p0 + (p1 - p0) * (h0 / (h0 - h1));
-                }
-                if (nf == 0) continue;  // nothing in front: cannot block
+                Poly3 whole, front;
+                whole.n = pc.count;
+                std::copy(pv, pv + pc.count, whole.v.begin());
+                clip3(whole, ns, ns.dot(poly[0]), front);
+                if (front.n == 0) continue;  // nothing in front: cannot block
                 meets = true;
-                const double gap = polygon_distance(poly, np, front, nf);
+                double h = 0.0;
+                for (int q = 0; q < front.n; ++q)
+                    h = std::max(h, ns.dot(front.v[static_cast<std::size_t>(q)] - poly[0]));
+                const double gap = polygon_distance(poly, np, front.v.data(), front.n);
                 const double gap2 = gap * gap;
                 // The directions to it rise at most h/δ above the plane: the share between θ_r
                 // and that elevation.
