@@ -235,6 +235,32 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
 
     thread_local std::vector<Line> lines;
     lines.clear();
+    // The same event line found again (several vertex-edge pairs on one plane; in jittered
+    // models vertices that nearly coincide make bundles of them) cuts nothing new: the segments
+    // are merged into the line already there, which keeps the cut's piece budget for lines
+    // that matter.
+    auto add_event = [&](const Line& l) {
+        for (Line& m : lines) {
+            if (std::abs(l.a * m.b - l.b * m.a) > 1e-9) continue;
+            const double sgn = l.a * m.a + l.b * m.b > 0.0 ? 1.0 : -1.0;
+            if (std::abs(l.c - sgn * m.c) > tol) continue;
+            if (!m.bounded) return;
+            if (!l.bounded) {
+                m.bounded = false;
+                return;
+            }
+            // Both bounded: m's segment stretched over l's along the common direction.
+            const Vec2 t(m.b, -m.a);
+            double lo = std::min(t.dot(m.p0), t.dot(m.p1)), hi = std::max(t.dot(m.p0), t.dot(m.p1));
+            lo = std::min({lo, t.dot(l.p0), t.dot(l.p1)});
+            hi = std::max({hi, t.dot(l.p0), t.dot(l.p1)});
+            const Vec2 base = m.c * Vec2(m.a, m.b);
+            m.p0 = base + lo * t;
+            m.p1 = base + hi * t;
+            return;
+        }
+        lines.push_back(l);
+    };
     std::vector<Vec2> s2;
     for (const Vec3& v : s.vertices) s2.emplace_back(su.dot(v - o), sv.dot(v - o));
     Poly2 s2p;  // the sender, counter-clockwise, for clipping
@@ -324,7 +350,7 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
                         l.bounded = false;
                         if (only_seen && !(seen_some && line_near(l, seen, tol))) continue;
                     }
-                    lines.push_back(l);
+                    add_event(l);
                 }
             }
         }
@@ -342,25 +368,52 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
     const double contact_max = 1e-2 * std::min(diam_s, area(s) / diam_s);
     // Heights up to a few eps are touching (the receiver is clipped at eps in front).
     const double touch = std::max(tol, 4.0 * eps);
+    // A line (unit normal nn, offset c) bounded to the projection p0 p1 stretched by `ext`,
+    // unless a parallel line within `merge` is there already.
+    auto add_line = [&](const Vec2& nn, double c, const Vec2& p0, const Vec2& p1, double ext,
+                        double merge) {
+        const Vec2 t(nn.y(), -nn.x());
+        Line l{nn.x(), nn.y(), c, true, {}, {}};
+        l.p0 = p0 - ext * t + (c - nn.dot(p0)) * nn;
+        l.p1 = p1 + ext * t + (c - nn.dot(p1)) * nn;
+        if ((l.p1 - l.p0).dot(t) < 0.0) std::swap(l.p0, l.p1);
+        if (!segment_meets(l, s2, tol)) return;
+        for (const Line& m : lines) {
+            if (std::abs(l.a * m.b - l.b * m.a) > 1e-3) continue;
+            const double dot = l.a * m.a + l.b * m.b;
+            if (std::abs(l.c - (dot > 0.0 ? m.c : -m.c)) <= merge) return;
+        }
+        lines.push_back(l);
+    };
+    bool graded = false;
     for (std::size_t x = 0; x < polys.size(); ++x) {
         const Poly3& q = polys[x];
+        double hq = 0.0;  // how far q reaches in front of the sender's plane
+        for (int e = 0; e < q.n; ++e)
+            hq = std::max(hq, ns.dot(q.v[static_cast<std::size_t>(e)]) - ds);
+        if (!(hq > touch)) continue;  // in the plane: hides nothing
         for (int e = 0; e < q.n; ++e) {
             const Vec3& e0 = q.v[static_cast<std::size_t>(e)];
             const Vec3& e1 = q.v[static_cast<std::size_t>(e + 1 == q.n ? 0 : e + 1)];
-            const double h = std::max(ns.dot(e0) - ds, ns.dot(e1) - ds);
-            if (!(h > touch) || h > contact_max) continue;
+            double h = std::max(ns.dot(e0) - ds, ns.dot(e1) - ds);
             const Vec2 p0(su.dot(e0 - o), sv.dot(e0 - o)), p1(su.dot(e1 - o), sv.dot(e1 - o));
             const double len = (p1 - p0).norm();
             if (!(len > tol)) continue;
             const Vec2 t = (p1 - p0) / len, nn(-t.y(), t.x());
             const double c0 = nn.dot(p0);
+            if (!(h > touch)) {
+                // An edge in the sender's plane: where q crosses it (a blocker through the
+                // sender) F(x → hidden part) jumps; graded by how far q reaches in front.
+                add_line(nn, c0, p0, p1, 0.0, 0.0);
+                h = hq;
+            }
+            if (h > contact_max) continue;
+            graded = true;
             for (double off = h; off < 0.5 * diam_s; off *= 4.0)
-                for (double sign : {-1.0, 1.0}) {
-                    Line l{nn.x(), nn.y(), c0 + sign * off, true, {}, {}};
-                    l.p0 = p0 - off * t + sign * off * nn;
-                    l.p1 = p1 + off * t + sign * off * nn;
-                    if (segment_meets(l, s2, tol)) lines.push_back(l);
-                }
+                for (double sign : {-1.0, 1.0})
+                    // A mesh graded by 4 needs no second line within a quarter of the offset
+                    // of one already there (parallel edges of one sliver, a vertex's events).
+                    add_line(nn, c0 + sign * off, p0, p1, off, 0.25 * off);
         }
     }
     if (lines.empty()) return convex_s;
@@ -375,7 +428,9 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
         }
         cur.push_back(q);
     }
-    constexpr std::size_t kMaxPieces = 256;
+    // At most 256 pieces; a mesh graded towards near contact needs more (its parallels cut
+    // each other near the sender's corners and the events' lines): 4,096.
+    const std::size_t kMaxPieces = graded ? 4096 : 256;
     thread_local std::vector<Vec2> scratch2;
     for (const Line& l : lines) {
         nxt.clear();
