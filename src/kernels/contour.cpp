@@ -6,6 +6,7 @@
 #include <cmath>
 #include <vector>
 
+#include "core/fast_atan.h"
 #include "formfactor/kernels/analytic.h"
 #include "kernels/analytic_internal.h"
 
@@ -284,7 +285,7 @@ double point_to_polygon(const Vec3& x, const Vec3& n, const Polygon& p) {
         const Vec3 cr = r0.cross(r1);
         const double len = cr.norm();
         if (len == 0.0) continue;
-        const double gamma = std::atan2(len, r0.dot(r1));
+        const double gamma = detail::atan2_upper(len, r0.dot(r1));
         sum += gamma * n.dot(cr) / len;
     }
     // Seen from x the front of p runs clockwise about the direction to p: the sum is negative.

@@ -27,6 +27,10 @@ namespace detail {
 
 namespace {
 
+// Up to this many shadows at a point, the hidden part is Lambert's formula over their union;
+// above it, F(x → r) less Lambert's formula over what remains visible (see evaluate_point()).
+constexpr std::size_t kUnionShadows = 3;
+
 struct PointResult {
     double hidden = 0.0;
     double unobstructed = 0.0;  // F(x → r), when asked for
@@ -204,39 +208,109 @@ PointResult evaluate_point(const Receiver& rc, const Vec3& x, const Vec3& nx,
         }
     }
     merge_solid_shadows(shadows, solid_of);
-    // Union of the shadows as disjoint convex fragments: shadow k minus shadows 0..k−1.
+    if (shadows.empty()) return res;
     // Fragments below 1e-14 of the receiver's size² are rounding slivers of the subtraction.
-    // A shadow whose box is apart from shadow k's box takes nothing from it.
     const double tiny_area = 1e-14 * (rp.v[0] - rp.v[2]).squaredNorm();
-    thread_local std::vector<std::array<double, 4>> boxes;
-    boxes.resize(shadows.size());
-    for (std::size_t k = 0; k < shadows.size(); ++k) {
-        const Poly2& q = shadows[k];
-        std::array<double, 4>& b = boxes[k];
-        b = {q.x[0], q.y[0], q.x[0], q.y[0]};
+    auto box_of = [](const Poly2& q) {
+        std::array<double, 4> b = {q.x[0], q.y[0], q.x[0], q.y[0]};
         for (int m = 1; m < q.n; ++m) {
             b[0] = std::min(b[0], q.x[static_cast<std::size_t>(m)]);
             b[1] = std::min(b[1], q.y[static_cast<std::size_t>(m)]);
             b[2] = std::max(b[2], q.x[static_cast<std::size_t>(m)]);
             b[3] = std::max(b[3], q.y[static_cast<std::size_t>(m)]);
         }
-    }
-    for (std::size_t k = 0; k < shadows.size(); ++k) {
-        frags.clear();
-        frags.emplace_back();
-        copy2(shadows[k], frags.back());
-        const std::array<double, 4>& bk = boxes[k];
-        for (std::size_t l = 0; l < k && !frags.empty(); ++l) {
-            if (solid_of[k] >= 0 && solid_of[k] == solid_of[l]) continue;
-            const std::array<double, 4>& bl = boxes[l];
-            if (bl[0] > bk[2] || bl[2] < bk[0] || bl[1] > bk[3] || bl[3] < bk[1]) continue;
-            next.clear();
-            for (const Poly2& f : frags) subtract(f, shadows[l], next);
-            std::swap(frags, next);
+        return b;
+    };
+    auto apart = [](const std::array<double, 4>& a, const std::array<double, 4>& b) {
+        return a[0] > b[2] || a[2] < b[0] || a[1] > b[3] || a[3] < b[1];
+    };
+    thread_local std::vector<std::array<double, 4>> boxes;
+    if (shadows.size() <= kUnionShadows) {
+        // Few shadows: their union as disjoint convex fragments, shadow k minus shadows
+        // 0..k−1 (a shadow whose box is apart from shadow k's takes nothing from it), and
+        // Lambert's formula over those fragments.
+        boxes.resize(shadows.size());
+        for (std::size_t k = 0; k < shadows.size(); ++k) boxes[k] = box_of(shadows[k]);
+        for (std::size_t k = 0; k < shadows.size(); ++k) {
+            frags.clear();
+            frags.push_back(shadows[k]);
+            for (std::size_t l = 0; l < k && !frags.empty(); ++l) {
+                if (solid_of[k] >= 0 && solid_of[k] == solid_of[l]) continue;
+                if (apart(boxes[l], boxes[k])) continue;
+                next.clear();
+                for (const Poly2& f : frags) subtract(f, shadows[l], next);
+                std::swap(frags, next);
+            }
+            for (const Poly2& f : frags)
+                if (area2(f) > tiny_area) res.hidden += lambert2(f, xl, nl);
         }
-        for (const Poly2& f : frags)
-            if (area2(f) > tiny_area) res.hidden += lambert2(f, xl, nl);
+        return res;
     }
+    // Many shadows: what x sees of the receiver, rp minus every shadow, as disjoint convex
+    // fragments; the hidden part is F(x → rp) less F(x → those fragments). Subtracting from
+    // what is still visible (rather than forming the union, each shadow minus all before it)
+    // costs little for shadows that fall where everything is already hidden, and stops at the
+    // first shadow after which nothing is left: among many blockers (a street between
+    // buildings) most points see little. The largest shadows go first.
+    Poly2 whole;
+    whole.n = rp.n;
+    for (int k = 0; k < rp.n; ++k) {
+        const Vec3 w = rp.v[static_cast<std::size_t>(k)] - rc.o;
+        whole.x[static_cast<std::size_t>(k)] = rc.u.dot(w);
+        whole.y[static_cast<std::size_t>(k)] = rc.v.dot(w);
+    }
+    thread_local std::vector<std::pair<double, int>> order;
+    order.clear();
+    for (std::size_t k = 0; k < shadows.size(); ++k)
+        order.emplace_back(-area2(shadows[k]), static_cast<int>(k));
+    std::sort(order.begin(), order.end());
+    thread_local std::vector<std::array<double, 4>> frag_box, next_box;
+    frags.clear();
+    frag_box.clear();
+    frags.push_back(whole);
+    frag_box.push_back(box_of(whole));
+    bool cut = false;  // some shadow took a part above the sliver size
+    for (const auto& [neg_area, k] : order) {
+        const Poly2& sh = shadows[static_cast<std::size_t>(k)];
+        const std::array<double, 4> bs = box_of(sh);
+        next.clear();
+        next_box.clear();
+        for (std::size_t f = 0; f < frags.size(); ++f) {
+            const std::array<double, 4>& bf = frag_box[f];
+            if (apart(bf, bs)) {
+                next.push_back(frags[f]);
+                next_box.push_back(bf);
+                continue;
+            }
+            const std::size_t first = next.size();
+            const double taken = subtract(frags[f], sh, next);
+            if (taken > tiny_area) cut = true;
+            if (!(taken > tiny_area)) {
+                // Nothing taken: the fragment stays whole (not as the pieces the clipping cut
+                // it into, which would add rounding and work).
+                next.resize(first);
+                next.push_back(frags[f]);
+                next_box.push_back(bf);
+                continue;
+            }
+            std::size_t kept = first;
+            for (std::size_t m = first; m < next.size(); ++m)
+                if (area2(next[m]) > tiny_area) {
+                    if (kept != m) copy2(next[m], next[kept]);
+                    ++kept;
+                }
+            next.resize(kept);
+            for (std::size_t m = first; m < kept; ++m) next_box.push_back(box_of(next[m]));
+        }
+        std::swap(frags, next);
+        std::swap(frag_box, next_box);
+        if (frags.empty()) break;
+    }
+    if (!cut) return res;
+    const double seen_all = want_unobstructed ? res.unobstructed : lambert2(whole, xl, nl);
+    double seen = 0.0;
+    for (const Poly2& f : frags) seen += lambert2(f, xl, nl);
+    res.hidden = std::max(0.0, seen_all - seen);
     return res;
 }
 

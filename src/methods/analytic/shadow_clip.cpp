@@ -7,6 +7,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/fast_atan.h"
+
 namespace formfactor::detail {
 
 namespace {
@@ -87,7 +89,7 @@ double lambert2(const Poly2& q, const Vec3& xl, const Vec3& nl) {
         const Vec3 cr = r0.cross(r1);
         const double len = cr.norm();
         if (len == 0.0) continue;
-        sum += std::atan2(len, r0.dot(r1)) * nl.dot(cr) / len;
+        sum += atan2_upper(len, r0.dot(r1)) * nl.dot(cr) / len;
     }
     return std::max(0.0, -sum / kTwoPi);
 }

@@ -58,7 +58,8 @@ inline double area2(const Poly2& p) {
 }
 
 /// f \ s for convex f and convex counter-clockwise s: disjoint convex fragments appended to out.
-inline void subtract(const Poly2& f, const Poly2& s, std::vector<Poly2>& out) {
+/// Returns the area of f ∩ s (what the subtraction took).
+inline double subtract(const Poly2& f, const Poly2& s, std::vector<Poly2>& out) {
     Poly2 buf[2], outside;
     copy2(f, buf[0]);
     Poly2* inside = &buf[0];
@@ -77,6 +78,7 @@ inline void subtract(const Poly2& f, const Poly2& s, std::vector<Poly2>& out) {
         clip2(*inside, ax, ay, ex, ey, 1.0, *next);
         std::swap(inside, next);
     }
+    return inside->n >= 3 ? std::abs(area2(*inside)) : 0.0;
 }
 
 /// Lambert's formula for a counter-clockwise polygon q in the receiver's plane (local 2D
