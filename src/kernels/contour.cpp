@@ -108,7 +108,7 @@ inline double second_antiderivative(double x, double h, double ln_l2) {
     const double r2 = x * x + h * h;
     double v = -0.75 * x * x;
     if (r2 > 0.0) v += 0.25 * (x * x - h * h) * (std::log(r2) - ln_l2);
-    if (h > 0.0) v += h * x * std::atan2(x, h);
+    if (h > 0.0) v += h * x * std::copysign(detail::atan_nonneg(std::abs(x) / h), x);
     return v;
 }
 
@@ -138,7 +138,7 @@ inline double inner_integral(const Vec3& p, const Vec3& Q, const Vec3& v, double
     double val = -B;
     if (r1sq > 0.0) val += t1 * (0.5 * std::log(r1sq) - ln_l);
     if (r0sq > 0.0) val -= t0 * (0.5 * std::log(r0sq) - ln_l);
-    if (h > 0.0) val += h * std::atan2(h * B, h * h + t0 * t1);
+    if (h > 0.0) val += h * detail::atan2_upper(h * B, h * h + t0 * t1);
     return val;
 }
 

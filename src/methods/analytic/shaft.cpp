@@ -6,6 +6,7 @@
 #include <cmath>
 #include <vector>
 
+#include "core/fast_atan.h"
 #include "methods/analytic/obstructed_internal.h"
 #include "methods/analytic/shadow_clip.h"
 
@@ -63,7 +64,7 @@ void Shaft::build(const Vec3* a, int na, const Vec3& normal_a, const Vec3* b, in
                     // The angle above p's plane, in [0, π]: a cross-product comparison cannot
                     // order two directions 180° apart (vertices of q in p's plane on both sides
                     // of the edge, as where a wall meets the floor).
-                    const double angle = std::atan2(std::max(y, 0.0), x);
+                    const double angle = atan2_upper(std::max(y, 0.0), x);
                     if (best < 0 || angle < best_angle) {
                         best = w;
                         best_angle = angle;
