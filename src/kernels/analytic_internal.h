@@ -2,6 +2,7 @@
 // Internals of the analytic method shared by its source files (not public API).
 
 #include <array>
+#include <cstdint>
 #include <vector>
 
 #include "formfactor/core/error.h"
@@ -101,6 +102,16 @@ struct UnobstructedBlock {
 UnobstructedStats unobstructed_block(const std::vector<const Polygon*>& polys, double tol,
                                      int threads, Progress* progress, RowRange rows,
                                      UnobstructedBlock& out);
+
+/// The unobstructed U_ij of the listed pairs only: for each row i, the columns columns[i] (all
+/// > i, ascending) get values[i][k] = U_{i, columns[i][k]}, bit for bit the value
+/// unobstructed_form_factors() gives. Cost: the listed pairs, not n². progress (may be null)
+/// advances once per row.
+UnobstructedStats unobstructed_pairs(const std::vector<const Polygon*>& polys, double tol,
+                                     int threads, Progress* progress,
+                                     const std::vector<std::vector<std::int32_t>>& columns,
+                                     std::vector<std::vector<double>>& values,
+                                     std::vector<double>& areas);
 
 /// Relative error factor of an order-n Gauss rule over a polygon of circumradius R seen from a
 /// point at distance D ≥ R from its centroid, q = R/D < 1 (see docs/analytic.md).

@@ -112,26 +112,42 @@ namespace {
 // integral; emit(j, U_ij) for every other pair. One code path for the whole matrix and for a
 // block of rows, so that a block holds the whole matrix's values bit for bit (a far-field
 // batch computes each pair independently of the others queued with it).
-template <class Emit>
+// The columns j ∈ [begin, end) of a row, or a list of them (row_pairs() takes either).
+struct ColumnRange {
+    std::size_t begin, end;
+    template <class F>
+    void each(const F& f) const {
+        for (std::size_t j = begin; j < end; ++j) f(j);
+    }
+};
+struct ColumnList {
+    const std::int32_t* cols;
+    std::size_t count;
+    template <class F>
+    void each(const F& f) const {
+        for (std::size_t k = 0; k < count; ++k) f(static_cast<std::size_t>(cols[k]));
+    }
+};
+
+template <class Cols, class Emit>
 void row_pairs(const PatchTable& t, const std::vector<const Polygon*>& polys, double tol,
-               double eps, std::size_t i, std::size_t j_begin, std::size_t j_end, RowStats& st,
-               const Emit& emit) {
+               double eps, std::size_t i, const Cols& columns, RowStats& st, const Emit& emit) {
     const Vec3& ni = t.normal[i];
     const Vec3& ci = t.centroid[i];
     thread_local detail::FarFieldBatch batch;
     batch.reset();
-    for (std::size_t j = j_begin; j < j_end; ++j) {
+    columns.each([&](std::size_t j) {
         const Vec3& nj = t.normal[j];
         const Vec3& cj = t.centroid[j];
         const Side sj = side_of(ni, t.plane_d[i], cj, t.radius[j], *polys[j], eps);
         if (sj == Side::kBehind) {
             ++st.zero;
-            continue;
+            return;
         }
         const Side si = side_of(nj, t.plane_d[j], ci, t.radius[i], *polys[i], eps);
         if (si == Side::kBehind) {
             ++st.zero;
-            continue;
+            return;
         }
         if (sj == Side::kFront && si == Side::kFront) {
             const double d = (cj - ci).norm();
@@ -150,13 +166,13 @@ void row_pairs(const PatchTable& t, const std::vector<const Polygon*>& polys, do
                     st.points += static_cast<std::size_t>(t.rule(i, oi).count) *
                                  static_cast<std::size_t>(t.rule(j, oj).count);
                     ++st.order_hist[static_cast<std::size_t>(std::max(oi, oj))];
-                    continue;
+                    return;
                 }
             }
         }
         emit(j, std::max(0.0, polygon_to_polygon(*polys[i], *polys[j])));
         ++st.exact;
-    }
+    });
     batch.run([&](int order) { return t.rule(i, order); }, ni, ci, 1.0 / t.area[i],
               [&](std::size_t j, double fij) { emit(j, std::max(0.0, fij)); });
 }
@@ -203,7 +219,7 @@ detail::UnobstructedStats detail::unobstructed_form_factors(
     double* F = out_F.data();
     // Upper triangle: row i computes F_ij for j > i (each entry written by one task).
     parallel_for(n, threads, [&](std::size_t i) {
-        row_pairs(t, polys, tol, eps, i, i + 1, n, stats[i],
+        row_pairs(t, polys, tol, eps, i, ColumnRange{i + 1, n}, stats[i],
                   [&](std::size_t j, double v) { F[i * n + j] = v; });
         if (progress) progress->advance();
     });
@@ -238,11 +254,11 @@ detail::UnobstructedStats detail::unobstructed_block(const std::vector<const Pol
     parallel_for(e, threads, [&](std::size_t r) {
         if (r < b) {
             double* L = out.left.data() + r * m;
-            row_pairs(t, polys, tol, eps, r, b, e, stats[r],
+            row_pairs(t, polys, tol, eps, r, ColumnRange{b, e}, stats[r],
                       [&](std::size_t j, double v) { L[j - b] = v; });
         } else {
             double* row = out.F.data() + (r - b) * n;
-            row_pairs(t, polys, tol, eps, r, r + 1, n, stats[r],
+            row_pairs(t, polys, tol, eps, r, ColumnRange{r + 1, n}, stats[r],
                       [&](std::size_t j, double v) { row[j] = v; });
             if (progress) progress->advance();
         }
@@ -253,6 +269,36 @@ detail::UnobstructedStats detail::unobstructed_block(const std::vector<const Pol
         double* row = out.F.data() + k * n;
         for (std::size_t j = 0; j < i; ++j)
             row[j] = reciprocal_entry(out.upper(j, i), t.area[j], t.area[i]);
+    });
+    return sum_stats(stats);
+}
+
+detail::UnobstructedStats detail::unobstructed_pairs(
+    const std::vector<const Polygon*>& polys, double tol, int threads, Progress* progress,
+    const std::vector<std::vector<std::int32_t>>& columns, std::vector<std::vector<double>>& values,
+    std::vector<double>& areas) {
+    const std::size_t n = polys.size();
+    FF_ASSERT(columns.size() == n);
+    const PatchTable t = build_table(polys, threads);
+    areas = t.area;
+    const Bounds3 box = polygons_box(polys);
+    const double eps = box.empty() ? 0.0 : 1e-12 * box.diagonal().norm();
+    values.assign(n, {});
+    std::vector<RowStats> stats(n);
+    parallel_for(n, threads, [&](std::size_t i) {
+        const std::vector<std::int32_t>& cols = columns[i];
+        std::vector<double>& row = values[i];
+        row.assign(cols.size(), 0.0);
+        if (!cols.empty()) {
+            // Emitted in any order (the far-field batch last): placed by column.
+            row_pairs(t, polys, tol, eps, i, ColumnList{cols.data(), cols.size()}, stats[i],
+                      [&](std::size_t j, double v) {
+                          const auto at = std::lower_bound(cols.begin(), cols.end(),
+                                                           static_cast<std::int32_t>(j));
+                          row[static_cast<std::size_t>(at - cols.begin())] = v;
+                      });
+        }
+        if (progress) progress->advance();
     });
     return sum_stats(stats);
 }

@@ -150,6 +150,7 @@ bool tiled_hull(const ClusterTree& T, const ClusterTree::Node& nd,
 // What one surface pair's classification produced.
 struct PairOutput {
     std::vector<NodePair> hidden;
+    std::vector<NodePair> visible;  // only when the classifier records them (sparse rows)
     std::vector<PartialPair> partial;
     std::vector<int> cand;
     std::size_t node_pairs = 0;
@@ -158,8 +159,9 @@ struct PairOutput {
 
 class Classifier {
   public:
-    Classifier(const std::vector<ClusterTree>& trees, const BlockerSet& blockers, double eps)
-        : trees_(trees), blockers_(blockers), eps_(eps) {}
+    Classifier(const std::vector<ClusterTree>& trees, const BlockerSet& blockers, double eps,
+               bool record_visible = false)
+        : trees_(trees), blockers_(blockers), eps_(eps), record_visible_(record_visible) {}
 
     void surface_pair(int ta, int tb, PairOutput& out) {
         pool_.clear();
@@ -180,6 +182,7 @@ class Classifier {
     const std::vector<ClusterTree>& trees_;
     const BlockerSet& blockers_;
     double eps_;
+    bool record_visible_ = false;
     std::vector<int> pool_, kept_;
 
     void recurse(int ta, int a, int tb, int b, std::size_t first, std::size_t count,
@@ -207,6 +210,7 @@ class Classifier {
         }
         if (cls == ShaftClass::kVisible) {
             out.visible_patch_pairs += pairs;
+            if (record_visible_) out.visible.push_back({ta, a, tb, b});
             return;
         }
         if (leaves) {
@@ -233,6 +237,235 @@ class Classifier {
         pool_.resize(mine);
     }
 };
+
+using Clock = std::chrono::steady_clock;
+double seconds(Clock::time_point a, Clock::time_point b) {
+    return std::chrono::duration<double>(b - a).count();
+}
+
+double checked_tolerance(const MethodOptions& options) {
+    const double tol = options.obstructed_tolerance;
+    if (!(tol > 0.0) || !std::isfinite(tol))
+        throw OptionError("tolerance", "must be a positive number (absolute error per entry)");
+    return tol;
+}
+
+// The blockers and the classification of every patch pair of a scene that may obstruct: what
+// the dense pass and the sparse rows share.
+struct Obstructions {
+    std::vector<TreeItem> items;
+    std::vector<ClusterTree> trees, otrees;  // patches' and obstruction-only plane groups
+    BlockerSet blockers;
+    std::size_t merged_pieces = 0;
+    double eps = 0;
+    std::vector<PairOutput> outputs;  // one per unordered pair of plane groups
+    double seconds_setup = 0, seconds_classification = 0;
+};
+
+void prepare_obstructions(const MethodContext& ctx, bool record_visible, Obstructions& S) {
+    const Scene& scene = ctx.scene;
+    const MethodOptions& options = ctx.options;
+    const auto t_start = Clock::now();
+    const std::size_t n = scene.patches.size();
+    Bounds3 box = scene.bounds();
+    for (const Patch& p : scene.patches)
+        for (const Vec3& v : p.polygon.vertices) box.extend(v);
+    const double diag = box.empty() ? 1.0 : box.diagonal().norm();
+    // Groups of patches: those in one plane with one orientation (whatever surfaces they came
+    // from: a VS3 file may list every patch as a surface). Nothing in a group can block a pair
+    // involving the group, and a group's patches often tile a convex region, which then blocks
+    // as one piece. Obstruction-only surfaces are grouped the same way (apart from the
+    // patches), so that a box given as many small obstruction records blocks as the same
+    // few pieces as the box given as whole faces.
+    std::vector<TreeItem>& items = S.items;
+    std::vector<ClusterTree>& trees = S.trees;
+    std::vector<ClusterTree>& otrees = S.otrees;
+    BlockerSet& blockers = S.blockers;
+    items.reserve(n);
+    for (const Patch& p : scene.patches) items.push_back({&p.polygon, p.centroid, p.area});
+    auto group = [&](std::vector<ClusterTree>& dst, std::size_t first, std::size_t last,
+                     int id_base) {
+        std::map<std::array<long long, 4>, int> key_to_group;
+        for (std::size_t p = first; p < last; ++p) {
+            const TreeItem& it = items[p];
+            const Vec3 nn = normal(*it.polygon);
+            const double d = nn.dot(it.centroid) / diag;
+            const std::array<long long, 4> key = {
+                std::llround(nn.x() * 1e8), std::llround(nn.y() * 1e8), std::llround(nn.z() * 1e8),
+                std::llround(d * 1e8)};
+            auto g = key_to_group.find(key);
+            if (g == key_to_group.end()) {
+                g = key_to_group.emplace(key, static_cast<int>(dst.size())).first;
+                ClusterTree t;
+                t.normal = nn;
+                t.blocker_id = id_base + static_cast<int>(dst.size());
+                dst.push_back(std::move(t));
+            }
+            dst[static_cast<std::size_t>(g->second)].order.push_back(static_cast<int>(p));
+        }
+    };
+    group(trees, 0, n, 0);
+    for (const Surface& s : scene.surfaces)
+        if (s.obstruction && area(s.polygon) > 0.0)
+            items.push_back({&s.polygon, centroid(s.polygon), area(s.polygon)});
+    group(otrees, n, items.size(), static_cast<int>(trees.size()));
+    parallel_for(trees.size() + otrees.size(), options.threads, [&](std::size_t t) {
+        ClusterTree& T = t < trees.size() ? trees[t] : otrees[t - trees.size()];
+        T.build(items, 0, static_cast<int>(T.order.size()));
+    });
+    // Blockers: for each group, the largest tree nodes whose polygons tile their hull (one
+    // convex piece each), else single polygons.
+    std::size_t& merged_pieces = S.merged_pieces;
+    for (std::size_t t = 0; t < trees.size() + otrees.size(); ++t) {
+        const ClusterTree& T = t < trees.size() ? trees[t] : otrees[t - trees.size()];
+        std::vector<int> stack = {0};
+        while (!stack.empty()) {
+            const auto& nd = T.nodes[static_cast<std::size_t>(stack.back())];
+            stack.pop_back();
+            double sum = 0.0;
+            for (int k = nd.first; k < nd.first + nd.count; ++k)
+                sum += items[static_cast<std::size_t>(T.order[static_cast<std::size_t>(k)])].area;
+            if (nd.count == 1) {
+                blockers.add(
+                    *items[static_cast<std::size_t>(T.order[static_cast<std::size_t>(nd.first)])]
+                         .polygon,
+                    T.blocker_id);
+            } else if (Polygon hp; tiled_hull(T, nd, items, sum, hp)) {
+                blockers.add(hp, T.blocker_id);
+                ++merged_pieces;
+            } else {
+                stack.push_back(nd.left);
+                stack.push_back(nd.right);
+            }
+        }
+    }
+    blockers.build();
+    {
+        std::vector<std::pair<Bounds3, int>> patch_boxes;
+        for (const ClusterTree& t : trees)
+            for (int p : t.order) {
+                Bounds3 b;
+                for (const Vec3& v : scene.patches[static_cast<std::size_t>(p)].polygon.vertices)
+                    b.extend(v);
+                patch_boxes.emplace_back(b, t.blocker_id);
+            }
+        blockers.mark_closed_solids(patch_boxes, 1e-9 * diag);
+    }
+
+    const double eps = 1e-11 * diag;
+    S.eps = eps;
+
+    const auto t_setup = Clock::now();
+    // 1. Classification, one task per unordered pair of surfaces.
+    std::vector<std::array<int, 2>> spairs;
+    for (std::size_t a = 0; a < trees.size(); ++a)
+        for (std::size_t b = a + 1; b < trees.size(); ++b)
+            spairs.push_back({static_cast<int>(a), static_cast<int>(b)});
+    std::vector<PairOutput>& outputs = S.outputs;
+    outputs.resize(spairs.size());
+    parallel_for(spairs.size(), options.threads, [&](std::size_t k) {
+        Classifier c(trees, blockers, eps, record_visible);
+        c.surface_pair(spairs[k][0], spairs[k][1], outputs[k]);
+    });
+
+    const auto t_classified = Clock::now();
+    S.seconds_setup = seconds(t_start, t_setup);
+    S.seconds_classification = seconds(t_setup, t_classified);
+}
+
+// What the integration of partly hidden pairs did, per pair and summed.
+constexpr int kLevels = 16;
+struct PartialStats {
+    std::array<std::size_t, kLevels + 1> levels{};
+    double max_error = 0;
+    std::size_t points = 0, cells = 0, capped = 0, changed = 0;
+};
+
+// A partly hidden pair's entries: F_sr = f (s the smaller patch), F_rs = back.
+struct PartialValue {
+    std::size_t s = 0, r = 0;
+    double f = 0, back = 0;
+    bool integrated = false;  // false: the unobstructed value is 0, nothing to correct
+    PartialStats stats;
+};
+
+// The unobstructed value less the integrated hidden part, over the smaller patch of the pair
+// (reciprocity gives the other entry, with a smaller error). unobstructed(s, r): the exact
+// unobstructed F_sr. One code path for the dense matrix, a block of rows and sparse rows.
+template <class Unobstructed>
+PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const PartialPair& pp,
+                               const std::vector<int>& cand, double tol,
+                               const Unobstructed& unobstructed) {
+    PartialValue v;
+    std::size_t s = static_cast<std::size_t>(pp.i), r = static_cast<std::size_t>(pp.j);
+    const double as = scene.patches[s].area, ar = scene.patches[r].area;
+    if (ar < as || (ar == as && r < s)) std::swap(s, r);
+    v.s = s;
+    v.r = r;
+    const double a_s = scene.patches[s].area, a_r = scene.patches[r].area;
+    const double unobs = unobstructed(s, r);
+    if (!(unobs > 0.0)) return v;
+    PartialStats& st = v.stats;
+    const Polygon& ps = scene.patches[s].polygon;
+    const std::vector<Polygon> parts = BlockerSet::convex_parts(scene.patches[r].polygon);
+    double hidden_sum = 0.0, err = 0.0;
+    int level = 0;
+    for (const Polygon& pr : parts) {
+        const detail::HiddenIntegral h = detail::hidden_integral(
+            ps, pr, S.blockers, cand.data() + pp.cand_first, pp.cand_count,
+            tol / static_cast<double>(parts.size()), S.eps);
+        hidden_sum += h.hidden;
+        err += h.error;
+        level = std::max(level, h.max_level);
+        st.points += h.points;
+        st.cells += h.cells;
+        if (h.capped) ++st.capped;
+    }
+    v.f = std::clamp(unobs - hidden_sum, 0.0, unobs);
+    if (v.f != unobs) ++st.changed;
+    v.back = a_r > 0.0 ? v.f * a_s / a_r : 0.0;
+    v.integrated = true;
+    st.max_error = err;
+    ++st.levels[static_cast<std::size_t>(std::min(level, kLevels))];
+    return v;
+}
+
+// details["obstructions"] (docs/analytic.md): the blockers, the pair classes, the integration.
+void report_obstructions(const Obstructions& S, const std::vector<PartialStats>& stats,
+                         std::size_t node_pairs, std::size_t visible, std::size_t hidden,
+                         std::size_t partial, double tol, int threads, Fields& o) {
+    PartialStats total;
+    for (const PartialStats& s : stats) {
+        for (std::size_t l = 0; l < total.levels.size(); ++l) total.levels[l] += s.levels[l];
+        total.max_error = std::max(total.max_error, s.max_error);
+        total.points += s.points;
+        total.cells += s.cells;
+        total.capped += s.capped;
+        total.changed += s.changed;
+    }
+    Fields levels = Fields::object();
+    for (int l = 0; l <= kLevels; ++l)
+        if (total.levels[static_cast<std::size_t>(l)] > 0)
+            levels[std::to_string(l)] = total.levels[static_cast<std::size_t>(l)];
+    o["blocker_pieces"] = S.blockers.size();
+    o["plane_groups"] = S.trees.size();
+    o["obstruction_plane_groups"] = S.otrees.size();
+    o["merged_blocker_pieces"] = S.merged_pieces;
+    o["node_pairs_tested"] = node_pairs;
+    o["patch_pairs_visible"] = visible;
+    o["patch_pairs_hidden"] = hidden;
+    o["patch_pairs_partly_hidden"] = partial;
+    o["partly_hidden_pairs_changed"] = total.changed;
+    o["refinement_levels"] = levels;
+    o["cells"] = total.cells;
+    o["point_evaluations"] = total.points;
+    o["capped_pairs"] = total.capped;
+    o["tolerance"] = tol;
+    o["max_error_estimate"] = total.max_error;
+    o["threads"] = threads;
+    o["seconds_setup"] = S.seconds_setup;
+    o["seconds_classification"] = S.seconds_classification;
+}
 
 }  // namespace
 
@@ -283,119 +516,18 @@ void AnalyticMethod::apply_obstructions(const MethodContext& ctx, FormFactors& o
                                         detail::UnobstructedBlock* block) {
     const Scene& scene = ctx.scene;
     const MethodOptions& options = ctx.options;
-    using Clock = std::chrono::steady_clock;
-    const auto t_start = Clock::now();
-    auto seconds = [](Clock::time_point a, Clock::time_point b) {
-        return std::chrono::duration<double>(b - a).count();
-    };
-    const double tol = options.obstructed_tolerance;
-    if (!(tol > 0.0) || !std::isfinite(tol))
-        throw OptionError("tolerance", "must be a positive number (absolute error per entry)");
+    const double tol = checked_tolerance(options);
     const std::size_t n = scene.patches.size();
-    Bounds3 box = scene.bounds();
-    for (const Patch& p : scene.patches)
-        for (const Vec3& v : p.polygon.vertices) box.extend(v);
-    const double diag = box.empty() ? 1.0 : box.diagonal().norm();
-    // Groups of patches: those in one plane with one orientation (whatever surfaces they came
-    // from: a VS3 file may list every patch as a surface). Nothing in a group can block a pair
-    // involving the group, and a group's patches often tile a convex region, which then blocks
-    // as one piece. Obstruction-only surfaces are grouped the same way (apart from the
-    // patches), so that a box given as many small obstruction records blocks as the same
-    // few pieces as the box given as whole faces.
-    std::vector<TreeItem> items;
-    items.reserve(n);
-    for (const Patch& p : scene.patches) items.push_back({&p.polygon, p.centroid, p.area});
-    std::vector<ClusterTree> trees, otrees;
-    auto group = [&](std::vector<ClusterTree>& dst, std::size_t first, std::size_t last,
-                     int id_base) {
-        std::map<std::array<long long, 4>, int> key_to_group;
-        for (std::size_t p = first; p < last; ++p) {
-            const TreeItem& it = items[p];
-            const Vec3 nn = normal(*it.polygon);
-            const double d = nn.dot(it.centroid) / diag;
-            const std::array<long long, 4> key = {
-                std::llround(nn.x() * 1e8), std::llround(nn.y() * 1e8), std::llround(nn.z() * 1e8),
-                std::llround(d * 1e8)};
-            auto g = key_to_group.find(key);
-            if (g == key_to_group.end()) {
-                g = key_to_group.emplace(key, static_cast<int>(dst.size())).first;
-                ClusterTree t;
-                t.normal = nn;
-                t.blocker_id = id_base + static_cast<int>(dst.size());
-                dst.push_back(std::move(t));
-            }
-            dst[static_cast<std::size_t>(g->second)].order.push_back(static_cast<int>(p));
-        }
-    };
-    group(trees, 0, n, 0);
-    for (const Surface& s : scene.surfaces)
-        if (s.obstruction && area(s.polygon) > 0.0)
-            items.push_back({&s.polygon, centroid(s.polygon), area(s.polygon)});
-    group(otrees, n, items.size(), static_cast<int>(trees.size()));
-    parallel_for(trees.size() + otrees.size(), options.threads, [&](std::size_t t) {
-        ClusterTree& T = t < trees.size() ? trees[t] : otrees[t - trees.size()];
-        T.build(items, 0, static_cast<int>(T.order.size()));
-    });
-    // Blockers: for each group, the largest tree nodes whose polygons tile their hull (one
-    // convex piece each), else single polygons.
-    BlockerSet blockers;
-    std::size_t merged_pieces = 0;
-    for (std::size_t t = 0; t < trees.size() + otrees.size(); ++t) {
-        const ClusterTree& T = t < trees.size() ? trees[t] : otrees[t - trees.size()];
-        std::vector<int> stack = {0};
-        while (!stack.empty()) {
-            const auto& nd = T.nodes[static_cast<std::size_t>(stack.back())];
-            stack.pop_back();
-            double sum = 0.0;
-            for (int k = nd.first; k < nd.first + nd.count; ++k)
-                sum += items[static_cast<std::size_t>(T.order[static_cast<std::size_t>(k)])].area;
-            if (nd.count == 1) {
-                blockers.add(
-                    *items[static_cast<std::size_t>(T.order[static_cast<std::size_t>(nd.first)])]
-                         .polygon,
-                    T.blocker_id);
-            } else if (Polygon hp; tiled_hull(T, nd, items, sum, hp)) {
-                blockers.add(hp, T.blocker_id);
-                ++merged_pieces;
-            } else {
-                stack.push_back(nd.left);
-                stack.push_back(nd.right);
-            }
-        }
-    }
-    blockers.build();
-    {
-        std::vector<std::pair<Bounds3, int>> patch_boxes;
-        for (const ClusterTree& t : trees)
-            for (int p : t.order) {
-                Bounds3 b;
-                for (const Vec3& v : scene.patches[static_cast<std::size_t>(p)].polygon.vertices)
-                    b.extend(v);
-                patch_boxes.emplace_back(b, t.blocker_id);
-            }
-        blockers.mark_closed_solids(patch_boxes, 1e-9 * diag);
-    }
-
-    const double eps = 1e-11 * diag;
-
-    const auto t_setup = Clock::now();
-    // 1. Classification, one task per unordered pair of surfaces.
-    std::vector<std::array<int, 2>> spairs;
-    for (std::size_t a = 0; a < trees.size(); ++a)
-        for (std::size_t b = a + 1; b < trees.size(); ++b)
-            spairs.push_back({static_cast<int>(a), static_cast<int>(b)});
-    std::vector<PairOutput> outputs(spairs.size());
-    parallel_for(spairs.size(), options.threads, [&](std::size_t k) {
-        Classifier c(trees, blockers, eps);
-        c.surface_pair(spairs[k][0], spairs[k][1], outputs[k]);
-    });
-
+    Obstructions S;
+    prepare_obstructions(ctx, false, S);
+    const std::vector<ClusterTree>& trees = S.trees;
+    const BlockerSet& blockers = S.blockers;
+    const std::vector<PairOutput>& outputs = S.outputs;
     const auto t_classified = Clock::now();
     // 2. Fully hidden node pairs: zero.
     double* F = out.F.data();
     std::vector<NodePair> hidden;
     std::vector<PartialPair> partial;
-    std::vector<const std::vector<int>*> cand_of;
     std::vector<std::size_t> cand_task;
     std::size_t node_pairs = 0, vis = 0, hid = 0;
     for (std::size_t k = 0; k < outputs.size(); ++k) {
@@ -430,12 +562,6 @@ void AnalyticMethod::apply_obstructions(const MethodContext& ctx, FormFactors& o
 
     // 3. Partly hidden pairs: exact unobstructed value minus the integrated hidden part, over
     // the smaller patch of the pair (reciprocity gives the other entry, with a smaller error).
-    constexpr int kLevels = 16;
-    struct Stats {
-        std::array<std::size_t, kLevels + 1> levels{};
-        double max_error = 0;
-        std::size_t points = 0, cells = 0, capped = 0, changed = 0;
-    };
     if (block) {
         // A block of rows: only the pairs with a patch in it.
         std::size_t kept = 0;
@@ -450,84 +576,30 @@ void AnalyticMethod::apply_obstructions(const MethodContext& ctx, FormFactors& o
         partial.resize(kept);
         cand_task.resize(kept);
     }
-    const int threads = effective_threads(options.threads);
-    std::vector<Stats> stats(partial.size());
+    std::vector<PartialStats> stats(partial.size());
     Progress progress("analytic (obstructed)", partial.size(), ctx.progress);
     parallel_for(partial.size(), options.threads, [&](std::size_t k) {
-        const PartialPair& pp = partial[k];
-        const std::vector<int>& cand = outputs[cand_task[k]].cand;
-        std::size_t s = static_cast<std::size_t>(pp.i), r = static_cast<std::size_t>(pp.j);
-        const double as = scene.patches[s].area, ar = scene.patches[r].area;
-        if (ar < as || (ar == as && r < s)) std::swap(s, r);
-        const double a_s = scene.patches[s].area, a_r = scene.patches[r].area;
-        const double unobs = block ? block->unobstructed(s, r) : F[s * n + r];
-        Stats st;
-        if (unobs > 0.0) {
-            const Polygon& ps = scene.patches[s].polygon;
-            const std::vector<Polygon> parts = BlockerSet::convex_parts(scene.patches[r].polygon);
-            double hidden_sum = 0.0, err = 0.0;
-            int level = 0;
-            for (const Polygon& pr : parts) {
-                const detail::HiddenIntegral h = detail::hidden_integral(
-                    ps, pr, blockers, cand.data() + pp.cand_first, pp.cand_count,
-                    tol / static_cast<double>(parts.size()), eps);
-                hidden_sum += h.hidden;
-                err += h.error;
-                level = std::max(level, h.max_level);
-                st.points += h.points;
-                st.cells += h.cells;
-                if (h.capped) ++st.capped;
-            }
-            const double f = std::clamp(unobs - hidden_sum, 0.0, unobs);
-            if (f != unobs) ++st.changed;
-            const double back = a_r > 0.0 ? f * a_s / a_r : 0.0;
+        const PartialValue v = integrate_partial(
+            scene, S, partial[k], outputs[cand_task[k]].cand, tol, [&](std::size_t s, std::size_t r) {
+                return block ? block->unobstructed(s, r) : F[s * n + r];
+            });
+        if (v.integrated) {
             if (block) {
-                block->set(s, r, f);
-                block->set(r, s, back);
+                block->set(v.s, v.r, v.f);
+                block->set(v.r, v.s, v.back);
             } else {
-                F[s * n + r] = f;
-                F[r * n + s] = back;
+                F[v.s * n + v.r] = v.f;
+                F[v.r * n + v.s] = v.back;
             }
-            st.max_error = err;
-            ++st.levels[static_cast<std::size_t>(std::min(level, kLevels))];
         }
-        stats[k] = st;
+        stats[k] = v.stats;
         progress.advance();
     });
     progress.finish();
     const auto t_done = Clock::now();
-    Stats total;
-    for (const Stats& s : stats) {
-        for (std::size_t l = 0; l < total.levels.size(); ++l) total.levels[l] += s.levels[l];
-        total.max_error = std::max(total.max_error, s.max_error);
-        total.points += s.points;
-        total.cells += s.cells;
-        total.capped += s.capped;
-        total.changed += s.changed;
-    }
-    Fields levels = Fields::object();
-    for (int l = 0; l <= kLevels; ++l)
-        if (total.levels[static_cast<std::size_t>(l)] > 0)
-            levels[std::to_string(l)] = total.levels[static_cast<std::size_t>(l)];
     Fields& o = details["obstructions"];
-    o["blocker_pieces"] = blockers.size();
-    o["plane_groups"] = trees.size();
-    o["obstruction_plane_groups"] = otrees.size();
-    o["merged_blocker_pieces"] = merged_pieces;
-    o["node_pairs_tested"] = node_pairs;
-    o["patch_pairs_visible"] = vis;
-    o["patch_pairs_hidden"] = hid;
-    o["patch_pairs_partly_hidden"] = partial.size();
-    o["partly_hidden_pairs_changed"] = total.changed;
-    o["refinement_levels"] = levels;
-    o["cells"] = total.cells;
-    o["point_evaluations"] = total.points;
-    o["capped_pairs"] = total.capped;
-    o["tolerance"] = tol;
-    o["max_error_estimate"] = total.max_error;
-    o["threads"] = threads;
-    o["seconds_setup"] = seconds(t_start, t_setup);
-    o["seconds_classification"] = seconds(t_setup, t_classified);
+    report_obstructions(S, stats, node_pairs, vis, hid, partial.size(), tol,
+                        effective_threads(options.threads), o);
     o["seconds_partly_hidden"] = seconds(t_classified, t_done);
 }
 
