@@ -86,7 +86,7 @@ ComputeResult compute_form_factors(const Scene& scene, const ComputeOptions& opt
     result.traits = method_traits(kind, options.method_options, &scene);
 
     const auto method = make_method(kind);
-    const bool emit_sparse = options.sparse_rows && method->emits_sparse_rows();
+    const bool emit_sparse = options.sparse_rows && method->emits_sparse_rows(scene);
     if (emit_sparse && options.repair.mode != RepairMode::none)
         throw OptionError("repair", "rows emitted sparse are repaired by the sparse pipeline");
     // Memory before anything big exists: the rows, their standard errors, repair's copy.

@@ -127,7 +127,7 @@ SparseComputeResult compute_sparse_form_factors(const Scene& scene, const Comput
     // Rows emitted sparse: no rows × N block. Blocks of at most 8,192 rows still keep the rows
     // waiting for the CSR small and let the projection below stop a run that will not fit.
     const auto method = make_method(kind);
-    const bool emit_sparse = method->emits_sparse_rows();
+    const bool emit_sparse = method->emits_sparse_rows(scene);
     needs.rows_sparse = emit_sparse;
     needs.threads = effective_threads(options.method_options.threads);
     const double available = available_memory();
@@ -137,7 +137,9 @@ SparseComputeResult compute_sparse_form_factors(const Scene& scene, const Comput
                            ? std::min(sparse.block_rows, std::max<std::size_t>(n, 1))
                            : sparse_block_rows(needs, budget);
     if (emit_sparse && sparse.block_rows == 0)
-        needs.block_rows = std::min<std::size_t>(needs.block_rows, 8192);
+        needs.block_rows = method->sparse_rows_at_once()
+                               ? std::max<std::size_t>(n, 1)
+                               : std::min<std::size_t>(needs.block_rows, 8192);
     result.run.block_rows = needs.block_rows;
     result.run.estimate_before = estimate_sparse_memory(needs);
     const std::string advice =

@@ -103,6 +103,12 @@ UnobstructedStats unobstructed_block(const std::vector<const Polygon*>& polys, d
                                      int threads, Progress* progress, RowRange rows,
                                      UnobstructedBlock& out);
 
+/// The entry of the lower triangle from the upper one: F_ji = A_i F_ij / A_j (i < j), written
+/// once here so that every path (dense, blocks, sparse rows) evaluates it alike.
+inline double reciprocal_entry(double upper, double area_i, double area_j) {
+    return area_j > 0.0 ? upper * area_i / area_j : 0.0;
+}
+
 /// The unobstructed U_ij of the listed pairs only: for each row i, the columns columns[i] (all
 /// > i, ascending) get values[i][k] = U_{i, columns[i][k]}, bit for bit the value
 /// unobstructed_form_factors() gives. Cost: the listed pairs, not n². progress (may be null)

@@ -122,6 +122,14 @@ class Method {
     /// True when compute() can emit its rows into MethodContext::sparse_rows, touching only the
     /// entries a row reaches (no rows × N block).
     virtual bool emits_sparse_rows() const { return false; }
+    /// The same for this scene (a method may emit sparse rows only for some scenes).
+    virtual bool emits_sparse_rows(const Scene& scene) const {
+        (void)scene;
+        return emits_sparse_rows();
+    }
+    /// True when sparse rows are best asked for in one call for every row (the method's set-up
+    /// spans the whole scene: a sparse run then asks for one block).
+    virtual bool sparse_rows_at_once() const { return false; }
     /// Computes rows ctx.rows of F for ctx.scene.patches (form_factors.first_row = the range's
     /// begin). Any split of the rows gives the same values, bit for bit, as one run.
     virtual MethodResult compute(const MethodContext& ctx) const = 0;

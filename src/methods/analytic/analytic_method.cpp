@@ -177,11 +177,7 @@ void row_pairs(const PatchTable& t, const std::vector<const Polygon*>& polys, do
               [&](std::size_t j, double fij) { emit(j, std::max(0.0, fij)); });
 }
 
-// The entry of the lower triangle from the upper one: F_ji = A_i F_ij / A_j (i < j), written
-// once here so that every path evaluates it alike.
-inline double reciprocal_entry(double upper, double area_small, double area_big) {
-    return area_big > 0.0 ? upper * area_small / area_big : 0.0;
-}
+using detail::reciprocal_entry;
 
 Bounds3 polygons_box(const std::vector<const Polygon*>& polys) {
     Bounds3 box;
@@ -334,6 +330,14 @@ MethodResult AnalyticMethod::compute(const MethodContext& ctx) const {
     MethodResult result;
     MethodReport& report = result.report;
     report.method = kind();
+    if (ctx.sparse_rows) {
+        // Rows emitted sparse (the pipeline asks only when the scene may obstruct): the pairs
+        // the classification finds visible or partly hidden, nothing for the others.
+        if (!obstructed)
+            throw Error("analytic: sparse rows are emitted only for scenes that may obstruct");
+        sparse_obstructed_rows(ctx, tol, result);
+        return result;
+    }
     FormFactors& out = result.form_factors;
     std::vector<const Polygon*> polys(n);
     for (std::size_t p = 0; p < n; ++p) polys[p] = &scene.patches[p].polygon;

@@ -19,6 +19,12 @@ class AnalyticMethod final : public Method {
     /// classification of the whole scene when it may obstruct), and is bit-identical to the
     /// same rows of the whole matrix.
     MethodResult compute(const MethodContext& ctx) const override;
+    /// In a scene that may obstruct: the rows go sparse (ctx.sparse_rows), computed only for
+    /// the pairs the classification finds visible or partly hidden (no N² work, no rows × N
+    /// block); the same values as the dense matrix (docs/sparse.md).
+    using Method::emits_sparse_rows;
+    bool emits_sparse_rows(const Scene& scene) const override { return may_obstruct(scene); }
+    bool sparse_rows_at_once() const override { return true; }
 
     /// True when some surface may block a segment between two others (an obstruction-only
     /// surface, or a surface with vertices of other surfaces on both sides of its plane).
@@ -35,6 +41,10 @@ class AnalyticMethod final : public Method {
     /// With `block`, only its rows are corrected (out.F is then unused).
     static void apply_obstructions(const MethodContext& ctx, FormFactors& out, Fields& details,
                                    detail::UnobstructedBlock* block = nullptr);
+    /// The sparse rows of an obstructed scene (analytic_obstructed.cpp): ctx.rows into
+    /// *ctx.sparse_rows, the unobstructed values at tolerance `visible_tolerance`.
+    static void sparse_obstructed_rows(const MethodContext& ctx, double visible_tolerance,
+                                       MethodResult& result);
 };
 
 }  // namespace formfactor

@@ -411,9 +411,9 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
     double hidden_sum = 0.0, err = 0.0;
     int level = 0;
     for (const Polygon& pr : parts) {
-        const detail::HiddenIntegral h = detail::hidden_integral(
-            ps, pr, S.blockers, cand.data() + pp.cand_first, pp.cand_count,
-            tol / static_cast<double>(parts.size()), S.eps);
+        const detail::HiddenIntegral h =
+            detail::hidden_integral(ps, pr, S.blockers, cand.data() + pp.cand_first, pp.cand_count,
+                                    tol / static_cast<double>(parts.size()), S.eps);
         hidden_sum += h.hidden;
         err += h.error;
         level = std::max(level, h.max_level);
@@ -579,10 +579,11 @@ void AnalyticMethod::apply_obstructions(const MethodContext& ctx, FormFactors& o
     std::vector<PartialStats> stats(partial.size());
     Progress progress("analytic (obstructed)", partial.size(), ctx.progress);
     parallel_for(partial.size(), options.threads, [&](std::size_t k) {
-        const PartialValue v = integrate_partial(
-            scene, S, partial[k], outputs[cand_task[k]].cand, tol, [&](std::size_t s, std::size_t r) {
-                return block ? block->unobstructed(s, r) : F[s * n + r];
-            });
+        const PartialValue v =
+            integrate_partial(scene, S, partial[k], outputs[cand_task[k]].cand, tol,
+                              [&](std::size_t s, std::size_t r) {
+                                  return block ? block->unobstructed(s, r) : F[s * n + r];
+                              });
         if (v.integrated) {
             if (block) {
                 block->set(v.s, v.r, v.f);
@@ -601,6 +602,150 @@ void AnalyticMethod::apply_obstructions(const MethodContext& ctx, FormFactors& o
     report_obstructions(S, stats, node_pairs, vis, hid, partial.size(), tol,
                         effective_threads(options.threads), o);
     o["seconds_partly_hidden"] = seconds(t_classified, t_done);
+}
+
+void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double visible_tolerance,
+                                            MethodResult& result) {
+    const Scene& scene = ctx.scene;
+    const MethodOptions& options = ctx.options;
+    const double tol = checked_tolerance(options);
+    const std::size_t n = scene.patches.size();
+    const RowRange rows = ctx.rows.clamped(n);
+    SparseRows& out = *ctx.sparse_rows;
+    out.reset(rows.begin, rows.size(), false);
+    FormFactors& ff = result.form_factors;
+    ff.first_row = rows.begin;
+    ff.F = DenseMatrix::Zero(0, static_cast<Eigen::Index>(n));
+    MethodReport& report = result.report;
+
+    Obstructions S;
+    prepare_obstructions(ctx, true, S);
+    const auto t_classified = Clock::now();
+    const std::vector<ClusterTree>& trees = S.trees;
+    auto touches = [&](std::size_t i, std::size_t j) {
+        return rows.contains(i) || rows.contains(j);
+    };
+    // The unordered pairs (a < c) that touch the rows, by their first patch: every patch pair
+    // of the visible node pairs, and the partly hidden ones. The others are 0: facing away,
+    // fully hidden, or in one plane group (coplanar, one-sided: they do not see each other).
+    std::vector<std::vector<std::int32_t>> cols(n);
+    std::size_t node_pairs = 0, vis = 0, hid = 0;
+    for (const PairOutput& o : S.outputs) {
+        node_pairs += o.node_pairs;
+        vis += o.visible_patch_pairs;
+        hid += o.hidden_patch_pairs;
+        for (const NodePair& np : o.visible) {
+            const ClusterTree& TA = trees[static_cast<std::size_t>(np.ta)];
+            const ClusterTree& TB = trees[static_cast<std::size_t>(np.tb)];
+            const auto& A = TA.nodes[static_cast<std::size_t>(np.a)];
+            const auto& B = TB.nodes[static_cast<std::size_t>(np.b)];
+            for (int x = A.first; x < A.first + A.count; ++x)
+                for (int y = B.first; y < B.first + B.count; ++y) {
+                    const int i = TA.order[static_cast<std::size_t>(x)];
+                    const int j = TB.order[static_cast<std::size_t>(y)];
+                    const auto a = static_cast<std::size_t>(std::min(i, j));
+                    const auto c = static_cast<std::size_t>(std::max(i, j));
+                    if (touches(a, c)) cols[a].push_back(static_cast<std::int32_t>(c));
+                }
+        }
+    }
+    std::vector<PartialPair> partial;
+    std::vector<std::size_t> cand_task;
+    for (std::size_t k = 0; k < S.outputs.size(); ++k)
+        for (const PartialPair& p : S.outputs[k].partial) {
+            const auto i = static_cast<std::size_t>(p.i), j = static_cast<std::size_t>(p.j);
+            if (!touches(i, j)) continue;
+            partial.push_back(p);
+            cand_task.push_back(k);
+            cols[std::min(i, j)].push_back(static_cast<std::int32_t>(std::max(i, j)));
+        }
+    parallel_for(n, options.threads,
+                 [&](std::size_t a) { std::sort(cols[a].begin(), cols[a].end()); });
+    // Their exact unobstructed values U_ac (the dense matrix's, bit for bit), then the lower
+    // entries by reciprocity.
+    std::vector<const Polygon*> polys(n);
+    for (std::size_t p = 0; p < n; ++p) polys[p] = &scene.patches[p].polygon;
+    std::vector<std::vector<double>> upper;
+    Progress unobs_progress("analytic (visible pairs)", n, ctx.progress);
+    const detail::UnobstructedStats ust = detail::unobstructed_pairs(
+        polys, visible_tolerance, options.threads, &unobs_progress, cols, upper, ff.areas);
+    unobs_progress.finish();
+    const std::vector<double>& areas = ff.areas;
+    std::vector<std::vector<double>> lower(n);
+    parallel_for(n, options.threads, [&](std::size_t a) {
+        lower[a].resize(cols[a].size());
+        for (std::size_t k = 0; k < cols[a].size(); ++k)
+            lower[a][k] = detail::reciprocal_entry(upper[a][k], areas[a],
+                                                   areas[static_cast<std::size_t>(cols[a][k])]);
+    });
+    auto slot = [&](std::size_t a, std::size_t c) {
+        const auto at =
+            std::lower_bound(cols[a].begin(), cols[a].end(), static_cast<std::int32_t>(c));
+        FF_ASSERT(at != cols[a].end() && *at == static_cast<std::int32_t>(c));
+        return static_cast<std::size_t>(at - cols[a].begin());
+    };
+    // The partly hidden pairs: the unobstructed value less the integrated hidden part, as the
+    // dense pass computes it.
+    std::vector<PartialStats> stats(partial.size());
+    std::vector<PartialValue> values(partial.size());
+    Progress progress("analytic (obstructed)", partial.size(), ctx.progress);
+    parallel_for(partial.size(), options.threads, [&](std::size_t k) {
+        values[k] =
+            integrate_partial(scene, S, partial[k], S.outputs[cand_task[k]].cand, tol,
+                              [&](std::size_t s, std::size_t r) {
+                                  return s < r ? upper[s][slot(s, r)] : lower[r][slot(r, s)];
+                              });
+        stats[k] = values[k].stats;
+        progress.advance();
+    });
+    progress.finish();
+    for (const PartialValue& v : values) {
+        if (!v.integrated) continue;
+        if (v.s < v.r) {
+            const std::size_t k = slot(v.s, v.r);
+            upper[v.s][k] = v.f;
+            lower[v.s][k] = v.back;
+        } else {
+            const std::size_t k = slot(v.r, v.s);
+            upper[v.r][k] = v.back;
+            lower[v.r][k] = v.f;
+        }
+    }
+    const auto t_done = Clock::now();
+    // The rows: entries F_ic (c > i) from row i's pairs, F_ia (a < i) from the pairs (a, i),
+    // columns ascending, zeros left out.
+    for (std::size_t a = 0; a < n; ++a)
+        for (std::size_t k = 0; k < cols[a].size(); ++k) {
+            const auto c = static_cast<std::size_t>(cols[a][k]);
+            if (!rows.contains(c) || !(lower[a][k] > 0.0)) continue;
+            const std::size_t row = c - rows.begin;
+            out.indices[row].push_back(static_cast<std::int32_t>(a));
+            out.values[row].push_back(lower[a][k]);
+        }
+    parallel_for(rows.size(), options.threads, [&](std::size_t row) {
+        const std::size_t i = rows.begin + row;
+        for (std::size_t k = 0; k < cols[i].size(); ++k) {
+            if (!(upper[i][k] > 0.0)) continue;
+            out.indices[row].push_back(cols[i][k]);
+            out.values[row].push_back(upper[i][k]);
+        }
+    });
+
+    report.pairs = PairClasses{ust.zero + ust.exact + ust.far, ust.zero, ust.exact, ust.far};
+    Fields& details = report.details;
+    details["tolerance"] = visible_tolerance;
+    details["threads"] = effective_threads(options.threads);
+    details["obstructed"] = true;
+    details["sparse_rows"] = true;
+    details["far_field_kernel_evaluations"] = ust.points;
+    details["unobstructed_pairs_computed"] = ust.zero + ust.exact + ust.far;
+    Fields& o = details["obstructions"];
+    report_obstructions(S, stats, node_pairs, vis, hid, partial.size(), tol,
+                        effective_threads(options.threads), o);
+    o["seconds_partly_hidden"] = seconds(t_classified, t_done);
+    report.error_bound_per_entry =
+        std::max(std::max(visible_tolerance, 1e-12), o["max_error_estimate"].real());
+    details["exact_path_error"] = 1e-12;
 }
 
 }  // namespace formfactor
