@@ -4,6 +4,7 @@
 #include <hdf5.h>
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -104,6 +105,8 @@ TEST_CASE("cli sparse: wrong combinations are one clear error and write nothing"
         {"compute city-1 -o F.mtx --threshold -1", "formfactor: --threshold: must be"},
         {"compute city-1 -o F.mtx --repair closure", "formfactor: --repair: closure needs"},
         {"compute city-1 -o F.h5 --stderr SE.npy", "formfactor: --stderr: with sparse storage"},
+        {"compute city-1 -o F.npy --stderr SE.mtx", "formfactor: --stderr: with dense storage"},
+        {"compute city-1 -o F.h5 --stderr SE.mtx", "formfactor: --stderr: method 'analytic'"},
         {"compute city-1 -o no/F.h5", "formfactor: no/F.h5: directory"},
     };
     for (const auto& c : cases) {
@@ -114,6 +117,49 @@ TEST_CASE("cli sparse: wrong combinations are one clear error and write nothing"
         CHECK(r.err.rfind(c.message, 0) == 0);
     }
     CHECK(cli.dir().entries() == 0);
+}
+
+TEST_CASE("cli sparse: --stderr writes each stored entry's standard error in F's pattern") {
+    // mc-hemisphere's sparse run: SE.mtx holds, for every entry of F.mtx, the standard error the
+    // library's sparse run keeps for it (bit for bit through %.17g), and nothing else.
+    Cli cli;
+    const CliResult r = cli.run(
+        "compute city-1 --method mc-hemisphere --samples 500 --seed 3 -o F.mtx --stderr SE.mtx");
+    INFO(said(r));
+    REQUIRE(r.code == 0);
+    CHECK(cli.dir().entries() == 2);
+    const SparseFormFactors F = read_sparse_matrix(cli.file("F.mtx"));
+    const SparseFormFactors E = read_sparse_matrix(cli.file("SE.mtx"));
+    ComputeOptions options;
+    options.method = MethodKind::mc_hemisphere;
+    options.method_options.samples = 500;
+    options.method_options.seed = 3;
+    const SparseFormFactors L =
+        compute_sparse_form_factors(city_scene(1), options, {}).form_factors;
+    REQUIRE(L.standard_error.has_value());
+    REQUIRE(E.n == L.n);
+    CHECK(E.indptr == L.indptr);
+    CHECK(E.indices == L.indices);
+    CHECK(F.indices == L.indices);
+    CHECK(E.values == *L.standard_error);
+    bool positive = false;
+    for (double v : E.values) positive = positive || v > 0.0;
+    CHECK(positive);
+    // The same with .h5 outputs; a failing F write leaves no SE file behind.
+    const CliResult h = cli.run(
+        "compute city-1 --method mc-hemisphere --samples 500 --seed 3 -o F.h5 --stderr SE.h5");
+    INFO(said(h));
+    REQUIRE(h.code == 0);
+    CHECK(read_sparse_matrix(cli.file("SE.h5")).values == *L.standard_error);
+    // -o names a directory: the run fails (F cannot be written) and no standard errors stay.
+    std::filesystem::create_directory(cli.file("G.h5"));
+    const std::size_t before = cli.dir().entries();
+    const CliResult bad =
+        cli.run("compute city-1 --method mc-hemisphere --samples 500 -o G.h5 --stderr SE2.h5");
+    INFO(said(bad));
+    CHECK(bad.code != 0);
+    CHECK(bad.one_error_line());
+    CHECK(cli.dir().entries() == before);
 }
 
 TEST_CASE("cli sparse: --per-surface writes the surfaces' matrix, aggregated on the CSR") {

@@ -137,14 +137,15 @@ void run_compute_hierarchical(const ComputeArgs& args) {
 // .h5; `why` says why it was picked.
 void run_compute_sparse(const ComputeArgs& args, const std::string& why) {
     Stopwatch total;
-    if (!args.standard_error.empty())
-        throw OptionError("--stderr",
-                          "with sparse storage the standard errors go into the .h5 file "
-                          "(dataset standard_error)");
     StepTimes times;
     Scene scene = prepare_scene(args.scene, times);
     warn_single_patch(scene);
     const MethodKind method = args.method.resolved_kind(scene);
+    if (!args.standard_error.empty() &&
+        !method_traits(method, args.method.options, &scene).standard_errors)
+        throw OptionError("--stderr", "method '" + to_string(method) +
+                                          "' gives no standard errors (it is exact; the "
+                                          "Monte-Carlo methods give them)");
     const SparseComputeResult r =
         compute_sparse_matrix(scene, args.method, args.repair, args.threshold, times);
     Stopwatch sw;
@@ -180,7 +181,42 @@ void run_compute_sparse(const ComputeArgs& args, const std::string& why) {
     info.method = to_string(method);
     info.repair = args.repair.mode;
     info.patches = per_surface ? nullptr : &scene.patches;
-    write_sparse_matrix(args.output, F, info);
+    // --stderr: the standard error of each stored entry, in F's pattern (a matrix of its own,
+    // .mtx or .h5), written beside its final name first and renamed after F, so that a failure
+    // leaves neither.
+    std::string se_staged;
+    if (!args.standard_error.empty()) {
+        if (!F.standard_error)
+            throw Error("compute: the sparse run kept no standard errors");  // cannot happen
+        SparseFormFactors E;
+        E.n = F.n;
+        E.indptr = F.indptr;
+        E.indices = F.indices;
+        E.values = *F.standard_error;
+        E.areas = F.areas;
+        E.threshold = F.threshold;
+        E.computed_row_sums.assign(F.n, 0.0);
+        for (std::size_t i = 0; i < F.n; ++i)
+            for (auto k = F.indptr[i]; k < F.indptr[i + 1]; ++k)
+                E.computed_row_sums[i] += E.values[static_cast<std::size_t>(k)];
+        E.dropped.assign(F.n, 0.0);
+        const std::filesystem::path target(args.standard_error);
+        se_staged =
+            (target.parent_path() / (".formfactor-staged-" + target.filename().string())).string();
+        SparseFileInfo se_info = info;
+        se_info.method += " (standard errors of the entries)";
+        write_sparse_matrix(se_staged, E, se_info);
+    }
+    try {
+        write_sparse_matrix(args.output, F, info);
+        if (!se_staged.empty()) std::filesystem::rename(se_staged, args.standard_error);
+    } catch (...) {
+        if (!se_staged.empty()) {
+            std::error_code ec;
+            std::filesystem::remove(se_staged, ec);
+        }
+        throw;
+    }
     tx.commit();
     times.add("write", sw.lap());
 
@@ -242,7 +278,12 @@ void run_compute(const ComputeArgs& args) {
     }
 
     if (!args.standard_error.empty()) {
-        matrix_format_for(args.standard_error, "--stderr");
+        if (sparse_file != is_sparse_matrix_path(args.standard_error))
+            throw OptionError("--stderr", sparse_file
+                                              ? "with sparse storage the standard errors are a "
+                                                "sparse matrix too: .mtx or .h5 (F's pattern)"
+                                              : "with dense storage: .csv, .npy or .txt, as -o");
+        if (!sparse_file) matrix_format_for(args.standard_error, "--stderr");
         check_output_directory(args.standard_error);
         for (const std::string* other : {&args.output, &args.report, &args.patches}) {
             if (!other->empty() && same_file(args.standard_error, *other)) {
@@ -422,7 +463,7 @@ void add_compute_command(CLI::App& app) {
         ->type_name("PATCHES.csv");
     cmd->add_option("--stderr,--standard-error", args->standard_error,
                     "Also write the standard error of each entry (same formats as -o; "
-                    "Monte-Carlo methods only)")
+                    "with sparse storage .mtx or .h5, F's pattern; Monte-Carlo methods only)")
         ->type_name("SE");
     auto* ps = cmd->add_flag(
         "--per-surface", args->per_surface,
