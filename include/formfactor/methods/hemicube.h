@@ -54,6 +54,8 @@ class HemicubeMethod final : public Method {
   public:
     MethodKind kind() const override { return MethodKind::hemicube; }
     void check(const Scene& scene) const override;
+    /// Rows go sparse when asked (MethodContext::sparse_rows): the patches each hemicube drew.
+    bool emits_sparse_rows() const override { return true; }
     MethodResult compute(const MethodContext& ctx) const override;
 };
 

@@ -144,19 +144,28 @@ MethodResult HemicubeMethod::compute(const MethodContext& ctx) const {
     result.report.method = kind();
     FormFactors& out = result.form_factors;
     Fields& details = result.report.details;
-    out = projection::zero_form_factors(scene, ctx.rows.clamped(n));
+    const RowRange rows = ctx.rows.clamped(n);
+    out = projection::zero_form_factors(
+        scene, RowRange{rows.begin, ctx.sparse_rows ? rows.begin : rows.end});
     const int R = options.resolution;
     const projection::HemicubeDelta delta(hemicube_delta_form_factors(R), R);
     const projection::Occluders occ = projection::build_occluders(scene);
     const double near = projection::kRelativeNear * occ.scale;
     const double edge_on = projection::kRelativeEdgeOn * occ.scale;
-    const std::size_t hemicubes = projection::project_patches<HemicubeRaster>(
-        ctx, "hemicube", out, [R] { return std::make_unique<HemicubeRaster>(R); },
-        [&](HemicubeRaster& raster, std::size_t i, const projection::Frame& frame, double weight,
-            double* row) {
-            raster.render(occ, frame, static_cast<int>(i), near, edge_on);
-            raster.accumulate(delta, weight, row, n);
-        });
+    auto make = [R] { return std::make_unique<HemicubeRaster>(R); };
+    auto visit = [&](HemicubeRaster& raster, std::size_t i, const projection::Frame& frame,
+                     double weight, double* row) {
+        raster.render(occ, frame, static_cast<int>(i), near, edge_on);
+        raster.accumulate(delta, weight, row, n);
+    };
+    const std::size_t hemicubes =
+        ctx.sparse_rows
+            ? projection::project_patches_sparse<HemicubeRaster>(
+                  ctx, "hemicube", make, visit,
+                  [](const HemicubeRaster& raster) -> const std::vector<int>& {
+                      return raster.touched();
+                  })
+            : projection::project_patches<HemicubeRaster>(ctx, "hemicube", out, make, visit);
     details["resolution"] = R;
     details["points"] = options.points;
     details["hemicubes"] = hemicubes;

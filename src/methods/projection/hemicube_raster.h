@@ -41,6 +41,8 @@ class HemicubeRaster {
     static constexpr std::size_t kPadding = 8;
     /// The item of every cell (and kPadding cells of padding at the end).
     const std::vector<int>& items() const { return items_; }
+    /// The patches the last render() drew (accumulate() credits exactly these).
+    const std::vector<int>& touched() const { return touched_; }
     int resolution() const { return R_; }
     std::size_t cells() const { return cells_; }
     /// Offset of face f (0 top, 1 +u, 2 −u, 3 +v, 4 −v) in the buffers.

@@ -5,6 +5,7 @@
 
 #include <tbb/enumerable_thread_specific.h>
 
+#include <algorithm>
 #include <array>
 #include <atomic>
 #include <cmath>
@@ -17,6 +18,7 @@
 #include "formfactor/core/types.h"
 #include "formfactor/geometry/polygon.h"
 #include "formfactor/matrix/form_factors.h"
+#include "formfactor/matrix/sparse.h"
 #include "formfactor/methods/method.h"
 #include "formfactor/methods/projection_view.h"
 #include "formfactor/scene/scene.h"
@@ -146,6 +148,69 @@ std::size_t project_patches(const MethodContext& ctx, const char* label, FormFac
             visit(*worker, i, make_frame(points[k].x, nrm, rotation), points[k].weight, row);
         }
         row[i] = 0.0;
+        projections.fetch_add(points.size(), std::memory_order_relaxed);
+        progress.advance();
+    });
+    progress.finish();
+    return projections.load();
+}
+
+/// project_patches() for rows emitted sparse (ctx.sparse_rows, reset to ctx.rows here): the same
+/// visits in the same order, into one row of N accumulators per thread instead of a rows × N
+/// block; touched(worker) lists the patches the last visit credited, and only those entries
+/// are read into the row (columns ascending, zeros left out) and cleared. The entries are the
+/// dense rows' bit for bit. Returns the number of projections.
+template <class Worker, class Make, class Visit, class Touched>
+std::size_t project_patches_sparse(const MethodContext& ctx, const char* label, Make make,
+                                   Visit visit, Touched touched) {
+    const Scene& scene = ctx.scene;
+    const MethodOptions& options = ctx.options;
+    const std::size_t n = scene.patches.size();
+    const RowRange rows = ctx.rows.clamped(n);
+    SparseRows& out = *ctx.sparse_rows;
+    out.reset(rows.begin, rows.size(), false);
+    struct Local {
+        std::unique_ptr<Worker> worker;
+        std::vector<double> acc;  // zero between rows
+        std::vector<char> seen;   // zero between rows
+        std::vector<std::int32_t> cols;
+    };
+    tbb::enumerable_thread_specific<Local> locals;
+    std::atomic<std::size_t> projections{0};
+    Progress progress(label, rows.size(), ctx.progress);
+    parallel_for(rows.size(), options.threads, [&](std::size_t r) {
+        const std::size_t i = rows.begin + r;
+        Local& L = locals.local();
+        if (!L.worker) {
+            L.worker = make();
+            L.acc.assign(n, 0.0);
+            L.seen.assign(n, 0);
+        }
+        const Patch& p = scene.patches[i];
+        const Vec3 nrm = patch_normal(p);
+        const auto points = patch_points(p.polygon, options.points);
+        L.cols.clear();
+        for (std::size_t k = 0; k < points.size(); ++k) {
+            const double rotation = 2.0 * kPi * stream_uniform(options.seed, i, k);
+            visit(*L.worker, i, make_frame(points[k].x, nrm, rotation), points[k].weight,
+                  L.acc.data());
+            for (const int j : touched(*L.worker)) {
+                if (j < 0 || L.seen[static_cast<std::size_t>(j)]) continue;
+                L.seen[static_cast<std::size_t>(j)] = 1;
+                L.cols.push_back(j);
+            }
+        }
+        L.acc[i] = 0.0;
+        std::sort(L.cols.begin(), L.cols.end());
+        for (const std::int32_t j : L.cols) {
+            const auto js = static_cast<std::size_t>(j);
+            if (L.acc[js] != 0.0) {
+                out.indices[r].push_back(j);
+                out.values[r].push_back(L.acc[js]);
+            }
+            L.acc[js] = 0.0;
+            L.seen[js] = 0;
+        }
         projections.fetch_add(points.size(), std::memory_order_relaxed);
         progress.advance();
     });
