@@ -2,6 +2,8 @@
 // patch pairs by shafts against a BVH of blocker pieces, then the adaptive integration of the
 // hidden part of every partly hidden pair. See docs/analytic.md, "Obstructed scenes".
 
+#include <tbb/enumerable_thread_specific.h>
+
 #include <algorithm>
 #include <array>
 #include <atomic>
@@ -373,12 +375,38 @@ void prepare_obstructions(const MethodContext& ctx, bool record_visible, Obstruc
     S.seconds_classification = seconds(t_setup, t_classified);
 }
 
-// What the integration of partly hidden pairs did, per pair and summed.
+// What the integration of one partly hidden pair did (small: room n = 32 has 800k such pairs).
+struct PairStats {
+    double error = 0;
+    std::size_t points = 0, cells = 0;
+    int level = 0, capped = 0;
+    bool integrated = false, changed = false;
+};
+
+// The same summed over pairs (per thread, then over threads: sums, maxima and counts, the same
+// whatever the order).
 constexpr int kLevels = 16;
 struct PartialStats {
     std::array<std::size_t, kLevels + 1> levels{};
     double max_error = 0;
     std::size_t points = 0, cells = 0, capped = 0, changed = 0;
+    void add(const PairStats& p) {
+        points += p.points;
+        cells += p.cells;
+        capped += static_cast<std::size_t>(p.capped);
+        if (!p.integrated) return;
+        changed += p.changed ? 1 : 0;
+        max_error = std::max(max_error, p.error);
+        ++levels[static_cast<std::size_t>(std::min(p.level, kLevels))];
+    }
+    void add(const PartialStats& o) {
+        for (std::size_t l = 0; l < levels.size(); ++l) levels[l] += o.levels[l];
+        max_error = std::max(max_error, o.max_error);
+        points += o.points;
+        cells += o.cells;
+        capped += o.capped;
+        changed += o.changed;
+    }
 };
 
 // A partly hidden pair's entries: F_sr = f (s the smaller patch), F_rs = back.
@@ -386,8 +414,16 @@ struct PartialValue {
     std::size_t s = 0, r = 0;
     double f = 0, back = 0;
     bool integrated = false;  // false: the unobstructed value is 0, nothing to correct
-    PartialStats stats;
+    PairStats stats;
 };
+
+// Per-thread sums of PairStats.
+using ThreadStats = tbb::enumerable_thread_specific<PartialStats>;
+PartialStats combined(ThreadStats& per_thread) {
+    PartialStats total;
+    for (const PartialStats& s : per_thread) total.add(s);
+    return total;
+}
 
 // The unobstructed value less the integrated hidden part, over the smaller patch of the pair
 // (reciprocity gives the other entry, with a smaller error). unobstructed(s, r): the exact
@@ -405,7 +441,7 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
     const double a_s = scene.patches[s].area, a_r = scene.patches[r].area;
     const double unobs = unobstructed(s, r);
     if (!(unobs > 0.0)) return v;
-    PartialStats& st = v.stats;
+    PairStats& st = v.stats;
     const Polygon& ps = scene.patches[s].polygon;
     const std::vector<Polygon> parts = BlockerSet::convex_parts(scene.patches[r].polygon);
     double hidden_sum = 0.0, err = 0.0;
@@ -422,27 +458,18 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
         if (h.capped) ++st.capped;
     }
     v.f = std::clamp(unobs - hidden_sum, 0.0, unobs);
-    if (v.f != unobs) ++st.changed;
+    st.changed = v.f != unobs;
     v.back = a_r > 0.0 ? v.f * a_s / a_r : 0.0;
-    v.integrated = true;
-    st.max_error = err;
-    ++st.levels[static_cast<std::size_t>(std::min(level, kLevels))];
+    v.integrated = st.integrated = true;
+    st.error = err;
+    st.level = level;
     return v;
 }
 
 // details["obstructions"] (docs/analytic.md): the blockers, the pair classes, the integration.
-void report_obstructions(const Obstructions& S, const std::vector<PartialStats>& stats,
-                         std::size_t node_pairs, std::size_t visible, std::size_t hidden,
-                         std::size_t partial, double tol, int threads, Fields& o) {
-    PartialStats total;
-    for (const PartialStats& s : stats) {
-        for (std::size_t l = 0; l < total.levels.size(); ++l) total.levels[l] += s.levels[l];
-        total.max_error = std::max(total.max_error, s.max_error);
-        total.points += s.points;
-        total.cells += s.cells;
-        total.capped += s.capped;
-        total.changed += s.changed;
-    }
+void report_obstructions(const Obstructions& S, const PartialStats& total, std::size_t node_pairs,
+                         std::size_t visible, std::size_t hidden, std::size_t partial, double tol,
+                         int threads, Fields& o) {
     Fields levels = Fields::object();
     for (int l = 0; l <= kLevels; ++l)
         if (total.levels[static_cast<std::size_t>(l)] > 0)
@@ -576,7 +603,7 @@ void AnalyticMethod::apply_obstructions(const MethodContext& ctx, FormFactors& o
         partial.resize(kept);
         cand_task.resize(kept);
     }
-    std::vector<PartialStats> stats(partial.size());
+    ThreadStats stats;
     Progress progress("analytic (obstructed)", partial.size(), ctx.progress);
     parallel_for(partial.size(), options.threads, [&](std::size_t k) {
         const PartialValue v =
@@ -593,13 +620,13 @@ void AnalyticMethod::apply_obstructions(const MethodContext& ctx, FormFactors& o
                 F[v.r * n + v.s] = v.back;
             }
         }
-        stats[k] = v.stats;
+        stats.local().add(v.stats);
         progress.advance();
     });
     progress.finish();
     const auto t_done = Clock::now();
     Fields& o = details["obstructions"];
-    report_obstructions(S, stats, node_pairs, vis, hid, partial.size(), tol,
+    report_obstructions(S, combined(stats), node_pairs, vis, hid, partial.size(), tol,
                         effective_threads(options.threads), o);
     o["seconds_partly_hidden"] = seconds(t_classified, t_done);
 }
@@ -686,7 +713,7 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
     };
     // The partly hidden pairs: the unobstructed value less the integrated hidden part, as the
     // dense pass computes it.
-    std::vector<PartialStats> stats(partial.size());
+    ThreadStats stats;
     std::vector<PartialValue> values(partial.size());
     Progress progress("analytic (obstructed)", partial.size(), ctx.progress);
     parallel_for(partial.size(), options.threads, [&](std::size_t k) {
@@ -695,7 +722,7 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
                               [&](std::size_t s, std::size_t r) {
                                   return s < r ? upper[s][slot(s, r)] : lower[r][slot(r, s)];
                               });
-        stats[k] = values[k].stats;
+        stats.local().add(values[k].stats);
         progress.advance();
     });
     progress.finish();
@@ -740,7 +767,7 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
     details["far_field_kernel_evaluations"] = ust.points;
     details["unobstructed_pairs_computed"] = ust.zero + ust.exact + ust.far;
     Fields& o = details["obstructions"];
-    report_obstructions(S, stats, node_pairs, vis, hid, partial.size(), tol,
+    report_obstructions(S, combined(stats), node_pairs, vis, hid, partial.size(), tol,
                         effective_threads(options.threads), o);
     o["seconds_partly_hidden"] = seconds(t_classified, t_done);
     report.error_bound_per_entry =
