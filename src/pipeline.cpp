@@ -89,16 +89,15 @@ ComputeResult compute_form_factors(const Scene& scene, const ComputeOptions& opt
     const bool emit_sparse = options.sparse_rows && method->emits_sparse_rows(scene);
     if (emit_sparse && options.repair.mode != RepairMode::none)
         throw OptionError("repair", "rows emitted sparse are repaired by the sparse pipeline");
-    // Memory before anything big exists: the rows, their standard errors, repair's copy.
-    // mc-target still builds the whole matrix for a block of rows; the analytic method's block
+    // Memory before anything big exists: the rows, their standard errors, repair's copy. The
+    // analytic method's block (and mc-target's, which takes its unobstructed values from it)
     // holds its rows and, for the rows before it, their pairs with the block (≤ N × rows).
     // Rows emitted sparse need none of it.
-    const bool full_inside = kind == MethodKind::mc_target;
-    const bool strip = kind == MethodKind::analytic && !whole;
+    const bool strip = (kind == MethodKind::analytic || kind == MethodKind::mc_target) && !whole;
     DenseRunNeeds needs;
     needs.patches = n;
-    needs.matrix = whole || full_inside;
-    needs.standard_errors = result.traits.standard_errors && (whole || full_inside);
+    needs.matrix = whole;
+    needs.standard_errors = result.traits.standard_errors && whole;
     needs.output_rows =
         whole || emit_sparse
             ? 0

@@ -121,8 +121,8 @@ SparseComputeResult compute_sparse_form_factors(const Scene& scene, const Comput
     SparseRunNeeds needs;
     needs.patches = n;
     needs.standard_errors = result.traits.standard_errors;
-    needs.block_strip = kind == MethodKind::analytic;
-    needs.whole_matrix_inside = kind == MethodKind::mc_target;
+    // mc-target's unobstructed values come from the analytic method's row range.
+    needs.block_strip = kind == MethodKind::analytic || kind == MethodKind::mc_target;
     needs.repair = options.repair.mode != RepairMode::none;
     // Rows emitted sparse: no rows × N block. Blocks of at most 8,192 rows still keep the rows
     // waiting for the CSR small and let the projection below stop a run that will not fit.

@@ -548,7 +548,6 @@ void AnalyticMethod::apply_obstructions(const MethodContext& ctx, FormFactors& o
     Obstructions S;
     prepare_obstructions(ctx, false, S);
     const std::vector<ClusterTree>& trees = S.trees;
-    const BlockerSet& blockers = S.blockers;
     const std::vector<PairOutput>& outputs = S.outputs;
     const auto t_classified = Clock::now();
     // 2. Fully hidden node pairs: zero.

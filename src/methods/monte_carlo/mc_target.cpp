@@ -103,10 +103,28 @@ class McTargetMethod final : public mc::MonteCarloMethod {
         // the double contour integral for near pairs, the far-field rule where its a-priori
         // bound is ≤ kUnoccludedTolerance, once per unordered pair and the other entry by
         // reciprocity). ff.F holds F_unocc until pass 2 scales its own row.
+        // A block of rows takes the analytic method's row range (unobstructed_block(): its rows
+        // and the pairs of the rows before it with its patches, the whole matrix's values bit
+        // for bit): ff.F is then rows × N, row i at i − off.
         std::vector<const Polygon*> polys(run.n);
         for (std::size_t p = 0; p < run.n; ++p) polys[p] = &run.scene.patches[p].polygon;
-        const detail::UnobstructedStats unocc = detail::unobstructed_form_factors(
-            polys, kUnoccludedTolerance, run.options.threads, nullptr, ff.F, ff.areas);
+        const bool whole = run.rows.size() == run.n;
+        const std::size_t off = whole ? 0 : run.rows.begin;
+        detail::UnobstructedStats unocc;
+        if (whole) {
+            unocc = detail::unobstructed_form_factors(polys, kUnoccludedTolerance,
+                                                      run.options.threads, nullptr, ff.F, ff.areas);
+        } else {
+            detail::UnobstructedBlock block;
+            unocc = detail::unobstructed_block(polys, kUnoccludedTolerance, run.options.threads,
+                                               nullptr, run.rows, block);
+            ff.F = std::move(block.F);
+            ff.areas = std::move(block.areas);
+            ff.first_row = run.rows.begin;
+        }
+        auto unocc_at = [&](std::size_t i, std::size_t j) {
+            return ff.F(static_cast<Eigen::Index>(i - off), static_cast<Eigen::Index>(j));
+        };
         ff.standard_error = DenseMatrix::Zero(ff.F.rows(), ff.F.cols());
         phase_timer.lap(phases, "unobstructed");
 
@@ -137,34 +155,42 @@ class McTargetMethod final : public mc::MonteCarloMethod {
                                                                      run.scene.surfaces[b].polygon);
             });
         }
+        // The whole matrix: bit j of row i for j > i (each unordered pair once); a block of
+        // rows: bit j of each of its rows, for every j (the same test on (min, max), so the
+        // same answer as the whole run's).
         const std::size_t words = (run.n + 63) / 64;
-        std::vector<std::uint64_t> clear_bits(run.n * words, 0);
+        const std::size_t bit_rows = whole ? run.n : run.rows.size();
+        std::vector<std::uint64_t> clear_bits(bit_rows * words, 0);
         std::atomic<std::uint64_t> cleared_pairs{0};
-        parallel_for(run.n, run.options.threads, [&](std::size_t i) {
+        auto clear_test = [&](std::size_t lo, std::size_t hi) {
+            const int a = surface_of[lo], b = surface_of[hi];
+            const bool whole_pair = by_surface && a >= 0 && b >= 0 && a != b &&
+                                    surface_clear[static_cast<std::size_t>(std::min(a, b)) * S +
+                                                  static_cast<std::size_t>(std::max(a, b))];
+            return whole_pair || culler.unoccluded(static_cast<int>(lo), static_cast<int>(hi));
+        };
+        parallel_for(bit_rows, run.options.threads, [&](std::size_t k) {
+            const std::size_t i = whole ? k : run.rows.begin + k;
             std::uint64_t count = 0;
-            for (std::size_t j = i + 1; j < run.n; ++j) {
-                if (!(ff.F(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) > 0))
-                    continue;
-                const int a = surface_of[i], b = surface_of[j];
-                const bool whole = by_surface && a >= 0 && b >= 0 && a != b &&
-                                   surface_clear[static_cast<std::size_t>(std::min(a, b)) * S +
-                                                 static_cast<std::size_t>(std::max(a, b))];
-                if (!whole && !culler.unoccluded(static_cast<int>(i), static_cast<int>(j)))
-                    continue;
-                clear_bits[i * words + j / 64] |= std::uint64_t(1) << (j % 64);
+            for (std::size_t j = whole ? i + 1 : 0; j < run.n; ++j) {
+                if (j == i || !(unocc_at(i, j) > 0)) continue;
+                if (!clear_test(std::min(i, j), std::max(i, j))) continue;
+                clear_bits[k * words + j / 64] |= std::uint64_t(1) << (j % 64);
                 ++count;
             }
             cleared_pairs += count;
         });
         auto cleared = [&](std::size_t i, std::size_t j) {
+            if (!whole) {
+                const std::size_t k = i - run.rows.begin;
+                return (clear_bits[k * words + j / 64] >> (j % 64)) & 1;
+            }
             const std::size_t a = std::min(i, j), b = std::max(i, j);
             return (clear_bits[a * words + b / 64] >> (b % 64)) & 1;
         };
 
         phase_timer.lap(phases, "shaft_culling");
-        // Pass 2 (rays) on the rows asked for. Pass 1 above still makes the whole unobstructed
-        // matrix (the analytic pass has no row range of its own yet): a block costs its rays,
-        // but N² memory.
+        // Pass 2 (rays) on the rows asked for.
         Progress progress("mc-target", run.rows.size(), ctx.progress);
         const std::uint32_t K = kDirectionsPerSender;
         parallel_for(run.rows.size(), run.options.threads, [&](std::size_t row) {
@@ -206,8 +232,7 @@ class McTargetMethod final : public mc::MonteCarloMethod {
             const int from = static_cast<int>(i);
             for (std::size_t j = 0; j < run.n; ++j) {
                 if (j == i) continue;
-                const double f_unocc =
-                    ff.F(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j));
+                const double f_unocc = unocc_at(i, j);
                 if (!(f_unocc > 0) || cleared(i, j)) continue;
                 const Patch& pj = run.scene.patches[j];
                 ProjectedPolygonSampler& target = buf.target;
@@ -255,15 +280,15 @@ class McTargetMethod final : public mc::MonteCarloMethod {
             if (!queries.empty()) flush();
             std::vector<double>& rho = buf.rho;
             for (std::size_t j = 0; j < run.n; ++j) {
-                const double f_unocc =
-                    j == i ? 0.0 : ff.F(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j));
+                const double f_unocc = j == i ? 0.0 : unocc_at(i, j);
                 if (!(f_unocc > 0)) continue;
                 ++row_pairs;
                 if (cleared(i, j)) {  // F_ij = F_unocc, standard error 0, as set
                     ++row_unblocked;
                     continue;
                 }
-                const auto ii = static_cast<Eigen::Index>(i), jj = static_cast<Eigen::Index>(j);
+                const auto ii = static_cast<Eigen::Index>(i - off);
+                const auto jj = static_cast<Eigen::Index>(j);
                 double w_sum = 0, v_sum = 0;
                 std::uint32_t used = 0;
                 for (std::size_t k = j * run.R; k < (j + 1) * run.R; ++k) {  // j's replicates
@@ -306,22 +331,13 @@ class McTargetMethod final : public mc::MonteCarloMethod {
         });
         progress.finish();
         phase_timer.lap(phases, "rays");
-        if (run.rows.size() != run.n) {
-            // Only the rows asked for go back (the others hold unobstructed values).
-            const auto b = static_cast<Eigen::Index>(run.rows.begin);
-            const auto m = static_cast<Eigen::Index>(run.rows.size());
-            DenseMatrix block = ff.F.middleRows(b, m);
-            ff.F = std::move(block);
-            DenseMatrix se_block = ff.standard_error->middleRows(b, m);
-            ff.standard_error = std::move(se_block);
-            ff.first_row = run.rows.begin;
-        }
         mc::report(result.report, ff, run.kind, run.N, run.R, rays.load(),
                    mc::seconds_since(run.t0), run.vis->description(), "rays per patch pair");
         Fields& details = result.report.details;
         details["pairs"] = pairs.load();
         details["phases"] = phases;
-        details["pairs_without_rays"] = cleared_pairs.load() * 2;  // both orders of each pair
+        // Both orders of each pair for the whole matrix; a block counts its rows' pairs.
+        details["pairs_without_rays"] = cleared_pairs.load() * (whole ? 2 : 1);
         details["unoccluded_far_field_pairs"] = unocc.far;
         details["unoccluded_contour_pairs"] = unocc.exact;
         details["unblocked_pairs"] = unblocked_pairs.load();
