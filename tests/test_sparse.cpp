@@ -349,42 +349,46 @@ TEST_CASE("sparse: analytic emits an obstructed scene's rows sparse, the dense r
     }
 }
 
-TEST_CASE("sparse: hemicube emits its rows sparse, as the dense run computes them") {
-    // One row of N accumulators per thread, only the patches each hemicube drew read back: the
-    // dense rows' entries bit for bit, with several points per patch (rows are sums of
-    // hemicubes) and through the sparse pipeline's blocks.
+TEST_CASE("sparse: hemicube and hemiplane emit their rows sparse, as the dense run computes them") {
+    // One row of N accumulators per thread, only the patches each projection drew read back:
+    // the dense rows' entries bit for bit, with several points per patch (rows are sums of
+    // projections) and through the sparse pipeline's blocks.
     const Scene scene = city_scene(2);
-    ComputeOptions options;
-    options.method = MethodKind::hemicube;
-    options.method_options.resolution = 64;
-    options.method_options.points = 3;
-    const ComputeResult dense = compute_form_factors(scene, options);
-    SparseRows rows;
-    ComputeOptions emitting = options;
-    emitting.sparse_rows = &rows;
-    const ComputeResult emitted = compute_form_factors(scene, emitting);
-    CHECK(emitted.form_factors.F.rows() == 0);
-    REQUIRE(rows.size() == scene.patches.size());
-    CHECK_FALSE(rows.has_standard_errors());
-    std::size_t entries = 0, mismatches = 0;
-    for (std::size_t i = 0; i < rows.size(); ++i) {
-        std::size_t dense_nonzero = 0;
-        for (Eigen::Index j = 0; j < dense.form_factors.F.cols(); ++j)
-            dense_nonzero += dense.form_factors.F(Eigen::Index(i), j) != 0.0;
-        CHECK(rows.values[i].size() == dense_nonzero);
-        for (std::size_t k = 0; k < rows.values[i].size(); ++k) {
-            if (k > 0) CHECK(rows.indices[i][k - 1] < rows.indices[i][k]);
-            mismatches += rows.values[i][k] !=
-                          dense.form_factors.F(Eigen::Index(i), Eigen::Index(rows.indices[i][k]));
+    for (const MethodKind kind : {MethodKind::hemicube, MethodKind::hemiplane}) {
+        CAPTURE(to_string(kind));
+        ComputeOptions options;
+        options.method = kind;
+        options.method_options.resolution = 64;
+        options.method_options.points = 3;
+        const ComputeResult dense = compute_form_factors(scene, options);
+        SparseRows rows;
+        ComputeOptions emitting = options;
+        emitting.sparse_rows = &rows;
+        const ComputeResult emitted = compute_form_factors(scene, emitting);
+        CHECK(emitted.form_factors.F.rows() == 0);
+        REQUIRE(rows.size() == scene.patches.size());
+        CHECK_FALSE(rows.has_standard_errors());
+        std::size_t entries = 0, mismatches = 0;
+        for (std::size_t i = 0; i < rows.size(); ++i) {
+            std::size_t dense_nonzero = 0;
+            for (Eigen::Index j = 0; j < dense.form_factors.F.cols(); ++j)
+                dense_nonzero += dense.form_factors.F(Eigen::Index(i), j) != 0.0;
+            CHECK(rows.values[i].size() == dense_nonzero);
+            for (std::size_t k = 0; k < rows.values[i].size(); ++k) {
+                if (k > 0) CHECK(rows.indices[i][k - 1] < rows.indices[i][k]);
+                mismatches +=
+                    rows.values[i][k] !=
+                    dense.form_factors.F(Eigen::Index(i), Eigen::Index(rows.indices[i][k]));
+            }
+            entries += rows.values[i].size();
         }
-        entries += rows.values[i].size();
+        CHECK(mismatches == 0);
+        CHECK(entries > 0);
+        const char* count = kind == MethodKind::hemicube ? "hemicubes" : "hemiplanes";
+        CHECK(emitted.report.details.at(count).real() == dense.report.details.at(count).real());
+        SparseOptions sparse;
+        sparse.block_rows = 50;
+        const SparseComputeResult r = compute_sparse_form_factors(scene, options, sparse);
+        check_against_dense(r.form_factors, dense.form_factors, 0.0);
     }
-    CHECK(mismatches == 0);
-    CHECK(entries > 0);
-    CHECK(emitted.report.details.at("hemicubes").real() ==
-          dense.report.details.at("hemicubes").real());
-    SparseOptions sparse;
-    sparse.block_rows = 50;
-    const SparseComputeResult r = compute_sparse_form_factors(scene, options, sparse);
-    check_against_dense(r.form_factors, dense.form_factors, 0.0);
 }

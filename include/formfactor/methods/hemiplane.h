@@ -69,6 +69,8 @@ class HemiplaneMethod final : public Method {
     explicit HemiplaneMethod(double half_width = kHemiplaneHalfWidth) : half_width_(half_width) {}
     MethodKind kind() const override { return MethodKind::hemiplane; }
     void check(const Scene& scene) const override;
+    /// Rows go sparse when asked (MethodContext::sparse_rows): the patches each plane saw.
+    bool emits_sparse_rows() const override { return true; }
     MethodResult compute(const MethodContext& ctx) const override;
 
   private:

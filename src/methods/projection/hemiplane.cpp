@@ -77,6 +77,9 @@ class HemiplaneSolver {
     // Credits row[item] += weight · ΔF for every finished cell; fills ids (R × R, y up) when
     // given. Returns the ΔF of the finest cells decided by their centre.
     double solve(double weight, double* row, int* ids);
+    // The patches solve() may credit after the last project() (each polygon's item, repeats
+    // and obstructions included).
+    const std::vector<int>& touched() const { return touched_; }
 
   private:
     void add_polygon(const P3* poly, int n, const double nl[3], double dl, int item);
@@ -89,6 +92,7 @@ class HemiplaneSolver {
     std::vector<PlanePolygon> polys_;
     std::vector<PlaneEdge> edges_;
     std::vector<int> list_;
+    std::vector<int> touched_;
     double weight_ = 1.0;
     double* row_ = nullptr;
     int* ids_ = nullptr;
@@ -99,6 +103,7 @@ void HemiplaneSolver::project(const Occluders& occ, const projection::Frame& fra
                               double near, double edge_on) {
     polys_.clear();
     edges_.clear();
+    touched_.clear();
     const ClipPlane planes[5] = {
         {-1, 0, W_, 0}, {1, 0, W_, 0}, {0, -1, W_, 0}, {0, 1, W_, 0}, {0, 0, 1, near}};
     const Vec3& o = frame.origin;
@@ -185,6 +190,7 @@ void HemiplaneSolver::add_polygon(const P3* poly, int n, const double nl[3], dou
     pp.w0 = (nl[2] - W_ * nl[0] - W_ * nl[1]) / dl;
     pp.item = item;
     polys_.push_back(pp);
+    touched_.push_back(item);
 }
 
 void HemiplaneSolver::leaf(int x0, int y0, int size, int item, bool ambiguous) {
@@ -387,19 +393,27 @@ MethodResult HemiplaneMethod::compute(const MethodContext& ctx) const {
     result.report.method = kind();
     FormFactors& out = result.form_factors;
     Fields& details = result.report.details;
-    out = projection::zero_form_factors(scene, rows);
+    out = projection::zero_form_factors(
+        scene, RowRange{rows.begin, ctx.sparse_rows ? rows.begin : rows.end});
     const CornerTable table(options.resolution, half_width_);
     const Occluders occ = projection::build_occluders(scene);
     const double near = projection::kRelativeNear * occ.scale;
     const double edge_on = projection::kRelativeEdgeOn * occ.scale;
     std::vector<double> ambiguous(n, 0.0);  // entry i - rows.begin: written by row i only
-    const std::size_t planes = projection::project_patches<HemiplaneSolver>(
-        ctx, "hemiplane", out, [&] { return std::make_unique<HemiplaneSolver>(table); },
-        [&](HemiplaneSolver& solver, std::size_t i, const projection::Frame& frame, double weight,
-            double* row) {
-            solver.project(occ, frame, static_cast<int>(i), near, edge_on);
-            ambiguous[i - rows.begin] += weight * solver.solve(weight, row, nullptr);
-        });
+    auto make = [&] { return std::make_unique<HemiplaneSolver>(table); };
+    auto visit = [&](HemiplaneSolver& solver, std::size_t i, const projection::Frame& frame,
+                     double weight, double* row) {
+        solver.project(occ, frame, static_cast<int>(i), near, edge_on);
+        ambiguous[i - rows.begin] += weight * solver.solve(weight, row, nullptr);
+    };
+    const std::size_t planes =
+        ctx.sparse_rows
+            ? projection::project_patches_sparse<HemiplaneSolver>(
+                  ctx, "hemiplane", make, visit,
+                  [](const HemiplaneSolver& solver) -> const std::vector<int>& {
+                      return solver.touched();
+                  })
+            : projection::project_patches<HemiplaneSolver>(ctx, "hemiplane", out, make, visit);
     double amb_max = 0.0, amb_sum = 0.0;
     for (double a : ambiguous) {
         amb_max = std::max(amb_max, a);
