@@ -375,6 +375,19 @@ void prepare_obstructions(const MethodContext& ctx, bool record_visible, Obstruc
     S.seconds_classification = seconds(t_setup, t_classified);
 }
 
+// f(i, j) for every patch pair (i of node a, j of node b) of a node pair.
+template <class F>
+void for_each_patch_pair(const std::vector<ClusterTree>& trees, const NodePair& np, const F& f) {
+    const ClusterTree& TA = trees[static_cast<std::size_t>(np.ta)];
+    const ClusterTree& TB = trees[static_cast<std::size_t>(np.tb)];
+    const auto& A = TA.nodes[static_cast<std::size_t>(np.a)];
+    const auto& B = TB.nodes[static_cast<std::size_t>(np.b)];
+    for (int x = A.first; x < A.first + A.count; ++x)
+        for (int y = B.first; y < B.first + B.count; ++y)
+            f(static_cast<std::size_t>(TA.order[static_cast<std::size_t>(x)]),
+              static_cast<std::size_t>(TB.order[static_cast<std::size_t>(y)]));
+}
+
 // What the integration of one partly hidden pair did (small: room n = 32 has 800k such pairs).
 struct PairStats {
     double error = 0;
@@ -567,23 +580,15 @@ void AnalyticMethod::apply_obstructions(const MethodContext& ctx, FormFactors& o
         hid += outputs[k].hidden_patch_pairs;
     }
     parallel_for(hidden.size(), options.threads, [&](std::size_t k) {
-        const NodePair& np = hidden[k];
-        const ClusterTree& TA = trees[static_cast<std::size_t>(np.ta)];
-        const ClusterTree& TB = trees[static_cast<std::size_t>(np.tb)];
-        const auto& A = TA.nodes[static_cast<std::size_t>(np.a)];
-        const auto& B = TB.nodes[static_cast<std::size_t>(np.b)];
-        for (int x = A.first; x < A.first + A.count; ++x)
-            for (int y = B.first; y < B.first + B.count; ++y) {
-                const auto i = static_cast<std::size_t>(TA.order[static_cast<std::size_t>(x)]);
-                const auto j = static_cast<std::size_t>(TB.order[static_cast<std::size_t>(y)]);
-                if (block) {
-                    block->set(i, j, 0.0);
-                    block->set(j, i, 0.0);
-                } else {
-                    F[i * n + j] = 0.0;
-                    F[j * n + i] = 0.0;
-                }
+        for_each_patch_pair(trees, hidden[k], [&](std::size_t i, std::size_t j) {
+            if (block) {
+                block->set(i, j, 0.0);
+                block->set(j, i, 0.0);
+            } else {
+                F[i * n + j] = 0.0;
+                F[j * n + i] = 0.0;
             }
+        });
     });
 
     // 3. Partly hidden pairs: exact unobstructed value minus the integrated hidden part, over
@@ -660,20 +665,11 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
         node_pairs += o.node_pairs;
         vis += o.visible_patch_pairs;
         hid += o.hidden_patch_pairs;
-        for (const NodePair& np : o.visible) {
-            const ClusterTree& TA = trees[static_cast<std::size_t>(np.ta)];
-            const ClusterTree& TB = trees[static_cast<std::size_t>(np.tb)];
-            const auto& A = TA.nodes[static_cast<std::size_t>(np.a)];
-            const auto& B = TB.nodes[static_cast<std::size_t>(np.b)];
-            for (int x = A.first; x < A.first + A.count; ++x)
-                for (int y = B.first; y < B.first + B.count; ++y) {
-                    const int i = TA.order[static_cast<std::size_t>(x)];
-                    const int j = TB.order[static_cast<std::size_t>(y)];
-                    const auto a = static_cast<std::size_t>(std::min(i, j));
-                    const auto c = static_cast<std::size_t>(std::max(i, j));
-                    if (touches(a, c)) cols[a].push_back(static_cast<std::int32_t>(c));
-                }
-        }
+        for (const NodePair& np : o.visible)
+            for_each_patch_pair(trees, np, [&](std::size_t i, std::size_t j) {
+                const std::size_t a = std::min(i, j), c = std::max(i, j);
+                if (touches(a, c)) cols[a].push_back(static_cast<std::int32_t>(c));
+            });
     }
     std::vector<PartialPair> partial;
     std::vector<std::size_t> cand_task;

@@ -113,15 +113,16 @@ PointResult evaluate_point(const Receiver& rc, const Vec3& x, const Vec3& nx,
     const Vec3 xr = x - rc.o;
     const Vec3 xl(rc.u.dot(xr), rc.v.dot(xr), h);
     const Vec3 nl(nx.dot(rc.u), nx.dot(rc.v), nx.dot(rc.n));
+    // The part of r in front of x, in r's plane coordinates.
+    Poly2 whole;
+    whole.n = rp.n;
+    for (int k = 0; k < rp.n; ++k) {
+        const Vec3 w = rp.v[static_cast<std::size_t>(k)] - rc.o;
+        whole.x[static_cast<std::size_t>(k)] = rc.u.dot(w);
+        whole.y[static_cast<std::size_t>(k)] = rc.v.dot(w);
+    }
     if (want_unobstructed) {
-        Poly2 q;
-        q.n = rp.n;
-        for (int k = 0; k < rp.n; ++k) {
-            const Vec3 w = rp.v[static_cast<std::size_t>(k)] - rc.o;
-            q.x[static_cast<std::size_t>(k)] = rc.u.dot(w);
-            q.y[static_cast<std::size_t>(k)] = rc.v.dot(w);
-        }
-        res.unobstructed = lambert2(q, xl, nl);
+        res.unobstructed = lambert2(whole, xl, nl);
     }
     if (count == 0) return res;
     // Inward side planes of the pyramid from x over the visible receiver.
@@ -252,13 +253,6 @@ PointResult evaluate_point(const Receiver& rc, const Vec3& x, const Vec3& nx,
     // costs little for shadows that fall where everything is already hidden, and stops at the
     // first shadow after which nothing is left: among many blockers (a street between
     // buildings) most points see little. The largest shadows go first.
-    Poly2 whole;
-    whole.n = rp.n;
-    for (int k = 0; k < rp.n; ++k) {
-        const Vec3 w = rp.v[static_cast<std::size_t>(k)] - rc.o;
-        whole.x[static_cast<std::size_t>(k)] = rc.u.dot(w);
-        whole.y[static_cast<std::size_t>(k)] = rc.v.dot(w);
-    }
     thread_local std::vector<std::pair<double, int>> order;
     order.clear();
     for (std::size_t k = 0; k < shadows.size(); ++k)
