@@ -148,42 +148,46 @@ TEST_CASE("sparse: to_sparse and the builder check their input") {
     CHECK_THROWS_AS(b4.append(rows), Error);
 }
 
-TEST_CASE("sparse: mc-hemisphere emits its rows sparse, as the dense run computes them") {
+TEST_CASE(
+    "sparse: mc-hemisphere and mc-area emit their rows sparse, as the dense run computes them") {
     // The method writes straight into SparseRows (no rows x N block): the same entries, standard
     // errors and report summary as its dense rows.
     const Scene scene = city_scene(2);
-    ComputeOptions options;
-    options.method = MethodKind::mc_hemisphere;
-    options.method_options.samples = 1000;
-    const ComputeResult dense = compute_form_factors(scene, options);
-    SparseRows rows;
-    options.sparse_rows = &rows;
-    const ComputeResult emitted = compute_form_factors(scene, options);
-    CHECK(emitted.form_factors.F.rows() == 0);
-    REQUIRE(rows.size() == scene.patches.size());
-    REQUIRE(rows.has_standard_errors());
-    std::size_t entries = 0;
-    for (std::size_t i = 0; i < rows.size(); ++i) {
-        std::size_t dense_nonzero = 0;
-        for (Eigen::Index j = 0; j < dense.form_factors.F.cols(); ++j)
-            dense_nonzero += dense.form_factors.F(Eigen::Index(i), j) != 0.0;
-        CHECK(rows.values[i].size() == dense_nonzero);
-        for (std::size_t k = 0; k < rows.values[i].size(); ++k) {
-            const auto j = Eigen::Index(rows.indices[i][k]);
-            CHECK(rows.values[i][k] == dense.form_factors.F(Eigen::Index(i), j));
-            CHECK(rows.standard_error[i][k] ==
-                  (*dense.form_factors.standard_error)(Eigen::Index(i), j));
+    for (const MethodKind kind : {MethodKind::mc_hemisphere, MethodKind::mc_area}) {
+        CAPTURE(to_string(kind));
+        ComputeOptions options;
+        options.method = kind;
+        options.method_options.samples = kind == MethodKind::mc_area ? 16 : 1000;
+        const ComputeResult dense = compute_form_factors(scene, options);
+        SparseRows rows;
+        options.sparse_rows = &rows;
+        const ComputeResult emitted = compute_form_factors(scene, options);
+        CHECK(emitted.form_factors.F.rows() == 0);
+        REQUIRE(rows.size() == scene.patches.size());
+        REQUIRE(rows.has_standard_errors());
+        std::size_t entries = 0;
+        for (std::size_t i = 0; i < rows.size(); ++i) {
+            std::size_t dense_nonzero = 0;
+            for (Eigen::Index j = 0; j < dense.form_factors.F.cols(); ++j)
+                dense_nonzero += dense.form_factors.F(Eigen::Index(i), j) != 0.0;
+            CHECK(rows.values[i].size() == dense_nonzero);
+            for (std::size_t k = 0; k < rows.values[i].size(); ++k) {
+                const auto j = Eigen::Index(rows.indices[i][k]);
+                CHECK(rows.values[i][k] == dense.form_factors.F(Eigen::Index(i), j));
+                CHECK(rows.standard_error[i][k] ==
+                      (*dense.form_factors.standard_error)(Eigen::Index(i), j));
+            }
+            entries += rows.values[i].size();
         }
-        entries += rows.values[i].size();
+        CHECK(entries > 0);
+        const auto& a = dense.report.details;
+        const auto& b = emitted.report.details;
+        CHECK(b.at("standard_error_max").real() == a.at("standard_error_max").real());
+        CHECK(b.at("row_sum_standard_error_max").real() ==
+              doctest::Approx(a.at("row_sum_standard_error_max").real()).epsilon(1e-12));
+        CHECK(b.at("standard_error_mean").real() ==
+              doctest::Approx(a.at("standard_error_mean").real()).epsilon(1e-12));
     }
-    CHECK(entries > 0);
-    const auto& a = dense.report.details;
-    const auto& b = emitted.report.details;
-    CHECK(b.at("standard_error_max").real() == a.at("standard_error_max").real());
-    CHECK(b.at("row_sum_standard_error_max").real() ==
-          doctest::Approx(a.at("row_sum_standard_error_max").real()).epsilon(1e-12));
-    CHECK(b.at("standard_error_mean").real() ==
-          doctest::Approx(a.at("standard_error_mean").real()).epsilon(1e-12));
 }
 
 TEST_CASE("sparse repair: open scene gets reciprocity and no row sum above its computed one") {

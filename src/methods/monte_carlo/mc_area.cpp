@@ -26,6 +26,8 @@ bool behind(const Patch& p, const Patch& q) {
 class McAreaMethod final : public mc::MonteCarloMethod {
   public:
     MethodKind kind() const override { return MethodKind::mc_area; }
+    /// Rows go sparse when asked (MethodContext::sparse_rows): the pairs that face each other.
+    bool emits_sparse_rows() const override { return true; }
 
     MethodResult compute(const MethodContext& ctx) const override {
         const mc::Run run(*this, ctx, 256);
@@ -33,7 +35,9 @@ class McAreaMethod final : public mc::MonteCarloMethod {
         samplers.reserve(run.n);
         for (const Patch& p : run.scene.patches) samplers.emplace_back(p.polygon);
 
-        MethodResult result = run.zero_rows(this->kind());
+        SparseRows* const out = ctx.sparse_rows;
+        MethodResult result =
+            out ? run.sparse_rows(this->kind(), *out) : run.zero_rows(this->kind());
         FormFactors& ff = result.form_factors;
         std::atomic<std::uint64_t> rays{0};
         Progress progress("mc-area", run.rows.size(), ctx.progress);
@@ -107,6 +111,13 @@ class McAreaMethod final : public mc::MonteCarloMethod {
                     se = std::sqrt(std::max(0.0, var) / double(run.N));
                 }
                 const double Aj = run.scene.patches[j].area;
+                if (out) {
+                    if (!(Aj * mean != 0.0)) continue;  // the dense row's zero
+                    out->indices[row].push_back(static_cast<std::int32_t>(j));
+                    out->values[row].push_back(Aj * mean);
+                    out->standard_error[row].push_back(Aj * se);
+                    continue;
+                }
                 const auto ii = static_cast<Eigen::Index>(row), jj = static_cast<Eigen::Index>(j);
                 ff.F(ii, jj) = Aj * mean;
                 (*ff.standard_error)(ii, jj) = Aj * se;
@@ -115,7 +126,9 @@ class McAreaMethod final : public mc::MonteCarloMethod {
             progress.advance();
         });
         progress.finish();
-        mc::report(result.report, ff, run.kind, run.N, run.R, rays.load(),
+        const std::optional<mc::StandardErrorSummary> se_summary =
+            out ? mc::summarize(*out, run.n) : mc::summarize(*ff.standard_error);
+        mc::report(result.report, se_summary, run.kind, run.N, run.R, rays.load(),
                    mc::seconds_since(run.t0), run.vis->description(), "point pairs per patch pair");
         return result;
     }
