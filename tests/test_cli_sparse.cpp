@@ -2,7 +2,9 @@
 
 #include <doctest/doctest.h>
 #include <hdf5.h>
+#include <sys/wait.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -19,6 +21,7 @@
 using namespace formfactor;
 using formfactor::testing::Cli;
 using formfactor::testing::CliResult;
+using formfactor::testing::shell_quote;
 
 namespace {
 
@@ -184,4 +187,25 @@ TEST_CASE("cli sparse: --per-surface writes the surfaces' matrix, aggregated on 
     const SparseFormFactors H = read_sparse_matrix(cli.file("S.h5"));
     CHECK(H.values == S.values);
     CHECK(H.areas.size() == 6);
+}
+
+TEST_CASE("cli sparse: analytic sparse rows that will not fit are refused before the pair lists") {
+    // room-32 (7,680 patches, the box floating): 20.3 M pairs see each other, ~808 MB of pair
+    // lists. Under an address-space limit of 700 MB the run stops after the classification with
+    // one line that says what it needs, what is available and what to use instead, and writes
+    // nothing. (prlimit is util-linux's, on every Debian system.)
+    Cli cli;
+    const std::string cmd = "cd " + shell_quote(cli.dir().path().string()) +
+                            " && prlimit --as=700000000 " + shell_quote(FF_CLI_PATH) +
+                            " compute room-32 -o F.h5 > out.txt 2> err.txt < /dev/null";
+    const int status = std::system(cmd.c_str());
+    REQUIRE(WIFEXITED(status));
+    CHECK(WEXITSTATUS(status) == 1);
+    const std::string err = read_all(cli.file("err.txt"));
+    INFO(err);
+    CHECK(err.rfind("formfactor: analytic sparse rows: 20298976 pairs see each other", 0) == 0);
+    CHECK(err.find("is available") != std::string::npos);
+    CHECK(err.find("--storage hierarchical") != std::string::npos);
+    CHECK(std::count(err.begin(), err.end(), '\n') == 1);
+    CHECK_FALSE(std::filesystem::exists(cli.file("F.h5")));
 }

@@ -2,6 +2,7 @@
 // patch pairs by shafts against a BVH of blocker pieces, then the adaptive integration of the
 // hidden part of every partly hidden pair. See docs/analytic.md, "Obstructed scenes".
 
+#include <fmt/format.h>
 #include <tbb/enumerable_thread_specific.h>
 
 #include <algorithm>
@@ -17,6 +18,7 @@
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
 #include "formfactor/core/progress.h"
+#include "formfactor/matrix/memory.h"
 #include "methods/analytic/analytic_method.h"
 #include "methods/analytic/obstructed_internal.h"
 
@@ -659,12 +661,30 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
     // The unordered pairs (a < c) that touch the rows, by their first patch: every patch pair
     // of the visible node pairs, and the partly hidden ones. The others are 0: facing away,
     // fully hidden, or in one plane group (coplanar, one-sided: they do not see each other).
-    std::vector<std::vector<std::int32_t>> cols(n);
-    std::size_t node_pairs = 0, vis = 0, hid = 0;
+    std::size_t node_pairs = 0, vis = 0, hid = 0, partial_pairs = 0;
     for (const PairOutput& o : S.outputs) {
         node_pairs += o.node_pairs;
         vis += o.visible_patch_pairs;
         hid += o.hidden_patch_pairs;
+        partial_pairs += o.partial.size();
+    }
+    {
+        // Before the pair lists exist: a column, its upper and lower value and (at most) two
+        // row entries per pair that sees anything, ~36 bytes; a closed room of 10⁵ patches
+        // with a box would want ~10¹⁰ pairs.
+        const double pairs = double(vis) + double(partial_pairs);
+        const double need = 36.0 * pairs + 96.0 * double(partial_pairs);
+        const double available = available_memory();
+        if (available > 0.0 && need > available)
+            throw ResourceError(fmt::format(
+                "analytic sparse rows: {} pairs see each other ({} of them partly hidden), "
+                "which needs about {} for the pair lists; {} is available. Use --storage "
+                "hierarchical for a closed scene, a Monte-Carlo method (mc-hemisphere) for a "
+                "large open one, or a coarser subdivision",
+                pairs, partial_pairs, format_bytes(need), format_bytes(available)));
+    }
+    std::vector<std::vector<std::int32_t>> cols(n);
+    for (const PairOutput& o : S.outputs) {
         for (const NodePair& np : o.visible)
             for_each_patch_pair(trees, np, [&](std::size_t i, std::size_t j) {
                 const std::size_t a = std::min(i, j), c = std::max(i, j);
