@@ -59,6 +59,31 @@ void check_reciprocity(const SparseFormFactors& F, double tol) {
         }
 }
 
+// Rows a method emitted sparse against the dense rows it computes for the same range (row r of
+// both): each row holds the dense row's non-zeros and nothing else, columns ascending, values
+// (and standard errors, when the rows have them) bit for bit. Returns the entries.
+std::size_t check_rows_against_dense(const SparseRows& rows, const FormFactors& dense) {
+    REQUIRE(rows.size() == std::size_t(dense.F.rows()));
+    if (rows.has_standard_errors()) REQUIRE(dense.standard_error.has_value());
+    std::size_t mismatches = 0, entries = 0;
+    for (std::size_t r = 0; r < rows.size(); ++r) {
+        const auto i = Eigen::Index(r);
+        std::size_t dense_nonzero = 0;
+        for (Eigen::Index j = 0; j < dense.F.cols(); ++j) dense_nonzero += dense.F(i, j) != 0.0;
+        CHECK(rows.values[r].size() == dense_nonzero);
+        for (std::size_t k = 0; k < rows.values[r].size(); ++k) {
+            const auto j = Eigen::Index(rows.indices[r][k]);
+            if (k > 0) CHECK(rows.indices[r][k - 1] < rows.indices[r][k]);
+            mismatches += rows.values[r][k] != dense.F(i, j);
+            if (rows.has_standard_errors())
+                mismatches += rows.standard_error[r][k] != (*dense.standard_error)(i, j);
+        }
+        entries += rows.values[r].size();
+    }
+    CHECK(mismatches == 0);
+    return entries;
+}
+
 }  // namespace
 
 TEST_CASE("sparse: analytic row blocks equal the dense matrix above the threshold") {
@@ -165,21 +190,7 @@ TEST_CASE(
         CHECK(emitted.form_factors.F.rows() == 0);
         REQUIRE(rows.size() == scene.patches.size());
         REQUIRE(rows.has_standard_errors());
-        std::size_t entries = 0;
-        for (std::size_t i = 0; i < rows.size(); ++i) {
-            std::size_t dense_nonzero = 0;
-            for (Eigen::Index j = 0; j < dense.form_factors.F.cols(); ++j)
-                dense_nonzero += dense.form_factors.F(Eigen::Index(i), j) != 0.0;
-            CHECK(rows.values[i].size() == dense_nonzero);
-            for (std::size_t k = 0; k < rows.values[i].size(); ++k) {
-                const auto j = Eigen::Index(rows.indices[i][k]);
-                CHECK(rows.values[i][k] == dense.form_factors.F(Eigen::Index(i), j));
-                CHECK(rows.standard_error[i][k] ==
-                      (*dense.form_factors.standard_error)(Eigen::Index(i), j));
-            }
-            entries += rows.values[i].size();
-        }
-        CHECK(entries > 0);
+        CHECK(check_rows_against_dense(rows, dense.form_factors) > 0);
         const auto& a = dense.report.details;
         const auto& b = emitted.report.details;
         CHECK(b.at("standard_error_max").real() == a.at("standard_error_max").real());
@@ -321,22 +332,7 @@ void check_analytic_sparse_rows(const std::vector<SparseRowsCase>& cases) {
         CHECK(emitted.form_factors.F.rows() == 0);
         REQUIRE(rows.size() == block.size());
         CHECK(rows.first_row == block.begin);
-        std::size_t mismatches = 0, entries = 0;
-        for (std::size_t r = 0; r < block.size(); ++r) {
-            const auto i = Eigen::Index(r);  // the dense block's row
-            std::size_t dense_nonzero = 0;
-            for (std::size_t j = 0; j < n; ++j)
-                dense_nonzero += dense.form_factors.F(i, Eigen::Index(j)) != 0.0;
-            CHECK(rows.values[r].size() == dense_nonzero);
-            for (std::size_t k = 0; k < rows.values[r].size(); ++k) {
-                const auto j = Eigen::Index(rows.indices[r][k]);
-                if (k > 0) CHECK(rows.indices[r][k - 1] < rows.indices[r][k]);
-                mismatches += rows.values[r][k] != dense.form_factors.F(i, j);
-            }
-            entries += rows.values[r].size();
-        }
-        CHECK(mismatches == 0);
-        CHECK(entries > 0);
+        CHECK(check_rows_against_dense(rows, dense.form_factors) > 0);
         // Fewer unobstructed pairs than all of them: those facing away, hidden or coplanar are
         // never computed.
         const auto computed =
@@ -394,22 +390,7 @@ TEST_CASE("sparse: hemicube and hemiplane emit their rows sparse, as the dense r
         CHECK(emitted.form_factors.F.rows() == 0);
         REQUIRE(rows.size() == scene.patches.size());
         CHECK_FALSE(rows.has_standard_errors());
-        std::size_t entries = 0, mismatches = 0;
-        for (std::size_t i = 0; i < rows.size(); ++i) {
-            std::size_t dense_nonzero = 0;
-            for (Eigen::Index j = 0; j < dense.form_factors.F.cols(); ++j)
-                dense_nonzero += dense.form_factors.F(Eigen::Index(i), j) != 0.0;
-            CHECK(rows.values[i].size() == dense_nonzero);
-            for (std::size_t k = 0; k < rows.values[i].size(); ++k) {
-                if (k > 0) CHECK(rows.indices[i][k - 1] < rows.indices[i][k]);
-                mismatches +=
-                    rows.values[i][k] !=
-                    dense.form_factors.F(Eigen::Index(i), Eigen::Index(rows.indices[i][k]));
-            }
-            entries += rows.values[i].size();
-        }
-        CHECK(mismatches == 0);
-        CHECK(entries > 0);
+        CHECK(check_rows_against_dense(rows, dense.form_factors) > 0);
         const char* count = kind == MethodKind::hemicube ? "hemicubes" : "hemiplanes";
         CHECK(emitted.report.details.at(count).real() == dense.report.details.at(count).real());
         SparseOptions sparse;

@@ -144,9 +144,6 @@ MethodResult HemicubeMethod::compute(const MethodContext& ctx) const {
     result.report.method = kind();
     FormFactors& out = result.form_factors;
     Fields& details = result.report.details;
-    const RowRange rows = ctx.rows.clamped(n);
-    out = projection::zero_form_factors(
-        scene, RowRange{rows.begin, ctx.sparse_rows ? rows.begin : rows.end});
     const int R = options.resolution;
     const projection::HemicubeDelta delta(hemicube_delta_form_factors(R), R);
     const projection::Occluders occ = projection::build_occluders(scene);
@@ -159,13 +156,7 @@ MethodResult HemicubeMethod::compute(const MethodContext& ctx) const {
         raster.accumulate(delta, weight, row, n);
     };
     const std::size_t hemicubes =
-        ctx.sparse_rows
-            ? projection::project_patches_sparse<HemicubeRaster>(
-                  ctx, "hemicube", make, visit,
-                  [](const HemicubeRaster& raster) -> const std::vector<int>& {
-                      return raster.touched();
-                  })
-            : projection::project_patches<HemicubeRaster>(ctx, "hemicube", out, make, visit);
+        projection::project_rows<HemicubeRaster>(ctx, "hemicube", out, make, visit);
     details["resolution"] = R;
     details["points"] = options.points;
     details["hemicubes"] = hemicubes;

@@ -393,8 +393,6 @@ MethodResult HemiplaneMethod::compute(const MethodContext& ctx) const {
     result.report.method = kind();
     FormFactors& out = result.form_factors;
     Fields& details = result.report.details;
-    out = projection::zero_form_factors(
-        scene, RowRange{rows.begin, ctx.sparse_rows ? rows.begin : rows.end});
     const CornerTable table(options.resolution, half_width_);
     const Occluders occ = projection::build_occluders(scene);
     const double near = projection::kRelativeNear * occ.scale;
@@ -407,13 +405,7 @@ MethodResult HemiplaneMethod::compute(const MethodContext& ctx) const {
         ambiguous[i - rows.begin] += weight * solver.solve(weight, row, nullptr);
     };
     const std::size_t planes =
-        ctx.sparse_rows
-            ? projection::project_patches_sparse<HemiplaneSolver>(
-                  ctx, "hemiplane", make, visit,
-                  [](const HemiplaneSolver& solver) -> const std::vector<int>& {
-                      return solver.touched();
-                  })
-            : projection::project_patches<HemiplaneSolver>(ctx, "hemiplane", out, make, visit);
+        projection::project_rows<HemiplaneSolver>(ctx, "hemiplane", out, make, visit);
     double amb_max = 0.0, amb_sum = 0.0;
     for (double a : ambiguous) {
         amb_max = std::max(amb_max, a);

@@ -157,12 +157,12 @@ std::size_t project_patches(const MethodContext& ctx, const char* label, FormFac
 
 /// project_patches() for rows emitted sparse (ctx.sparse_rows, reset to ctx.rows here): the same
 /// visits in the same order, into one row of N accumulators per thread instead of a rows × N
-/// block; touched(worker) lists the patches the last visit credited, and only those entries
+/// block; worker.touched() lists the patches the last visit credited, and only those entries
 /// are read into the row (columns ascending, zeros left out) and cleared. The entries are the
 /// dense rows' bit for bit. Returns the number of projections.
-template <class Worker, class Make, class Visit, class Touched>
+template <class Worker, class Make, class Visit>
 std::size_t project_patches_sparse(const MethodContext& ctx, const char* label, Make make,
-                                   Visit visit, Touched touched) {
+                                   Visit visit) {
     const Scene& scene = ctx.scene;
     const MethodOptions& options = ctx.options;
     const std::size_t n = scene.patches.size();
@@ -194,7 +194,7 @@ std::size_t project_patches_sparse(const MethodContext& ctx, const char* label, 
             const double rotation = 2.0 * kPi * stream_uniform(options.seed, i, k);
             visit(*L.worker, i, make_frame(points[k].x, nrm, rotation), points[k].weight,
                   L.acc.data());
-            for (const int j : touched(*L.worker)) {
+            for (const int j : L.worker->touched()) {
                 if (j < 0 || L.seen[static_cast<std::size_t>(j)]) continue;
                 L.seen[static_cast<std::size_t>(j)] = 1;
                 L.cols.push_back(j);
@@ -216,6 +216,21 @@ std::size_t project_patches_sparse(const MethodContext& ctx, const char* label, 
     });
     progress.finish();
     return projections.load();
+}
+
+/// A projection method's rows: `out` zeroed for ctx.rows and project_patches() into it, or,
+/// when the caller asked for sparse rows (ctx.sparse_rows), `out` without rows (its areas) and
+/// project_patches_sparse(). Returns the number of projections.
+template <class Worker, class Make, class Visit>
+std::size_t project_rows(const MethodContext& ctx, const char* label, FormFactors& out, Make make,
+                         Visit visit) {
+    const RowRange rows = ctx.rows.clamped(ctx.scene.patches.size());
+    if (ctx.sparse_rows) {
+        out = zero_form_factors(ctx.scene, RowRange{rows.begin, rows.begin});
+        return project_patches_sparse<Worker>(ctx, label, make, visit);
+    }
+    out = zero_form_factors(ctx.scene, rows);
+    return project_patches<Worker>(ctx, label, out, make, visit);
 }
 
 /// Twin faces (as Visibility's rule, visibility.h): what cannot take a view — the back of a
