@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""What calling formfactor through Python costs (issue 12's benchmark).
+"""What calling formfactor through Python costs (docs/benchmarks.md).
 
 Runs the same computation through the CLI and through the Python module, interleaved, and
 prints medians:

@@ -6,7 +6,7 @@ so that both programs report the same matrix):
   room-N-S   the unit room, faces N x N inward, with the floating box [0.3,0.7]^2 x [0.1,0.5] as
              radiating S records (faces (N/2) x (N/2)): the built-in `room-N`;
   room-N-O   the same room with the box as six whole O records: `room-N-obstruction`
-             (--o-split: (N/2) x (N/2) O records per face, as issue 9's reproducers);
+             (--o-split: (N/2) x (N/2) O records per face, as tests/data/repro/ has them);
   cornell-M  the Cornell box (formfactor's built-in `cornell`, 20 surfaces) M x M per surface.
 runs `view3d IN.vs3 OUT` (list=0, out=1: its binary float32 matrix; encl=0: no enclosure
 adjustment, the raw matrix) and `formfactor compute IN.vs3 -o F.npy --threads 1` on each, and
@@ -244,7 +244,7 @@ def main():
     ap.add_argument("--cornell", type=int, default=12, help="Cornell box M x M (0: skip)")
     ap.add_argument("--box", choices=["S", "O", "both"], default="both")
     ap.add_argument("--o-split", action="store_true",
-                    help="O records split (n/2) x (n/2) per box face (as issue 9's reproducers)"
+                    help="O records split (n/2) x (n/2) per box face (as tests/data/repro/ has them)"
                     " instead of six whole faces")
     ap.add_argument("--threads", type=int, default=1, help="formfactor --threads")
     ap.add_argument("--workdir", help="keep the files here (default: a temporary folder)")
