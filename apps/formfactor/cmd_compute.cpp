@@ -260,7 +260,17 @@ void run_compute(const ComputeArgs& args) {
                           "by sparse storage (--storage sparse or auto)");
     if (!sparse_file && args.threshold > 0.0)
         throw OptionError("--threshold", "applies to sparse storage (-o F.mtx or F.h5)");
-    if (!sparse_file) matrix_format_for(args.output, "-o");
+    if (!sparse_file) {
+        try {
+            matrix_format_for(args.output, "-o");
+        } catch (const OptionError& e) {  // compute also writes the sparse formats: name them
+            const std::string dense = "(use .csv, .npy or .txt)";
+            std::string message = e.message();
+            if (const auto at = message.find(dense); at != std::string::npos)
+                message.replace(at, dense.size(), "(use .csv, .npy or .txt; sparse: .mtx or .h5)");
+            throw OptionError(e.field(), message);
+        }
+    }
     check_output_directory(args.output);
     if (!args.report.empty()) {
         check_output_directory(args.report);

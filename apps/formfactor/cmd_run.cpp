@@ -71,7 +71,7 @@ void run_run(RunArgs args) {
         if (args.method.method.empty() && may_obstruct(loaded)) {
             note = fmt::format(
                 "note: {} occludes: run uses {} (a whole row of F per set of rays, seconds for "
-                "thousands of patches), not compute's default, the exact-grade but slower {}; "
+                "thousands of patches), not compute's default, the more accurate but slower {}; "
                 "choose with --method",
                 loaded.name, to_string(kRunOcclusionMethod), to_string(default_method(loaded)));
             args.method.method = to_string(kRunOcclusionMethod);

@@ -14,13 +14,42 @@
 
 namespace formfactor::cli {
 
+namespace {
+
+std::string join(const std::vector<std::string>& names) {
+    std::string out;
+    for (const auto& n : names) out += (out.empty() ? "" : ", ") + n;
+    return out.empty() ? std::string("(none)") : out;
+}
+
+}  // namespace
+
+std::string builtin_scene_list() { return join(builtin_scene_names()); }
+
+std::string generator_list() { return join(builtin_scene_generators()); }
+
+std::string help_footer() {
+    return "Scenes (SCENE): an .obj file (with its .mtl) or a .vs3 file (View3D 3.2), or\n"
+           "  built-in scenes: " +
+           builtin_scene_list() +
+           "\n"
+           "  generators: " +
+           generator_list() +
+           " (N = 1, 2, ...)\n"
+           "Methods (--method): " +
+           join(method_names()) +
+           "\n"
+           "Matrix formats (-o, --matrix): .csv, .npy, .txt (dense); .mtx, .h5 (sparse)\n"
+           "Run 'formfactor SUBCOMMAND --help' for the options of a subcommand.\n"
+           "Exit codes: 0 success, 1 bad input file, 2 bad usage or option, 3 internal error.\n"
+           "Licence: MIT. Documentation: README.md and docs/.";
+}
+
 void SceneArgs::add_to(CLI::App* cmd, const std::string& default_scene) {
-    auto* opt = cmd->add_option(
-        "SCENE", scene, "An .obj or .vs3 file, or a built-in scene: " + [] {
-            std::string names;
-            for (const auto& n : builtin_scene_names()) names += (names.empty() ? "" : ", ") + n;
-            return names.empty() ? std::string("(none)") : names;
-        }());
+    auto* opt =
+        cmd->add_option("SCENE", scene,
+                        "An .obj or .vs3 file, or a built-in scene: " + builtin_scene_list() +
+                            "; or a generator: " + generator_list() + " (N = 1, 2, ...)");
     if (default_scene.empty()) {
         opt->required();
     } else {
@@ -88,7 +117,9 @@ void MethodArgs::add_to(CLI::App* cmd) {
         ->capture_default_str();
     cmd->add_option("--tolerance", options.tolerance,
                     "Absolute error target per entry (analytic method; default 1e-10, and 1e-6 "
-                    "for the pairs of an obstructed scene that are partly hidden)")
+                    "for the pairs of an obstructed scene that are partly hidden). The method's "
+                    "error estimate is checked by the tests against independent values, not "
+                    "proven")
         ->type_name("EPS")
         ->capture_default_str()
         ->each([this](const std::string&) { tolerance_given = true; });

@@ -8,6 +8,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "formfactor/core/atomic_file.h"
 #include "formfactor/matrix/form_factors.h"
@@ -20,6 +21,14 @@
 #include "formfactor/visibility/visibility.h"
 
 namespace formfactor::cli {
+
+/// The built-in scene names and the generators, comma-separated (for help texts).
+std::string builtin_scene_list();
+std::string generator_list();
+
+/// The top-level --help's footer: scenes, generators, methods, matrix formats, exit codes,
+/// licence (tests compare its lists with the README's).
+std::string help_footer();
 
 /// SCENE plus --subdivide N | --max-edge L.
 struct SceneArgs {

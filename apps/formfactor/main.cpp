@@ -35,11 +35,9 @@ int main(int argc, char** argv) {
     CLI::App app{"formfactor " FF_VERSION
                  " — radiative form factors (view factors) between the polygons of a 3D scene",
                  "formfactor"};
-    app.set_version_flag("--version", "formfactor " FF_VERSION);
+    app.set_version_flag("--version", "formfactor " FF_VERSION "\nLicence: MIT (the LICENSE file)");
     app.require_subcommand(1);
-    app.footer(
-        "Run 'formfactor SUBCOMMAND --help' for the options of a subcommand.\n"
-        "Exit codes: 0 success, 1 bad input file, 2 bad usage or option, 3 internal error.");
+    app.footer(formfactor::cli::help_footer());
 
     formfactor::cli::add_compute_command(app);
     formfactor::cli::add_point_command(app);
