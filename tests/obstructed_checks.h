@@ -1,7 +1,8 @@
 #pragma once
-// Shared pieces of the obstructed-analytic checks (test_differential.cpp, test_issue9_repro.cpp):
-// running `analytic` and reading its reported error bound, an independent mc-target reference
-// on some patches of a scene, and patch matching between two descriptions of one geometry.
+// Shared pieces of the obstructed-analytic checks (test_differential.cpp,
+// test_obstructed_inputs.cpp): running `analytic` and reading its reported error bound, an
+// independent mc-target reference on some patches of a scene, and patch matching between two
+// descriptions of one geometry.
 
 #include <algorithm>
 #include <chrono>

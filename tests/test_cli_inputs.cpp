@@ -1,4 +1,4 @@
-// The command line on the inputs of issue 10: `point` with obstructions and many points, scenes
+// The command line on awkward inputs: `point` with obstructions and many points, scenes
 // too large for the machine, empty and one-patch scenes, and the reciprocity report.
 
 #include <doctest/doctest.h>

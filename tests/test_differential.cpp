@@ -1,6 +1,6 @@
-// The differential harness of the obstructed `analytic` method (issue 9): random obstructed
-// scenes (obstructed_scenes.h), each written in every form the project reads, and every form's
-// matrix held against
+// The differential harness of the obstructed `analytic` method (label obstructed-references):
+// random obstructed scenes (obstructed_scenes.h), each written in every form the project reads,
+// and every form's matrix held against
 //  - mc-target (Embree rays; knows nothing of shafts, shadows or blocker sets) within k standard
 //    errors of its replicates plus the analytic method's own reported error bound;
 //  - the unobstructed exact value (obstruction never adds light);
@@ -376,7 +376,7 @@ TEST_CASE("differential: the generator's forms describe one geometry") {
 }
 
 TEST_CASE("differential: analytic against mc-target and itself on random scenes (fast)" *
-          doctest::test_suite("issue9")) {
+          doctest::test_suite("obstructed-references")) {
     // Geometries chosen among the first seeds of the default generator for their spread (boxes
     // touching, resting on walls, open, a thin plate, a tilted box, a single quad with vertex
     // jitter) at a cost of seconds: rooms n = 2, 3; five forms; mc-target on 10 patches.
@@ -390,7 +390,7 @@ TEST_CASE("differential: analytic against mc-target and itself on random scenes 
 }
 
 // Not in `make test`: with vertex jitter a geometry takes up to half an hour in every form (the
-// obstructed method's cost on jittered scenes is issue 9's open speed work). Run it with
+// obstructed method is slow on jittered scenes). Run it with
 // `build/formfactor_tests -tc='*random scenes (long)*' --no-skip`.
 TEST_CASE("differential: analytic against mc-target and itself on random scenes (long)" *
           doctest::test_suite("slow") * doctest::skip()) {

@@ -1,4 +1,4 @@
-// Polygons with many vertices (issue 10): an OBJ face of 256 or 1000 vertices is an ordinary
+// Polygons with many vertices: an OBJ face of 256 or 1000 vertices is an ordinary
 // shape (a disk), read without a limit and handled by every method, subdivision and the
 // obstruction machinery. Reference: Howell C-41 (coaxial disks), ../shared/reference.
 

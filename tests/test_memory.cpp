@@ -1,5 +1,5 @@
-// The memory estimate of dense runs and the refusal before anything big is allocated (issue 10:
-// `compute cube --subdivide 150` ended in "internal error: std::bad_alloc").
+// The memory estimate of dense runs and the refusal before anything big is allocated (a run
+// too large for the machine is refused with a message, never ends in std::bad_alloc).
 
 #include <doctest/doctest.h>
 

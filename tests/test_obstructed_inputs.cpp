@@ -1,9 +1,10 @@
-// Issue 9's reproducers (tests/data/repro/, each file's header says what it shows): inputs
-// written by other programs on which the obstructed `analytic` method went wrong. Every entry is
+// Inputs written by other programs on which the obstructed `analytic` method once went wrong
+// (tests/data/repro/, each file's header says what it shows). Every entry is
 // held against an independent mc-target estimate made here (within k standard errors of its
 // replicates, k from Student's t) plus the error bound the method reports, and against what the
-// geometry forces (closure, exact zeros). Test suite "issue9" (`-ts=issue9`); the n = 16 room
-// is in the slow suite (its name starts with "issue9:" too).
+// geometry forces (closure, exact zeros). Test suite "obstructed-references"
+// (`-ts=obstructed-references`); the n = 16 room is in the slow suite (its name starts with
+// "obstructed inputs:" too).
 
 #include <doctest/doctest.h>
 
@@ -92,13 +93,14 @@ double worst_row(const DenseMatrix& F, bool closed) {
 }
 
 // The F[0,81] entry of the room-4 reproducers (floor corner patch z0_0_0 → wall patch
-// y1_1_0), the issue's mc-target value 0.0022663 ± 2.8e-6 and our own estimate.
+// y1_1_0), the mc-target value 0.0022663 ± 2.8e-6 of an independent run and our own estimate.
 void check_room4_entry(const Scene& s, const AnalyticRun& a) {
     const McReference mc = test::mc_reference(s, {0, 81}, 1 << 16);
     const double k = test::simultaneous_k(2, mc.dof);
     const double m = mc.F(0, 1), se = mc.se(0, 1), f = a.ff.F(0, 81);
     MESSAGE("F[0,81]: analytic " << f << " (bound " << a.bound << "), mc-target " << m << " ± "
-                                 << se << " (issue: 0.0022663 ± 2.8e-6); |a − mc| = "
+                                 << se
+                                 << " (independent mc-target: 0.0022663 ± 2.8e-6); |a − mc| = "
                                  << std::abs(f - m) << " = " << std::abs(f - m) / se << " SE");
     CHECK(std::abs(m - 0.0022663) <= k * std::hypot(se, 2.8e-6));  // the reference itself
     CHECK(std::abs(f - m) <= k * se + a.bound);
@@ -191,8 +193,10 @@ void check_room_obstruction_hidden_pairs(int n) {
 
 }  // namespace
 
-TEST_SUITE("issue9") {
-    TEST_CASE("issue9: room4_box_surfaces.vs3 - the built-in room-4 written as VS3 S records") {
+TEST_SUITE("obstructed-references") {
+    TEST_CASE(
+        "obstructed inputs: room4_box_surfaces.vs3 - the built-in room-4 written as VS3 S "
+        "records") {
         const Scene s = load_scene(repro("room4_box_surfaces.vs3"));
         REQUIRE(s.patches.size() == 120);
         const AnalyticRun a = run_analytic(s);
@@ -210,7 +214,7 @@ TEST_SUITE("issue9") {
         referee(s, a, "vs3", builtin, b, "room-4");
     }
 
-    TEST_CASE("issue9: room4_box_obstruction.vs3 - the box as O records") {
+    TEST_CASE("obstructed inputs: room4_box_obstruction.vs3 - the box as O records") {
         const Scene s = load_scene(repro("room4_box_obstruction.vs3"));
         REQUIRE(s.patches.size() == 96);
         const AnalyticRun a = run_analytic(s);
@@ -226,11 +230,12 @@ TEST_SUITE("issue9") {
         referee(s, a, "vs3", builtin, b, "room-4-obstruction");
     }
 
-    TEST_CASE("issue9: room n = 8 with the box as O records - fully hidden pairs are 0") {
+    TEST_CASE(
+        "obstructed inputs: room n = 8 with the box as O records - fully hidden pairs are 0") {
         check_room_obstruction_hidden_pairs(8);
     }
 
-    TEST_CASE("issue9: hidden_pair.obj - light through a closed sphere is 0") {
+    TEST_CASE("obstructed inputs: hidden_pair.obj - light through a closed sphere is 0") {
         const Scene s = load_scene(repro("hidden_pair.obj"));
         REQUIRE(s.patches.size() == 2);
         const AnalyticRun a = run_analytic(s);
@@ -239,14 +244,14 @@ TEST_SUITE("issue9") {
                                   << mc.F(0, 1) << " ± " << mc.se(0, 1));
         CHECK(mc.F(0, 1) == 0.0);  // every ray blocked
         // No single facet of the sphere hides the pair: it is integrated, to 0 within the
-        // quadrature's rounding (issue 9 reported 6.4e-4 under a 1e-7 estimate).
+        // quadrature's rounding (an earlier version gave 6.4e-4 under a 1e-7 estimate).
         CHECK(a.ff.F(0, 1) <= 1e-10);
         CHECK(a.ff.F(1, 0) <= 1e-10);
         // Whatever the value, the reported bound must cover it.
         CHECK(a.ff.F(0, 1) <= a.bound);
     }
 
-    TEST_CASE("issue9: lshaped_zone.obj - vertex jitter where edges nearly meet") {
+    TEST_CASE("obstructed inputs: lshaped_zone.obj - vertex jitter where edges nearly meet") {
         const Scene s = load_scene(repro("lshaped_zone.obj"));
         REQUIRE(s.patches.size() == 10);
         const AnalyticRun a = run_analytic(s);
@@ -259,7 +264,7 @@ TEST_SUITE("issue9") {
                      se = mc.se(I(ms), I(mf));
         MESSAGE("F(SouthWall -> Floor2): analytic "
                 << f << " (bound " << a.bound << "), mc-target " << m << " ± " << se
-                << " (issue: 0.0157710); |a − mc| = " << std::abs(f - m));
+                << " (independent mc-target: 0.0157710); |a − mc| = " << std::abs(f - m));
         CHECK(std::abs(m - 0.0157710) <= k * se + 1e-6);  // the reference itself
         CHECK(std::abs(f - m) <= k * se + a.bound);
         // The zone is closed up to gaps of ~3e-5 m on 12 m walls (a leak far below 1e-5).
@@ -269,7 +274,8 @@ TEST_SUITE("issue9") {
         CHECK(worst_row(a.ff.F, true) <= 10 * a.bound + 1e-5);
     }
 
-    TEST_CASE("issue9: a box resting on a wall across a jittered gap - the bound holds") {
+    TEST_CASE(
+        "obstructed inputs: a box resting on a wall across a jittered gap - the bound holds") {
         // tests/data/jitter_box_on_wall.vs3 (its header says what it shows), as save_vs3 wrote
         // it and as the harness's OBJ writer wrote it (other digits, polygons starting at other
         // vertices): F(57 → 22) ≈ 1 − 3.9e-5, the whole hidden part in layers ~1e-5 wide along
@@ -337,7 +343,7 @@ TEST_SUITE("issue9") {
     }
 }
 
-TEST_CASE("issue9: room n = 16 with the box as O records - fully hidden pairs are 0" *
+TEST_CASE("obstructed inputs: room n = 16 with the box as O records - fully hidden pairs are 0" *
           doctest::test_suite("slow")) {
     check_room_obstruction_hidden_pairs(16);
 }

@@ -1,4 +1,4 @@
-// Regression tests for the root causes of issue 9's wrong partly hidden factors, each at the
+// Regression tests for the root causes of wrong partly hidden factors found earlier, each at the
 // level where it lived: the shaft's side faces, degenerate faces of slightly non-planar
 // polygons, the integration's error estimate, and obstruction records grouped by plane.
 

@@ -1,5 +1,5 @@
-// point_form_factors: differential elements to every patch, exact with obstructions (issue 10:
-// `formfactor point` ignored them), many points at once, thread-count independence.
+// point_form_factors: differential elements to every patch, exact with obstructions, many points at
+// once, thread-count independence.
 
 #include <doctest/doctest.h>
 
@@ -41,12 +41,12 @@ double at_origin_up(const Scene& s, int threads = 0) {
 
 }  // namespace
 
-TEST_CASE("point factors: an obstruction square between a point and a unit square (issue 10)") {
+TEST_CASE("point factors: an obstruction square between a point and a unit square") {
     // Unobstructed: the closed form.
     CHECK(std::abs(at_origin_up(scene_of({square_and_blocker(0.1, 0.5).surfaces[0].polygon})) -
                    kUnobstructed) < 1e-14);
-    // The issue's value: a shadow of half-width 0.3 on the square, from a blocker [0.25, 0.75]²
-    // at z = 5/6 or [0.35, 0.65]² at z = 0.5 (the issue's [0.25, 0.75]² at z = 0.5 casts a
+    // The reported case: a shadow of half-width 0.3 on the square, from a blocker [0.25, 0.75]²
+    // at z = 5/6 or [0.35, 0.65]² at z = 0.5 (the reported [0.25, 0.75]² at z = 0.5 casts a
     // shadow of half-width 0.5: the whole square, below).
     CHECK(std::abs(at_origin_up(square_and_blocker(0.25, 5.0 / 6.0)) - kRing) < 1e-13);
     CHECK(std::abs(at_origin_up(square_and_blocker(0.15, 0.5)) - kRing) < 1e-13);

@@ -1,6 +1,7 @@
-// Reciprocity measured over the matrix (issue 10: `run` printed "max |A_i F_ij − A_j F_ji| /
-// max(...) = 1" for a Monte-Carlo matrix): area-weighted, relative to the row's mass, in units of
-// the standard error, and the verdict against the method's promise.
+// Reciprocity measured over the matrix (not the worst pair's
+// max |A_i F_ij − A_j F_ji| / max(...), which is 1 for a Monte-Carlo matrix): area-weighted,
+// relative to the row's mass, in units of the standard error, and the verdict against the method's
+// promise.
 
 #include <doctest/doctest.h>
 
