@@ -12,10 +12,13 @@ PAGES = doc_pages(SOURCE_DIR)
 
 @pytest.mark.parametrize("page", PAGES, ids=[p.name for p in PAGES])
 def test_the_examples_of_a_page_run(page, tmp_path):
+    error = None
     try:
         run_page(page, SOURCE_DIR, BUILD_DIR, tmp_path / "work", slow=False)
     except DocExampleError as e:
-        pytest.fail(str(e), pytrace=False)
+        error = str(e)
+    if error:  # outside the handler: one message, no exception chain
+        pytest.fail(error, pytrace=False)
 
 
 def test_the_readme_and_docs_have_examples_to_run():
