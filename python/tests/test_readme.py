@@ -1,6 +1,6 @@
 """The README stays short and agrees with the program: under 1,200 words outside code blocks,
 and its lists of built-in scenes, generators, methods and matrix formats are the ones
-`formfactor --help` prints."""
+`formfactor --help` prints; every option --help lists is in the docs."""
 
 import re
 
@@ -63,3 +63,19 @@ def test_help_names_every_scene_the_program_loads():
     for g in help_line(text, "generators:").split("(")[0].split(","):
         run_cli("info", g.strip().replace("N", "2"))
     assert "MIT" in run_cli("--version").stdout
+
+
+def test_every_option_of_help_is_in_the_docs():
+    """Each subcommand's options, as --help lists them, appear in README.md or docs/*.md."""
+    docs = README.read_text() + "".join(p.read_text() for p in (SOURCE_DIR / "docs").glob("*.md"))
+    subcommands = re.findall(r"^  (\w+) {2,}", run_cli("--help").stdout.split("Subcommands:")[1],
+                             flags=re.M)
+    assert "compute" in subcommands and "solve" in subcommands
+    missing = []
+    for sub in subcommands:
+        for line in run_cli(sub, "--help").stdout.split("\n"):
+            m = re.match(r"^\s+(-[\w-]+(?:,-[\w-]+)*)", line)
+            for option in (m.group(1).split(",") if m else []):
+                if option.startswith("--") and option != "--help" and option not in docs:
+                    missing.append("%s %s" % (sub, option))
+    assert not missing, "options of --help missing from the docs: " + ", ".join(missing)
