@@ -79,3 +79,17 @@ def test_every_option_of_help_is_in_the_docs():
                 if option.startswith("--") and option != "--help" and option not in docs:
                     missing.append("%s %s" % (sub, option))
     assert not missing, "options of --help missing from the docs: " + ", ".join(missing)
+
+
+def test_every_relative_link_of_the_docs_exists():
+    """[text](path) links of README.md and docs/*.md to files of the tree lead somewhere."""
+    pages = [README] + sorted((SOURCE_DIR / "docs").glob("*.md"))
+    broken = []
+    for page in pages:
+        for n, line in enumerate(page.read_text().split("\n"), 1):
+            for target in re.findall(r"\]\(([^)\s]+)\)", line):
+                if re.match(r"^[a-z]+:", target) or target.startswith("#"):
+                    continue  # a URL or an anchor
+                if not (page.parent / target.split("#")[0]).exists():
+                    broken.append("%s:%d: %s" % (page.relative_to(SOURCE_DIR), n, target))
+    assert not broken, "links to files that do not exist:\n" + "\n".join(broken)
