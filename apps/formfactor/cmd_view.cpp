@@ -68,6 +68,25 @@ void run_view(const ViewArgs& args) {
     content.title = args.title;
     content.emitters = emitting_patches(scene);
 
+    // A solution table is read first, so that a wrong one fails before F is computed.
+    const std::string table_path = !args.thermal.empty() ? args.thermal : args.radiosity;
+    if (!table_path.empty()) {
+        Stopwatch read;
+        const SolutionTable table = read_solution_csv(table_path, n);
+        if (table.thermal != !args.thermal.empty())
+            throw InputError(table_path, 0,
+                             table.thermal ? "a thermal table: give it with --thermal"
+                                           : "a radiosity table: give it with --radiosity");
+        if (table.thermal) {
+            content.temperature = table.temperature;
+            content.net_flux = table.net_flux;
+            for (const Rgb& j : table.radiosity) content.thermal_radiosity.push_back(j[0]);
+        } else {
+            content.radiosity = table.radiosity;
+        }
+        times.add("read solution", read.lap());
+    }
+
     // F: computed, or read (dense or sparse).
     ComputedMatrix computed;
     SparseFormFactors sparse;
@@ -98,25 +117,10 @@ void run_view(const ViewArgs& args) {
         content.form_factors = &computed.ff;
     }
 
-    // The solution: read, or radiosity solved on F when the scene has light.
+    // Without a table, radiosity solved on F when the scene has light.
     nlohmann::json solve_json;
     Stopwatch sw;
-    const std::string table_path = !args.thermal.empty() ? args.thermal : args.radiosity;
-    if (!table_path.empty()) {
-        const SolutionTable table = read_solution_csv(table_path, n);
-        if (table.thermal != !args.thermal.empty())
-            throw InputError(table_path, 0,
-                             table.thermal ? "a thermal table: give it with --thermal"
-                                           : "a radiosity table: give it with --radiosity");
-        if (table.thermal) {
-            content.temperature = table.temperature;
-            content.net_flux = table.net_flux;
-            for (const Rgb& j : table.radiosity) content.thermal_radiosity.push_back(j[0]);
-        } else {
-            content.radiosity = table.radiosity;
-        }
-        times.add("read solution", sw.lap());
-    } else if (!args.no_solve && content.form_factors && emits(scene)) {
+    if (table_path.empty() && !args.no_solve && content.form_factors && emits(scene)) {
         SolverOptions so;
         so.solver = SolverKind::gauss_seidel;
         so.threads = threads;

@@ -76,12 +76,22 @@ export function makeScale(min, max, log = false) {
 }
 
 /// Tick values for a colour bar of `scale`: for a linear scale, "nice" steps (1, 2, 5 × 10^k)
-/// giving about `count` ticks inside [min, max]; for a log scale, the powers of ten inside.
+/// giving about `count` ticks inside [min, max]; for a log scale, the powers of ten inside (and
+/// their 2× and 5× when fewer than three powers are).
 export function ticks(scale, count = 5) {
     const out = [];
     if (scale.log) {
-        for (let e = Math.ceil(Math.log10(scale.min) - 1e-9); e <= Math.floor(Math.log10(scale.max) + 1e-9); ++e)
-            out.push(Math.pow(10, e));
+        // Powers of ten; with fewer than three inside, their 2× and 5× too.
+        const lo = Math.floor(Math.log10(scale.min)), hi = Math.ceil(Math.log10(scale.max));
+        const inside = (v) => v >= scale.min * (1 - 1e-9) && v <= scale.max * (1 + 1e-9);
+        for (let e = lo; e <= hi; ++e) if (inside(Math.pow(10, e))) out.push(Math.pow(10, e));
+        if (out.length >= 3) return out;
+        out.length = 0;
+        for (let e = lo; e <= hi; ++e)
+            for (const m of [1, 2, 5]) {
+                const v = Number((m * Math.pow(10, e)).toPrecision(12));
+                if (inside(v)) out.push(v);
+            }
         return out;
     }
     const span = scale.max - scale.min;

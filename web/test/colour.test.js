@@ -46,6 +46,8 @@ test('a log scale spans at most six decades and maps zero to its bottom', () => 
     assert.equal(t.length, 7);
     t.forEach((v, k) => close(Math.log10(v), k - 7, 1e-12));
     close(makeScale(1e-3, 1e-2, true).map(10 ** -2.5), 0.5, 1e-9);
+    // Less than a decade: the 2× and 5× steps too.
+    assert.deepEqual(ticks(makeScale(6e-4, 5.3e-3, true)), [1e-3, 2e-3, 5e-3]);
 });
 
 test('linear ticks are round steps inside the range', () => {
