@@ -140,6 +140,13 @@ TEST_CASE("cli view: one page from a scene, and errors that write nothing") {
     CHECK(r.one_error_line());
     CHECK(!std::filesystem::exists(cli.file("result.png")));
 
+    // A dense F that cannot fit is refused before anything big exists.
+    r = cli.run("view cornell --subdivide 2000 -o big.html");
+    CHECK(r.code == 1);
+    CHECK(r.one_error_line());
+    CHECK(r.err.find("memory") != std::string::npos);
+    CHECK(!std::filesystem::exists(cli.file("big.html")));
+
     write_matrix(cli.file("F.npy"), DenseMatrix::Zero(3, 3));
     r = cli.run("view cornell --subdivide 2 --matrix F.npy -o bad.html");
     CHECK(r.code == 1);

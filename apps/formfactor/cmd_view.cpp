@@ -61,7 +61,17 @@ void run_view(const ViewArgs& args) {
     const int threads = effective_threads(args.method.options.threads);
 
     StepTimes times;
-    Scene scene = prepare_scene(args.scene, times);
+    // A dense F that will not fit is refused before the patches and F exist (as compute does).
+    Scene scene = prepare_scene(args.scene, times, [&](const Scene& loaded) {
+        DenseRunNeeds needs;
+        needs.matrix = args.matrix.empty() || !is_sparse_matrix_path(args.matrix);
+        if (args.matrix.empty())
+            needs.standard_errors = method_traits(args.method.resolved_kind(loaded),
+                                                  args.method.method_options(), &loaded)
+                                        .standard_errors;
+        needs.repair = parse_repair_mode(args.repair.mode) != RepairMode::none;
+        return needs;
+    });
     warn_single_patch(scene);
     const std::size_t n = scene.patches.size();
     PageContent content;
