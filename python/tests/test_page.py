@@ -19,7 +19,7 @@ def page_data(text):
 
 
 def array(entry):
-    dtype = {"f32": "<f4", "f64": "<f8", "u32": "<u4"}[entry["dtype"]]
+    dtype = {"f32": "<f4", "f64": "<f8", "u16": "<u2", "u32": "<u4"}[entry["dtype"]]
     a = np.frombuffer(base64.b64decode(entry["base64"]), dtype=dtype)
     assert a.size == entry["count"]
     return a

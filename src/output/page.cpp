@@ -56,6 +56,11 @@ nlohmann::json typed(const std::vector<T>& v, const char* dtype) {
 nlohmann::json f32(const std::vector<float>& v) { return typed(v, "f32"); }
 nlohmann::json f64(const std::vector<double>& v) { return typed(v, "f64"); }
 nlohmann::json u32(const std::vector<std::uint32_t>& v) { return typed(v, "u32"); }
+// Column indices in 2 bytes each when every index fits (N ≤ 65,536), else 4.
+nlohmann::json indices(const std::vector<std::uint32_t>& v, std::size_t n) {
+    if (n > 65536) return u32(v);
+    return typed(std::vector<std::uint16_t>(v.begin(), v.end()), "u16");
+}
 
 std::vector<float> to_f32(const std::vector<double>& v) { return {v.begin(), v.end()}; }
 
@@ -159,7 +164,7 @@ nlohmann::json matrix_json(const Scene& scene, const Rows& m, const PageOptions&
     }
     nlohmann::json j = {{"threshold", threshold},  {"stored_entries", val.size()},
                         {"nonzeros", nonzeros},    {"row_ptr", u32(row_ptr)},
-                        {"col", u32(col)},         {"val", f32(val)},
+                        {"col", indices(col, n)},  {"val", f32(val)},
                         {"dropped", f32(dropped)}, {"row_sum", f64(row_sum)}};
     if (m.standard_errors()) j["standard_error"] = f32(se);
     std::vector<float> sky(n);

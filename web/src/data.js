@@ -11,7 +11,7 @@ export function base64ToBytes(text) {
     return out;
 }
 
-const kArrayTypes = { f32: Float32Array, f64: Float64Array, u32: Uint32Array, i32: Int32Array };
+const kArrayTypes = { f32: Float32Array, f64: Float64Array, u16: Uint16Array, u32: Uint32Array, i32: Int32Array };
 
 /// A typed array from {dtype, count, base64} (little-endian, as the writer stores it). Throws
 /// on an unknown dtype or a length that does not match count.

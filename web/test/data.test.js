@@ -25,7 +25,7 @@ function sample() {
         matrix: {
             threshold: 0.1, stored_entries: 5, nonzeros: 6,
             row_ptr: arr('u32', new Uint32Array([0, 2, 3, 5])),
-            col: arr('u32', new Uint32Array([1, 2, 0, 0, 1])),
+            col: arr('u16', new Uint16Array([1, 2, 0, 0, 1])),
             val: arr('f32', new Float32Array([0.25, 0.5, 0.5, 0.125, 0.375])),
             dropped: arr('f32', new Float32Array([0, 0.01, 0])),
             row_sum: arr('f32', new Float32Array([0.75, 0.51, 0.5])),
@@ -44,6 +44,8 @@ test('typed arrays decode little-endian values exactly', () => {
     assert.deepEqual([...decodeArray(arr('f64', f))], [...f]);
     const u = new Uint32Array([0, 1, 4294967295]);
     assert.deepEqual([...decodeArray(arr('u32', u))], [...u]);
+    const h = new Uint16Array([0, 7, 65535]);
+    assert.deepEqual([...decodeArray(arr('u16', h))], [...h]);
     assert.equal(decodeArray({ dtype: 'f32', count: 1, base64: b64(new Float32Array([0.1])) })[0], Math.fround(0.1));
 });
 

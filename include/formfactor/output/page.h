@@ -8,7 +8,8 @@
 ///
 /// Data layout (the JSON's "patches", "fields" and "matrix" arrays are little-endian binary,
 /// base64-encoded): patch areas (f64), surfaces (u32), polygon vertices (f32) and their
-/// triangulation; colour fields per patch (f32); F as CSR rows (u32 columns, f32 values, f32
+/// triangulation; colour fields per patch (f32); F as CSR rows (u16 columns when N ≤ 65,536,
+/// else u32; f32 values, f32
 /// standard errors when the method has them) keeping F_ij > threshold, with each row's
 /// dropped mass (f32) and its exact row sum (f64, over every entry).
 
