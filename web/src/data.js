@@ -159,6 +159,22 @@ export function surfaceRow(model, s) {
     return out;
 }
 
+/// Per-surface form factors into surface t: F_{s→t} for every surface s, as one value per
+/// surface (one pass over the stored entries).
+export function surfaceColumn(model, t) {
+    const out = new Float64Array(model.surfaces.length);
+    const areaOf = new Float64Array(model.surfaces.length);
+    for (let i = 0; i < model.n; ++i) {
+        const s = model.surface[i];
+        areaOf[s] += model.area[i];
+        const r = row(model.matrix, i);
+        for (let k = 0; k < r.cols.length; ++k)
+            if (model.surface[r.cols[k]] === t) out[s] += model.area[i] * r.vals[k];
+    }
+    for (let s = 0; s < out.length; ++s) if (areaOf[s] > 0) out[s] /= areaOf[s];
+    return out;
+}
+
 /// The patches of surface s (their indices, ascending).
 export function patchesOfSurface(model, s) {
     const out = [];

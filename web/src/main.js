@@ -5,7 +5,7 @@
 
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
-import { decodeData, denseRow, denseColumn, topEntries, reciprocity, surfaceRow, entry } from './data.js';
+import { decodeData, denseRow, denseColumn, topEntries, reciprocity, surfaceRow, surfaceColumn, entry } from './data.js';
 import { inferno, toneMap, makeScale, ticks, formatNumber, valueRange, categorical } from './colour.js';
 
 const kTopEntries = 12;
@@ -253,7 +253,7 @@ class Page {
             if (s.selected < 0 || !m.matrix) return { values: new Float32Array(m.n).fill(NaN), label: 'row of F (click a patch)', unit: '' };
             if (s.perSurface) {
                 const sel = m.surface[s.selected];
-                const perSurf = s.column ? this.surfaceColumn(sel) : surfaceRow(m, sel);
+                const perSurf = s.column ? surfaceColumn(m, sel) : surfaceRow(m, sel);
                 const values = new Float32Array(m.n);
                 for (let i = 0; i < m.n; ++i) values[i] = m.surface[i] === sel ? NaN : perSurf[m.surface[i]];
                 const name = surfaceName(m, sel);
@@ -266,12 +266,6 @@ class Page {
         if (s.mode === 'surface') return { values: null, label: 'surface', unit: '' };
         const f = m.fields.find((x) => x.key === s.mode);
         return { values: f.values, rgb: f.kind === 'rgb', exposure: f.exposure, label: f.label, unit: f.unit ?? '' };
-    }
-
-    surfaceColumn(t) {
-        // F_{s→t} for every surface s.
-        const m = this.model;
-        return Float64Array.from(m.surfaces.keys(), (s) => surfaceRow(m, s)[t]);
     }
 
     recolour() {
@@ -418,7 +412,7 @@ class Page {
 
     surfaceSelection(sel) {
         const m = this.model, box = this.selection;
-        const r = this.state.column ? this.surfaceColumn(sel) : surfaceRow(m, sel);
+        const r = this.state.column ? surfaceColumn(m, sel) : surfaceRow(m, sel);
         const areaOf = (s) => {
             let a = 0;
             for (let i = 0; i < m.n; ++i) if (m.surface[i] === s) a += m.area[i];

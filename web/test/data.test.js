@@ -1,7 +1,7 @@
 // Decoding of the page's data block and the questions the page asks of it.
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { base64ToBytes, decodeArray, decodeData, row, denseRow, denseColumn, entry, topEntries, reciprocity, surfaceRow } from '../src/data.js';
+import { base64ToBytes, decodeArray, decodeData, row, denseRow, denseColumn, entry, topEntries, reciprocity, surfaceRow, surfaceColumn } from '../src/data.js';
 
 const b64 = (typed) => Buffer.from(typed.buffer, typed.byteOffset, typed.byteLength).toString('base64');
 const arr = (dtype, typed) => ({ dtype, count: typed.length, base64: b64(typed) });
@@ -98,4 +98,6 @@ test('per-surface form factors are area-weighted sums of the rows', () => {
     assert.ok(Math.abs(r[1] - 0.5 / 1.5) < 1e-7);
     assert.ok(Math.abs(r[0] - 0.5 / 1.5) < 1e-7);
     assert.deepEqual([...surfaceRow(m, 1)], [0.5, 0]);
+    // The column into surface t is each surface's row, read at t.
+    for (const t of [0, 1]) assert.deepEqual([...surfaceColumn(m, t)], [surfaceRow(m, 0)[t], surfaceRow(m, 1)[t]]);
 });

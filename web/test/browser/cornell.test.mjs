@@ -145,6 +145,17 @@ test('per surface, the row is the area-weighted surface factors of the matrix', 
     const rows = await p.$$eval('.ff-top tr', (trs) => trs.slice(1).map((tr) => [Number(tr.children[0].textContent), Number(tr.children[2].textContent)]));
     assert.ok(rows.length >= 3);
     for (const [t, v] of rows) assert.ok(Math.abs(v - fst[t] / as) <= 1e-4 * Math.max(v, 1e-3), `F from surface ${s} to ${t}: ${v} vs ${fst[t] / as} (${JSON.stringify(rows)})`);
+    // Its column: F from every surface t into s.
+    await p.check('#ff-column');
+    const into = new Float64Array(data.surfaces.length), at = new Float64Array(data.surfaces.length);
+    for (let a = 0; a < n; ++a) {
+        at[surfaces[a]] += areas[a];
+        for (let b = 0; b < n; ++b) if (surfaces[b] === s) into[surfaces[a]] += areas[a] * F.data[a * n + b];
+    }
+    const cols = await p.$$eval('.ff-top tr', (trs) => trs.slice(1).map((tr) => [Number(tr.children[0].textContent), Number(tr.children[2].textContent)]));
+    assert.ok(cols.length >= 3);
+    for (const [t, v] of cols) assert.ok(Math.abs(v - into[t] / at[t]) <= 1e-4 * Math.max(v, 1e-3), `F from surface ${t} into ${s}: ${v} vs ${into[t] / at[t]}`);
+    await p.uncheck('#ff-column');
     await p.uncheck('#ff-surface');
 });
 
