@@ -186,7 +186,7 @@ TEST_CASE("cli: run writes the main job into out/" * doctest::test_suite("slow")
     REQUIRE(r.code == 0);
     for (const char* f :
          {"out/formfactors.npy", "out/patches.csv", "out/report.json", "out/standard_errors.npy",
-          "out/radiosity.csv", "out/cornell.png", "out/cornell.ply"}) {
+          "out/radiosity.csv", "out/cornell.png", "out/cornell.ply", "out/cornell.html"}) {
         CHECK(std::filesystem::exists(cli.file(f)));
         CHECK(r.out.find(f) != std::string::npos);
     }
@@ -210,7 +210,7 @@ TEST_CASE("cli: run writes the main job into out/" * doctest::test_suite("slow")
     std::size_t files = 0;
     for ([[maybe_unused]] const auto& e : std::filesystem::directory_iterator(cli.file("out")))
         ++files;
-    CHECK(files == 7);  // no temporaries left
+    CHECK(files == 8);  // no temporaries left
 }
 
 TEST_CASE("cli: run on an unoccluded scene, into another directory") {

@@ -16,6 +16,7 @@
 #include "formfactor/matrix/memory.h"
 #include "formfactor/methods/traits.h"
 #include "formfactor/output/matrix_io.h"
+#include "formfactor/output/page.h"
 #include "formfactor/output/patch_table.h"
 #include "formfactor/output/render.h"
 #include "formfactor/output/report.h"
@@ -99,6 +100,7 @@ void run_run(RunArgs args) {
     const std::string radiosity_csv = (dir / "radiosity.csv").string();
     const std::string image_png = (dir / (stem + ".png")).string();
     const std::string mesh_ply = (dir / (stem + ".ply")).string();
+    const std::string page_html_path = (dir / (stem + ".html")).string();
     if (!note.empty()) fmt::print("{}\n", note);
     fmt::print("formfactor run: {} ({} patches), method {}\n", scene.name, scene.patches.size(),
                to_string(method));
@@ -159,15 +161,24 @@ void run_run(RunArgs args) {
                         {"triangles", info.triangles}};
     if (repaired) report["repair"] = to_json(*repaired);
     if (!note.empty()) report["note"] = note;
+    // The result page: the scene, its radiosity in the PNG's exposure, F and this report.
+    PageContent page;
+    page.form_factors = &ff;
+    page.radiosity = solution.radiosity;
+    page.exposure = info.exposure;
+    page.emitters = ro.emitters;
+    page.report = report;
+    const std::string page_text = formfactor::page_html(scene, page);
+    tx.stage(page_html_path, [&](std::ostream& out) { out << page_text; });
     stage_report(tx, report_json, report);
     tx.commit();
 
     print_matrix_summary(scene, to_string(method), threads, ff, raw, traits.reciprocity, times,
                          total.seconds());
     print_radiosity_summary(solution);
-    fmt::print("wrote      {} ({}×{} float64), {}, {}, {}, {}, {}{}\n", matrix_npy, ff.F.rows(),
-               ff.F.cols(), patches_csv, radiosity_csv, image_png, mesh_ply, report_json,
-               ff.standard_error ? ", " + se_npy : std::string());
+    fmt::print("wrote      {} ({}×{} float64), {}, {}, {}, {}, {}, {}{}\n", matrix_npy, ff.F.rows(),
+               ff.F.cols(), patches_csv, radiosity_csv, image_png, mesh_ply, page_html_path,
+               report_json, ff.standard_error ? ", " + se_npy : std::string());
 }
 
 }  // namespace
@@ -175,12 +186,12 @@ void run_run(RunArgs args) {
 void add_run_command(CLI::App& app) {
     auto args = std::make_shared<RunArgs>();
     CLI::App* cmd = app.add_subcommand(
-        "run",
-        fmt::format("The main job: form factors of a scene (default {}, {}×{} patches per "
-                    "surface), its radiosity solution and a picture, into a directory: "
-                    "formfactors.npy, patches.csv, radiosity.csv, SCENE.png, "
-                    "SCENE.ply, report.json (and standard_errors.npy for a Monte-Carlo method)",
-                    kRunScene, kRunSubdivide, kRunSubdivide));
+        "run", fmt::format("The main job: form factors of a scene (default {}, {}×{} patches per "
+                           "surface), its radiosity solution and a picture, into a directory: "
+                           "formfactors.npy, patches.csv, radiosity.csv, SCENE.png, "
+                           "SCENE.ply, SCENE.html (the result page), report.json (and "
+                           "standard_errors.npy for a Monte-Carlo method)",
+                           kRunScene, kRunSubdivide, kRunSubdivide));
     args->scene.subdivide = kRunSubdivide;
     args->scene.add_to(cmd, kRunScene);
     args->method.add_to(cmd);

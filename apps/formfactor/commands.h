@@ -23,5 +23,8 @@ void add_render_command(CLI::App& app);
 /// `formfactor inspect SCENE --patch I -o VIEW.png [...]`: what a point sees through the
 /// hemicube or the hemiplane, as a picture.
 void add_inspect_command(CLI::App& app);
+/// `formfactor view SCENE [method options | --matrix F] [--radiosity B.csv | --thermal T.csv]
+/// -o result.html`: the result page, one self-contained HTML file.
+void add_view_command(CLI::App& app);
 
 }  // namespace formfactor::cli

@@ -46,6 +46,7 @@ int main(int argc, char** argv) {
     formfactor::cli::add_solve_command(app);
     formfactor::cli::add_render_command(app);
     formfactor::cli::add_inspect_command(app);
+    formfactor::cli::add_view_command(app);
 
     if (argc <= 1) {
         std::fputs(app.help().c_str(), stdout);

@@ -7,10 +7,12 @@
 #include <type_traits>
 
 #include "bindings.h"
+#include "formfactor/core/atomic_file.h"
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
 #include "formfactor/matrix/aggregate.h"
 #include "formfactor/methods/point_factors.h"
+#include "formfactor/output/page.h"
 #include "formfactor/output/report.h"
 
 namespace formfactor::python {
@@ -190,6 +192,74 @@ py::object csr(const DenseMatrix& F, double threshold) {
         py::arg("shape") = py::make_tuple(rows, cols));
 }
 
+/// The result page of `r`: its scene, F and report, and `solution` when given — a
+/// RadiosityResult or an (N, 3) array (radiosity, true colour) or a ThermalResult
+/// (temperature, net flux, radiosity J).
+std::string page_of(const PyResult& r, const py::object& solution, const std::string& title,
+                    long long max_entries) {
+    if (r.result.form_factors.is_block())
+        throw OptionError("rows", "the result page needs the whole matrix, not a row block");
+    if (max_entries < 1) throw OptionError("max_entries", "must be ≥ 1");
+    const std::size_t n = r.scene->patches.size();
+    PageContent content;
+    content.title = title;
+    content.form_factors = &r.result.form_factors;
+    if (!r.report_json) r.report_json = report_of(*r.scene, r.options, r.result, r.total_seconds);
+    content.report = nlohmann::json::parse(*r.report_json);
+    const auto column = [&](const char* attr) {
+        const auto a = as_doubles(solution.attr(attr), attr, 1);
+        if (static_cast<std::size_t>(a.shape(0)) != n)
+            throw OptionError("solution",
+                              fmt::format("{} has {} values, not {}", attr, a.shape(0), n));
+        return std::vector<double>(a.data(), a.data() + n);
+    };
+    if (!solution.is_none() && py::hasattr(solution, "temperature")) {
+        content.temperature = column("temperature");
+        content.net_flux = column("net_flux");
+        content.thermal_radiosity = column("radiosity");
+    } else if (!solution.is_none()) {
+        const py::object values =
+            py::hasattr(solution, "radiosity") ? solution.attr("radiosity") : solution;
+        const auto a = as_doubles(values, "solution", 2);
+        if (static_cast<std::size_t>(a.shape(0)) != n || a.shape(1) != 3)
+            throw OptionError("solution", fmt::format("radiosity must have shape ({}, 3)", n));
+        for (std::size_t i = 0; i < n; ++i)
+            content.radiosity.emplace_back(a.data()[3 * i], a.data()[3 * i + 1],
+                                           a.data()[3 * i + 2]);
+        for (std::size_t i = 0; i < n; ++i)
+            content.emitters.push_back(r.scene->material_of(i).emission.maxCoeff() > 0.0);
+    }
+    PageOptions po;
+    po.max_entries = static_cast<std::size_t>(max_entries);
+    py::gil_scoped_release nogil;
+    return page_html(*r.scene, content, po);
+}
+
+/// HTML-escaped for a double-quoted attribute.
+std::string attribute_text(const std::string& s) {
+    std::string out;
+    out.reserve(s.size() + s.size() / 16);
+    for (char c : s) {
+        switch (c) {
+            case '&':
+                out += "&amp;";
+                break;
+            case '"':
+                out += "&quot;";
+                break;
+            case '<':
+                out += "&lt;";
+                break;
+            case '>':
+                out += "&gt;";
+                break;
+            default:
+                out += c;
+        }
+    }
+    return out;
+}
+
 }  // namespace
 
 void bind_compute(py::module_& m) {
@@ -264,7 +334,31 @@ For a row block (``rows=(b, e)``) it holds rows b..e-1 and every column.
                 return py::make_tuple(adopt(std::move(agg.F)), groups.names);
             },
             "(F_surfaces, names): the area-weighted per-surface matrix (View3D's Combine "
-            "merges surfaces with cmb), rows = surfaces.");
+            "merges surfaces with cmb), rows = surfaces.")
+        .def(
+            "to_html",
+            [](const PyResult& r, const std::string& path, const py::object& solution,
+               const std::string& title, long long max_entries) {
+                const std::string html = page_of(r, solution, title, max_entries);
+                write_file_atomically(path, [&](std::ostream& out) { out << html; });
+            },
+            py::arg("path"), py::arg("solution") = py::none(), py::arg("title") = "",
+            py::arg("max_entries") = static_cast<long long>(PageOptions{}.max_entries),
+            "Writes the result page to `path`: one self-contained HTML file (no network) with the "
+            "scene in 3D, coloured by row sum, sky factor, standard error, or `solution` (a "
+            "RadiosityResult, an (N, 3) radiosity array, or a ThermalResult); a click on a patch "
+            "shows its row of F. At most `max_entries` entries of F are stored (the page states "
+            "the threshold and each row's dropped mass). See docs/page.md.")
+        .def(
+            "_repr_html_",
+            [](const PyResult& r) {
+                // A notebook shows the page in a sandboxed frame (scripts only, its own CSP).
+                return "<iframe sandbox=\"allow-scripts\" "
+                       "style=\"width:100%;height:640px;border:0\" "
+                       "title=\"formfactor result\" srcdoc=\"" +
+                       attribute_text(page_of(r, py::none(), "", 200'000)) + "\"></iframe>";
+            },
+            "The result page in a sandboxed iframe, for Jupyter (at most 200,000 entries of F).");
 
     py::class_<ComputeArgs>(m, "_ComputeArgs")
         .def(py::init<>())

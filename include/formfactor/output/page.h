@@ -1,0 +1,73 @@
+#pragma once
+/// The result page: one self-contained HTML file that shows a scene and its form factors in a
+/// browser (three.js and the page's script from web/, bundled at build time and inlined with
+/// the data; docs/page.md). Nothing is fetched at view time: a Content-Security-Policy in the
+/// page forbids every request, and no script is evaluated from data. Names from input files
+/// travel as JSON inside <script type="application/json"> with `<`, `>` and `&` written as
+/// \u003c, \u003e, \u0026, and the page shows them with textContent.
+///
+/// Data layout (the JSON's "patches", "fields" and "matrix" arrays are little-endian binary,
+/// base64-encoded): patch areas (f64), surfaces (u32), polygon vertices (f32) and their
+/// triangulation; colour fields per patch (f32); F as CSR rows (u16 columns when N ≤ 65,536,
+/// else u32; f32 values, f32
+/// standard errors when the method has them) keeping F_ij > threshold, with each row's
+/// dropped mass (f32) and its exact row sum (f64, over every entry).
+
+#include <cstddef>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "formfactor/core/types.h"
+#include "formfactor/matrix/form_factors.h"
+#include "formfactor/matrix/sparse.h"
+#include "formfactor/scene/scene.h"
+
+namespace formfactor {
+
+/// What a page shows beyond the scene's geometry. Every member is optional.
+struct PageContent {
+    std::string title;  ///< shown as the page's heading; empty = the scene's title or name
+    /// F (dense, with its standard errors when it has them) or a sparse F; at most one.
+    const FormFactors* form_factors = nullptr;
+    const SparseFormFactors* sparse = nullptr;
+    /// Radiosity per patch, linear RGB (a radiosity solution), shown in true colour: times
+    /// `exposure`, then sRGB, as render_radiosity() does. exposure 0 = automatic (the 99th
+    /// area-weighted percentile of the luminance of the non-emitting patches maps to 0.9).
+    std::vector<Rgb> radiosity;
+    double exposure = 0.0;
+    std::vector<bool> emitters;  ///< patches left out of the automatic exposure
+    /// A thermal solution per patch: temperature (K), net flux (W/m², + = leaving) and
+    /// radiosity J (W/m²).
+    std::vector<double> temperature;
+    std::vector<double> net_flux;
+    std::vector<double> thermal_radiosity;
+    /// The run's report (formfactor/output/report.h), shown in a panel; null = none.
+    nlohmann::json report;
+};
+
+/// How much of F a page stores.
+struct PageOptions {
+    /// At most this many entries of F are stored: when F has more nonzeros, the page keeps
+    /// F_ij > t for the smallest threshold t (on a grid of 128 steps per factor of two) that fits,
+    /// and states t and each row's dropped mass.
+    std::size_t max_entries = 1'000'000;
+    /// ≥ 0: keep exactly the entries F_ij > threshold (max_entries is then ignored).
+    double threshold = -1.0;
+};
+
+/// The page's HTML. Throws Error when the content does not match the scene (sizes) or both
+/// matrices are given.
+std::string page_html(const Scene& scene, const PageContent& content,
+                      const PageOptions& options = {});
+
+/// The data block alone (the JSON the page reads), for tests and for other viewers.
+nlohmann::json page_data(const Scene& scene, const PageContent& content,
+                         const PageOptions& options = {});
+
+/// Writes page_html() to `path` atomically. Throws InputError(path, ...) on I/O failure.
+void write_page(const std::string& path, const Scene& scene, const PageContent& content,
+                const PageOptions& options = {});
+
+}  // namespace formfactor

@@ -1,0 +1,78 @@
+"""Result.to_html() and Result._repr_html_(): the result page from Python, its data block
+against the matrix, and the notebook's sandboxed frame."""
+
+import base64
+import html
+import json
+import re
+
+import numpy as np
+import pytest
+
+import formfactor as ff
+
+
+def page_data(text):
+    m = re.search(r'<script type="application/json" id="ff-data">(.*?)</script>', text, re.S)
+    assert m, "the page has its data block"
+    return json.loads(m.group(1))
+
+
+def array(entry):
+    dtype = {"f32": "<f4", "f64": "<f8", "u16": "<u2", "u32": "<u4"}[entry["dtype"]]
+    a = np.frombuffer(base64.b64decode(entry["base64"]), dtype=dtype)
+    assert a.size == entry["count"]
+    return a
+
+
+def test_to_html_writes_a_self_contained_page_whose_rows_are_the_matrix(tmp_path):
+    scene = ff.load("cornell", subdivide=2)
+    r = scene.form_factors()
+    out = tmp_path / "result.html"
+    r.to_html(str(out), solution=ff.solve_radiosity(scene, r), title="Cornell from Python")
+    text = out.read_text(encoding="utf-8")
+    assert "Content-Security-Policy" in text and "default-src 'none'" in text
+    assert "http://" not in text.split("<script")[0]  # nothing fetched by the head
+    d = page_data(text)
+    assert d["title"] == "Cornell from Python"
+    n = r.matrix.shape[0]
+    ptr, col, val = array(d["matrix"]["row_ptr"]), array(d["matrix"]["col"]), array(d["matrix"]["val"])
+    assert ptr.size == n + 1 and d["matrix"]["threshold"] == 0
+    dense = np.zeros((n, n), dtype=np.float32)
+    for i in range(n):
+        dense[i, col[ptr[i]:ptr[i + 1]]] = val[ptr[i]:ptr[i + 1]]
+    assert np.array_equal(dense, r.matrix.astype(np.float32))
+    assert np.allclose(array(d["matrix"]["row_sum"]), r.matrix.sum(axis=1), rtol=0, atol=1e-12)
+    keys = [f["key"] for f in d["fields"]]
+    assert "radiosity" in keys and "row_sum" in keys
+    assert d["report"]["method"] == r.method
+
+
+def test_a_budget_of_entries_keeps_the_largest_and_states_the_dropped_mass(tmp_path):
+    r = ff.load("cornell", subdivide=3).form_factors()
+    out = tmp_path / "small.html"
+    r.to_html(str(out), max_entries=2000)
+    m = page_data(out.read_text(encoding="utf-8"))["matrix"]
+    val, dropped, ptr = array(m["val"]), array(m["dropped"]), array(m["row_ptr"])
+    assert 0 < m["stored_entries"] <= 2000 < m["nonzeros"]
+    assert m["threshold"] > 0 and val.min() > m["threshold"]
+    kept = np.add.reduceat(val.astype(np.float64), ptr[:-1]) * (np.diff(ptr) > 0)
+    assert np.allclose(kept + dropped, r.matrix.sum(axis=1), atol=1e-5)
+
+
+def test_repr_html_is_the_page_in_a_sandboxed_frame():
+    r = ff.load("plates").form_factors()
+    frame = r._repr_html_()
+    assert frame.startswith('<iframe sandbox="allow-scripts"')
+    m = re.search(r'srcdoc="([^"]*)"', frame)
+    assert m, "the page is in srcdoc, escaped for the attribute"
+    assert "Content-Security-Policy" in html.unescape(m.group(1))
+
+
+def test_a_row_block_or_a_bad_solution_is_refused(tmp_path):
+    scene = ff.load("cornell", subdivide=2)
+    with pytest.raises(ff.OptionError, match="whole matrix"):
+        scene.form_factors(rows=(0, 10)).to_html(str(tmp_path / "x.html"))
+    with pytest.raises(ff.OptionError, match="shape"):
+        scene.form_factors().to_html(str(tmp_path / "x.html"), solution=np.zeros((3, 3)))
+    assert not (tmp_path / "x.html").exists()

@@ -1,0 +1,366 @@
+// The result page (formfactor/output/page.h): the data block as JSON with base64 binary arrays,
+// and the HTML around it with the bundled script and style (page_bundle.h).
+
+#include "formfactor/output/page.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <ostream>
+
+#include "formfactor/core/atomic_file.h"
+#include "formfactor/core/error.h"
+#include "formfactor/geometry/polygon.h"
+#include "formfactor/output/render.h"
+#include "output/page_bundle.h"
+#include "output/render_internal.h"
+
+namespace formfactor {
+
+namespace {
+
+std::string base64(const void* data, std::size_t bytes) {
+    static constexpr char kAlphabet[] =
+        "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    const auto* p = static_cast<const unsigned char*>(data);
+    std::string out;
+    out.reserve((bytes + 2) / 3 * 4);
+    std::size_t k = 0;
+    for (; k + 3 <= bytes; k += 3) {
+        const std::uint32_t v = (p[k] << 16) | (p[k + 1] << 8) | p[k + 2];
+        out += kAlphabet[v >> 18];
+        out += kAlphabet[(v >> 12) & 63];
+        out += kAlphabet[(v >> 6) & 63];
+        out += kAlphabet[v & 63];
+    }
+    if (k < bytes) {
+        const std::uint32_t v = (p[k] << 16) | (k + 1 < bytes ? p[k + 1] << 8 : 0);
+        out += kAlphabet[v >> 18];
+        out += kAlphabet[(v >> 12) & 63];
+        out += k + 1 < bytes ? kAlphabet[(v >> 6) & 63] : '=';
+        out += '=';
+    }
+    return out;
+}
+
+// The page's typed arrays: {dtype, count, base64} of little-endian values (x86 and ARM are).
+template <class T>
+nlohmann::json typed(const std::vector<T>& v, const char* dtype) {
+    return {
+        {"dtype", dtype}, {"count", v.size()}, {"base64", base64(v.data(), v.size() * sizeof(T))}};
+}
+nlohmann::json f32(const std::vector<float>& v) { return typed(v, "f32"); }
+nlohmann::json f64(const std::vector<double>& v) { return typed(v, "f64"); }
+nlohmann::json u32(const std::vector<std::uint32_t>& v) { return typed(v, "u32"); }
+// Column indices in 2 bytes each when every index fits (N ≤ 65,536), else 4.
+nlohmann::json indices(const std::vector<std::uint32_t>& v, std::size_t n) {
+    if (n > 65536) return u32(v);
+    return typed(std::vector<std::uint16_t>(v.begin(), v.end()), "u16");
+}
+
+std::vector<float> to_f32(const std::vector<double>& v) { return {v.begin(), v.end()}; }
+
+// Row i of F as (j, F_ij, se_ij) entries (its nonzeros), for a dense or a sparse matrix.
+struct DenseSource {
+    const FormFactors& ff;
+    std::size_t size() const { return ff.size(); }
+    bool standard_errors() const { return ff.standard_error.has_value(); }
+    template <class Visit>
+    void row(std::size_t i, Visit&& visit) const {
+        const auto r = static_cast<Eigen::Index>(i);
+        const double* F = ff.F.row(r).data();
+        const double* se = ff.standard_error ? ff.standard_error->row(r).data() : nullptr;
+        const auto n = static_cast<std::size_t>(ff.F.cols());
+        for (std::size_t j = 0; j < n; ++j)
+            if (F[j] != 0.0) visit(j, F[j], se ? se[j] : 0.0);
+    }
+};
+
+struct CsrSource {
+    const SparseFormFactors& sp;
+    std::size_t size() const { return sp.n; }
+    bool standard_errors() const { return sp.standard_error.has_value(); }
+    template <class Visit>
+    void row(std::size_t i, Visit&& visit) const {
+        for (auto k = static_cast<std::size_t>(sp.indptr[i]);
+             k < static_cast<std::size_t>(sp.indptr[i + 1]); ++k)
+            visit(static_cast<std::size_t>(sp.indices[k]), sp.values[k],
+                  sp.standard_error ? (*sp.standard_error)[k] : 0.0);
+    }
+};
+
+// The bin of a positive value: the top 16 bits of its float32 (exponent and 7 bits of
+// mantissa), which order positive floats as their values do: 128 bins per octave.
+std::uint32_t float_bin(double v) {
+    const float f = static_cast<float>(v);
+    std::uint32_t bits = 0;
+    std::memcpy(&bits, &f, sizeof bits);
+    return bits >> 16;
+}
+double bin_upper_edge(std::uint32_t bin) {
+    const std::uint32_t bits = (bin + 1) << 16;
+    float f = 0.0f;
+    std::memcpy(&f, &bits, sizeof f);
+    return f;
+}
+
+// The smallest threshold t on the bin edges (128 a factor of two) that keeps at most `budget`
+// entries F_ij > t; 0 when every positive entry fits. One pass over F with a histogram.
+template <class Rows>
+double auto_threshold(const Rows& m, std::size_t budget) {
+    std::vector<std::size_t> bins(1u << 15, 0);
+    std::size_t positive = 0;
+    for (std::size_t i = 0; i < m.size(); ++i)
+        m.row(i, [&](std::size_t, double v, double) {
+            if (!(v > 0.0)) return;
+            ++positive;
+            ++bins[std::min<std::size_t>(float_bin(v), bins.size() - 1)];
+        });
+    if (positive <= budget) return 0.0;
+    // Keep the bins above the first one (from the top) that would not fit: its upper edge.
+    std::size_t above = 0;
+    for (std::size_t b = bins.size(); b-- > 0;) {
+        if (above + bins[b] > budget) return bin_upper_edge(static_cast<std::uint32_t>(b));
+        above += bins[b];
+    }
+    return 0.0;
+}
+
+template <class Rows>
+nlohmann::json matrix_json(const Scene& scene, const Rows& m, const PageOptions& options,
+                           nlohmann::json& fields) {
+    const std::size_t n = m.size();
+    if (n != scene.patches.size())
+        throw Error(fmt::format("the page's matrix is {}×{} but the scene has {} patches", n, n,
+                                scene.patches.size()));
+    const double threshold =
+        options.threshold >= 0.0 ? options.threshold : auto_threshold(m, options.max_entries);
+    std::vector<std::uint32_t> row_ptr{0}, col;
+    std::vector<float> val, se, dropped(n, 0.0f), se_max(n, 0.0f);
+    std::vector<double> row_sum(n, 0.0);
+    std::size_t nonzeros = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+        double sum = 0.0, lost = 0.0, worst = 0.0;
+        m.row(i, [&](std::size_t j, double v, double e) {
+            ++nonzeros;
+            sum += v;
+            worst = std::max(worst, e);
+            if (v > threshold || v < 0.0) {
+                col.push_back(static_cast<std::uint32_t>(j));
+                val.push_back(static_cast<float>(v));
+                if (m.standard_errors()) se.push_back(static_cast<float>(e));
+            } else {
+                lost += v;
+            }
+        });
+        row_sum[i] = sum;
+        dropped[i] = static_cast<float>(lost);
+        se_max[i] = static_cast<float>(worst);
+        row_ptr.push_back(static_cast<std::uint32_t>(col.size()));
+    }
+    nlohmann::json j = {{"threshold", threshold},  {"stored_entries", val.size()},
+                        {"nonzeros", nonzeros},    {"row_ptr", u32(row_ptr)},
+                        {"col", indices(col, n)},  {"val", f32(val)},
+                        {"dropped", f32(dropped)}, {"row_sum", f64(row_sum)}};
+    if (m.standard_errors()) j["standard_error"] = f32(se);
+    std::vector<float> sky(n);
+    for (std::size_t i = 0; i < n; ++i)
+        sky[i] = static_cast<float>(std::max(0.0, 1.0 - row_sum[i]));
+    fields.push_back({{"key", "row_sum"},
+                      {"label", "row sum Σ_j F_ij"},
+                      {"unit", ""},
+                      {"values", f32(to_f32(row_sum))}});
+    fields.push_back({{"key", "sky_factor"},
+                      {"label", "sky factor 1 − Σ_j F_ij (what escapes)"},
+                      {"unit", ""},
+                      {"values", f32(sky)}});
+    if (m.standard_errors())
+        fields.push_back({{"key", "standard_error"},
+                          {"label", "standard error, largest of the row"},
+                          {"unit", ""},
+                          {"values", f32(se_max)}});
+    return j;
+}
+
+void check_size(const Scene& scene, std::size_t size, const char* what) {
+    if (size != 0 && size != scene.patches.size())
+        throw Error(fmt::format("the page's {} has {} values but the scene has {} patches", what,
+                                size, scene.patches.size()));
+}
+
+nlohmann::json scalar_field(const char* key, const char* label, const char* unit,
+                            const std::vector<double>& v) {
+    return {{"key", key}, {"label", label}, {"unit", unit}, {"values", f32(to_f32(v))}};
+}
+
+// JSON for a <script type="application/json"> element: nothing in it can close the element or
+// open a comment, since '<', '>' and '&' only occur inside JSON strings and are escaped there.
+std::string script_safe_json(const nlohmann::json& j) {
+    const std::string text = j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+    std::string out;
+    out.reserve(text.size() + text.size() / 64);
+    for (char c : text) {
+        switch (c) {
+            case '<':
+                out += "\\u003c";
+                break;
+            case '>':
+                out += "\\u003e";
+                break;
+            case '&':
+                out += "\\u0026";
+                break;
+            default:
+                out += c;
+        }
+    }
+    return out;
+}
+
+}  // namespace
+
+nlohmann::json page_data(const Scene& scene, const PageContent& content,
+                         const PageOptions& options) {
+    if (content.form_factors && content.sparse)
+        throw Error("a page shows one matrix: give the dense or the sparse one, not both");
+    const std::size_t n = scene.patches.size();
+    check_size(scene, content.radiosity.size(), "radiosity");
+    check_size(scene, content.temperature.size(), "temperature");
+    check_size(scene, content.net_flux.size(), "net flux");
+    check_size(scene, content.thermal_radiosity.size(), "radiosity J");
+
+    // Patches: areas, surfaces, polygons and their triangulation (indices into the vertices).
+    std::vector<double> area(n);
+    std::vector<std::uint32_t> surface(n), vertex_offset{0}, triangles, triangle_patch;
+    std::vector<float> vertices;
+    for (std::size_t i = 0; i < n; ++i) {
+        const Patch& p = scene.patches[i];
+        area[i] = p.area;
+        surface[i] = static_cast<std::uint32_t>(std::max(p.surface, 0));
+        const std::uint32_t base = vertex_offset.back();
+        for (const Vec3& v : p.polygon.vertices)
+            for (int c = 0; c < 3; ++c) vertices.push_back(static_cast<float>(v[c]));
+        for (const auto& t : triangulate(p.polygon)) {
+            for (int c = 0; c < 3; ++c)
+                triangles.push_back(base + static_cast<std::uint32_t>(t[c]));
+            triangle_patch.push_back(static_cast<std::uint32_t>(i));
+        }
+        vertex_offset.push_back(base + static_cast<std::uint32_t>(p.polygon.size()));
+    }
+    nlohmann::json surfaces = nlohmann::json::array();
+    for (const Surface& s : scene.surfaces)
+        surfaces.push_back({{"name", s.name}, {"obstruction", s.obstruction}});
+
+    nlohmann::json fields = nlohmann::json::array();
+    if (!content.radiosity.empty()) {
+        double exposure = content.exposure;
+        if (!(exposure > 0.0)) {
+            const double q =
+                detail::patch_luminance_quantile(scene, content.radiosity, content.emitters, 0.99);
+            exposure = q > 0.0 ? 0.9 / q : 1.0;
+        }
+        std::vector<float> rgb;
+        rgb.reserve(3 * n);
+        for (const Rgb& c : content.radiosity)
+            for (int k = 0; k < 3; ++k) rgb.push_back(static_cast<float>(c[k]));
+        fields.push_back({{"key", "radiosity"},
+                          {"label", "radiosity B"},
+                          {"unit", ""},
+                          {"kind", "rgb"},
+                          {"exposure", exposure},
+                          {"values", f32(rgb)}});
+    }
+    if (!content.temperature.empty())
+        fields.push_back(scalar_field("temperature", "temperature", "K", content.temperature));
+    if (!content.net_flux.empty())
+        fields.push_back(
+            scalar_field("net_flux", "net flux q (+ leaves)", "W/m²", content.net_flux));
+    if (!content.thermal_radiosity.empty())
+        fields.push_back(
+            scalar_field("radiosity_j", "radiosity J", "W/m²", content.thermal_radiosity));
+    {
+        // The materials' colours (reflectance; emitters white), for a page without a solution.
+        std::vector<float> rgb;
+        rgb.reserve(3 * n);
+        for (std::size_t i = 0; i < n; ++i) {
+            const Material& m = scene.material_of(i);
+            const bool emits = m.emission.maxCoeff() > 0.0;
+            for (int k = 0; k < 3; ++k)
+                rgb.push_back(emits ? 1.0f : static_cast<float>(m.reflectance[k]));
+        }
+        fields.push_back({{"key", "material"},
+                          {"label", "material colour (reflectance)"},
+                          {"unit", ""},
+                          {"kind", "rgb"},
+                          {"exposure", 1.0},
+                          {"values", f32(rgb)}});
+    }
+
+    const Camera cam = scene.camera ? *scene.camera : auto_camera(scene, 1.0);
+    nlohmann::json j = {
+        {"format", "formfactor-page"},
+        {"version", 1},
+        {"title", !content.title.empty() ? content.title
+                  : !scene.title.empty() ? scene.title
+                                         : scene.name},
+        {"scene", {{"name", scene.name}, {"title", scene.title}}},
+        {"camera",
+         {{"eye", {cam.eye.x(), cam.eye.y(), cam.eye.z()}},
+          {"target", {cam.target.x(), cam.target.y(), cam.target.z()}},
+          {"up", {cam.up.x(), cam.up.y(), cam.up.z()}},
+          {"fov", cam.fov_degrees}}},
+        {"surfaces", surfaces},
+        {"patches",
+         {{"count", n},
+          {"area", f64(area)},
+          {"surface", u32(surface)},
+          {"vertex_offset", u32(vertex_offset)},
+          {"vertices", f32(vertices)},
+          {"triangles", u32(triangles)},
+          {"triangle_patch", u32(triangle_patch)}}},
+    };
+    if (content.form_factors)
+        j["matrix"] = matrix_json(scene, DenseSource{*content.form_factors}, options, fields);
+    else if (content.sparse)
+        j["matrix"] = matrix_json(scene, CsrSource{*content.sparse}, options, fields);
+    j["fields"] = fields;
+    if (!content.report.is_null()) j["report"] = content.report;
+    return j;
+}
+
+std::string page_html(const Scene& scene, const PageContent& content, const PageOptions& options) {
+    const std::string data = script_safe_json(page_data(scene, content, options));
+    std::string html;
+    html.reserve(data.size() + std::strlen(detail::kPageScript) + 4096);
+    html += "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n";
+    // Every request is forbidden; only the inlined script and style (by hash) run.
+    html += fmt::format(
+        "<meta http-equiv=\"Content-Security-Policy\" content=\"default-src 'none'; "
+        "script-src '{}'; style-src '{}'; img-src 'none'; connect-src 'none'; font-src 'none'; "
+        "media-src 'none'; object-src 'none'; worker-src 'none'; frame-src 'none'; "
+        "base-uri 'none'; form-action 'none'\">\n",
+        detail::kPageScriptHash, detail::kPageStyleHash);
+    html += "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n";
+    html += "<meta name=\"generator\" content=\"formfactor " FF_VERSION "\">\n";
+    html += "<title>formfactor result</title>\n<style>";
+    html += detail::kPageStyle;
+    html += "</style>\n</head>\n<body>\n<div id=\"ff-app\"></div>\n";
+    html += "<script type=\"application/json\" id=\"ff-data\">";
+    html += data;
+    html += "</script>\n<script>";
+    html += detail::kPageScript;
+    html += "</script>\n</body>\n</html>\n";
+    return html;
+}
+
+void write_page(const std::string& path, const Scene& scene, const PageContent& content,
+                const PageOptions& options) {
+    const std::string html = page_html(scene, content, options);
+    write_file_atomically(path, [&](std::ostream& out) { out << html; });
+}
+
+}  // namespace formfactor

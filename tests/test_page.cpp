@@ -1,0 +1,155 @@
+// The result page's writer (formfactor/output/page.h) and `formfactor view`: the data block
+// stays data whatever the names, the stored rows and their threshold, and the CLI's errors.
+// The page itself is checked in headless Chromium (web/test/browser/).
+
+#include <doctest/doctest.h>
+
+#include <cstring>
+#include <filesystem>
+#include <string>
+
+#include "cli_runner.h"
+#include "formfactor/core/error.h"
+#include "formfactor/output/matrix_io.h"
+#include "formfactor/output/page.h"
+#include "formfactor/scene/scene.h"
+#include "temp_dir.h"
+
+using namespace formfactor;
+using formfactor::testing::Cli;
+using formfactor::testing::CliResult;
+
+namespace {
+
+std::size_t count(const std::string& text, const std::string& what) {
+    std::size_t n = 0;
+    for (auto at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
+    return n;
+}
+
+constexpr const char* kAlphabet =
+    "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+
+/// The float32 values of a page array ({dtype, count, base64}).
+std::vector<float> decode_f32(const nlohmann::json& entry) {
+    const std::string b64 = entry["base64"];
+    std::string bytes;
+    int bits = 0;
+    std::uint32_t acc = 0;
+    for (char c : b64) {
+        const char* at = std::strchr(kAlphabet, c);
+        if (c == '=' || !at) break;
+        acc = (acc << 6) | static_cast<std::uint32_t>(at - kAlphabet);
+        bits += 6;
+        if (bits >= 8) {
+            bits -= 8;
+            bytes += static_cast<char>((acc >> bits) & 0xff);
+        }
+    }
+    std::vector<float> out(bytes.size() / 4);
+    std::memcpy(out.data(), bytes.data(), out.size() * 4);
+    return out;
+}
+
+/// The cube (6 patches) with F_ij = 0.2 for j ≠ i, except row 0: 0.5, 0.3, 0.1, 0.06, 0.04.
+FormFactors cube_matrix(const Scene& scene) {
+    FormFactors ff;
+    const auto n = static_cast<Eigen::Index>(scene.patches.size());
+    ff.F = DenseMatrix::Constant(n, n, 0.2);
+    ff.F.diagonal().setZero();
+    ff.F.row(0) << 0.0, 0.5, 0.3, 0.1, 0.06, 0.04;
+    for (const Patch& p : scene.patches) ff.areas.push_back(p.area);
+    return ff;
+}
+
+}  // namespace
+
+TEST_CASE("page: names from input files cannot end the data block or become markup") {
+    Scene scene = builtin_scene("cube");
+    scene.surfaces[0].name = "</script><script>alert(1)</script>";
+    scene.surfaces[1].name = "<img src=x onerror=alert(2)> & <!--";
+    scene.surfaces[2].name = std::string("bad utf-8 \xff\xfe");
+    const FormFactors ff = cube_matrix(scene);
+    PageContent content;
+    content.form_factors = &ff;
+    content.title = "<b>title</b>";
+    const std::string html = page_html(scene, content);
+    const auto begin = html.find("<script type=\"application/json\" id=\"ff-data\">");
+    REQUIRE(begin != std::string::npos);
+    const auto body = begin + std::strlen("<script type=\"application/json\" id=\"ff-data\">");
+    const auto end = html.find("</script>", body);
+    const std::string data = html.substr(body, end - body);
+    CHECK(data.find('<') == std::string::npos);
+    CHECK(data.find('>') == std::string::npos);
+    CHECK(data.find('&') == std::string::npos);
+    CHECK(count(html, "</script>") == 2);  // the data block's and the bundle's
+    const nlohmann::json j = nlohmann::json::parse(data);
+    CHECK(j["surfaces"][0]["name"] == "</script><script>alert(1)</script>");
+    CHECK(j["surfaces"][1]["name"] == "<img src=x onerror=alert(2)> & <!--");
+    CHECK(j["title"] == "<b>title</b>");
+    CHECK(html.find("default-src 'none'") != std::string::npos);
+    CHECK(html.find("'unsafe-inline'") == std::string::npos);
+    CHECK(html.find("'unsafe-eval'") == std::string::npos);
+}
+
+TEST_CASE("page: rows keep the entries above the threshold, and each row's dropped mass") {
+    const Scene scene = builtin_scene("cube");
+    const FormFactors ff = cube_matrix(scene);
+    PageContent content;
+    content.form_factors = &ff;
+    PageOptions options;
+    options.threshold = 0.08;
+    nlohmann::json m = page_data(scene, content, options)["matrix"];
+    CHECK(m["nonzeros"] == 30);
+    CHECK(m["stored_entries"] == 3 + 25);
+    const auto dropped = decode_f32(m["dropped"]);
+    REQUIRE(dropped.size() == 6);
+    CHECK(dropped[0] == doctest::Approx(0.1));
+    CHECK(dropped[1] == 0.0f);
+    // A budget of entries picks the smallest threshold that fits: the 25 entries of 0.2 in
+    // rows 1..5 and row 0's 0.5 and 0.3 are the 27 largest.
+    options = {};
+    options.max_entries = 27;
+    m = page_data(scene, content, options)["matrix"];
+    CHECK(m["stored_entries"] == 27);
+    CHECK(m["threshold"].get<double>() >= 0.1);
+    CHECK(m["threshold"].get<double>() < 0.2);
+    options.max_entries = 30;
+    CHECK(page_data(scene, content, options)["matrix"]["threshold"] == 0.0);
+}
+
+TEST_CASE("page: content that does not match the scene is refused") {
+    const Scene scene = builtin_scene("cube");
+    PageContent content;
+    content.temperature = {300.0, 310.0};
+    CHECK_THROWS_AS(page_html(scene, content), Error);
+}
+
+TEST_CASE("cli view: one page from a scene, and errors that write nothing") {
+    Cli cli;
+    CliResult r = cli.run("view cornell --subdivide 2 -o result.html");
+    INFO(r.out << r.err);
+    REQUIRE(r.code == 0);
+    const std::string html = formfactor::testing::read_text(cli.file("result.html"));
+    CHECK(html.rfind("<!DOCTYPE html>", 0) == 0);
+    CHECK(html.find("\"key\":\"radiosity\"") != std::string::npos);  // cornell has a light
+    CHECK(r.out.find("wrote      result.html") != std::string::npos);
+
+    r = cli.run("view cornell -o result.png");
+    CHECK(r.code == 2);
+    CHECK(r.one_error_line());
+    CHECK(!std::filesystem::exists(cli.file("result.png")));
+
+    // A dense F that cannot fit is refused before anything big exists.
+    r = cli.run("view cornell --subdivide 2000 -o big.html");
+    CHECK(r.code == 1);
+    CHECK(r.one_error_line());
+    CHECK(r.err.find("memory") != std::string::npos);
+    CHECK(!std::filesystem::exists(cli.file("big.html")));
+
+    write_matrix(cli.file("F.npy"), DenseMatrix::Zero(3, 3));
+    r = cli.run("view cornell --subdivide 2 --matrix F.npy -o bad.html");
+    CHECK(r.code == 1);
+    CHECK(r.one_error_line());
+    CHECK(!std::filesystem::exists(cli.file("bad.html")));
+}

@@ -1,0 +1,183 @@
+// The page's data: the JSON the C++ writer (src/output/page.cpp) puts in
+// <script type="application/json" id="ff-data">, decoded into typed arrays, and the questions the
+// page asks of it (a row of F, a column, the largest entries, reciprocity, per-surface sums).
+// Pure functions, no DOM: node's test runner checks them (test/data.test.js).
+
+/// Bytes of a base64 string (RFC 4648, with or without padding).
+export function base64ToBytes(text) {
+    const bin = atob(text);
+    const out = new Uint8Array(bin.length);
+    for (let k = 0; k < bin.length; ++k) out[k] = bin.charCodeAt(k);
+    return out;
+}
+
+const kArrayTypes = { f32: Float32Array, f64: Float64Array, u16: Uint16Array, u32: Uint32Array, i32: Int32Array };
+
+/// A typed array from {dtype, count, base64} (little-endian, as the writer stores it). Throws
+/// on an unknown dtype or a length that does not match count.
+export function decodeArray(entry) {
+    const Type = kArrayTypes[entry.dtype];
+    if (!Type) throw new Error(`unknown dtype '${entry.dtype}'`);
+    const bytes = base64ToBytes(entry.base64);
+    if (bytes.length !== entry.count * Type.BYTES_PER_ELEMENT)
+        throw new Error(`array of ${entry.count} ${entry.dtype} has ${bytes.length} bytes`);
+    return new Type(bytes.buffer, bytes.byteOffset, entry.count);
+}
+
+/// The decoded model: patches (areas, surfaces, polygon vertices, triangles), surfaces,
+/// colour fields and the stored rows of F (CSR), with the threshold below which entries were
+/// left out and each row's dropped mass.
+export function decodeData(json) {
+    if (json.format !== 'formfactor-page' || json.version !== 1)
+        throw new Error('not a formfactor page data block (format/version)');
+    const n = json.patches.count;
+    const p = json.patches;
+    const model = {
+        n,
+        title: json.title ?? '',
+        scene: json.scene ?? {},
+        camera: json.camera ?? null,
+        report: json.report ?? null,
+        surfaces: json.surfaces ?? [],
+        area: decodeArray(p.area),
+        surface: decodeArray(p.surface),
+        vertexOffset: decodeArray(p.vertex_offset),
+        vertices: decodeArray(p.vertices),
+        triangles: decodeArray(p.triangles),
+        trianglePatch: decodeArray(p.triangle_patch),
+        fields: (json.fields ?? []).map((f) => ({ ...f, values: decodeArray(f.values) })),
+        matrix: null,
+    };
+    if (model.area.length !== n || model.surface.length !== n || model.vertexOffset.length !== n + 1)
+        throw new Error('patch arrays do not match the patch count');
+    if (json.matrix) {
+        const m = json.matrix;
+        model.matrix = {
+            threshold: m.threshold,
+            storedEntries: m.stored_entries,
+            nonzeros: m.nonzeros,
+            rowPtr: decodeArray(m.row_ptr),
+            col: decodeArray(m.col),
+            val: decodeArray(m.val),
+            se: m.standard_error ? decodeArray(m.standard_error) : null,
+            dropped: decodeArray(m.dropped),
+            rowSum: decodeArray(m.row_sum),
+            columns: null,
+        };
+        if (model.matrix.rowPtr.length !== n + 1 || model.matrix.rowPtr[n] !== model.matrix.col.length)
+            throw new Error('matrix row pointers do not match its entries');
+    }
+    return model;
+}
+
+/// Row i of F as stored: {cols, vals, se} (views into the CSR arrays, columns ascending).
+export function row(matrix, i) {
+    const a = matrix.rowPtr[i], b = matrix.rowPtr[i + 1];
+    return {
+        cols: matrix.col.subarray(a, b),
+        vals: matrix.val.subarray(a, b),
+        se: matrix.se ? matrix.se.subarray(a, b) : null,
+    };
+}
+
+/// Row i as one value per patch (0 where nothing is stored).
+export function denseRow(matrix, n, i) {
+    const out = new Float32Array(n);
+    const r = row(matrix, i);
+    for (let k = 0; k < r.cols.length; ++k) out[r.cols[k]] = r.vals[k];
+    return out;
+}
+
+/// Column j as one value per patch: F_ij for every i (who sees j). The transpose is built on
+/// first use and kept (O(stored entries)).
+export function denseColumn(matrix, n, j) {
+    if (!matrix.columns) {
+        const count = new Uint32Array(n + 1);
+        for (let k = 0; k < matrix.col.length; ++k) ++count[matrix.col[k] + 1];
+        for (let c = 0; c < n; ++c) count[c + 1] += count[c];
+        const rows = new Uint32Array(matrix.col.length);
+        const vals = new Float32Array(matrix.col.length);
+        const fill = count.slice(0, n);
+        for (let i = 0; i < n; ++i)
+            for (let k = matrix.rowPtr[i]; k < matrix.rowPtr[i + 1]; ++k) {
+                const at = fill[matrix.col[k]]++;
+                rows[at] = i;
+                vals[at] = matrix.val[k];
+            }
+        matrix.columns = { ptr: count, rows, vals };
+    }
+    const t = matrix.columns;
+    const out = new Float32Array(n);
+    for (let k = t.ptr[j]; k < t.ptr[j + 1]; ++k) out[t.rows[k]] = t.vals[k];
+    return out;
+}
+
+/// The value of F_ij as stored (0 when not stored), by binary search in row i.
+export function entry(matrix, i, j) {
+    let lo = matrix.rowPtr[i], hi = matrix.rowPtr[i + 1];
+    while (lo < hi) {
+        const mid = (lo + hi) >>> 1;
+        if (matrix.col[mid] < j) lo = mid + 1;
+        else hi = mid;
+    }
+    return lo < matrix.rowPtr[i + 1] && matrix.col[lo] === j ? matrix.val[lo] : 0;
+}
+
+/// The k largest entries of row i, largest first: [{j, value, se}] (ties by lower j).
+export function topEntries(matrix, i, k) {
+    const r = row(matrix, i);
+    const order = Array.from(r.cols.keys());
+    order.sort((a, b) => r.vals[b] - r.vals[a] || r.cols[a] - r.cols[b]);
+    return order.slice(0, k).map((at) => ({
+        j: r.cols[at],
+        value: r.vals[at],
+        se: r.se ? r.se[at] : null,
+    }));
+}
+
+/// Reciprocity of the pair (i, j): A_i F_ij, A_j F_ji and |A_i F_ij − A_j F_ji| / max of the two
+/// (0 when both are 0), from the stored entries.
+export function reciprocity(model, i, j) {
+    const a = model.area[i] * entry(model.matrix, i, j);
+    const b = model.area[j] * entry(model.matrix, j, i);
+    const m = Math.max(a, b);
+    return { forward: a, backward: b, defect: m > 0 ? Math.abs(a - b) / m : 0 };
+}
+
+/// Per-surface form factors from surface s: F_{s→t} = Σ_{i∈s} A_i Σ_{j∈t} F_ij / A_s for every
+/// surface t (from the stored entries), as one value per surface.
+export function surfaceRow(model, s) {
+    const out = new Float64Array(model.surfaces.length);
+    let areaS = 0;
+    for (let i = 0; i < model.n; ++i) {
+        if (model.surface[i] !== s) continue;
+        areaS += model.area[i];
+        const r = row(model.matrix, i);
+        for (let k = 0; k < r.cols.length; ++k) out[model.surface[r.cols[k]]] += model.area[i] * r.vals[k];
+    }
+    if (areaS > 0) for (let t = 0; t < out.length; ++t) out[t] /= areaS;
+    return out;
+}
+
+/// Per-surface form factors into surface t: F_{s→t} for every surface s, as one value per
+/// surface (one pass over the stored entries).
+export function surfaceColumn(model, t) {
+    const out = new Float64Array(model.surfaces.length);
+    const areaOf = new Float64Array(model.surfaces.length);
+    for (let i = 0; i < model.n; ++i) {
+        const s = model.surface[i];
+        areaOf[s] += model.area[i];
+        const r = row(model.matrix, i);
+        for (let k = 0; k < r.cols.length; ++k)
+            if (model.surface[r.cols[k]] === t) out[s] += model.area[i] * r.vals[k];
+    }
+    for (let s = 0; s < out.length; ++s) if (areaOf[s] > 0) out[s] /= areaOf[s];
+    return out;
+}
+
+/// The patches of surface s (their indices, ascending).
+export function patchesOfSurface(model, s) {
+    const out = [];
+    for (let i = 0; i < model.n; ++i) if (model.surface[i] === s) out.push(i);
+    return out;
+}

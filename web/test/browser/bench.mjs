@@ -1,0 +1,38 @@
+// Benchmark (not a test): how long a result page takes to open and to answer a click in
+// headless Chromium.  node web/test/browser/bench.mjs PAGE.html [PAGE2.html ...]
+// Prints the file size, the time from navigation to the first drawn frame, and the time from a
+// click on a patch to its row drawn and listed (the median of 5 clicks).
+
+import { statSync } from 'node:fs';
+import path from 'node:path';
+import { scratch, openPage } from './support.mjs';
+
+for (const file of process.argv.slice(2)) {
+    const tmp = scratch();
+    try {
+        const view = await openPage(path.resolve(file), path.join(tmp.dir, 'profile'));
+        const p = view.page;
+        const n = await p.evaluate(() => window.formfactorPage.patchCount);
+        const clicks = [];
+        for (let k = 0; k < 5; ++k) {
+            // A visible patch near the middle of the view.
+            const target = await p.evaluate(() => {
+                const r = document.querySelector('.ff-view canvas').getBoundingClientRect();
+                return { x: r.left + r.width * (0.4 + 0.05 * Math.random()), y: r.top + r.height * (0.7 + 0.05 * Math.random()) };
+            });
+            const t0 = performance.now();
+            await p.mouse.click(target.x, target.y);
+            await p.evaluate(() => new Promise((resolve) => requestAnimationFrame(() => resolve())));
+            clicks.push(performance.now() - t0);
+            if ((await p.evaluate(() => window.formfactorPage.state().selected)) < 0) throw new Error('the click selected nothing');
+        }
+        clicks.sort((a, b) => a - b);
+        const mb = statSync(file).size / 1e6;
+        console.log(`${path.basename(file)}: ${n} patches, ${mb.toFixed(1)} MB, opens in ${(view.openMs / 1000).toFixed(2)} s, a click answers in ${(clicks[2] / 1000).toFixed(3)} s (median of 5)`);
+        console.log('  in the page (ms):', await p.evaluate(() => window.formfactorPage.timings));
+        if (view.log.consoleErrors.length || view.log.pageErrors.length) console.log('errors:', view.log);
+        await view.close();
+    } finally {
+        tmp.remove();
+    }
+}

@@ -1,0 +1,103 @@
+// Decoding of the page's data block and the questions the page asks of it.
+import { test } from 'node:test';
+import assert from 'node:assert/strict';
+import { base64ToBytes, decodeArray, decodeData, row, denseRow, denseColumn, entry, topEntries, reciprocity, surfaceRow, surfaceColumn } from '../src/data.js';
+
+const b64 = (typed) => Buffer.from(typed.buffer, typed.byteOffset, typed.byteLength).toString('base64');
+const arr = (dtype, typed) => ({ dtype, count: typed.length, base64: b64(typed) });
+
+// Three patches: 0 and 1 on surface 0, 2 on surface 1; F (stored entries only):
+//   row 0: F01 = 0.25, F02 = 0.5    row 1: F10 = 0.5    row 2: F20 = 0.125, F21 = 0.375
+function sample() {
+    return {
+        format: 'formfactor-page', version: 1, title: 't',
+        surfaces: [{ name: 'wall' }, { name: '<img onerror=alert(1)>' }],
+        patches: {
+            count: 3,
+            area: arr('f64', new Float64Array([1, 0.5, 2])),
+            surface: arr('u32', new Uint32Array([0, 0, 1])),
+            vertex_offset: arr('u32', new Uint32Array([0, 3, 6, 9])),
+            vertices: arr('f32', new Float32Array(27)),
+            triangles: arr('u32', new Uint32Array([0, 1, 2, 3, 4, 5, 6, 7, 8])),
+            triangle_patch: arr('u32', new Uint32Array([0, 1, 2])),
+        },
+        fields: [{ key: 'row_sum', label: 'row sum', values: arr('f32', new Float32Array([0.75, 0.5, 0.5])) }],
+        matrix: {
+            threshold: 0.1, stored_entries: 5, nonzeros: 6,
+            row_ptr: arr('u32', new Uint32Array([0, 2, 3, 5])),
+            col: arr('u16', new Uint16Array([1, 2, 0, 0, 1])),
+            val: arr('f32', new Float32Array([0.25, 0.5, 0.5, 0.125, 0.375])),
+            dropped: arr('f32', new Float32Array([0, 0.01, 0])),
+            row_sum: arr('f32', new Float32Array([0.75, 0.51, 0.5])),
+        },
+    };
+}
+
+test('base64 decodes to the bytes it encodes, padded or not', () => {
+    assert.deepEqual([...base64ToBytes('AAEC/w==')], [0, 1, 2, 255]);
+    assert.deepEqual([...base64ToBytes('AAEC/w')], [0, 1, 2, 255]);
+    assert.deepEqual([...base64ToBytes('')], []);
+});
+
+test('typed arrays decode little-endian values exactly', () => {
+    const f = new Float64Array([Math.PI, -1e-300, 0.1]);
+    assert.deepEqual([...decodeArray(arr('f64', f))], [...f]);
+    const u = new Uint32Array([0, 1, 4294967295]);
+    assert.deepEqual([...decodeArray(arr('u32', u))], [...u]);
+    const h = new Uint16Array([0, 7, 65535]);
+    assert.deepEqual([...decodeArray(arr('u16', h))], [...h]);
+    assert.equal(decodeArray({ dtype: 'f32', count: 1, base64: b64(new Float32Array([0.1])) })[0], Math.fround(0.1));
+});
+
+test('a length that does not match its count, or an unknown dtype, is refused', () => {
+    assert.throws(() => decodeArray({ dtype: 'f32', count: 2, base64: b64(new Float32Array([1])) }), /has 4 bytes/);
+    assert.throws(() => decodeArray({ dtype: 'x8', count: 0, base64: '' }), /unknown dtype/);
+});
+
+test('a block of another format is refused', () => {
+    assert.throws(() => decodeData({ format: 'other', version: 1 }), /not a formfactor page/);
+    const bad = sample();
+    bad.matrix.row_ptr = arr('u32', new Uint32Array([0, 2, 3, 4]));
+    assert.throws(() => decodeData(bad), /row pointers/);
+});
+
+test('rows, columns and entries read the CSR arrays', () => {
+    const m = decodeData(sample());
+    assert.equal(m.n, 3);
+    assert.deepEqual([...row(m.matrix, 2).cols], [0, 1]);
+    assert.deepEqual([...denseRow(m.matrix, 3, 0)], [0, 0.25, 0.5]);
+    assert.deepEqual([...denseColumn(m.matrix, 3, 0)], [0, 0.5, 0.125]);
+    assert.deepEqual([...denseColumn(m.matrix, 3, 1)], [0.25, 0, 0.375]);
+    assert.equal(entry(m.matrix, 0, 2), 0.5);
+    assert.equal(entry(m.matrix, 1, 2), 0);
+    assert.equal(entry(m.matrix, 2, 2), 0);
+    assert.equal(m.surfaces[1].name, '<img onerror=alert(1)>');
+});
+
+test('top entries come largest first, ties by the lower patch', () => {
+    const m = decodeData(sample());
+    assert.deepEqual(topEntries(m.matrix, 0, 5).map((t) => [t.j, t.value]), [[2, 0.5], [1, 0.25]]);
+    assert.deepEqual(topEntries(m.matrix, 2, 1).map((t) => t.j), [1]);
+});
+
+test('reciprocity compares A_i F_ij with A_j F_ji', () => {
+    const m = decodeData(sample());
+    const r = reciprocity(m, 0, 1); // 1 × 0.25 against 0.5 × 0.5
+    assert.equal(r.forward, 0.25);
+    assert.equal(r.backward, 0.25);
+    assert.equal(r.defect, 0);
+    const s = reciprocity(m, 0, 2); // 1 × 0.5 against 2 × 0.125
+    assert.equal(s.defect, 0.5);
+    assert.equal(reciprocity(m, 1, 2).defect, 1); // F12 was not stored, F21 was
+});
+
+test('per-surface form factors are area-weighted sums of the rows', () => {
+    const m = decodeData(sample());
+    // surface 0 = patches 0 (A 1) and 1 (A 0.5): to surface 1: (1 × 0.5) / 1.5; to itself (1 × 0.25 + 0.5 × 0.5) / 1.5
+    const r = surfaceRow(m, 0);
+    assert.ok(Math.abs(r[1] - 0.5 / 1.5) < 1e-7);
+    assert.ok(Math.abs(r[0] - 0.5 / 1.5) < 1e-7);
+    assert.deepEqual([...surfaceRow(m, 1)], [0.5, 0]);
+    // The column into surface t is each surface's row, read at t.
+    for (const t of [0, 1]) assert.deepEqual([...surfaceColumn(m, t)], [surfaceRow(m, 0)[t], surfaceRow(m, 1)[t]]);
+});
