@@ -36,6 +36,10 @@ void SceneArgs::add_to(CLI::App* cmd, const std::string& default_scene) {
                                    "Split surfaces until no patch edge is longer than L (scene "
                                    "units); excludes --subdivide");
     max_edge_opt->type_name("L");
+    cmd->add_option("--zone", zone,
+                    "EnergyPlus models (.idf, .epJSON): the zone whose enclosure is computed "
+                    "(needed when the model has several)")
+        ->type_name("NAME");
 }
 
 void SceneArgs::validate() const {
@@ -67,12 +71,13 @@ SubdivisionOptions SceneArgs::subdivision() const {
     return o;
 }
 
-SceneOptions SceneArgs::options() const { return SceneOptions{scene, subdivision()}; }
+SceneOptions SceneArgs::options() const { return SceneOptions{scene, subdivision(), zone}; }
 
 nlohmann::json SceneArgs::to_json() const {
     const SubdivisionOptions o = subdivision();
     nlohmann::json j{{"scene", scene}, {"subdivide", o.n}};
     j["max_edge"] = o.max_edge > 0.0 ? nlohmann::json(o.max_edge) : nlohmann::json(nullptr);
+    if (!zone.empty()) j["zone"] = zone;
     return j;
 }
 
@@ -291,11 +296,16 @@ bool same_file(const std::string& a, const std::string& b) {
     return ca == cb;
 }
 
-void require_extension(const std::string& path, const std::string& ext, const std::string& option) {
+bool has_extension(const std::string& path, const std::string& ext) {
     std::string e = std::filesystem::path(path).extension().string();
     std::transform(e.begin(), e.end(), e.begin(),
                    [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-    if (e == ext) return;
+    return e == ext;
+}
+
+void require_extension(const std::string& path, const std::string& ext, const std::string& option) {
+    if (has_extension(path, ext)) return;
+    const std::string e = std::filesystem::path(path).extension().string();
     if (e.empty()) {
         throw OptionError(option, "'" + path + "' has no extension (use " + ext + ")");
     }
