@@ -138,3 +138,54 @@ TEST_CASE("energyplus output: names IDF cannot carry and per-patch rows are refu
           ".epJSON)\n");
     CHECK(cli.dir().entries() == 0);
 }
+
+TEST_CASE("energyplus output: --all-zones writes one object per zone, each closed") {
+    const std::string model =
+        read_text(std::string(FF_TEST_DATA_DIR) + "/energyplus/1ZoneUncontrolled_win_1.idf");
+    // A second zone: the same room under other names, at the same place (each zone is its own
+    // enclosure).
+    std::string second = model.substr(model.find("  Zone,"));
+    second = second.substr(0, second.find("  GlobalGeometryRules,")) +
+             second.substr(second.find("  BuildingSurface:Detailed,"));
+    for (const auto& [from, to] :
+         {std::pair<std::string, std::string>{"ZONE ONE", "ZONE TWO"}, {"Zn001", "Zn002"}})
+        for (std::size_t at = 0; (at = second.find(from, at)) != std::string::npos; at += to.size())
+            second.replace(at, from.size(), to);
+    Cli cli;
+    cli.write("two.idf", model + second);
+    CliResult r = cli.run("compute two.idf -o vf.idf");
+    CHECK(r.err ==
+          "formfactor: two.idf: the model has 2 zones; choose one with --zone NAME: ZONE ONE, "
+          "ZONE TWO\n");
+    r = cli.run("compute two.idf --all-zones --subdivide 2 -o vf.idf");
+    INFO(r.err);
+    REQUIRE(r.code == 0);
+    r = cli.run("compute two.idf --all-zones --subdivide 2 -o vf.epJSON");
+    REQUIRE(r.code == 0);
+    const auto objects = detail::parse_idf(read_text(cli.file("vf.idf")), "vf.idf");
+    REQUIRE(objects.size() == 2);
+    const auto doc = nlohmann::json::parse(read_text(cli.file("vf.epJSON")));
+    REQUIRE(doc.at("ZoneProperty:UserViewFactors:BySurfaceName").size() == 2);
+    for (std::size_t z = 0; z < 2; ++z) {
+        const std::string zone = z == 0 ? "ZONE ONE" : "ZONE TWO";
+        CAPTURE(zone);
+        const auto& o = objects[z];
+        CHECK(o.fields[0].value == zone);
+        REQUIRE(o.fields.size() == 1 + 3 * 49);
+        std::map<std::string, double> sums;
+        for (std::size_t k = 1; k < o.fields.size(); k += 3)
+            sums[o.fields[k].value] += std::stod(o.fields[k + 2].value);
+        CHECK(sums.size() == 7);
+        for (const auto& [name, sum] : sums) {
+            CHECK(name.rfind(z == 0 ? "Zn001:" : "Zn002:", 0) == 0);
+            CHECK(std::abs(sum - 1.0) < 1e-8);
+        }
+        const auto& j =
+            doc.at("ZoneProperty:UserViewFactors:BySurfaceName").at(zone + " view factors");
+        CHECK(j.at("zone_or_zonelist_or_space_or_spacelist_name") == zone);
+        CHECK(j.at("view_factors").size() == 49);
+    }
+    r = cli.run("compute two.idf --all-zones -o vf.csv");
+    CHECK(r.err ==
+          "formfactor: --all-zones: writes EnergyPlus view factors (-o X.idf or X.epJSON)\n");
+}

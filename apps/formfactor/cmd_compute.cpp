@@ -26,6 +26,7 @@
 #include "formfactor/output/sparse_io.h"
 #include "formfactor/output/vtu.h"
 #include "formfactor/pipeline_sparse.h"
+#include "formfactor/scene/energyplus.h"
 #include "solve_common.h"
 #include "sparse_common.h"
 
@@ -49,6 +50,7 @@ struct ComputeArgs {
     long long row = -1;            ///< --row I (a .vtu output: F's row I as a field)
     std::string pairs;             ///< --pairs PAIRS.csv (per-surface long table)
     bool row_sums = false;         ///< --row-sums (columns of --patches)
+    bool all_zones = false;        ///< --all-zones (EnergyPlus models)
 };
 
 // -o outputs that are not a matrix file: they need the scene beside F.
@@ -244,8 +246,55 @@ void run_compute_sparse(const ComputeArgs& args, const std::string& why) {
     fmt::print("wrote      {}\n", wrote);
 }
 
+// --all-zones: every zone of an EnergyPlus model, each its own enclosure and matrix, into one
+// .idf or .epJSON file (one ZoneProperty:UserViewFactors:BySurfaceName object per zone).
+void run_compute_all_zones(const ComputeArgs& args) {
+    Stopwatch total;
+    EnergyPlusSyntax syntax = EnergyPlusSyntax::Idf;
+    if (!energyplus_syntax_for(args.output, syntax))
+        throw OptionError("--all-zones", "writes EnergyPlus view factors (-o X.idf or X.epJSON)");
+    if (!args.scene.zone.empty())
+        throw OptionError("--all-zones", "computes every zone: leave out --zone");
+    if (!args.report.empty() || !args.patches.empty() || !args.pairs.empty() ||
+        !args.standard_error.empty())
+        throw OptionError("--all-zones",
+                          "writes one file (-o); --report, --patches, --pairs and --stderr "
+                          "describe one zone (use --zone NAME)");
+    if (args.per_patch) throw OptionError("--per-patch", "EnergyPlus view factors are per surface");
+    if (args.storage != "auto" && args.storage != "dense")
+        throw OptionError("--storage", "EnergyPlus view factors are written from the dense F");
+    check_output_directory(args.output);
+    StepTimes times;
+    std::vector<ZoneViewFactors> zones;
+    for (const std::string& zone : energyplus_zones(args.scene.scene)) {
+        SceneArgs one = args.scene;
+        one.zone = zone;
+        const Scene scene = prepare_scene(one, times);
+        const ComputedMatrix computed = compute_matrix(scene, args.method, args.repair, times);
+        const PatchGroups groups = surface_groups(scene);
+        const FormFactors per_surface =
+            is_identity(groups) ? computed.ff : aggregate(computed.ff, groups);
+        const Diagnostics d = diagnose(per_surface);
+        fmt::print("zone       {}: {} surfaces, {} patches; rows sum to {:.10g} .. {:.10g}\n",
+                   scene.title, per_surface.size(), scene.patches.size(), d.row_sum_min,
+                   d.row_sum_max);
+        zones.push_back({scene.title, groups.names, per_surface.F});
+    }
+    write_file_atomically(
+        args.output, [&](std::ostream& out) { write_energyplus_view_factors(out, syntax, zones); });
+    fmt::print("time       {}\n", format_timings(times, total.seconds()));
+    fmt::print("wrote      {} ({} zones)\n", args.output, zones.size());
+}
+
 void run_compute(const ComputeArgs& args) {
     Stopwatch total;
+    if (args.all_zones) {
+        args.scene.validate();
+        args.method.validate();
+        parse_repair_mode(args.repair.mode);
+        run_compute_all_zones(args);
+        return;
+    }
     // Every option and output path is checked before any work.
     args.scene.validate();
     args.method.validate();
@@ -555,6 +604,9 @@ void add_compute_command(CLI::App& app) {
                     "Also write the per-surface matrix as a long table from,to,F with the "
                     "surface names")
         ->type_name("PAIRS.csv");
+    cmd->add_flag("--all-zones", args->all_zones,
+                  "EnergyPlus models: every zone, each its own enclosure, into one -o .idf or "
+                  ".epJSON file (one ZoneProperty:UserViewFactors:BySurfaceName per zone)");
     cmd->add_flag("--row-sums", args->row_sums,
                   "Add the columns row_sum and sky_factor (1 - row sum) to the --patches table");
     cmd->add_option("--stderr,--standard-error", args->standard_error,

@@ -60,25 +60,54 @@ bool energyplus_syntax_for(const std::string& path, EnergyPlusSyntax& syntax) {
     return false;
 }
 
+namespace {
+
+nlohmann::ordered_json epjson_object(const ZoneViewFactors& z) {
+    const std::size_t n = z.names.size();
+    nlohmann::ordered_json factors = nlohmann::ordered_json::array();
+    for (std::size_t i = 0; i < n; ++i)
+        for (std::size_t j = 0; j < n; ++j)
+            factors.push_back(
+                {{"from_surface", z.names[i]},
+                 {"to_surface", z.names[j]},
+                 {"view_factor", z.F(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j))}});
+    nlohmann::ordered_json object;
+    object["zone_or_zonelist_or_space_or_spacelist_name"] = z.zone;
+    object["view_factors"] = std::move(factors);
+    return object;
+}
+
+}  // namespace
+
+void write_energyplus_view_factors(std::ostream& out, EnergyPlusSyntax syntax,
+                                   const std::vector<ZoneViewFactors>& zones) {
+    for (std::size_t k = 0; k < zones.size(); ++k) {
+        check(zones[k].zone, zones[k].names, zones[k].F, syntax == EnergyPlusSyntax::Idf);
+        for (std::size_t m = 0; m < k; ++m)
+            if (zones[m].zone == zones[k].zone)
+                throw Error(std::string(kObject) + ": zone '" + zones[k].zone + "' appears twice");
+    }
+    if (syntax == EnergyPlusSyntax::EpJson) {
+        nlohmann::ordered_json doc;
+        doc[kObject] = nlohmann::ordered_json::object();
+        for (const ZoneViewFactors& z : zones)
+            doc[kObject][z.zone + " view factors"] = epjson_object(z);
+        out << doc.dump(4) << '\n';
+        return;
+    }
+    for (std::size_t k = 0; k < zones.size(); ++k) {
+        if (k > 0) out << '\n';
+        write_energyplus_view_factors(out, syntax, zones[k].zone, zones[k].names, zones[k].F);
+    }
+}
+
 void write_energyplus_view_factors(std::ostream& out, EnergyPlusSyntax syntax,
                                    const std::string& zone, const std::vector<std::string>& names,
                                    const DenseMatrix& F) {
     check(zone, names, F, syntax == EnergyPlusSyntax::Idf);
     const std::size_t n = names.size();
     if (syntax == EnergyPlusSyntax::EpJson) {
-        nlohmann::ordered_json factors = nlohmann::ordered_json::array();
-        for (std::size_t i = 0; i < n; ++i)
-            for (std::size_t j = 0; j < n; ++j)
-                factors.push_back({{"from_surface", names[i]},
-                                   {"to_surface", names[j]},
-                                   {"view_factor", F(static_cast<Eigen::Index>(i),
-                                                     static_cast<Eigen::Index>(j))}});
-        nlohmann::ordered_json object;
-        object["zone_or_zonelist_or_space_or_spacelist_name"] = zone;
-        object["view_factors"] = std::move(factors);
-        nlohmann::ordered_json doc;
-        doc[kObject][zone + " view factors"] = std::move(object);
-        out << doc.dump(4) << '\n';
+        write_energyplus_view_factors(out, syntax, {ZoneViewFactors{zone, names, F}});
         return;
     }
     std::string text = fmt::format(

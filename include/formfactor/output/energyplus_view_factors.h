@@ -35,4 +35,17 @@ void write_energyplus_view_factors(std::ostream& out, EnergyPlusSyntax syntax,
 void write_energyplus_view_factors(const std::string& path, const std::string& zone,
                                    const std::vector<std::string>& names, const DenseMatrix& F);
 
+/// One zone's view factors (rows and columns named by its surfaces).
+struct ZoneViewFactors {
+    std::string zone;
+    std::vector<std::string> names;
+    DenseMatrix F;
+};
+
+/// One object per zone, in order, in one file (IDF: the objects one after the other; epJSON:
+/// the members of one ZoneProperty:UserViewFactors:BySurfaceName object). Throws as above, and
+/// Error when a zone appears twice.
+void write_energyplus_view_factors(std::ostream& out, EnergyPlusSyntax syntax,
+                                   const std::vector<ZoneViewFactors>& zones);
+
 }  // namespace formfactor
