@@ -76,8 +76,7 @@ TEST_CASE("elmer view factors: a row without entries is a count of 0, and reads 
 }
 
 TEST_CASE("elmer view factors: bad files name the line") {
-    CHECK(message_of([] { read_elmer_text(""); }) ==
-          "vf.dat: no rows (an empty view-factor file)");
+    CHECK(message_of([] { read_elmer_text(""); }) == "vf.dat: no rows (an empty view-factor file)");
     CHECK(message_of([] { read_elmer_text("2\n1 1 0.5\n"); }) ==
           "vf.dat:2: file ends with 1 entries of row 1 missing");
     CHECK(message_of([] { read_elmer_text("1\n2 1 0.5\n"); }) ==
