@@ -132,6 +132,17 @@ TEST_CASE("energyplus: relative coordinates move the zone to its origin and keep
     CHECK((fa.F - fb.F).cwiseAbs().maxCoeff() <= 1e-12);
 }
 
+TEST_CASE("energyplus: a UTF-8 byte order mark before the first object is skipped") {
+    // From the Zone object on: the mark sits right before a class name.
+    const std::string full = read_text(data(kIdf));
+    const std::string text = full.substr(full.find("Zone,"));
+    const Scene a = load_energyplus_text(text, "a.idf");
+    const Scene b = load_energyplus_text("\xEF\xBB\xBF" + text, "b.idf");
+    REQUIRE(b.surfaces.size() == a.surfaces.size());
+    for (std::size_t k = 0; k < a.surfaces.size(); ++k)
+        CHECK(b.surfaces[k].polygon.vertices == a.surfaces[k].polygon.vertices);
+}
+
 TEST_CASE("energyplus: clockwise vertex entry keeps the file's order (surfaces face outward)") {
     const std::string text = read_text(data(kIdf));
     const Scene cw =

@@ -158,15 +158,19 @@ class ModelBuilder {
                                              join(zone_names())));
         }
         const std::string zkey = lower(zone->name);
+        std::map<std::string, const SurfaceInfo*> by_name;  // lower-case name → surface
+        std::map<std::string, std::vector<const SurfaceInfo*>> fenestration_of;  // by base
+        for (const SurfaceInfo& s : surfaces_) {
+            by_name[lower(s.name)] = &s;
+            if (s.fenestration) fenestration_of[lower(s.base)].push_back(&s);
+        }
         // Simplified objects of this zone cannot be read.
         for (const EnergyPlusObject* o : simplified_) {
             const int k = 2;
             if (static_cast<int>(o->fields.size()) <= k) continue;
-            std::string target = lower(o->fields[static_cast<std::size_t>(k)].value);
-            bool mine = target == zkey;
-            for (const SurfaceInfo& s : surfaces_)
-                if (lower(s.name) == target && lower(s.zone) == zkey) mine = true;
-            if (mine)
+            const std::string target = lower(o->fields[static_cast<std::size_t>(k)].value);
+            auto base = by_name.find(target);
+            if (target == zkey || (base != by_name.end() && lower(base->second->zone) == zkey))
                 throw InputError(path_, o->line,
                                  fmt::format("{} '{}' (simplified geometry) is not read: describe "
                                              "zone '{}' with BuildingSurface:Detailed and "
@@ -179,16 +183,15 @@ class ModelBuilder {
         scene.enclosure = true;
         scene.materials.push_back(Material{});
         std::map<std::string, int> index;  // lower-case surface name → scene surface
-        std::map<std::string, const SurfaceInfo*> by_name;
-        for (const SurfaceInfo& s : surfaces_) by_name[lower(s.name)] = &s;
         // Base surfaces in file order, each followed by its fenestration surfaces (in file
         // order): the same order from IDF and epJSON, whose objects are grouped by class.
         std::vector<const SurfaceInfo*> order;
         for (const SurfaceInfo& s : surfaces_) {
             if (s.fenestration) continue;
             order.push_back(&s);
-            for (const SurfaceInfo& f : surfaces_)
-                if (f.fenestration && lower(f.base) == lower(s.name)) order.push_back(&f);
+            auto f = fenestration_of.find(lower(s.name));
+            if (f != fenestration_of.end())
+                order.insert(order.end(), f->second.begin(), f->second.end());
         }
         for (const SurfaceInfo& s : surfaces_)
             if (s.fenestration &&

@@ -37,7 +37,9 @@ std::vector<EnergyPlusObject> parse_idf(const std::string& text, const std::stri
         field.clear();
         field_line = 0;
     };
-    for (std::size_t k = 0; k < text.size(); ++k) {
+    // A UTF-8 byte order mark (EnergyPlus's editors may write one) is not part of the text.
+    const std::size_t start = text.compare(0, 3, "\xEF\xBB\xBF") == 0 ? 3 : 0;
+    for (std::size_t k = start; k < text.size(); ++k) {
         const char c = text[k];
         if (c == '!') {
             while (k < text.size() && text[k] != '\n') ++k;
