@@ -28,6 +28,7 @@
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/solution_io.h"
 #include "formfactor/output/sparse_io.h"
+#include "formfactor/scene/energyplus.h"
 #include "formfactor/scene/points.h"
 #include "formfactor/scene/scene.h"
 #include "formfactor/solve/properties.h"
@@ -45,6 +46,8 @@ enum class Target {
     matrix_mtx,  ///< read_matrix_market (sparse F, Matrix Market coordinate)
     solution,    ///< read_solution_csv (radiosity and thermal tables)
     points,      ///< parse_points_csv (the point elements of `formfactor point --points`)
+    idf,         ///< load_energyplus_text of an EnergyPlus IDF model (its only zone)
+    matrix_dat,  ///< read_elmer_view_factors (Elmer's view-factor file)
 };
 
 struct TargetName {
@@ -53,7 +56,7 @@ struct TargetName {
 };
 
 /// Every target with the name of its fuzzer (`fuzz_NAME`) and corpus folder.
-inline constexpr std::array<TargetName, 9> kTargets = {{
+inline constexpr std::array<TargetName, 11> kTargets = {{
     {"obj", Target::obj},
     {"vs3", Target::vs3},
     {"properties", Target::properties},
@@ -63,6 +66,8 @@ inline constexpr std::array<TargetName, 9> kTargets = {{
     {"matrix_mtx", Target::matrix_mtx},
     {"solution", Target::solution},
     {"points", Target::points},
+    {"idf", Target::idf},
+    {"matrix_dat", Target::matrix_dat},
 }};
 
 /// The line that separates the OBJ text from the MTL text in an `obj` input. The MTL part is
@@ -243,6 +248,19 @@ inline bool run(Target target, const std::uint8_t* data, std::size_t size) {
                     require(p.lines[k] >= 1 && (k == 0 || p.lines[k] > p.lines[k - 1]),
                             "lines increasing");
                 }
+                break;
+            }
+            case Target::idf: {
+                Scene scene = load_energyplus_text(std::string(bytes), "fuzz.idf");
+                require(scene.enclosure && !scene.surfaces.empty(), "a zone with surfaces");
+                exercise_scene(scene);
+                break;
+            }
+            case Target::matrix_dat: {
+                std::istringstream in{std::string(bytes)};
+                const DenseMatrix F = read_elmer_view_factors(in, "fuzz.dat");
+                require(F.allFinite() && F.rows() == F.cols() && F.rows() > 0,
+                        "a square finite matrix");
                 break;
             }
         }

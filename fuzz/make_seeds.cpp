@@ -201,6 +201,22 @@ int main(int argc, char** argv) {
               "x,y,z,nx,ny,nz\n# sensors\n0.5, 0.5, 0, 0, 0, 1\n\n1 2 3 0 1 0  # spaces\n");
     seeds.add("points", "plain.csv", "0,0,0,0,0,1\n1e-3,-2.5e+2,7,1,1,1\r\n");
 
+    // EnergyPlus models (tests/data/energyplus) and Elmer view-factor files.
+    for (const auto& e : fs::directory_iterator(data / "energyplus"))
+        if (e.path().extension() == ".idf")
+            seeds.add("idf", e.path().filename().string(), read_file(e.path()));
+    seeds.add("idf", "relative.idf",
+              "Zone,Z,30,1,2,3;GlobalGeometryRules,LowerLeftCorner,Clockwise,Relative;\n"
+              "Floor:Detailed,F,C,Z,,Ground,,NoSun,NoWind,,3,0,0,0,1,0,0,0,1,0;\n"
+              "Wall:Detailed,W,C,Z,,Outdoors,,SunExposed,WindExposed,,3,0,0,0,0,1,0,0,0,1;\n");
+    {
+        std::ostringstream dat;
+        DenseMatrix F(3, 3);
+        F << 0, 0.5, 0.5, 0.25, 0, 0.75, 1e-300, 0, 0;
+        write_elmer_view_factors(dat, F);
+        seeds.add("matrix_dat", "three.dat", dat.str());
+    }
+
     // The regression inputs: every input that once crashed stays in the corpus.
     const fs::path regressions = data / "fuzz_regressions";
     for (const auto& t : fuzz::kTargets) {

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <map>
 #include <string>
 
@@ -17,6 +18,7 @@
 #include "formfactor/methods/hemicube.h"
 #include "formfactor/methods/hemiplane.h"
 #include "formfactor/methods/point_factors.h"
+#include "formfactor/scene/energyplus.h"
 
 namespace formfactor {
 
@@ -39,10 +41,22 @@ const CancellationFlag& requested_flag(const CancellationFlag* own) {
 
 }  // namespace
 
+Scene load_scene(const SceneOptions& options) {
+    if (options.zone.empty()) return load_scene(options.source);
+    std::string ext = std::filesystem::path(options.source).extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    if (ext != ".idf" && ext != ".epjson")
+        throw OptionError("zone",
+                          "chooses a zone of an EnergyPlus model (.idf, .epJSON), not of '" +
+                              options.source + "'");
+    return load_energyplus(options.source, options.zone);
+}
+
 Scene prepare_scene(const SceneOptions& options, StepTimes* times,
                     const std::function<void(const Scene&)>& before_subdivide) {
     Stopwatch sw;
-    Scene scene = load_scene(options.source);
+    Scene scene = load_scene(options);
     if (times) times->add("load", sw.lap());
     if (before_subdivide) before_subdivide(scene);
     sw.lap();

@@ -315,8 +315,8 @@ TEST_CASE("cli: bad options give one line naming the option, exit 2, no output")
                          {"compute plates -o F.csv --stderr se.tsv", 2, "--stderr"},
                          {"compute plates", 2, "-o: an output file is required"},
                          {"compute plates -o F.xyz", 2,
-                          "-o: unknown output extension '.xyz' (use .csv, .npy or .txt; "
-                          "sparse: .mtx or .h5)"},
+                          "-o: unknown output extension '.xyz' (use .csv, .npy, .txt, .dat, .vtu, "
+                          ".idf, .epJSON, .mtx or .h5)"},
                          {"compute plates -o F", 2, "-o"},
                          {"compute plates -o F.csv --report F.csv", 2, "--report"},
                          {"compute plates -o F.csv --patches p.txt", 2, "--patches"},

@@ -76,6 +76,15 @@ TEST_CASE("fuzz regressions: the seeds of every target are accepted") {
     CHECK_FALSE(run_bytes(fuzz::Target::vs3, "T too few numbers\nV 1 0 0\n"));
     CHECK(run_bytes(fuzz::Target::points, "x,y,z,nx,ny,nz\n0,0,0,0,0,2\n"));
     CHECK_FALSE(run_bytes(fuzz::Target::points, "0,0,0,0,0,0\n"));
+    std::ostringstream dat;
+    write_elmer_view_factors(dat, F);
+    CHECK(run_bytes(fuzz::Target::matrix_dat, dat.str()));
+    CHECK_FALSE(run_bytes(fuzz::Target::matrix_dat, "1\n1 2 0.5\n"));
+    CHECK(run_bytes(fuzz::Target::idf,
+                    "Zone,Z;GlobalGeometryRules,UpperLeftCorner,Counterclockwise,World;\n"
+                    "Floor:Detailed,F,C,Z,,Ground,,NoSun,NoWind,,3,0,0,0,0,1,0,1,0,0;\n"
+                    "Wall:Detailed,W,C,Z,,Outdoors,,SunExposed,WindExposed,,3,0,0,0,1,0,0,0,0,1;"));
+    CHECK_FALSE(run_bytes(fuzz::Target::idf, "Zone,Z;Floor:Detailed,F,C,Z,,Ground"));
 }
 
 TEST_CASE("fuzz regressions: an NPY header claiming 10^12 values is an input error") {

@@ -133,9 +133,9 @@ TEST_CASE("output: the matrix format comes from the extension") {
     CHECK(matrix_format_for("F.txt") == MatrixFormat::View3dText);
     // The library names its option field, never a command-line flag (the CLI passes "-o").
     CHECK(what_of([] { matrix_format_for("F.xyz"); }) ==
-          "output: unknown output extension '.xyz' (use .csv, .npy or .txt)");
+          "output: unknown output extension '.xyz' (use .csv, .npy, .txt or .dat)");
     CHECK(what_of([] { matrix_format_for("F.xyz", "-o"); }) ==
-          "-o: unknown output extension '.xyz' (use .csv, .npy or .txt)");
+          "-o: unknown output extension '.xyz' (use .csv, .npy, .txt or .dat)");
     CHECK_THROWS_AS(matrix_format_for("F"), OptionError);
     CHECK_THROWS_AS(matrix_format_for("F.csv.gz"), OptionError);
 

@@ -19,11 +19,14 @@
 #include "formfactor/matrix/hierarchical.h"
 #include "formfactor/matrix/memory.h"
 #include "formfactor/methods/traits.h"
+#include "formfactor/output/energyplus_view_factors.h"
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/patch_table.h"
 #include "formfactor/output/report.h"
 #include "formfactor/output/sparse_io.h"
+#include "formfactor/output/vtu.h"
 #include "formfactor/pipeline_sparse.h"
+#include "formfactor/scene/energyplus.h"
 #include "solve_common.h"
 #include "sparse_common.h"
 
@@ -44,7 +47,14 @@ struct ComputeArgs {
     std::string storage = "auto";  ///< --storage auto|dense|sparse|hierarchical
     double threshold = 0.0;        ///< --threshold T (sparse storage)
     double error_target = 1e-6;    ///< --error-target (hierarchical storage)
+    long long row = -1;            ///< --row I (a .vtu output: F's row I as a field)
+    std::string pairs;             ///< --pairs PAIRS.csv (per-surface long table)
+    bool row_sums = false;         ///< --row-sums (columns of --patches)
+    bool all_zones = false;        ///< --all-zones (EnergyPlus models)
 };
+
+// -o outputs that are not a matrix file: they need the scene beside F.
+bool is_vtu_path(const std::string& path) { return has_extension(path, ".vtu"); }
 
 // Rows of -o (and --stderr): per surface when asked, or by default for View3D (.vs3) input,
 // whose users expect View3D's own output (one row per surface, subsurfaces separated from their
@@ -236,14 +246,85 @@ void run_compute_sparse(const ComputeArgs& args, const std::string& why) {
     fmt::print("wrote      {}\n", wrote);
 }
 
+// --all-zones: every zone of an EnergyPlus model, each its own enclosure and matrix, into one
+// .idf or .epJSON file (one ZoneProperty:UserViewFactors:BySurfaceName object per zone).
+void run_compute_all_zones(const ComputeArgs& args) {
+    Stopwatch total;
+    EnergyPlusSyntax syntax = EnergyPlusSyntax::Idf;
+    if (!energyplus_syntax_for(args.output, syntax))
+        throw OptionError("--all-zones", "writes EnergyPlus view factors (-o X.idf or X.epJSON)");
+    if (!args.scene.zone.empty())
+        throw OptionError("--all-zones", "computes every zone: leave out --zone");
+    if (!args.report.empty() || !args.patches.empty() || !args.pairs.empty() ||
+        !args.standard_error.empty())
+        throw OptionError("--all-zones",
+                          "writes one file (-o); --report, --patches, --pairs and --stderr "
+                          "describe one zone (use --zone NAME)");
+    if (args.per_patch) throw OptionError("--per-patch", "EnergyPlus view factors are per surface");
+    if (args.storage != "auto" && args.storage != "dense")
+        throw OptionError("--storage", "EnergyPlus view factors are written from the dense F");
+    check_output_directory(args.output);
+    StepTimes times;
+    std::vector<ZoneViewFactors> zones;
+    for (const std::string& zone : energyplus_zones(args.scene.scene)) {
+        SceneArgs one = args.scene;
+        one.zone = zone;
+        const Scene scene = prepare_scene(one, times);
+        const ComputedMatrix computed = compute_matrix(scene, args.method, args.repair, times);
+        const PatchGroups groups = surface_groups(scene);
+        const FormFactors per_surface =
+            is_identity(groups) ? computed.ff : aggregate(computed.ff, groups);
+        const Diagnostics d = diagnose(per_surface);
+        fmt::print("zone       {}: {} surfaces, {} patches; rows sum to {:.10g} .. {:.10g}\n",
+                   scene.title, per_surface.size(), scene.patches.size(), d.row_sum_min,
+                   d.row_sum_max);
+        zones.push_back({scene.title, groups.names, per_surface.F});
+    }
+    write_file_atomically(
+        args.output, [&](std::ostream& out) { write_energyplus_view_factors(out, syntax, zones); });
+    fmt::print("time       {}\n", format_timings(times, total.seconds()));
+    fmt::print("wrote      {} ({} zones)\n", args.output, zones.size());
+}
+
 void run_compute(const ComputeArgs& args) {
     Stopwatch total;
+    if (args.all_zones) {
+        args.scene.validate();
+        args.method.validate();
+        parse_repair_mode(args.repair.mode);
+        run_compute_all_zones(args);
+        return;
+    }
     // Every option and output path is checked before any work.
     args.scene.validate();
     args.method.validate();
     parse_repair_mode(args.repair.mode);
     if (args.output.empty()) {
-        throw OptionError("-o", "an output file is required (.csv, .npy, .txt, .mtx or .h5)");
+        throw OptionError("-o",
+                          "an output file is required (.csv, .npy, .txt, .dat, .vtu, .mtx or .h5)");
+    }
+    const bool vtu = is_vtu_path(args.output);
+    EnergyPlusSyntax ep_syntax = EnergyPlusSyntax::Idf;
+    const bool energyplus = energyplus_syntax_for(args.output, ep_syntax);
+    if (energyplus && args.per_patch)
+        throw OptionError("--per-patch",
+                          "EnergyPlus view factors are per surface (-o .idf or .epJSON)");
+    if (energyplus && args.storage != "auto" && args.storage != "dense")
+        throw OptionError("--storage", "EnergyPlus view factors are written from the dense F");
+    if (args.row >= 0 && !vtu)
+        throw OptionError("--row", "puts a row of F into a .vtu output (-o F.vtu)");
+    if (args.row < -1) throw OptionError("--row", "must be a patch index ≥ 0");
+    if (vtu && args.per_surface)
+        throw OptionError("--per-surface", "a .vtu file holds the patches (one cell per patch)");
+    if (vtu && args.storage != "auto" && args.storage != "dense")
+        throw OptionError("--storage", "a .vtu output is written from the dense F");
+    if (args.row_sums && args.patches.empty())
+        throw OptionError("--row-sums", "adds columns to the patch table (--patches P.csv)");
+    if (!args.pairs.empty()) {
+        require_extension(args.pairs, ".csv", "--pairs");
+        check_output_directory(args.pairs);
+        if (same_file(args.pairs, args.output))
+            throw OptionError("--pairs", "is the same file as -o");
     }
     if (args.storage != "auto" && args.storage != "dense" && args.storage != "sparse" &&
         args.storage != "hierarchical")
@@ -260,15 +341,19 @@ void run_compute(const ComputeArgs& args) {
                           "by sparse storage (--storage sparse or auto)");
     if (!sparse_file && args.threshold > 0.0)
         throw OptionError("--threshold", "applies to sparse storage (-o F.mtx or F.h5)");
-    if (!sparse_file) {
-        try {
-            matrix_format_for(args.output, "-o");
-        } catch (const OptionError& e) {  // compute also writes the sparse formats: name them
-            const std::string dense = "(use .csv, .npy or .txt)";
-            std::string message = e.message();
-            if (const auto at = message.find(dense); at != std::string::npos)
-                message.replace(at, dense.size(), "(use .csv, .npy or .txt; sparse: .mtx or .h5)");
-            throw OptionError(e.field(), message);
+    if (!sparse_file && !vtu && !energyplus) {
+        const std::string ext = std::filesystem::path(args.output).extension().string();
+        if (ext.empty())
+            throw OptionError("-o", "'" + args.output +
+                                        "' has no extension (use .csv, .npy, .txt, .dat, .vtu, "
+                                        ".idf, .epJSON, .mtx or .h5)");
+        if (std::string lower = ext; true) {
+            std::transform(lower.begin(), lower.end(), lower.begin(),
+                           [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+            if (lower != ".csv" && lower != ".npy" && lower != ".txt" && lower != ".dat")
+                throw OptionError("-o", "unknown output extension '" + lower +
+                                            "' (use .csv, .npy, .txt, .dat, .vtu, .idf, .epJSON, "
+                                            ".mtx or .h5)");
         }
     }
     check_output_directory(args.output);
@@ -282,7 +367,8 @@ void run_compute(const ComputeArgs& args) {
         require_extension(args.patches, ".csv", "--patches");
         check_output_directory(args.patches);
         if (same_file(args.patches, args.output) ||
-            (!args.report.empty() && same_file(args.patches, args.report))) {
+            (!args.report.empty() && same_file(args.patches, args.report)) ||
+            (!args.pairs.empty() && same_file(args.patches, args.pairs))) {
             throw OptionError("--patches", "is the same file as another output");
         }
     }
@@ -302,6 +388,9 @@ void run_compute(const ComputeArgs& args) {
         }
     }
 
+    if ((sparse_file || args.storage == "hierarchical") && (args.row_sums || !args.pairs.empty()))
+        throw OptionError(args.row_sums ? "--row-sums" : "--pairs",
+                          "is written from the dense F (--storage dense)");
     if (args.storage == "hierarchical") {
         if (sparse_file)
             throw OptionError("--storage",
@@ -315,7 +404,7 @@ void run_compute(const ComputeArgs& args) {
         if (args.storage == "auto") {
             // Say also whether the dense matrix would have fitted comfortably (half of what is
             // available now).
-            Scene probe = load_scene(args.scene.scene);
+            Scene probe = load_scene(args.scene.options());
             const double count = subdivision_patch_count(probe, args.scene.subdivision());
             DenseRunNeeds needs;
             needs.patches = count < 1e18 ? static_cast<std::size_t>(count) : std::size_t(1e18);
@@ -350,8 +439,9 @@ void run_compute(const ComputeArgs& args) {
     const std::optional<RepairReport>& repaired = computed.repaired;
     Stopwatch sw;
 
-    // What -o and --stderr hold: the patch matrix, or the per-surface one (rows = surfaces).
-    const bool per_surface = rows_per_surface(args);
+    // What -o and --stderr hold: the patch matrix, or the per-surface one (rows = surfaces). A
+    // .vtu file holds the patches.
+    const bool per_surface = energyplus || (!vtu && rows_per_surface(args));
     PatchGroups groups;
     FormFactors per_surface_ff;
     std::vector<double> emissivities = patch_emissivities(scene);
@@ -379,7 +469,30 @@ void run_compute(const ComputeArgs& args) {
         tx.stage(path,
                  [&](std::ostream& out) { write_matrix(out, matrix_format_for(path), m, info); });
     };
-    stage_matrix(args.output, written.F);
+    if (vtu) {
+        const std::vector<VtuField> fields = form_factor_fields(
+            ff, args.row >= 0 ? std::optional<std::size_t>(static_cast<std::size_t>(args.row))
+                              : std::nullopt);
+        tx.stage(args.output, [&](std::ostream& out) { write_vtu(out, scene, fields); });
+    } else if (energyplus) {
+        // The zone: an EnergyPlus model's (Scene::title), else the title or the file's stem.
+        const std::string zone =
+            !scene.title.empty() ? scene.title : std::filesystem::path(scene.name).stem().string();
+        tx.stage(args.output, [&](std::ostream& out) {
+            write_energyplus_view_factors(out, ep_syntax, zone, groups.names, written.F);
+        });
+    } else {
+        stage_matrix(args.output, written.F);
+    }
+    if (!args.pairs.empty()) {
+        // The per-surface matrix whatever -o holds: names are the surfaces'.
+        const PatchGroups pair_groups = per_surface ? groups : surface_groups(scene);
+        const FormFactors by_surface = per_surface                ? written
+                                       : is_identity(pair_groups) ? ff
+                                                                  : aggregate(ff, pair_groups);
+        tx.stage(args.pairs,
+                 [&](std::ostream& out) { write_pairs_csv(out, pair_groups.names, by_surface.F); });
+    }
     if (!args.standard_error.empty()) {
         if (!written.standard_error) {
             throw OptionError("--stderr", "method '" + to_string(method) +
@@ -389,7 +502,14 @@ void run_compute(const ComputeArgs& args) {
         stage_matrix(args.standard_error, *written.standard_error);
     }
     if (!args.patches.empty()) {
-        tx.stage(args.patches, [&](std::ostream& out) { write_patch_table(out, scene); });
+        if (args.row_sums) {
+            std::vector<double> sums(ff.size());
+            for (std::size_t i = 0; i < sums.size(); ++i)
+                sums[i] = ff.F.row(static_cast<Eigen::Index>(i)).sum();
+            tx.stage(args.patches, [&](std::ostream& out) { write_patch_table(out, scene, sums); });
+        } else {
+            tx.stage(args.patches, [&](std::ostream& out) { write_patch_table(out, scene); });
+        }
     }
     times.add("write", sw.lap());
 
@@ -441,8 +561,10 @@ void run_compute(const ComputeArgs& args) {
             "min {:.10g}, max {:.10g}\n",
             written.size(), ds.row_sum_min, ds.row_sum_max);
     }
-    std::string wrote = fmt::format("{} ({}×{}{})", args.output, written.F.rows(), written.F.cols(),
-                                    per_surface ? ", per surface" : "");
+    std::string wrote = vtu ? fmt::format("{} ({} cells)", args.output, scene.patches.size())
+                            : fmt::format("{} ({}×{}{})", args.output, written.F.rows(),
+                                          written.F.cols(), per_surface ? ", per surface" : "");
+    if (!args.pairs.empty()) wrote += ", " + args.pairs;
     if (!args.standard_error.empty()) wrote += ", " + args.standard_error;
     if (!args.patches.empty()) wrote += ", " + args.patches;
     if (!args.report.empty()) wrote += ", " + args.report;
@@ -462,8 +584,12 @@ void add_compute_command(CLI::App& app) {
     args->method.add_to(cmd);
     args->repair.add_to(cmd);
     cmd->add_option("-o,--output", args->output,
-                    "Matrix file: .csv (N×N, %.17g), .npy (float64) or .txt (View3D 3.2 text); "
-                    "sparse: .mtx (Matrix Market coordinate) or .h5 (HDF5 CSR, docs/sparse.md)")
+                    "Matrix file: .csv (N×N, %.17g), .npy (float64), .txt (View3D 3.2 text) or "
+                    ".dat (Elmer's view factors); .vtu: the patches with area, row sum and sky "
+                    "factor for ParaView; .idf or .epJSON: EnergyPlus's "
+                    "ZoneProperty:UserViewFactors:BySurfaceName (per surface; "
+                    "docs/formats-energyplus-solvers.md); sparse: .mtx "
+                    "(Matrix Market coordinate) or .h5 (HDF5 CSR, docs/sparse.md)")
         ->type_name("OUT");
     cmd->add_option("--report", args->report,
                     "Also write a JSON report (options, timings, diagnostics)")
@@ -471,6 +597,18 @@ void add_compute_command(CLI::App& app) {
     cmd->add_option("--patches", args->patches,
                     "Also write the patch table (index, surface, area, centroid, normal) as CSV")
         ->type_name("PATCHES.csv");
+    cmd->add_option("--row", args->row,
+                    "With -o F.vtu: also the row F_Ij of patch I as a field (F_from_I)")
+        ->type_name("I");
+    cmd->add_option("--pairs", args->pairs,
+                    "Also write the per-surface matrix as a long table from,to,F with the "
+                    "surface names")
+        ->type_name("PAIRS.csv");
+    cmd->add_flag("--all-zones", args->all_zones,
+                  "EnergyPlus models: every zone, each its own enclosure, into one -o .idf or "
+                  ".epJSON file (one ZoneProperty:UserViewFactors:BySurfaceName per zone)");
+    cmd->add_flag("--row-sums", args->row_sums,
+                  "Add the columns row_sum and sky_factor (1 - row sum) to the --patches table");
     cmd->add_option("--stderr,--standard-error", args->standard_error,
                     "Also write the standard error of each entry (same formats as -o; "
                     "with sparse storage .mtx or .h5, F's pattern; Monte-Carlo methods only)")

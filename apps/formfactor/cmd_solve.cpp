@@ -172,7 +172,7 @@ void solve_hierarchical_scene(const SolveArgs& args, Scene& scene, StepTimes& ti
     OutputTransaction tx;
     const nlohmann::json solve_json =
         solve_and_stage(H, props, args.thermal, args.ambient_temperature, solver_options,
-                        args.output, times, sw, tx);
+                        args.output, times, sw, tx, scene);
     times.add("write", sw.lap());
     if (!args.report.empty()) {
         const std::vector<double> sums = H.row_sums(threads);
@@ -259,7 +259,7 @@ void solve_sparse_scene(const SolveArgs& args, Scene& scene, StepTimes& times, S
     OutputTransaction tx;
     const nlohmann::json solve_json =
         solve_and_stage(F, props, args.thermal, args.ambient_temperature, solver_options,
-                        args.output, times, sw, tx);
+                        args.output, times, sw, tx, scene);
     times.add("write", sw.lap());
     if (!args.report.empty()) {
         nlohmann::json options =
@@ -290,7 +290,7 @@ void run_solve(const SolveArgs& args) {
     args.scene.validate();
     args.method.validate();
     if (args.output.empty()) throw OptionError("-o", "a result file is required (RESULT.csv)");
-    require_extension(args.output, ".csv", "-o");
+    if (!has_extension(args.output, ".vtu")) require_extension(args.output, ".csv", "-o");
     check_output_directory(args.output);
     if (!args.report.empty()) {
         check_output_directory(args.report);
@@ -414,7 +414,7 @@ void run_solve(const SolveArgs& args) {
     OutputTransaction tx;
     const nlohmann::json solve_json =
         solve_and_stage(ff, props, args.thermal, args.ambient_temperature, solver_options,
-                        args.output, times, sw, tx);
+                        args.output, times, sw, tx, scene);
     if (!args.exchange.empty()) {
         const DenseMatrix X = total_exchange_factors(ff.F, props.emissivity);
         times.add("exchange factors", sw.lap());
@@ -499,7 +499,8 @@ void add_solve_command(CLI::App& app) {
     args->repair.add_to(cmd);
     cmd->add_option("-o,--output", args->output,
                     "Result table: patch,radiosity_r,radiosity_g,radiosity_b or (thermal) "
-                    "patch,area,emissivity,temperature,radiosity,net_flux,net_power")
+                    "patch,area,emissivity,temperature,radiosity,net_flux,net_power; or .vtu: "
+                    "the patches with these fields and area, row sum and sky factor (ParaView)")
         ->type_name("RESULT.csv");
     cmd->add_option("--report", args->report, "Also write a JSON report")->type_name("REPORT.json");
     cmd->add_option("--storage", args->storage,

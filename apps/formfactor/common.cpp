@@ -29,7 +29,7 @@ std::string builtin_scene_list() { return join(builtin_scene_names()); }
 std::string generator_list() { return join(builtin_scene_generators()); }
 
 std::string help_footer() {
-    return "Scenes (SCENE): an .obj file (with its .mtl) or a .vs3 file (View3D 3.2), or\n"
+    return "Scenes (SCENE): .obj (with .mtl), .vs3 (View3D 3.2), .idf or .epJSON (EnergyPlus), or\n"
            "  built-in scenes: " +
            builtin_scene_list() +
            "\n"
@@ -39,7 +39,10 @@ std::string help_footer() {
            "Methods (--method): " +
            join(method_names()) +
            "\n"
-           "Matrix formats (-o, --matrix): .csv, .npy, .txt (dense); .mtx, .h5 (sparse)\n"
+           "Matrix formats (-o, --matrix): .csv, .npy, .txt, .dat (dense; the last: Elmer); .mtx, "
+           ".h5 (sparse)\n"
+           "Other outputs (-o): .vtu (ParaView cells), .idf and .epJSON (EnergyPlus view factors per\n"
+           "  surface); 'formfactor view' writes .html.\n"
            "Run 'formfactor SUBCOMMAND --help' for the options of a subcommand.\n"
            "Exit codes: 0 success, 1 bad input file, 2 bad usage or option, 3 internal error.\n"
            "Licence: MIT. Documentation: README.md and docs/.";
@@ -65,6 +68,10 @@ void SceneArgs::add_to(CLI::App* cmd, const std::string& default_scene) {
                                    "Split surfaces until no patch edge is longer than L (scene "
                                    "units); excludes --subdivide");
     max_edge_opt->type_name("L");
+    cmd->add_option("--zone", zone,
+                    "EnergyPlus models (.idf, .epJSON): the zone whose enclosure is computed "
+                    "(needed when the model has several)")
+        ->type_name("NAME");
 }
 
 void SceneArgs::validate() const {
@@ -96,12 +103,13 @@ SubdivisionOptions SceneArgs::subdivision() const {
     return o;
 }
 
-SceneOptions SceneArgs::options() const { return SceneOptions{scene, subdivision()}; }
+SceneOptions SceneArgs::options() const { return SceneOptions{scene, subdivision(), zone}; }
 
 nlohmann::json SceneArgs::to_json() const {
     const SubdivisionOptions o = subdivision();
     nlohmann::json j{{"scene", scene}, {"subdivide", o.n}};
     j["max_edge"] = o.max_edge > 0.0 ? nlohmann::json(o.max_edge) : nlohmann::json(nullptr);
+    if (!zone.empty()) j["zone"] = zone;
     return j;
 }
 
@@ -322,11 +330,16 @@ bool same_file(const std::string& a, const std::string& b) {
     return ca == cb;
 }
 
-void require_extension(const std::string& path, const std::string& ext, const std::string& option) {
+bool has_extension(const std::string& path, const std::string& ext) {
     std::string e = std::filesystem::path(path).extension().string();
     std::transform(e.begin(), e.end(), e.begin(),
                    [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-    if (e == ext) return;
+    return e == ext;
+}
+
+void require_extension(const std::string& path, const std::string& ext, const std::string& option) {
+    if (has_extension(path, ext)) return;
+    const std::string e = std::filesystem::path(path).extension().string();
     if (e.empty()) {
         throw OptionError(option, "'" + path + "' has no extension (use " + ext + ")");
     }

@@ -35,6 +35,7 @@ struct SceneArgs {
     std::string scene;
     int subdivide = 1;
     double max_edge = 0.0;
+    std::string zone;  ///< --zone NAME (EnergyPlus models)
     CLI::Option* subdivide_opt = nullptr;
     CLI::Option* max_edge_opt = nullptr;
 
@@ -127,6 +128,9 @@ std::string cli_flag(const std::string& field);
 
 /// True when the two paths name the same file (after normalisation; they need not exist).
 bool same_file(const std::string& a, const std::string& b);
+
+/// True when `path`'s extension is `ext` (".vtu"; case-insensitive).
+bool has_extension(const std::string& path, const std::string& ext);
 
 /// Throws OptionError(option, ...) unless `path`'s extension is `ext` (case-insensitive).
 void require_extension(const std::string& path, const std::string& ext, const std::string& option);

@@ -10,6 +10,7 @@
 #include "formfactor/matrix/memory.h"
 #include "formfactor/output/report.h"
 #include "formfactor/output/solution_io.h"
+#include "formfactor/output/vtu.h"
 #include "formfactor/pipeline.h"
 
 namespace formfactor::cli {
@@ -168,13 +169,48 @@ nlohmann::json timings_json(const StepTimes& times, const Stopwatch& total) {
     return t;
 }
 
+namespace {
+
+// Σ_j F_ij of each row, for the .vtu output.
+std::vector<double> row_sums_of(const FormFactors& F) {
+    std::vector<double> sums(F.size());
+    for (std::size_t i = 0; i < sums.size(); ++i)
+        sums[i] = F.F.row(static_cast<Eigen::Index>(i)).sum();
+    return sums;
+}
+std::vector<double> row_sums_of(const SparseFormFactors& F) {
+    std::vector<double> sums(F.n);
+    for (std::size_t i = 0; i < F.n; ++i) sums[i] = F.row_sum(i);
+    return sums;
+}
+std::vector<double> row_sums_of(const HierarchicalFormFactors& F) { return F.row_sums(); }
+
+// The .vtu fields of F: those of form_factor_fields() for a dense F (with the standard errors
+// when it has them), the areas and row sums otherwise.
+std::vector<VtuField> matrix_fields(const FormFactors& F) { return form_factor_fields(F); }
+template <class Matrix>
+std::vector<VtuField> matrix_fields(const Matrix& F) {
+    std::vector<double> areas;
+    if constexpr (std::is_same_v<Matrix, HierarchicalFormFactors>) {
+        areas = F.areas();
+    } else {
+        areas = F.areas;
+    }
+    return row_sum_fields(areas, row_sums_of(F));
+}
+
+}  // namespace
+
 template <class Matrix>
 nlohmann::json solve_and_stage(const Matrix& F, const PatchProperties& props, bool thermal,
                                double ambient_temperature, const SolverOptions& options,
                                const std::string& output, StepTimes& times, Stopwatch& sw,
-                               OutputTransaction& tx) {
+                               OutputTransaction& tx, const Scene& scene) {
     nlohmann::json out;
     std::string text;
+    const bool vtu = has_extension(output, ".vtu");
+    std::vector<VtuField> fields;
+    if (vtu) fields = matrix_fields(F);
     if (thermal) {
         ThermalOptions to;
         to.solver = options;
@@ -183,33 +219,40 @@ nlohmann::json solve_and_stage(const Matrix& F, const PatchProperties& props, bo
         times.add("solve", sw.lap());
         print_thermal_summary(r);
         out = to_json(r);
-        text = thermal_csv_text(r);
+        if (vtu)
+            append_solution_fields(fields, r);
+        else
+            text = thermal_csv_text(r);
     } else {
         const RadiosityResult r = solve_radiosity(F, props, options);
         times.add("solve", sw.lap());
         print_radiosity_summary(r);
         out = to_json(r);
-        text = radiosity_csv_text(r.radiosity);
+        if (vtu)
+            append_solution_fields(fields, r);
+        else
+            text = radiosity_csv_text(r.radiosity);
     }
-    tx.stage(output, [text](std::ostream& o) { o << text; });
+    if (vtu)
+        tx.stage(output, [&](std::ostream& o) { write_vtu(o, scene, fields); });
+    else
+        tx.stage(output, [text](std::ostream& o) { o << text; });
     return out;
 }
 
 template nlohmann::json solve_and_stage<FormFactors>(const FormFactors&, const PatchProperties&,
                                                      bool, double, const SolverOptions&,
                                                      const std::string&, StepTimes&, Stopwatch&,
-                                                     OutputTransaction&);
-template nlohmann::json solve_and_stage<HierarchicalFormFactors>(const HierarchicalFormFactors&,
-                                                                 const PatchProperties&, bool,
-                                                                 double, const SolverOptions&,
-                                                                 const std::string&, StepTimes&,
-                                                                 Stopwatch&, OutputTransaction&);
+                                                     OutputTransaction&, const Scene&);
+template nlohmann::json solve_and_stage<HierarchicalFormFactors>(
+    const HierarchicalFormFactors&, const PatchProperties&, bool, double, const SolverOptions&,
+    const std::string&, StepTimes&, Stopwatch&, OutputTransaction&, const Scene&);
 
 template nlohmann::json solve_and_stage<SparseFormFactors>(const SparseFormFactors&,
                                                            const PatchProperties&, bool, double,
                                                            const SolverOptions&, const std::string&,
                                                            StepTimes&, Stopwatch&,
-                                                           OutputTransaction&);
+                                                           OutputTransaction&, const Scene&);
 
 std::vector<bool> emitting_patches(const Scene& scene) {
     std::vector<bool> e(scene.patches.size(), false);

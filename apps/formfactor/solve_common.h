@@ -70,14 +70,15 @@ nlohmann::json to_json(const HierarchicalStats& s);
 /// The timings of a report: each step, and `total` (≥ their sum).
 nlohmann::json timings_json(const StepTimes& times, const Stopwatch& total);
 
-/// Solves the radiosity or (thermal) the thermal problem on F (a FormFactors or the
-/// hierarchical operator), prints the summary, stages the result table at `output` and returns
-/// the report's "solve" section; `options` as for solve_thermal / solve_radiosity.
+/// Solves the radiosity or (thermal) the thermal problem on F (a FormFactors, a sparse F or the
+/// hierarchical operator), prints the summary, stages the result at `output` (the table, or for
+/// a `.vtu` path the patches of `scene` with the solution, area, row sum and sky factor) and
+/// returns the report's "solve" section; `options` as for solve_thermal / solve_radiosity.
 template <class Matrix>
 nlohmann::json solve_and_stage(const Matrix& F, const PatchProperties& props, bool thermal,
                                double ambient_temperature, const SolverOptions& options,
                                const std::string& output, StepTimes& times, Stopwatch& sw,
-                               OutputTransaction& tx);
+                               OutputTransaction& tx, const Scene& scene);
 
 /// Patches whose material emits (left out of the automatic exposure).
 std::vector<bool> emitting_patches(const Scene& scene);

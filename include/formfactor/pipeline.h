@@ -38,7 +38,14 @@ struct SceneOptions {
     /// A file (.obj, .vs3) or a built-in scene name (builtin_scene_names()).
     std::string source;
     SubdivisionOptions subdivision;
+    /// An EnergyPlus model's zone (formfactor/scene/energyplus.h); empty: its only zone. Only
+    /// for `.idf` and `.epJSON` sources.
+    std::string zone;
 };
+
+/// Loads options.source (and its zone), not subdivided. Throws InputError for a bad file,
+/// OptionError("zone") for a zone given with a source that is not an EnergyPlus model.
+Scene load_scene(const SceneOptions& options);
 
 /// Loads options.source and subdivides it: the first step of every computation. The steps are
 /// timed into *times ("load", "subdivide") when it is given. `before_subdivide`, when given, sees

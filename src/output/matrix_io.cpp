@@ -65,10 +65,12 @@ MatrixFormat matrix_format_for(const std::string& path, const std::string& optio
     if (ext == ".csv") return MatrixFormat::Csv;
     if (ext == ".npy") return MatrixFormat::Npy;
     if (ext == ".txt") return MatrixFormat::View3dText;
+    if (ext == ".dat") return MatrixFormat::ElmerDat;
     if (ext.empty()) {
-        throw OptionError(option, "'" + path + "' has no extension (use .csv, .npy or .txt)");
+        throw OptionError(option, "'" + path + "' has no extension (use .csv, .npy, .txt or .dat)");
     }
-    throw OptionError(option, "unknown output extension '" + ext + "' (use .csv, .npy or .txt)");
+    throw OptionError(option,
+                      "unknown output extension '" + ext + "' (use .csv, .npy, .txt or .dat)");
 }
 
 // ---- writers ------------------------------------------------------------------------------
@@ -190,6 +192,33 @@ void write_view3d_text(std::ostream& out, const DenseMatrix& F, const MatrixFile
     out.write(buf.data(), static_cast<std::streamsize>(buf.size()));
 }
 
+void write_elmer_view_factors(std::ostream& out, const DenseMatrix& F) {
+    // Per row: the count of its nonzero entries, then "i j F_ij" lines (1-based), as Elmer's
+    // RadiationFactors.F90 reads them with list-directed READs.
+    const auto cols = static_cast<std::size_t>(F.cols());
+    write_rows(out, static_cast<std::size_t>(F.rows()), 32 * cols,
+               [&](std::size_t i, detail::TextBuffer& buf) {
+                   const double* row = F.data() + i * cols;
+                   std::size_t nonzero = 0;
+                   for (std::size_t j = 0; j < cols; ++j) nonzero += row[j] != 0.0;
+                   char* p = buf.room(24);
+                   p = detail::print_integer(p, static_cast<long long>(nonzero));
+                   *p++ = '\n';
+                   buf.commit(p);
+                   for (std::size_t j = 0; j < cols; ++j) {
+                       if (row[j] == 0.0) continue;
+                       p = buf.room(detail::kMaxNumberChars + 48);
+                       p = detail::print_integer(p, static_cast<long long>(i + 1));
+                       *p++ = ' ';
+                       p = detail::print_integer(p, static_cast<long long>(j + 1));
+                       *p++ = ' ';
+                       p = detail::print_g17(p, row[j]);
+                       *p++ = '\n';
+                       buf.commit(p);
+                   }
+               });
+}
+
 void write_matrix(std::ostream& out, MatrixFormat format, const DenseMatrix& F,
                   const MatrixFileInfo& info) {
     switch (format) {
@@ -201,6 +230,9 @@ void write_matrix(std::ostream& out, MatrixFormat format, const DenseMatrix& F,
             break;
         case MatrixFormat::View3dText:
             write_view3d_text(out, F, info);
+            break;
+        case MatrixFormat::ElmerDat:
+            write_elmer_view_factors(out, F);
             break;
     }
 }
@@ -490,9 +522,9 @@ View3dFile read_view3d_text(std::istream& in, const std::string& name) {
 
 DenseMatrix read_matrix(const std::string& path, const std::string& option) {
     const std::string ext = lower_extension(path);
-    if (ext != ".csv" && ext != ".npy" && ext != ".txt") {
+    if (ext != ".csv" && ext != ".npy" && ext != ".txt" && ext != ".dat") {
         throw OptionError(option,
-                          "unknown matrix extension '" + ext + "' (use .csv, .npy or .txt)");
+                          "unknown matrix extension '" + ext + "' (use .csv, .npy, .txt or .dat)");
     }
     std::ifstream in(path, std::ios::binary);
     if (!in) throw InputError(path, 0, std::string("cannot open: ") + std::strerror(errno));
@@ -501,6 +533,8 @@ DenseMatrix read_matrix(const std::string& path, const std::string& option) {
         F = read_csv_matrix(in, path);
     } else if (ext == ".npy") {
         F = read_npy_matrix(in, path);
+    } else if (ext == ".dat") {
+        F = read_elmer_view_factors(in, path);
     } else {
         F = read_view3d_text(in, path).F;
     }

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "formfactor/core/error.h"
+#include "formfactor/scene/energyplus.h"
 #include "scene/text.h"
 
 namespace formfactor {
@@ -102,6 +103,7 @@ Scene load_scene(const std::string& name_or_path) {
                    [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
     if (ext == ".obj") return load_obj(name_or_path);
     if (ext == ".vs3") return load_vs3(name_or_path);
+    if (ext == ".idf" || ext == ".epjson") return load_energyplus(name_or_path);
     std::string names;
     for (const std::string& b : builtin_scene_names()) names += (names.empty() ? "" : ", ") + b;
     std::string generators;

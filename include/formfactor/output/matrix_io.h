@@ -11,6 +11,12 @@
 ///            emissivities (`%.3f`); values separated by one space. Layout of SaveF0() and
 ///            SaveVF() in View3D 3.2's savevf.c (G. Walton, NIST; github.com/NREL/View3D-3.2).
 ///            Note the limited precision: this format is for interchange, not for archiving.
+///  - `.dat`  Elmer's view-factor file (`ViewFactors.dat`, ASCII), the layout Elmer's radiation
+///            solver reads (RadiationFactors.F90, "Viewfactor Binary Output" off): for each
+///            row i = 1..N in order, a line with the number n_i of its stored entries, then n_i
+///            lines `i j F_ij`, 1-based, the receiving patch j in the same order; entries
+///            F_ij = 0 are left out; values `%.17g`. Elmer's rows are its radiation boundary
+///            elements, in its own order: the patches must be those elements.
 
 #include <iosfwd>
 #include <string>
@@ -21,10 +27,10 @@
 namespace formfactor {
 
 /// The matrix file formats.
-enum class MatrixFormat { Csv, Npy, View3dText };
+enum class MatrixFormat { Csv, Npy, View3dText, ElmerDat };
 
 /// The format for `path`'s extension (case-insensitive). Throws
-/// OptionError(option, "unknown output extension '.xyz' (use .csv, .npy or .txt)"); call it
+/// OptionError(option, "unknown output extension '.xyz' (use .csv, .npy, .txt or .dat)"); call it
 /// before any computation so that a bad output path fails at once (the CLI passes its flag).
 MatrixFormat matrix_format_for(const std::string& path, const std::string& option = "output");
 
@@ -50,7 +56,9 @@ void write_matrix(const std::string& path, const FormFactors& ff,
 void write_csv_matrix(std::ostream& out, const DenseMatrix& F);
 void write_npy_matrix(std::ostream& out, const DenseMatrix& F);
 void write_view3d_text(std::ostream& out, const DenseMatrix& F, const MatrixFileInfo& info);
-/// The stream writer of `format`: write_csv_matrix, write_npy_matrix or write_view3d_text.
+void write_elmer_view_factors(std::ostream& out, const DenseMatrix& F);
+/// The stream writer of `format`: write_csv_matrix, write_npy_matrix, write_view3d_text or
+/// write_elmer_view_factors.
 void write_matrix(std::ostream& out, MatrixFormat format, const DenseMatrix& F,
                   const MatrixFileInfo& info = {});
 
@@ -58,7 +66,8 @@ void write_matrix(std::ostream& out, MatrixFormat format, const DenseMatrix& F,
 /// C-order array; its size is a multiple of 64 bytes.
 std::string npy_header(std::size_t rows, std::size_t cols);
 
-/// Reads a matrix from `path` by extension (`.csv`, `.npy`, `.txt`). Throws OptionError(option,
+/// Reads a matrix from `path` by extension (`.csv`, `.npy`, `.txt`, `.dat`). Throws
+/// OptionError(option,
 /// ...) for another extension and InputError("FILE:LINE: message") for bad content (NPY errors
 /// carry no line). Only finite values are accepted.
 DenseMatrix read_matrix(const std::string& path, const std::string& option = "matrix");
@@ -67,6 +76,11 @@ DenseMatrix read_matrix(const std::string& path, const std::string& option = "ma
 DenseMatrix read_csv_matrix(std::istream& in, const std::string& name);
 /// An NPY file (format 1.0, 2.0 or 3.0) holding a 2-D `<f8` or `<f4` array, C or Fortran order.
 DenseMatrix read_npy_matrix(std::istream& in, const std::string& name);
+
+/// An Elmer view-factor file (`.dat`, layout above): N is the number of row blocks; every
+/// block's row number must be its position, every column in 1..N and not repeated in a row, every
+/// value finite. Throws InputError("FILE:LINE: message").
+DenseMatrix read_elmer_view_factors(std::istream& in, const std::string& name);
 
 /// A View3D 3.2 text view-factor file.
 struct View3dFile {

@@ -1,0 +1,191 @@
+// ZoneProperty:UserViewFactors:BySurfaceName written by `compute -o X.idf / X.epJSON` for
+// EnergyPlus's example zone: read back with the reader's own object parser (IDF) and
+// nlohmann-json (epJSON), names, rows and reciprocity checked.
+
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+
+#include "cli_runner.h"
+#include "formfactor/core/error.h"
+#include "formfactor/output/energyplus_view_factors.h"
+#include "formfactor/scene/scene.h"
+#include "scene/energyplus_objects.h"
+
+using namespace formfactor;
+using formfactor::testing::Cli;
+using formfactor::testing::CliResult;
+using formfactor::testing::shell_quote;
+
+namespace {
+
+std::string read_text(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+struct ReadBack {
+    std::string zone;
+    std::vector<std::string> names;  // in the order of the rows
+    std::map<std::pair<std::string, std::string>, double> F;
+};
+
+// Every pair once, rows and columns the same names in the same order.
+ReadBack from_triples(const std::string& zone, const std::vector<std::string>& from,
+                      const std::vector<std::string>& to, const std::vector<double>& f) {
+    ReadBack r;
+    r.zone = zone;
+    for (std::size_t k = 0; k < from.size(); ++k) {
+        if (std::find(r.names.begin(), r.names.end(), from[k]) == r.names.end())
+            r.names.push_back(from[k]);
+        CHECK(r.F.emplace(std::make_pair(from[k], to[k]), f[k]).second);
+    }
+    CHECK(r.F.size() == r.names.size() * r.names.size());
+    return r;
+}
+
+ReadBack read_idf(const std::string& path) {
+    const auto objects = detail::parse_idf(read_text(path), path);
+    REQUIRE(objects.size() == 1);
+    const auto& o = objects.front();
+    CHECK(o.type_as_written == "ZoneProperty:UserViewFactors:BySurfaceName");
+    REQUIRE((o.fields.size() - 1) % 3 == 0);
+    std::vector<std::string> from, to;
+    std::vector<double> f;
+    for (std::size_t k = 1; k < o.fields.size(); k += 3) {
+        from.push_back(o.fields[k].value);
+        to.push_back(o.fields[k + 1].value);
+        f.push_back(std::stod(o.fields[k + 2].value));
+    }
+    return from_triples(o.fields[0].value, from, to, f);
+}
+
+ReadBack read_epjson(const std::string& path) {
+    const auto doc = nlohmann::json::parse(read_text(path));
+    const auto& objects = doc.at("ZoneProperty:UserViewFactors:BySurfaceName");
+    REQUIRE(objects.size() == 1);
+    const auto& o = objects.begin().value();
+    std::vector<std::string> from, to;
+    std::vector<double> f;
+    for (const auto& e : o.at("view_factors")) {
+        from.push_back(e.at("from_surface").get<std::string>());
+        to.push_back(e.at("to_surface").get<std::string>());
+        f.push_back(e.at("view_factor").get<double>());
+    }
+    return from_triples(o.at("zone_or_zonelist_or_space_or_spacelist_name").get<std::string>(),
+                        from, to, f);
+}
+
+// Names as the input's surfaces, rows summing to 1 and A_i F_ij = A_j F_ji (the analytic
+// method's entries are exact to ~1e-10 at its default tolerance).
+void check_zone(const ReadBack& r, const Scene& scene) {
+    CHECK(r.zone == "ZONE ONE");
+    REQUIRE(r.names.size() == scene.surfaces.size());
+    std::map<std::string, double> area;
+    for (std::size_t k = 0; k < r.names.size(); ++k) {
+        CHECK(r.names[k] == scene.surfaces[k].name);
+        area[r.names[k]] = surface_area(scene.surfaces[k]);
+    }
+    for (const std::string& i : r.names) {
+        double sum = 0.0;
+        for (const std::string& j : r.names) {
+            sum += r.F.at({i, j});
+            const double a = area[i] * r.F.at({i, j}), b = area[j] * r.F.at({j, i});
+            CHECK(std::abs(a - b) <= 1e-8 * std::max(area[i], area[j]));
+        }
+        CHECK(std::abs(sum - 1.0) < 1e-8);
+    }
+}
+
+}  // namespace
+
+TEST_CASE("energyplus output: view factors by surface name read back from .idf and .epJSON") {
+    Cli cli;
+    const std::string model =
+        std::string(FF_TEST_DATA_DIR) + "/energyplus/1ZoneUncontrolled_win_1.idf";
+    const Scene scene = load_scene(model);
+    for (const char* out : {"vf.idf", "vf.epJSON"}) {
+        CAPTURE(out);
+        const CliResult r = cli.run("compute " + shell_quote(model) + " --subdivide 3 -o " + out);
+        INFO(r.err);
+        REQUIRE(r.code == 0);
+        const ReadBack back =
+            std::string(out) == "vf.idf" ? read_idf(cli.file(out)) : read_epjson(cli.file(out));
+        check_zone(back, scene);
+    }
+    // The same numbers in both files.
+    const ReadBack a = read_idf(cli.file("vf.idf")), b = read_epjson(cli.file("vf.epJSON"));
+    CHECK(a.F == b.F);
+}
+
+TEST_CASE("energyplus output: names IDF cannot carry and per-patch rows are refused") {
+    std::ostringstream out;
+    CHECK_THROWS_WITH_AS(write_energyplus_view_factors(out, EnergyPlusSyntax::Idf, "Z", {"a,b"},
+                                                       DenseMatrix::Zero(1, 1)),
+                         doctest::Contains("the name 'a,b' holds a character IDF cannot carry"),
+                         Error);
+    Cli cli;
+    const CliResult r = cli.run("compute cube -o vf.idf --per-patch");
+    CHECK(r.err ==
+          "formfactor: --per-patch: EnergyPlus view factors are per surface (-o .idf or "
+          ".epJSON)\n");
+    CHECK(cli.dir().entries() == 0);
+}
+
+TEST_CASE("energyplus output: --all-zones writes one object per zone, each closed") {
+    const std::string model =
+        read_text(std::string(FF_TEST_DATA_DIR) + "/energyplus/1ZoneUncontrolled_win_1.idf");
+    // A second zone: the same room under other names, at the same place (each zone is its own
+    // enclosure).
+    std::string second = model.substr(model.find("  Zone,"));
+    second = second.substr(0, second.find("  GlobalGeometryRules,")) +
+             second.substr(second.find("  BuildingSurface:Detailed,"));
+    for (const auto& [from, to] :
+         {std::pair<std::string, std::string>{"ZONE ONE", "ZONE TWO"}, {"Zn001", "Zn002"}})
+        for (std::size_t at = 0; (at = second.find(from, at)) != std::string::npos; at += to.size())
+            second.replace(at, from.size(), to);
+    Cli cli;
+    cli.write("two.idf", model + second);
+    CliResult r = cli.run("compute two.idf -o vf.idf");
+    CHECK(r.err ==
+          "formfactor: two.idf: the model has 2 zones; choose one with --zone NAME: ZONE ONE, "
+          "ZONE TWO\n");
+    r = cli.run("compute two.idf --all-zones --subdivide 2 -o vf.idf");
+    INFO(r.err);
+    REQUIRE(r.code == 0);
+    r = cli.run("compute two.idf --all-zones --subdivide 2 -o vf.epJSON");
+    REQUIRE(r.code == 0);
+    const auto objects = detail::parse_idf(read_text(cli.file("vf.idf")), "vf.idf");
+    REQUIRE(objects.size() == 2);
+    const auto doc = nlohmann::json::parse(read_text(cli.file("vf.epJSON")));
+    REQUIRE(doc.at("ZoneProperty:UserViewFactors:BySurfaceName").size() == 2);
+    for (std::size_t z = 0; z < 2; ++z) {
+        const std::string zone = z == 0 ? "ZONE ONE" : "ZONE TWO";
+        CAPTURE(zone);
+        const auto& o = objects[z];
+        CHECK(o.fields[0].value == zone);
+        REQUIRE(o.fields.size() == 1 + 3 * 49);
+        std::map<std::string, double> sums;
+        for (std::size_t k = 1; k < o.fields.size(); k += 3)
+            sums[o.fields[k].value] += std::stod(o.fields[k + 2].value);
+        CHECK(sums.size() == 7);
+        for (const auto& [name, sum] : sums) {
+            CHECK(name.rfind(z == 0 ? "Zn001:" : "Zn002:", 0) == 0);
+            CHECK(std::abs(sum - 1.0) < 1e-8);
+        }
+        const auto& j =
+            doc.at("ZoneProperty:UserViewFactors:BySurfaceName").at(zone + " view factors");
+        CHECK(j.at("zone_or_zonelist_or_space_or_spacelist_name") == zone);
+        CHECK(j.at("view_factors").size() == 49);
+    }
+    r = cli.run("compute two.idf --all-zones -o vf.csv");
+    CHECK(r.err ==
+          "formfactor: --all-zones: writes EnergyPlus view factors (-o X.idf or X.epJSON)\n");
+}

@@ -1,0 +1,242 @@
+// EnergyPlus models read as one zone each: EnergyPlus's own example zone (tests/data/energyplus,
+// see its README), its epJSON twin, and the conventions (vertex direction, relative coordinates,
+// zones) and error paths of the reader.
+
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "formfactor/matrix/aggregate.h"
+#include "formfactor/methods/method.h"
+#include "formfactor/scene/energyplus.h"
+#include "formfactor/scene/scene.h"
+#include "formfactor/scene/scene_io.h"
+#include "method_runner.h"
+#include "scene_test_util.h"
+
+using namespace formfactor;
+using formfactor::test::data;
+using formfactor::test::input_error;
+using formfactor::test::scratch_dir;
+using formfactor::testing::run_method;
+
+namespace {
+
+const std::string kIdf = "energyplus/1ZoneUncontrolled_win_1.idf";
+const std::string kEpJson = "energyplus/1ZoneUncontrolled_win_1.epJSON";
+
+std::string read_text(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+std::string replaced(std::string s, const std::string& from, const std::string& to) {
+    for (std::size_t at = 0; (at = s.find(from, at)) != std::string::npos; at += to.size())
+        s.replace(at, from.size(), to);
+    return s;
+}
+
+// The analytic method, tight: its entries are exact to ~1e-13, so row sums and reciprocity
+// carry that accuracy through the aggregation.
+FormFactors analytic(const Scene& s) {
+    const auto m = make_method("analytic");
+    m->check(s);
+    MethodOptions o;
+    o.tolerance = 1e-13;
+    return run_method(*m, s, o);
+}
+
+}  // namespace
+
+TEST_CASE("energyplus: EnergyPlus's one-zone example reads as 7 surfaces, the window a hole") {
+    const Scene s = load_scene(data(kIdf));
+    CHECK(s.title == "ZONE ONE");
+    CHECK(s.enclosure);
+    REQUIRE(s.surfaces.size() == 7);
+    const char* names[] = {"Zn001:Wall001", "Zn001:Wall001:Win001", "Zn001:Wall002",
+                           "Zn001:Wall003", "Zn001:Wall004",        "Zn001:Flr001",
+                           "Zn001:Roof001"};
+    for (std::size_t k = 0; k < 7; ++k) CHECK(s.surfaces[k].name == names[k]);
+    CHECK(s.surfaces[1].base == 0);
+    REQUIRE(s.surfaces[0].holes.size() == 1);
+    // Wall 15.24 × 4.572 minus the 5 × 2 window.
+    CHECK(std::abs(surface_area(s.surfaces[0]) - (15.24 * 4.572 - 10.0)) < 1e-9);
+    // Every surface faces into the zone (its centre is (7.62, 7.62, 2.286)).
+    const Vec3 centre(7.62, 7.62, 2.286);
+    for (const Surface& f : s.surfaces)
+        CHECK(normal(f.polygon).dot(centre - centroid(f.polygon)) > 0.0);
+}
+
+TEST_CASE("energyplus: the zone's rows sum to 1 and reciprocity holds, per patch and surface") {
+    Scene s = load_scene(data(kIdf));
+    subdivide(s, SubdivisionOptions{2, 0.0});
+    const FormFactors f = analytic(s);
+    for (Eigen::Index i = 0; i < f.F.rows(); ++i) {
+        CHECK(std::abs(f.F.row(i).sum() - 1.0) < 1e-9);
+        for (Eigen::Index j = 0; j < i; ++j) {
+            const double ai = f.areas[static_cast<std::size_t>(i)];
+            const double aj = f.areas[static_cast<std::size_t>(j)];
+            CHECK(std::abs(ai * f.F(i, j) - aj * f.F(j, i)) <= 1e-10 * std::max(ai, aj));
+        }
+    }
+    const FormFactors g = aggregate_per_surface(s, f);
+    REQUIRE(g.size() == 7);
+    for (Eigen::Index i = 0; i < 7; ++i) CHECK(std::abs(g.F.row(i).sum() - 1.0) < 1e-9);
+}
+
+TEST_CASE("energyplus: the same zone as IDF and epJSON gives the same matrix to 1e-12") {
+    const Scene a = load_scene(data(kIdf));
+    const Scene b = load_scene(data(kEpJson));
+    REQUIRE(a.surfaces.size() == b.surfaces.size());
+    for (std::size_t k = 0; k < a.surfaces.size(); ++k)
+        CHECK(a.surfaces[k].name == b.surfaces[k].name);
+    const FormFactors fa = analytic(a), fb = analytic(b);
+    CHECK((fa.F - fb.F).cwiseAbs().maxCoeff() <= 1e-12);
+}
+
+TEST_CASE("energyplus: the zone written as VS3 (window as subsurface) gives the same matrix") {
+    const Scene a = load_scene(data(kIdf));
+    const std::string vs3 = (scratch_dir() / "zone_one.vs3").string();
+    save_vs3(a, vs3);
+    const Scene b = load_scene(vs3);
+    REQUIRE(b.surfaces.size() == a.surfaces.size());
+    const FormFactors fa = aggregate_per_surface(a, analytic(a));
+    const FormFactors fb = aggregate_per_surface(b, analytic(b));
+    REQUIRE(fa.size() == fb.size());
+    CHECK((fa.F - fb.F).cwiseAbs().maxCoeff() <= 1e-12);
+}
+
+TEST_CASE("energyplus: relative coordinates move the zone to its origin and keep F") {
+    const std::string text = read_text(data(kIdf));
+    std::string moved = replaced(text, "    World;", "    Relative;");
+    moved = replaced(moved,
+                     "    0,                       !- X Origin {m}\n"
+                     "    0,                       !- Y Origin {m}\n"
+                     "    0,                       !- Z Origin {m}",
+                     "    10,\n    -20,\n    3,");
+    moved = replaced(moved, "    0,                       !- Direction of Relative North {deg}",
+                     "    30,");
+    const Scene a = load_energyplus_text(text, "a.idf");
+    const Scene b = load_energyplus_text(moved, "b.idf");
+    // The floor's first vertex (15.24, 0, 0) rotated by -30° about z, then moved.
+    const double c = std::cos(-30.0 * M_PI / 180.0), s = std::sin(-30.0 * M_PI / 180.0);
+    const Vec3 expected(15.24 * c + 10, 15.24 * s - 20, 3);
+    const Polygon& floor = b.surfaces[5].polygon;  // reversed: the first vertex is last
+    CHECK((floor.vertices.back() - expected).norm() < 1e-12);
+    const FormFactors fa = analytic(a), fb = analytic(b);
+    CHECK((fa.F - fb.F).cwiseAbs().maxCoeff() <= 1e-12);
+}
+
+TEST_CASE("energyplus: a UTF-8 byte order mark before the first object is skipped") {
+    // From the Zone object on: the mark sits right before a class name.
+    const std::string full = read_text(data(kIdf));
+    const std::string text = full.substr(full.find("Zone,"));
+    const Scene a = load_energyplus_text(text, "a.idf");
+    const Scene b = load_energyplus_text("\xEF\xBB\xBF" + text, "b.idf");
+    REQUIRE(b.surfaces.size() == a.surfaces.size());
+    for (std::size_t k = 0; k < a.surfaces.size(); ++k)
+        CHECK(b.surfaces[k].polygon.vertices == a.surfaces[k].polygon.vertices);
+}
+
+TEST_CASE("energyplus: clockwise vertex entry keeps the file's order (surfaces face outward)") {
+    const std::string text = read_text(data(kIdf));
+    const Scene cw =
+        load_energyplus_text(replaced(text, "CounterClockWise", "Clockwise"), "cw.idf");
+    const Vec3 centre(7.62, 7.62, 2.286);
+    for (const Surface& f : cw.surfaces)
+        CHECK(normal(f.polygon).dot(centre - centroid(f.polygon)) < 0.0);
+}
+
+TEST_CASE("energyplus: several zones need --zone, which matches names case-insensitively") {
+    const std::string text = read_text(data(kIdf));
+    // A second zone: the same room under other names.
+    std::string second = text.substr(text.find("  Zone,"));
+    second = replaced(second, "ZONE ONE", "Zone Two");
+    second = replaced(second, "Zn001", "Zn002");
+    second = replaced(second,
+                      "  GlobalGeometryRules,\n    UpperLeftCorner,         !- Starting "
+                      "Vertex Position\n    CounterClockWise,        !- Vertex Entry "
+                      "Direction\n    World;                   !- Coordinate System\n",
+                      "");
+    const std::string both = text + second;
+    CHECK(input_error([&] { load_energyplus_text(both, "two.idf"); }) ==
+          "two.idf: the model has 2 zones; choose one with --zone NAME: ZONE ONE, Zone Two");
+    const Scene z2 = load_energyplus_text(both, "two.idf", "zone two");
+    CHECK(z2.title == "Zone Two");
+    REQUIRE(z2.surfaces.size() == 7);
+    CHECK(z2.surfaces[0].name == "Zn002:Wall001");
+    CHECK(input_error([&] { load_energyplus_text(both, "two.idf", "Attic"); }) ==
+          "two.idf: zone 'Attic' is not in the model (zones: ZONE ONE, Zone Two)");
+}
+
+TEST_CASE("energyplus: bad models name the file and line, or the epJSON object") {
+    const std::string text = read_text(data(kIdf));
+    CHECK(input_error([&] {
+              load_energyplus_text(replaced(text, "15.24000,0,0,  !- X,Y,Z ==> Vertex 3",
+                                            "15.24000,x,0,  !- X,Y,Z ==> Vertex 3"),
+                                   "m.idf");
+          }) ==
+          "m.idf:56: BuildingSurface:Detailed 'Zn001:Wall001': vertex 3 Y-coordinate 'x' "
+          "is not a finite number");
+    CHECK(input_error([&] {
+              load_energyplus_text(replaced(text,
+                                            "    4,                       !- Number of "
+                                            "Vertices\n    0,0,4.572000,",
+                                            "    5,\n    0,0,4.572000,"),
+                                   "m.idf");
+          }) ==
+          "m.idf:53: BuildingSurface:Detailed 'Zn001:Wall001': Number of Vertices is '5' "
+          "but 4 vertices follow");
+    CHECK(input_error([&] {
+              load_energyplus_text(replaced(text,
+                                            "    Zn001:Wall001,           !- Building "
+                                            "Surface Name",
+                                            "    Zn001:Wall009,"),
+                                   "m.idf");
+          }) ==
+          "m.idf:59: FenestrationSurface:Detailed 'Zn001:Wall001:Win001': its base surface "
+          "'Zn001:Wall009' does not exist");
+    CHECK(input_error([&] {
+              load_energyplus_text(
+                  replaced(replaced(text, ",0,2.5000", ",0.3,2.5000"), ",0,0.5000", ",0.3,0.5000"),
+                  "m.idf");
+          }) ==
+          "m.idf:59: FenestrationSurface:Detailed 'Zn001:Wall001:Win001' is not in the plane "
+          "of its base surface 'Zn001:Wall001' (distance 0.3)");
+    CHECK(input_error([&] {
+              load_energyplus_text(replaced(text, "5.548000,0,0.5000,", "25.548000,0,0.5000,"),
+                                   "m.idf");
+          }).find("is not within its base surface 'Zn001:Wall001'") != std::string::npos);
+    CHECK(input_error([&] { load_energyplus_text(text.substr(0, text.rfind(';')), "m.idf"); }) ==
+          "m.idf:154: object 'Output:Surfaces:Drawing' is not ended by ';'");
+    CHECK(input_error([&] {
+              load_energyplus_text(text +
+                                       "Wall:Exterior, W1, R13WALL, ZONE ONE, 0, 90, 0, 0, "
+                                       "0, 3, 3;\n",
+                                   "m.idf");
+          }) ==
+          "m.idf:155: Wall:Exterior 'W1' (simplified geometry) is not read: describe "
+          "zone 'ZONE ONE' with BuildingSurface:Detailed and FenestrationSurface:Detailed "
+          "objects");
+    CHECK(input_error([&] {
+              load_energyplus_text(replaced(text, "CounterClockWise", "Sideways"), "m.idf");
+          }) ==
+          "m.idf:40: GlobalGeometryRules: Vertex Entry Direction 'Sideways' is not one of "
+          "Counterclockwise, Clockwise");
+    const std::string json = read_text(data(kEpJson));
+    CHECK(input_error([&] {
+              load_energyplus_text(replaced(json, "\"vertex_y_coordinate\": 0.0", "\"q\": 0.0"),
+                                   "m.epJSON");
+          }) ==
+          "m.epJSON: BuildingSurface:Detailed 'Zn001:Wall001': vertex 1 has no finite "
+          "vertex_y_coordinate");
+    CHECK(input_error([&] { load_energyplus_text("{", "m.epJSON"); })
+              .rfind("m.epJSON: not valid "
+                     "JSON",
+                     0) == 0);
+}
