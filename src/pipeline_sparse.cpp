@@ -29,6 +29,15 @@ void merge_report(MethodReport& total, const MethodReport& block, bool first) {
         total.pairs->far_field += block.pairs->far_field;
     }
     if (total.rays_cast && block.rays_cast) *total.rays_cast += *block.rays_cast;
+    // Counts of closed-model rays (mc-hemisphere) add up, and so does their warning.
+    for (const char* key : {"closed_model_escapes", "recast_rays"})
+        if (total.details.contains(key) && block.details.contains(key))
+            total.details[key] =
+                total.details.at(key).unsigned_integer() + block.details.at(key).unsigned_integer();
+    if (total.details.contains("closed_model_escapes")) {
+        const std::uint64_t lost = total.details.at("closed_model_escapes").unsigned_integer();
+        if (lost > 0) total.details["closed_model_warning"] = closed_model_escape_warning(lost);
+    }
     if (total.seconds && block.seconds) *total.seconds += *block.seconds;
     if (total.error_bound_per_entry && block.error_bound_per_entry)
         total.error_bound_per_entry =

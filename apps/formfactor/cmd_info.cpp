@@ -9,6 +9,7 @@
 #include "common.h"
 #include "formfactor/geometry/polygon.h"
 #include "formfactor/output/report.h"
+#include "formfactor/scene/closure.h"
 
 namespace formfactor::cli {
 
@@ -96,6 +97,7 @@ void print_info(const Scene& scene, const std::vector<std::size_t>& patch_counts
                    b.diagonal().norm());
     }
     fmt::print("enclosure    {}\n", scene.enclosure ? "yes (rows should sum to 1)" : "no");
+    fmt::print("closed       {}\n", check_closure(scene).summary());
     fmt::print("materials    {}\n", scene.materials.size());
     for (std::size_t k = 0; k < scene.materials.size(); ++k) {
         const Material& m = scene.materials[k];

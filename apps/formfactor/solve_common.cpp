@@ -57,6 +57,7 @@ ComputedMatrix computed_matrix(ComputeResult&& r, StepTimes& times) {
     ComputedMatrix out;
     out.ff = std::move(r.form_factors);
     out.details = to_json(r.report);
+    print_method_warnings(r.report);
     out.raw = *r.diagnostics;
     out.repaired = std::move(r.repair);
     if (out.repaired) print_repair(*out.repaired);
@@ -259,6 +260,11 @@ std::vector<bool> emitting_patches(const Scene& scene) {
     for (std::size_t i = 0; i < e.size(); ++i)
         e[i] = scene.material_of(i).emission.maxCoeff() > 0.0;
     return e;
+}
+
+void print_method_warnings(const MethodReport& report) {
+    if (report.details.contains("closed_model_warning"))
+        print_warnings({report.details.at("closed_model_warning").text()});
 }
 
 void print_warnings(const std::vector<std::string>& warnings) {

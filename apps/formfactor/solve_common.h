@@ -88,5 +88,7 @@ std::vector<bool> emitting_patches(const Scene& scene);
 void print_radiosity_summary(const RadiosityResult& r);
 void print_thermal_summary(const ThermalResult& r);
 void print_warnings(const std::vector<std::string>& warnings);
+/// Prints the warnings a method's report carries (a closed model that lost rays).
+void print_method_warnings(const MethodReport& report);
 
 }  // namespace formfactor::cli

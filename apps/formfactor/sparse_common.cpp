@@ -23,6 +23,7 @@ SparseComputeResult compute_sparse_matrix(const Scene& scene, const MethodArgs& 
     so.threshold = threshold;
     SparseComputeResult r = compute_sparse_form_factors(scene, o, so);
     times.add(r.timings);
+    print_method_warnings(r.report);
     return r;
 }
 

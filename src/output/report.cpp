@@ -9,6 +9,7 @@
 
 #include "formfactor/core/atomic_file.h"
 #include "formfactor/matrix/memory.h"
+#include "formfactor/scene/closure.h"
 
 namespace formfactor {
 
@@ -96,6 +97,7 @@ json scene_summary_json(const Scene& scene) {
         {"patches", scene.patches.size()},
         {"materials", scene.materials.size()},
         {"enclosure", scene.enclosure},
+        {"closed", check_closure(scene).closed},
         {"total_area", total},
         {"patch_area", {{"min", amin}, {"max", amax}}},
         {"warnings", scene.warnings},

@@ -12,7 +12,9 @@
 #include <vector>
 
 #include "formfactor/core/error.h"
+#include "formfactor/scene/closure.h"
 #include "formfactor/visibility/visibility.h"
+#include "geometry/box_tree.h"
 
 namespace formfactor {
 namespace {
@@ -71,13 +73,26 @@ using SceneHandle = std::unique_ptr<RTCSceneTy, SceneDeleter>;
 class EmbreeVisibility final : public Visibility {
   public:
     EmbreeVisibility(const Scene& scene, const VisibilityOptions& options) : options_(options) {
+        // A closed model is traced on its welded vertices (shared edges then share their
+        // floats) and its first hits are re-cast watertight when they find no front face.
+        const WeldedPatches welded = weld_patches(scene);
+        closed_ = check_closure(scene, welded).closed;
+        tolerance_ = welded.tolerance;
+        std::vector<Polygon> welded_polys;
+        if (closed_) {
+            welded_polys.resize(scene.patches.size());
+            for (std::size_t p = 0; p < scene.patches.size(); ++p)
+                for (int v : welded.vertex[p])
+                    welded_polys[p].vertices.push_back(
+                        welded.positions[static_cast<std::size_t>(v)]);
+        }
         // Geometry: every patch, then every obstruction-only surface.
         Bounds3 box;
         std::vector<const Polygon*> polys;
         std::vector<int> owner;  // patch index or −1
         std::vector<Vec3> owner_normal;
         for (std::size_t p = 0; p < scene.patches.size(); ++p) {
-            polys.push_back(&scene.patches[p].polygon);
+            polys.push_back(closed_ ? &welded_polys[p] : &scene.patches[p].polygon);
             owner.push_back(static_cast<int>(p));
             Vec3 n = scene.patches[p].normal;
             if (!(n.squaredNorm() > 0)) n = normal(scene.patches[p].polygon);
@@ -118,6 +133,23 @@ class EmbreeVisibility final : public Visibility {
                 t.push_back({0, 1, 2});
             else
                 t = triangulate(poly);
+            if (closed_) {
+                if (owner[k] >= 0) patch_first_tri_.push_back(exact_.size());
+                for (const auto& tri : t) {
+                    std::array<Vec3, 3> welded_tri, raw_tri;
+                    for (int j = 0; j < 3; ++j) {
+                        const auto v = static_cast<std::size_t>(tri[static_cast<std::size_t>(j)]);
+                        welded_tri[static_cast<std::size_t>(j)] = poly[v];
+                        if (owner[k] >= 0)
+                            raw_tri[static_cast<std::size_t>(j)] =
+                                scene.patches[static_cast<std::size_t>(owner[k])].polygon[v];
+                    }
+                    exact_.push_back(welded_tri);
+                    if (owner[k] >= 0) raw_.push_back(raw_tri);
+                    exact_owner_.push_back(owner[k]);
+                    exact_normal_.push_back(owner_normal[k]);
+                }
+            }
             for (const auto& tri : t) {
                 tris.push_back({base + static_cast<unsigned>(tri[0]),
                                 base + static_cast<unsigned>(tri[1]),
@@ -129,6 +161,18 @@ class EmbreeVisibility final : public Visibility {
             }
         }
         if (tris.empty()) throw GeometryError("visibility: the scene has no triangles");
+        if (closed_) {
+            patch_first_tri_.push_back(raw_.size());
+            // Boxes padded by the vertex tolerance: the traversal's rounding cannot lose a hit.
+            std::vector<Bounds3> boxes(exact_.size());
+            for (std::size_t k = 0; k < exact_.size(); ++k) {
+                for (const Vec3& v : exact_[k]) boxes[k].extend(v);
+                boxes[k].lo.array() -= tolerance_;
+                boxes[k].hi.array() += tolerance_;
+            }
+            exact_tree_.build(
+                boxes.size(), [&](int k) -> const Bounds3& { return boxes[std::size_t(k)]; }, 4);
+        }
 
         {
             // Embree's device creation writes process-wide state (ThreadSanitizer saw two
@@ -176,6 +220,8 @@ class EmbreeVisibility final : public Visibility {
     EmbreeVisibility& operator=(const EmbreeVisibility&) = delete;
 
     double epsilon() const override { return epsilon_; }
+    bool closed() const override { return closed_; }
+    std::uint64_t recast_rays() const override { return recast_.load(std::memory_order_relaxed); }
     std::size_t triangle_count() const override { return triangles_; }
     std::string description() const override {
         return "embree " + std::to_string(RTC_VERSION_MAJOR) + "." +
@@ -241,6 +287,7 @@ class EmbreeVisibility final : public Visibility {
         rtcInitIntersectContext(&ctx);
         ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
         std::array<RTCRayHit, kChunk> rh;
+        std::uint64_t recast = 0;
         for (std::size_t start = 0; start < queries.size(); start += kChunk) {
             const std::size_t m = std::min(kChunk, queries.size() - start);
             for (std::size_t k = 0; k < m; ++k) {
@@ -259,21 +306,160 @@ class EmbreeVisibility final : public Visibility {
                 RayHit& out = hits[start + k];
                 if (rh[k].hit.geomID == RTC_INVALID_GEOMETRY_ID) {
                     out = RayHit{};
-                    continue;
+                } else {
+                    const unsigned prim = rh[k].hit.primID;
+                    out.patch = tri_owner_[prim];
+                    const auto& n = tri_normal_[prim];
+                    out.front =
+                        n[0] * rh[k].ray.dir_x + n[1] * rh[k].ray.dir_y + n[2] * rh[k].ray.dir_z <
+                        0.0f;
+                    out.distance = rh[k].ray.tfar;
+                    if (!out.front || out.patch < 0) resolve_twin(rh[k].ray, prim, out);
                 }
-                const unsigned prim = rh[k].hit.primID;
-                out.patch = tri_owner_[prim];
-                const auto& n = tri_normal_[prim];
-                out.front =
-                    n[0] * rh[k].ray.dir_x + n[1] * rh[k].ray.dir_y + n[2] * rh[k].ray.dir_z < 0.0f;
-                out.distance = rh[k].ray.tfar;
-                if (!out.front || out.patch < 0) resolve_twin(rh[k].ray, prim, out);
+                // From inside a closed model only a front face (or an obstruction) can be met.
+                if (closed_ && (out.patch == RayHit::kMiss || (out.patch >= 0 && !out.front))) {
+                    ++recast;
+                    recast_exact(queries[start + k], out);
+                }
             }
         }
+        if (recast) recast_.fetch_add(recast, std::memory_order_relaxed);
         errors_.check("intersection query");
     }
 
   private:
+    // The ray of q cast again in double precision from q.origin itself (not moved off its
+    // patch, but onto its welded triangles) against the welded triangles (closed models): the
+    // nearest front face of a patch other than q.from_patch at t ≥ −tolerance_, or an
+    // obstruction at t > 0, replaces `out`;
+    // when there is none, `out` stays. Watertight: Woop, Benthin & Wald, "Watertight
+    // Ray/Triangle Intersection", JCGT 2(1), 2013 — the edge functions of a shared edge are
+    // computed from the same two transformed vertices, so a ray through the edge (or a shared
+    // vertex) meets at least one of its triangles. The library is built with -ffp-contract=off,
+    // so no fused multiply-add breaks their antisymmetry.
+    // A grazing ray (nearly in the plane of its patch) can leave through the crease where its
+    // patch meets a neighbour tilted by rounding or jitter, crossing the neighbour's plane on
+    // their common edge: neither triangle then has to take it (a direction sampled at θ = 90°
+    // lies in the patch's plane). Such a ray is cast once more from the vertex tolerance in
+    // front of its patch (the side that faces the inside of a closed model).
+    void recast_exact(const RayQuery& q, RayHit& out) const {
+        if (exact_tree_.nodes.empty()) return;
+        const double len = q.direction.norm();
+        const Vec3 d = len > 0 ? Vec3(q.direction / len) : Vec3::UnitZ();
+        const Vec3 o = q.from_patch >= 0 ? on_welded(q.origin, q.from_patch) : q.origin;
+        double t = 0.0;
+        int tri = exact_first_hit(o, d, q.from_patch, t);
+        if (tri < 0 && q.from_patch >= 0) {
+            const Vec3& n = patch_normal_[static_cast<std::size_t>(q.from_patch)];
+            tri = exact_first_hit(o + tolerance_ * n, d, q.from_patch, t);
+        }
+        if (tri < 0) return;
+        const auto bt = static_cast<std::size_t>(tri);
+        out.patch = exact_owner_[bt];
+        out.front = exact_normal_[bt].dot(d) < 0;
+        out.distance = std::max(t, 0.0);
+    }
+
+    // The welded triangle the unit ray o + t d meets first (see recast_exact), its t in `hit_t`;
+    // −1 for none.
+    int exact_first_hit(const Vec3& o, const Vec3& d, int from_patch, double& hit_t) const {
+        int kz = 0;
+        if (std::abs(d.y()) > std::abs(d[kz])) kz = 1;
+        if (std::abs(d.z()) > std::abs(d[kz])) kz = 2;
+        int kx = (kz + 1) % 3, ky = (kx + 1) % 3;
+        if (d[kz] < 0) std::swap(kx, ky);
+        const double sx = d[kx] / d[kz], sy = d[ky] / d[kz], sz = 1.0 / d[kz];
+        double best = std::numeric_limits<double>::infinity();
+        int best_tri = -1;
+        int stack[128];
+        int top = 0;
+        stack[top++] = 0;
+        while (top > 0) {
+            const detail::BoxTree::Node& node =
+                exact_tree_.nodes[static_cast<std::size_t>(stack[--top])];
+            if (!box_hit(node.box, o, d, best)) continue;
+            if (node.left < 0) {
+                for (int k = node.first; k < node.first + node.count; ++k) {
+                    const int tri = exact_tree_.order[static_cast<std::size_t>(k)];
+                    const auto ti = static_cast<std::size_t>(tri);
+                    const int owner = exact_owner_[ti];
+                    if (owner == from_patch && owner >= 0) continue;
+                    const double c = exact_normal_[ti].dot(d);
+                    if (owner >= 0 && !(c < 0)) continue;  // a patch's back: not from inside
+                    const auto& v = exact_[ti];
+                    double ex[3], ey[3], ez[3];
+                    for (int j = 0; j < 3; ++j) {
+                        const Vec3 r = v[static_cast<std::size_t>(j)] - o;
+                        ex[j] = r[kx] - sx * r[kz];
+                        ey[j] = r[ky] - sy * r[kz];
+                        ez[j] = sz * r[kz];
+                    }
+                    const double u = ex[2] * ey[1] - ey[2] * ex[1];
+                    const double w = ex[0] * ey[2] - ey[0] * ex[2];
+                    const double x = ex[1] * ey[0] - ey[1] * ex[0];
+                    if ((u < 0 || w < 0 || x < 0) && (u > 0 || w > 0 || x > 0)) continue;
+                    const double det = u + w + x;
+                    if (det == 0) continue;
+                    const double t = (u * ez[0] + w * ez[1] + x * ez[2]) / det;
+                    const bool ok = owner >= 0 ? t >= -tolerance_ : t > 0;
+                    if (ok && t < best) {
+                        best = t;
+                        best_tri = tri;
+                    }
+                }
+            } else {
+                FF_ASSERT(top + 2 <= 128);  // median splits: depth ~ log2(triangles)
+                stack[top++] = node.right;
+                stack[top++] = node.left;
+            }
+        }
+        hit_t = best;
+        return best_tri;
+    }
+
+    // The point of patch p's welded triangles with the barycentric coordinates that `x` has in
+    // its own (unwelded) triangles, in the triangle that holds it best: a sample point of the
+    // patch moved onto the welded surface, so that it is never outside the closed model.
+    Vec3 on_welded(const Vec3& x, int p) const {
+        const auto pp = static_cast<std::size_t>(p);
+        double best = -std::numeric_limits<double>::infinity();
+        Vec3 at = x;
+        for (std::size_t k = patch_first_tri_[pp]; k < patch_first_tri_[pp + 1]; ++k) {
+            const auto& r = raw_[k];
+            const Vec3 e0 = r[1] - r[0], e1 = r[2] - r[0], e2 = x - r[0];
+            const double d00 = e0.dot(e0), d01 = e0.dot(e1), d11 = e1.dot(e1);
+            const double d20 = e2.dot(e0), d21 = e2.dot(e1);
+            const double den = d00 * d11 - d01 * d01;
+            if (!(den > 0)) continue;
+            const double b1 = (d11 * d20 - d01 * d21) / den, b2 = (d00 * d21 - d01 * d20) / den;
+            const double b0 = 1.0 - b1 - b2;
+            const double worst = std::min(b0, std::min(b1, b2));
+            if (worst > best) {
+                best = worst;
+                const auto& w = exact_[k];
+                at = b0 * w[0] + b1 * w[1] + b2 * w[2];
+            }
+        }
+        return at;
+    }
+
+    // Does the ray o + t d meet `box` for some t in [−tolerance_, best]? (Boxes are padded by
+    // tolerance_, far more than the rounding of these divisions.)
+    bool box_hit(const Bounds3& box, const Vec3& o, const Vec3& d, double best) const {
+        double t0 = -tolerance_, t1 = best;
+        for (int a = 0; a < 3; ++a) {
+            if (d[a] == 0) {
+                if (o[a] < box.lo[a] || o[a] > box.hi[a]) return false;
+                continue;
+            }
+            double ta = (box.lo[a] - o[a]) / d[a], tb = (box.hi[a] - o[a]) / d[a];
+            if (ta > tb) std::swap(ta, tb);
+            t0 = std::max(t0, ta);
+            t1 = std::min(t1, tb);
+        }
+        return t0 <= t1;
+    }
+
     // An intersection context whose filter accepts only hits on the front of a patch.
     struct FrontOnlyContext {
         RTCIntersectContext context;  // first: Embree passes a pointer to it to the filter
@@ -390,6 +576,16 @@ class EmbreeVisibility final : public Visibility {
     std::vector<Vec3> patch_normal_;
     std::vector<int> tri_owner_;
     std::vector<std::array<float, 3>> tri_normal_;
+    // Closed models: the welded triangles in double, their owners and normals, their tree.
+    bool closed_ = false;
+    double tolerance_ = 0.0;
+    std::vector<std::array<Vec3, 3>> exact_;
+    std::vector<std::array<Vec3, 3>> raw_;      // the patches' triangles before welding
+    std::vector<std::size_t> patch_first_tri_;  // patch p: triangles [first[p], first[p + 1])
+    std::vector<int> exact_owner_;
+    std::vector<Vec3> exact_normal_;
+    detail::BoxTree exact_tree_;
+    mutable std::atomic<std::uint64_t> recast_{0};
 };
 
 }  // namespace

@@ -23,6 +23,17 @@
 /// within epsilon() of that surface's plane, the front face takes the hit. A back face with no
 /// front face coincident stays a blocker (patches are opaque), and so does an obstruction: it
 /// blocks from both sides, and only a patch lying on it is seen before it.
+///
+/// Closed models (formfactor/scene/closure.h, docs/closed-models.md). Single-precision ray
+/// casting is not watertight: a ray through a shared edge or vertex can slip between two
+/// triangles, and a ray that starts within float resolution of a neighbouring face can pass
+/// behind it. When the patches form a closed model, the ray tracer's triangles take the welded
+/// vertices, and every first hit that finds nothing, or the back of a patch (impossible from
+/// inside), is cast again in double precision from the exact origin on its patch (carried
+/// onto the welded surface) against the welded triangles with a watertight test (Woop, Benthin
+/// & Wald 2013): the front of a patch (or an obstruction) it meets first takes the hit. A ray
+/// that this misses too is reported as a miss; the methods count it (it is a bug). Open scenes
+/// are traced as before, bit for bit. Segment queries (occluded()) are not re-checked.
 
 #include <cstddef>
 #include <cstdint>
@@ -96,11 +107,24 @@ class Visibility {
 
     /// Ray-end offset in scene length units.
     virtual double epsilon() const = 0;
+    /// True when the patches form a closed model (check_closure()): first hits are then
+    /// re-cast watertight (see the header comment) and a miss is a bug to count.
+    virtual bool closed() const = 0;
+    /// First hits this structure has re-cast in double precision so far (closed models only).
+    virtual std::uint64_t recast_rays() const = 0;
     /// Number of triangles in the acceleration structure (patches and obstructions).
     virtual std::size_t triangle_count() const = 0;
     /// Short description of the backend ("embree 3.13.5, ...").
     virtual std::string description() const = 0;
 };
+
+/// The warning for `escapes` rays that met no front face of a closed model (a method's report
+/// field `closed_model_warning`).
+inline std::string closed_model_escape_warning(std::uint64_t escapes) {
+    return std::to_string(escapes) + (escapes == 1 ? " ray" : " rays") +
+           " escaped a closed model (no front face met, even by the watertight re-cast): their "
+           "rows sum to less than 1; this is a bug, please report the scene";
+}
 
 /// Builds the visibility structure of scene.patches and the scene's obstruction-only surfaces.
 /// Throws GeometryError if the scene has no geometry, Error when the ray tracer reports one.

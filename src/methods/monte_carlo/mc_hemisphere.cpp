@@ -5,8 +5,12 @@
 // arriving on the front of patch j)/N. Rays that escape, hit an obstruction or the back of a
 // patch count for no patch, so row sums are exactly (front hits)/N. --samples = rays per row.
 // Standard error: sqrt(F(1−F)/N) for the random sampler (binomial), else the replicate spread.
+// In a closed model (Visibility::closed()) no ray can leave: a miss or a back hit there is a
+// ray the ray tracer lost, counted as `closed_model_escapes`, with `closed_model_warning` when
+// there is one.
 #include <algorithm>
 #include <atomic>
+#include <string>
 
 #include "formfactor/core/parallel.h"
 #include "formfactor/core/progress.h"
@@ -59,6 +63,7 @@ class McHemisphereMethod final : public mc::MonteCarloMethod {
         FormFactors& ff = result.form_factors;
         std::atomic<std::uint64_t> rays{0}, escaped{0}, back_hits{0}, obstruction_hits{0};
         Progress progress("mc-hemisphere", run.rows.size(), ctx.progress);
+        const std::uint64_t recast_before = run.vis->recast_rays();
 
         parallel_for(run.rows.size(), run.options.threads, [&](std::size_t row) {
             const std::size_t i = run.rows.begin + row;
@@ -161,6 +166,13 @@ class McHemisphereMethod final : public mc::MonteCarloMethod {
         details["escaped_fraction"] = total > 0 ? escaped.load() / total : 0.0;
         details["back_hit_fraction"] = total > 0 ? back_hits.load() / total : 0.0;
         details["obstruction_hit_fraction"] = total > 0 ? obstruction_hits.load() / total : 0.0;
+        if (run.vis->closed()) {
+            const std::uint64_t lost = escaped.load() + back_hits.load();
+            details["closed_model"] = true;
+            details["closed_model_escapes"] = lost;
+            details["recast_rays"] = run.vis->recast_rays() - recast_before;
+            if (lost > 0) details["closed_model_warning"] = closed_model_escape_warning(lost);
+        }
         return result;
     }
 };
