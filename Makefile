@@ -20,7 +20,8 @@ DEB_PACKAGES := cmake g++ make pkg-config \
 	libtinyobjloader-dev libstb-dev libhdf5-dev doctest-dev libbenchmark-dev pybind11-dev \
 	python3-dev python3-numpy python3-scipy python3-pytest python3-matplotlib python3-h5py \
 	python3-setuptools python3-wheel python3-pip python3-venv \
-	clang libclang-rt-14-dev clang-format
+	clang libclang-rt-14-dev clang-format \
+	gmsh libassimp-dev
 
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 

@@ -28,6 +28,7 @@
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/solution_io.h"
 #include "formfactor/output/sparse_io.h"
+#include "formfactor/scene/mesh_io.h"
 #include "formfactor/scene/points.h"
 #include "formfactor/scene/scene.h"
 #include "formfactor/solve/properties.h"
@@ -45,6 +46,7 @@ enum class Target {
     matrix_mtx,  ///< read_matrix_market (sparse F, Matrix Market coordinate)
     solution,    ///< read_solution_csv (radiosity and thermal tables)
     points,      ///< parse_points_csv (the point elements of `formfactor point --points`)
+    msh,         ///< load_msh (Gmsh, any version and encoding the bytes claim)
 };
 
 struct TargetName {
@@ -53,7 +55,7 @@ struct TargetName {
 };
 
 /// Every target with the name of its fuzzer (`fuzz_NAME`) and corpus folder.
-inline constexpr std::array<TargetName, 9> kTargets = {{
+inline constexpr std::array<TargetName, 10> kTargets = {{
     {"obj", Target::obj},
     {"vs3", Target::vs3},
     {"properties", Target::properties},
@@ -63,6 +65,7 @@ inline constexpr std::array<TargetName, 9> kTargets = {{
     {"matrix_mtx", Target::matrix_mtx},
     {"solution", Target::solution},
     {"points", Target::points},
+    {"msh", Target::msh},
 }};
 
 /// The line that separates the OBJ text from the MTL text in an `obj` input. The MTL part is
@@ -176,6 +179,11 @@ inline bool run(Target target, const std::uint8_t* data, std::size_t size) {
             }
             case Target::vs3: {
                 Scene scene = load_vs3(ws.write("fuzz.vs3", bytes));
+                exercise_scene(scene);
+                break;
+            }
+            case Target::msh: {
+                Scene scene = load_msh(ws.write("fuzz.msh", bytes));
                 exercise_scene(scene);
                 break;
             }

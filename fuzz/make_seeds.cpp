@@ -104,6 +104,9 @@ int main(int argc, char** argv) {
                       obj_input(read_file(p), fs::exists(mtl) ? read_file(mtl) : ""));
         }
     }
+    for (const auto& e : fs::directory_iterator(data / "gmsh"))
+        if (e.path().extension() == ".msh")
+            seeds.add("msh", e.path().filename().string(), read_file(e.path()));
     const fuzz::Workspace ws;
     for (const std::string& name : builtin_scene_names()) {
         const Scene scene = builtin_scene(name);

@@ -76,6 +76,11 @@ TEST_CASE("fuzz regressions: the seeds of every target are accepted") {
     CHECK_FALSE(run_bytes(fuzz::Target::vs3, "T too few numbers\nV 1 0 0\n"));
     CHECK(run_bytes(fuzz::Target::points, "x,y,z,nx,ny,nz\n0,0,0,0,0,2\n"));
     CHECK_FALSE(run_bytes(fuzz::Target::points, "0,0,0,0,0,0\n"));
+    CHECK(run_bytes(fuzz::Target::msh,
+                    "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n3\n1 0 0 0\n"
+                    "2 1 0 0\n3 0 1 0\n$EndNodes\n$Elements\n1\n1 2 0 1 2 3\n"
+                    "$EndElements\n"));
+    CHECK_FALSE(run_bytes(fuzz::Target::msh, "$MeshFormat\n4.1 1 8\n\x01"));
 }
 
 TEST_CASE("fuzz regressions: an NPY header claiming 10^12 values is an input error") {

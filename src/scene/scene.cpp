@@ -6,6 +6,7 @@
 #include <string>
 
 #include "formfactor/core/error.h"
+#include "formfactor/scene/mesh_io.h"
 #include "scene/text.h"
 
 namespace formfactor {
@@ -102,6 +103,7 @@ Scene load_scene(const std::string& name_or_path) {
                    [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
     if (ext == ".obj") return load_obj(name_or_path);
     if (ext == ".vs3") return load_vs3(name_or_path);
+    if (ext == ".msh") return load_msh(name_or_path);
     std::string names;
     for (const std::string& b : builtin_scene_names()) names += (names.empty() ? "" : ", ") + b;
     std::string generators;
@@ -110,10 +112,10 @@ Scene load_scene(const std::string& name_or_path) {
     if (ext.empty())
         throw InputError(name_or_path, 0,
                          "not a built-in scene (" + names + ") nor a generated one (" + generators +
-                             ") and no file extension (.obj or .vs3 expected)");
+                             ") and no file extension (.obj, .vs3 or .msh expected)");
     throw InputError(name_or_path, 0,
                      "unknown file extension '" + ext +
-                         "' (.obj or .vs3 expected, or a built-in "
+                         "' (.obj, .vs3 or .msh expected, or a built-in "
                          "scene: " +
                          names + ")");
 }
