@@ -47,6 +47,8 @@ enum class Target {
     solution,    ///< read_solution_csv (radiosity and thermal tables)
     points,      ///< parse_points_csv (the point elements of `formfactor point --points`)
     msh,         ///< load_msh (Gmsh, any version and encoding the bytes claim)
+    mesh,        ///< load_mesh: the first byte picks the extension (kMeshExtensions), the rest
+                 ///< is the file
 };
 
 struct TargetName {
@@ -55,7 +57,7 @@ struct TargetName {
 };
 
 /// Every target with the name of its fuzzer (`fuzz_NAME`) and corpus folder.
-inline constexpr std::array<TargetName, 10> kTargets = {{
+inline constexpr std::array<TargetName, 11> kTargets = {{
     {"obj", Target::obj},
     {"vs3", Target::vs3},
     {"properties", Target::properties},
@@ -66,7 +68,13 @@ inline constexpr std::array<TargetName, 10> kTargets = {{
     {"solution", Target::solution},
     {"points", Target::points},
     {"msh", Target::msh},
+    {"mesh", Target::mesh},
 }};
+
+/// The extensions the `mesh` target writes its input as, picked by the input's first byte
+/// (modulo their number).
+inline constexpr std::array<const char*, 5> kMeshExtensions = {".stl", ".ply", ".off", ".gltf",
+                                                               ".glb"};
 
 /// The line that separates the OBJ text from the MTL text in an `obj` input. The MTL part is
 /// written as `fuzz.mtl` beside `fuzz.obj`, so an OBJ that says `mtllib fuzz.mtl` reads it.
@@ -184,6 +192,14 @@ inline bool run(Target target, const std::uint8_t* data, std::size_t size) {
             }
             case Target::msh: {
                 Scene scene = load_msh(ws.write("fuzz.msh", bytes));
+                exercise_scene(scene);
+                break;
+            }
+            case Target::mesh: {
+                if (bytes.empty()) break;
+                const char* ext =
+                    kMeshExtensions[static_cast<unsigned char>(bytes[0]) % kMeshExtensions.size()];
+                Scene scene = load_mesh(ws.write(std::string("fuzz") + ext, bytes.substr(1)));
                 exercise_scene(scene);
                 break;
             }

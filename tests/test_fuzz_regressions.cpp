@@ -81,6 +81,9 @@ TEST_CASE("fuzz regressions: the seeds of every target are accepted") {
                     "2 1 0 0\n3 0 1 0\n$EndNodes\n$Elements\n1\n1 2 0 1 2 3\n"
                     "$EndElements\n"));
     CHECK_FALSE(run_bytes(fuzz::Target::msh, "$MeshFormat\n4.1 1 8\n\x01"));
+    CHECK(run_bytes(fuzz::Target::mesh,
+                    std::string(1, '\2') + "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"));
+    CHECK_FALSE(run_bytes(fuzz::Target::mesh, std::string(1, '\2') + "OFF\n3 1 0\n0 0 0\n"));
 }
 
 TEST_CASE("fuzz regressions: an NPY header claiming 10^12 values is an input error") {

@@ -16,11 +16,14 @@ namespace formfactor::cli {
 
 void SceneArgs::add_to(CLI::App* cmd, const std::string& default_scene) {
     auto* opt = cmd->add_option(
-        "SCENE", scene, "An .obj or .vs3 file, or a built-in scene: " + [] {
-            std::string names;
-            for (const auto& n : builtin_scene_names()) names += (names.empty() ? "" : ", ") + n;
-            return names.empty() ? std::string("(none)") : names;
-        }());
+        "SCENE", scene,
+        "A scene file (.obj, .vs3, .msh, .stl, .ply, .gltf, .glb, .off), or a built-in scene: " +
+            [] {
+                std::string names;
+                for (const auto& n : builtin_scene_names())
+                    names += (names.empty() ? "" : ", ") + n;
+                return names.empty() ? std::string("(none)") : names;
+            }());
     if (default_scene.empty()) {
         opt->required();
     } else {

@@ -104,6 +104,8 @@ Scene load_scene(const std::string& name_or_path) {
     if (ext == ".obj") return load_obj(name_or_path);
     if (ext == ".vs3") return load_vs3(name_or_path);
     if (ext == ".msh") return load_msh(name_or_path);
+    if (ext == ".stl" || ext == ".ply" || ext == ".gltf" || ext == ".glb" || ext == ".off")
+        return load_mesh(name_or_path);
     std::string names;
     for (const std::string& b : builtin_scene_names()) names += (names.empty() ? "" : ", ") + b;
     std::string generators;
@@ -112,12 +114,14 @@ Scene load_scene(const std::string& name_or_path) {
     if (ext.empty())
         throw InputError(name_or_path, 0,
                          "not a built-in scene (" + names + ") nor a generated one (" + generators +
-                             ") and no file extension (.obj, .vs3 or .msh expected)");
-    throw InputError(name_or_path, 0,
-                     "unknown file extension '" + ext +
-                         "' (.obj, .vs3 or .msh expected, or a built-in "
-                         "scene: " +
-                         names + ")");
+                             ") and no file extension (.obj, .vs3, .msh, .stl, .ply, .gltf, .glb "
+                             "or .off expected)");
+    throw InputError(
+        name_or_path, 0,
+        "unknown file extension '" + ext +
+            "' (.obj, .vs3, .msh, .stl, .ply, .gltf, .glb or .off expected, or a built-in "
+            "scene: " +
+            names + ")");
 }
 
 }  // namespace formfactor

@@ -25,4 +25,19 @@ namespace formfactor {
 /// message).
 Scene load_msh(const std::string& path);
 
+/// Loads STL (ASCII or binary), PLY, glTF 2.0 (`.gltf`, `.glb`) or OFF through Open Asset
+/// Import. Every face of three or more vertices is a surface (front: counter-clockwise vertex
+/// order; PLY and OFF polygons stay polygons); points and lines are skipped. Each mesh of each
+/// node is one group of surfaces combined (Surface::combine) with its first face, named as the
+/// file names it: the node, else the mesh (the ASCII STL's `solid NAME`), else the file's stem;
+/// `NAME.K` for the K-th mesh of a node with several, and a repeated name gets `.2`, `.3`, ...
+/// A group whose name begins with `obstruction` (any case) is obstruction-only. Node
+/// transformations are applied (in double precision; coordinates come from assimp as float).
+/// glTF: the base colour (factor) is the reflectance, the emissive factor (times its strength)
+/// the emission, one Material per glTF material; other formats use the default material.
+/// Throws InputError(path, 0, ...) naming the mesh and face (1-based) for a face that
+/// validate_polygon() refuses or that indexes a missing vertex, and for anything assimp
+/// reports as an error (including what it would repair by a guess).
+Scene load_mesh(const std::string& path);
+
 }  // namespace formfactor
