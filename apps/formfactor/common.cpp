@@ -39,6 +39,9 @@ void SceneArgs::add_to(CLI::App* cmd, const std::string& default_scene) {
                                    "Split surfaces until no patch edge is longer than L (scene "
                                    "units); excludes --subdivide");
     max_edge_opt->type_name("L");
+    cmd->add_flag("--merge-coplanar", merge_coplanar,
+                  "Merge the coplanar, edge-connected triangles of each surface (an STL or "
+                  "glTF mesh, a Gmsh physical group) back into polygons before subdividing");
 }
 
 void SceneArgs::validate() const {
@@ -70,12 +73,17 @@ SubdivisionOptions SceneArgs::subdivision() const {
     return o;
 }
 
-SceneOptions SceneArgs::options() const { return SceneOptions{scene, subdivision()}; }
+SceneOptions SceneArgs::options() const {
+    SceneOptions o{scene, subdivision()};
+    o.merge_coplanar = merge_coplanar;
+    return o;
+}
 
 nlohmann::json SceneArgs::to_json() const {
     const SubdivisionOptions o = subdivision();
     nlohmann::json j{{"scene", scene}, {"subdivide", o.n}};
     j["max_edge"] = o.max_edge > 0.0 ? nlohmann::json(o.max_edge) : nlohmann::json(nullptr);
+    if (merge_coplanar) j["merge_coplanar"] = true;  // absent when off: reports stay as they were
     return j;
 }
 

@@ -26,6 +26,7 @@ struct SceneArgs {
     std::string scene;
     int subdivide = 1;
     double max_edge = 0.0;
+    bool merge_coplanar = false;  ///< --merge-coplanar
     CLI::Option* subdivide_opt = nullptr;
     CLI::Option* max_edge_opt = nullptr;
 

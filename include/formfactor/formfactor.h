@@ -42,6 +42,7 @@
 #include "formfactor/pipeline.h"
 #include "formfactor/pipeline_sparse.h"
 #include "formfactor/scene/city.h"
+#include "formfactor/scene/merge_coplanar.h"
 #include "formfactor/scene/mesh_io.h"
 #include "formfactor/scene/points.h"
 #include "formfactor/scene/room.h"
