@@ -20,7 +20,8 @@ DEB_PACKAGES := cmake g++ make pkg-config \
 	libtinyobjloader-dev libstb-dev libhdf5-dev doctest-dev libbenchmark-dev pybind11-dev \
 	python3-dev python3-numpy python3-scipy python3-pytest python3-matplotlib python3-h5py \
 	python3-setuptools python3-wheel python3-pip python3-venv \
-	clang libclang-rt-14-dev clang-format chromium
+	clang libclang-rt-14-dev clang-format chromium \
+	gmsh libassimp-dev
 # node and npm bundle the result page (web/) at build time; a machine with its own node (e.g.
 # NodeSource's, which carries npm) keeps it.
 DEB_PACKAGES += $(if $(shell command -v npm),,nodejs npm)

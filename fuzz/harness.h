@@ -29,6 +29,7 @@
 #include "formfactor/output/solution_io.h"
 #include "formfactor/output/sparse_io.h"
 #include "formfactor/scene/energyplus.h"
+#include "formfactor/scene/mesh_io.h"
 #include "formfactor/scene/points.h"
 #include "formfactor/scene/scene.h"
 #include "formfactor/solve/properties.h"
@@ -48,6 +49,9 @@ enum class Target {
     points,      ///< parse_points_csv (the point elements of `formfactor point --points`)
     idf,         ///< load_energyplus_text of an EnergyPlus IDF model (its only zone)
     matrix_dat,  ///< read_elmer_view_factors (Elmer's view-factor file)
+    msh,         ///< load_msh (Gmsh, any version and encoding the bytes claim)
+    mesh,        ///< load_mesh: the first byte picks the extension (kMeshExtensions), the rest
+                 ///< is the file
 };
 
 struct TargetName {
@@ -68,7 +72,14 @@ inline constexpr std::array<TargetName, 11> kTargets = {{
     {"points", Target::points},
     {"idf", Target::idf},
     {"matrix_dat", Target::matrix_dat},
+    {"msh", Target::msh},
+    {"mesh", Target::mesh},
 }};
+
+/// The extensions the `mesh` target writes its input as, picked by the input's first byte
+/// (modulo their number).
+inline constexpr std::array<const char*, 5> kMeshExtensions = {".stl", ".ply", ".off", ".gltf",
+                                                               ".glb"};
 
 /// The line that separates the OBJ text from the MTL text in an `obj` input. The MTL part is
 /// written as `fuzz.mtl` beside `fuzz.obj`, so an OBJ that says `mtllib fuzz.mtl` reads it.
@@ -181,6 +192,19 @@ inline bool run(Target target, const std::uint8_t* data, std::size_t size) {
             }
             case Target::vs3: {
                 Scene scene = load_vs3(ws.write("fuzz.vs3", bytes));
+                exercise_scene(scene);
+                break;
+            }
+            case Target::msh: {
+                Scene scene = load_msh(ws.write("fuzz.msh", bytes));
+                exercise_scene(scene);
+                break;
+            }
+            case Target::mesh: {
+                if (bytes.empty()) break;
+                const char* ext =
+                    kMeshExtensions[static_cast<unsigned char>(bytes[0]) % kMeshExtensions.size()];
+                Scene scene = load_mesh(ws.write(std::string("fuzz") + ext, bytes.substr(1)));
                 exercise_scene(scene);
                 break;
             }

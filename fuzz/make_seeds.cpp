@@ -104,6 +104,22 @@ int main(int argc, char** argv) {
                       obj_input(read_file(p), fs::exists(mtl) ? read_file(mtl) : ""));
         }
     }
+    for (const auto& e : fs::directory_iterator(data / "gmsh"))
+        if (e.path().extension() == ".msh")
+            seeds.add("msh", e.path().filename().string(), read_file(e.path()));
+    // Meshes: the mesh target's first byte picks the extension (fuzz::kMeshExtensions).
+    const std::string tri = "0 0 0\n1 0 0\n0 1 0\n";
+    seeds.add("mesh", "triangle.stl",
+              std::string(1, '\0') +
+                  "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n"
+                  "vertex 0 1 0\nendloop\nendfacet\nendsolid t\n");
+    seeds.add("mesh", "triangle.ply",
+              std::string(1, '\1') +
+                  "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float "
+                  "y\nproperty float z\nelement face 1\nproperty list uchar int "
+                  "vertex_indices\nend_header\n" +
+                  tri + "3 0 1 2\n");
+    seeds.add("mesh", "triangle.off", std::string(1, '\2') + "OFF\n3 1 0\n" + tri + "3 0 1 2\n");
     const fuzz::Workspace ws;
     for (const std::string& name : builtin_scene_names()) {
         const Scene scene = builtin_scene(name);

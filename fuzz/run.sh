@@ -14,7 +14,7 @@ here=$(cd "$(dirname "$0")" && pwd)
 data="$here/../tests/data"
 targets=("$@")
 if [ ${#targets[@]} -eq 0 ]; then
-    targets=(obj vs3 properties matrix_csv matrix_npy matrix_txt matrix_mtx solution points)
+    targets=(obj vs3 properties matrix_csv matrix_npy matrix_txt matrix_mtx solution points msh mesh)
 fi
 
 "$build/fuzz/fuzz_seeds" "$data" "$build/fuzz-seeds" || exit 1

@@ -19,6 +19,7 @@
 #include "formfactor/methods/hemiplane.h"
 #include "formfactor/methods/point_factors.h"
 #include "formfactor/scene/energyplus.h"
+#include "formfactor/scene/merge_coplanar.h"
 
 namespace formfactor {
 
@@ -58,6 +59,17 @@ Scene prepare_scene(const SceneOptions& options, StepTimes* times,
     Stopwatch sw;
     Scene scene = load_scene(options);
     if (times) times->add("load", sw.lap());
+    if (options.merge_coplanar) {
+        const MergeReport merged = merge_coplanar(scene);
+        scene.warnings.push_back(fmt::format(
+            "--merge-coplanar: {} faces merged into {} surfaces{}", merged.faces_before,
+            merged.faces_after,
+            merged.regions_kept ? fmt::format(" ({} coplanar regions kept as faces: their "
+                                              "boundary touches itself)",
+                                              merged.regions_kept)
+                                : std::string()));
+        if (times) times->add("merge coplanar", sw.lap());
+    }
     if (before_subdivide) before_subdivide(scene);
     sw.lap();
     subdivide(scene, options.subdivision);

@@ -85,6 +85,14 @@ TEST_CASE("fuzz regressions: the seeds of every target are accepted") {
                     "Floor:Detailed,F,C,Z,,Ground,,NoSun,NoWind,,3,0,0,0,0,1,0,1,0,0;\n"
                     "Wall:Detailed,W,C,Z,,Outdoors,,SunExposed,WindExposed,,3,0,0,0,1,0,0,0,0,1;"));
     CHECK_FALSE(run_bytes(fuzz::Target::idf, "Zone,Z;Floor:Detailed,F,C,Z,,Ground"));
+    CHECK(run_bytes(fuzz::Target::msh,
+                    "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n3\n1 0 0 0\n"
+                    "2 1 0 0\n3 0 1 0\n$EndNodes\n$Elements\n1\n1 2 0 1 2 3\n"
+                    "$EndElements\n"));
+    CHECK_FALSE(run_bytes(fuzz::Target::msh, "$MeshFormat\n4.1 1 8\n\x01"));
+    CHECK(run_bytes(fuzz::Target::mesh,
+                    std::string(1, '\2') + "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"));
+    CHECK_FALSE(run_bytes(fuzz::Target::mesh, std::string(1, '\2') + "OFF\n3 1 0\n0 0 0\n"));
 }
 
 TEST_CASE("fuzz regressions: an NPY header claiming 10^12 values is an input error") {

@@ -69,8 +69,8 @@ TEST_CASE("scene: load_scene reports a missing file, an unknown extension or bui
     CHECK(input_error([] { load_scene("/nonexistent/room.vs3"); }) ==
           "/nonexistent/room.vs3: cannot open file");
     CHECK(input_error([] {
-              load_scene("room.stl");
-          }).rfind("room.stl: unknown file extension '.stl' (.obj or .vs3 expected", 0) == 0);
+              load_scene("room.dxf");
+          }).rfind("room.dxf: unknown file extension '.dxf' (", 0) == 0);
     CHECK(input_error([] { load_scene("cornel"); })
               .rfind("cornel: not a built-in scene (cornell, cornell-empty, plates, "
                      "perpendicular, cube)",

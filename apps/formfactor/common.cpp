@@ -29,7 +29,8 @@ std::string builtin_scene_list() { return join(builtin_scene_names()); }
 std::string generator_list() { return join(builtin_scene_generators()); }
 
 std::string help_footer() {
-    return "Scenes (SCENE): .obj (with .mtl), .vs3 (View3D 3.2), .idf or .epJSON (EnergyPlus), or\n"
+    return "Scenes (SCENE): .obj (with .mtl), .vs3 (View3D 3.2), .idf, .epJSON (EnergyPlus), .msh "
+           "(Gmsh), .stl, .ply, .gltf, .glb, .off, or\n"
            "  built-in scenes: " +
            builtin_scene_list() +
            "\n"
@@ -41,7 +42,8 @@ std::string help_footer() {
            "\n"
            "Matrix formats (-o, --matrix): .csv, .npy, .txt, .dat (dense; the last: Elmer); .mtx, "
            ".h5 (sparse)\n"
-           "Other outputs (-o): .vtu (ParaView cells), .idf and .epJSON (EnergyPlus view factors per\n"
+           "Other outputs (-o): .vtu (ParaView cells), .idf and .epJSON (EnergyPlus view factors "
+           "per\n"
            "  surface); 'formfactor view' writes .html.\n"
            "Run 'formfactor SUBCOMMAND --help' for the options of a subcommand.\n"
            "Exit codes: 0 success, 1 bad input file, 2 bad usage or option, 3 internal error.\n"
@@ -49,10 +51,11 @@ std::string help_footer() {
 }
 
 void SceneArgs::add_to(CLI::App* cmd, const std::string& default_scene) {
-    auto* opt =
-        cmd->add_option("SCENE", scene,
-                        "An .obj or .vs3 file, or a built-in scene: " + builtin_scene_list() +
-                            "; or a generator: " + generator_list() + " (N = 1, 2, ...)");
+    auto* opt = cmd->add_option(
+        "SCENE", scene,
+        "A scene file (.obj, .vs3, .idf, .epJSON, .msh, .stl, .ply, .gltf, .glb, .off), or a "
+        "built-in scene: " +
+            builtin_scene_list() + "; or a generator: " + generator_list() + " (N = 1, 2, ...)");
     if (default_scene.empty()) {
         opt->required();
     } else {
@@ -72,6 +75,9 @@ void SceneArgs::add_to(CLI::App* cmd, const std::string& default_scene) {
                     "EnergyPlus models (.idf, .epJSON): the zone whose enclosure is computed "
                     "(needed when the model has several)")
         ->type_name("NAME");
+    cmd->add_flag("--merge-coplanar", merge_coplanar,
+                  "Merge the coplanar, edge-connected triangles of each surface (an STL or "
+                  "glTF mesh, a Gmsh physical group) back into polygons before subdividing");
 }
 
 void SceneArgs::validate() const {
@@ -103,13 +109,18 @@ SubdivisionOptions SceneArgs::subdivision() const {
     return o;
 }
 
-SceneOptions SceneArgs::options() const { return SceneOptions{scene, subdivision(), zone}; }
+SceneOptions SceneArgs::options() const {
+    SceneOptions o{scene, subdivision(), zone};
+    o.merge_coplanar = merge_coplanar;
+    return o;
+}
 
 nlohmann::json SceneArgs::to_json() const {
     const SubdivisionOptions o = subdivision();
     nlohmann::json j{{"scene", scene}, {"subdivide", o.n}};
     j["max_edge"] = o.max_edge > 0.0 ? nlohmann::json(o.max_edge) : nlohmann::json(nullptr);
     if (!zone.empty()) j["zone"] = zone;
+    if (merge_coplanar) j["merge_coplanar"] = true;  // absent when off: reports stay as they were
     return j;
 }
 

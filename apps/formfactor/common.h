@@ -35,7 +35,8 @@ struct SceneArgs {
     std::string scene;
     int subdivide = 1;
     double max_edge = 0.0;
-    std::string zone;  ///< --zone NAME (EnergyPlus models)
+    std::string zone;             ///< --zone NAME (EnergyPlus models)
+    bool merge_coplanar = false;  ///< --merge-coplanar
     CLI::Option* subdivide_opt = nullptr;
     CLI::Option* max_edge_opt = nullptr;
 

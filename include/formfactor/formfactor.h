@@ -43,6 +43,8 @@
 #include "formfactor/pipeline_sparse.h"
 #include "formfactor/scene/city.h"
 #include "formfactor/scene/closure.h"
+#include "formfactor/scene/merge_coplanar.h"
+#include "formfactor/scene/mesh_io.h"
 #include "formfactor/scene/points.h"
 #include "formfactor/scene/room.h"
 #include "formfactor/scene/scene.h"

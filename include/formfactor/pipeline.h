@@ -41,14 +41,18 @@ struct SceneOptions {
     /// An EnergyPlus model's zone (formfactor/scene/energyplus.h); empty: its only zone. Only
     /// for `.idf` and `.epJSON` sources.
     std::string zone;
+    /// Merge the coplanar, edge-connected faces of each surface group into polygons before
+    /// subdividing (merge_coplanar(): a triangulated STL box becomes its 6 faces).
+    bool merge_coplanar = false;
 };
 
 /// Loads options.source (and its zone), not subdivided. Throws InputError for a bad file,
 /// OptionError("zone") for a zone given with a source that is not an EnergyPlus model.
 Scene load_scene(const SceneOptions& options);
 
-/// Loads options.source and subdivides it: the first step of every computation. The steps are
-/// timed into *times ("load", "subdivide") when it is given. `before_subdivide`, when given, sees
+/// Loads options.source, merges its coplanar faces when options.merge_coplanar, and subdivides
+/// it: the first step of every computation. The steps are timed into *times ("load",
+/// "merge coplanar", "subdivide") when it is given. `before_subdivide`, when given, sees
 /// the loaded scene before its patches exist: the place to refuse a run that would not fit
 /// (subdivision_patch_count() counts the patches without making them). Throws InputError for a
 /// bad file, OptionError("subdivide" / "max_edge") for a bad subdivision.

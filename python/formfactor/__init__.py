@@ -61,15 +61,17 @@ def _progress(progress):
     return progress
 
 
-def load(path, subdivide=None, max_edge=None):
+def load(path, subdivide=None, max_edge=None, merge_coplanar=False):
     """Loads a scene: a built-in name (see builtin_scenes(): ``cornell``, ``cube``,
     ``room-8``, ...) or a file (``.obj`` with its MTL, ``.vs3`` View3D input).
 
     subdivide=n splits each quad into n×n patches (triangles into n²); max_edge=L splits until
-    every patch edge is at most L (give one of them). Raises InputError (with ``.file`` and
+    every patch edge is at most L (give one of them). merge_coplanar=True merges the coplanar,
+    edge-connected triangles of each surface (an STL or glTF mesh, a Gmsh physical group) back
+    into polygons first, as ``--merge-coplanar`` does. Raises InputError (with ``.file`` and
     ``.line``) for a bad file, OptionError for bad options.
     """
-    return _core.load(_os.fspath(path), subdivide, max_edge)
+    return _core.load(_os.fspath(path), subdivide, max_edge, bool(merge_coplanar))
 
 
 def builtin_scenes():

@@ -4,6 +4,7 @@
 
 #include "bindings.h"
 #include "formfactor/core/error.h"
+#include "formfactor/scene/merge_coplanar.h"
 #include "formfactor/solve/properties.h"
 
 namespace formfactor::python {
@@ -344,16 +345,17 @@ valid planar polygon.
 
     m.def(
         "load",
-        [](const std::string& path, const py::object& n, const py::object& max_edge) {
+        [](const std::string& path, const py::object& n, const py::object& max_edge, bool merge) {
             Scene scene;
             {
                 py::gil_scoped_release nogil;
                 scene = load_scene(path);
+                if (merge) merge_coplanar(scene);
             }
             return finish(std::move(scene), n, max_edge);
         },
         py::arg("path"), py::arg("subdivide") = py::none(), py::arg("max_edge") = py::none(),
-        "(see formfactor.load)");
+        py::arg("merge_coplanar") = false, "(see formfactor.load)");
     m.def("builtin_scenes", &builtin_scene_names, "Names of the built-in scenes.");
 }
 

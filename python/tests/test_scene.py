@@ -160,3 +160,34 @@ def test_surfaces_with_holes_export_as_patches(data_dir):
     v, faces, obstruction, names = s.to_arrays(patches=True)
     p = ff.Scene.from_arrays(v, faces, obstruction=obstruction)
     assert np.allclose(p.form_factors().matrix, s.form_factors().matrix, atol=1e-9, rtol=0)
+
+
+def write_binary_stl(path, vertices, triangles):
+    """Binary STL as its specification lays it out: an 80-byte header, a little-endian uint32
+    count, then per triangle a normal, three vertices (float32) and a uint16 attribute."""
+    record = np.dtype([("normal", "<f4", 3), ("v", "<f4", (3, 3)), ("attr", "<u2")])
+    data = np.zeros(len(triangles), dtype=record)
+    corners = vertices[np.asarray(triangles)]
+    n = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    data["normal"] = n / np.linalg.norm(n, axis=1)[:, None]
+    data["v"] = corners
+    with open(path, "wb") as f:
+        f.write(b"binary STL written by numpy".ljust(80, b" "))
+        f.write(np.uint32(len(triangles)).tobytes())
+        f.write(data.tobytes())
+
+
+def test_merge_coplanar_turns_an_stl_box_back_into_the_obj_box(tmp_path):
+    quads = BOX_F[:6]
+    tris = [t for q in quads for t in ([q[0], q[1], q[2]], [q[0], q[2], q[3]])]
+    write_binary_stl(tmp_path / "box.stl", BOX_V, tris)
+    write_obj(tmp_path / "box.obj", BOX_V, quads, [False] * 6)
+    triangles = ff.load(tmp_path / "box.stl")
+    merged = ff.load(tmp_path / "box.stl", merge_coplanar=True)
+    box = ff.load(tmp_path / "box.obj")
+    assert len(triangles) == 12
+    assert len(merged) == len(box) == 6
+    assert np.allclose(merged.areas, box.areas, rtol=0, atol=1e-15)
+    F = merged.form_factors().matrix
+    assert np.abs(F - box.form_factors().matrix).max() <= 1e-12
+    assert np.allclose(F.sum(axis=1), 1.0, atol=1e-9)

@@ -7,6 +7,7 @@
 
 #include "formfactor/core/error.h"
 #include "formfactor/scene/energyplus.h"
+#include "formfactor/scene/mesh_io.h"
 #include "scene/text.h"
 
 namespace formfactor {
@@ -104,20 +105,26 @@ Scene load_scene(const std::string& name_or_path) {
     if (ext == ".obj") return load_obj(name_or_path);
     if (ext == ".vs3") return load_vs3(name_or_path);
     if (ext == ".idf" || ext == ".epjson") return load_energyplus(name_or_path);
+    if (ext == ".msh") return load_msh(name_or_path);
+    if (ext == ".stl" || ext == ".ply" || ext == ".gltf" || ext == ".glb" || ext == ".off")
+        return load_mesh(name_or_path);
     std::string names;
     for (const std::string& b : builtin_scene_names()) names += (names.empty() ? "" : ", ") + b;
     std::string generators;
     for (const std::string& g : builtin_scene_generators())
         generators += (generators.empty() ? "" : ", ") + g;
     if (ext.empty())
-        throw InputError(name_or_path, 0,
-                         "not a built-in scene (" + names + ") nor a generated one (" + generators +
-                             ") and no file extension (.obj or .vs3 expected)");
-    throw InputError(name_or_path, 0,
-                     "unknown file extension '" + ext +
-                         "' (.obj or .vs3 expected, or a built-in "
-                         "scene: " +
-                         names + ")");
+        throw InputError(
+            name_or_path, 0,
+            "not a built-in scene (" + names + ") nor a generated one (" + generators +
+                ") and no file extension (.obj, .vs3, .idf, .epJSON, .msh, .stl, .ply, .gltf, "
+                ".glb or .off expected)");
+    throw InputError(
+        name_or_path, 0,
+        "unknown file extension '" + ext +
+            "' (.obj, .vs3, .idf, .epJSON, .msh, .stl, .ply, .gltf, .glb or .off expected, or a "
+            "built-in scene: " +
+            names + ")");
 }
 
 }  // namespace formfactor

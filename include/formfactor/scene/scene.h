@@ -111,7 +111,8 @@ struct Scene {
 /// Loads a scene: a built-in name (`cornell`, `cornell-empty`, `plates`, `perpendicular`,
 /// `cube`, `room-N` / `room-N-obstruction`, the pre-split room of formfactor/scene/room.h, and
 /// `city-N`, the open city of formfactor/scene/city.h)
-/// or a file path by extension (`.obj`, `.vs3`). The patches are the surfaces, unsplit;
+/// or a file path by extension (`.obj`, `.vs3`; meshes `.msh`, `.stl`, `.ply`, `.gltf`, `.glb`,
+/// `.off`: formfactor/scene/mesh_io.h). The patches are the surfaces, unsplit;
 /// call subdivide() for more. Throws InputError naming file and line on bad input.
 Scene load_scene(const std::string& name_or_path);
 

@@ -1,0 +1,158 @@
+// STL (ASCII and binary), PLY, OFF and glTF 2.0 (.gltf, .glb) through Open Asset Import: files
+// written here by an independent writer that follows each format's specification
+// (tests/mesh_files.h), read by load_scene(), checked against the same geometry as OBJ.
+
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "cli_runner.h"
+#include "formfactor/core/error.h"
+#include "formfactor/matrix/aggregate.h"
+#include "formfactor/pipeline.h"
+#include "formfactor/scene/mesh_io.h"
+#include "formfactor/scene/scene.h"
+#include "mesh_files.h"
+#include "scene_test_util.h"
+#include "temp_dir.h"
+
+using namespace formfactor;
+using formfactor::test::input_error;
+using namespace formfactor::testing;
+
+namespace {
+
+DenseMatrix patch_matrix(const Scene& s) { return compute_form_factors(s).form_factors.F; }
+
+}  // namespace
+
+TEST_CASE("mesh: a triangulated box as STL (ASCII, binary), PLY, OFF and glTF equals the OBJ") {
+    const TempDir dir;
+    const TestMesh quads = unit_box_quads("box");
+    const TestMesh tris = triangulated(quads);
+    write_text(dir.file("box.obj"), obj({tris}));
+    write_text(dir.file("box-ascii.stl"), stl_ascii(tris));
+    write_text(dir.file("box-binary.stl"), stl_binary(tris));
+    write_text(dir.file("box-ascii.ply"), ply(tris, false));
+    write_text(dir.file("box-binary.ply"), ply(tris, true));
+    write_text(dir.file("box.off"), off(tris));
+    GltfPart part;
+    part.mesh = tris;
+    write_text(dir.file("box.gltf"), gltf({part}, false));
+    write_text(dir.file("box.glb"), gltf({part}, true));
+
+    const Scene reference = load_scene(dir.file("box.obj"));
+    REQUIRE(reference.patches.size() == 12);
+    const DenseMatrix F0 = patch_matrix(reference);
+    for (const char* name : {"box-ascii.stl", "box-binary.stl", "box-ascii.ply", "box-binary.ply",
+                             "box.off", "box.gltf", "box.glb"}) {
+        INFO(name);
+        const Scene s = load_scene(dir.file(name));
+        REQUIRE(s.surfaces.size() == 12);
+        for (std::size_t k = 0; k < 12; ++k)
+            CHECK(test::same_cycle(s.surfaces[k].polygon, reference.surfaces[k].polygon, 0.0));
+        // One surface group per mesh, named as the file names it (ASCII STL: `solid box`; glTF:
+        // the node; files without names: the file's stem).
+        const PatchGroups g = surface_groups(s);
+        REQUIRE(g.size() == 1);
+        const std::string stem = std::filesystem::path(name).stem().string();
+        const bool named = std::string(name) == "box-ascii.stl" ||
+                           std::string(name).find(".gl") != std::string::npos;
+        CHECK(g.names[0] == (named ? "box" : stem));
+        const DenseMatrix F = patch_matrix(s);
+        CHECK((F - F0).cwiseAbs().maxCoeff() <= 1e-12);
+    }
+}
+
+TEST_CASE("mesh: PLY and OFF polygons stay polygons") {
+    const TempDir dir;
+    const TestMesh quads = unit_box_quads("box");
+    write_text(dir.file("q.ply"), ply(quads, true));
+    write_text(dir.file("q.off"), off(quads));
+    for (const char* name : {"q.ply", "q.off"}) {
+        const Scene s = load_scene(dir.file(name));
+        REQUIRE(s.surfaces.size() == 6);
+        for (const Surface& x : s.surfaces) CHECK(x.polygon.size() == 4);
+        double row = 0;
+        const DenseMatrix F = patch_matrix(s);
+        for (Eigen::Index j = 0; j < 6; ++j) row += F(0, j);
+        CHECK(std::abs(row - 1.0) < 1e-9);  // a closed box
+    }
+}
+
+TEST_CASE("mesh: glTF nodes are surfaces, translated, with base colour and emission") {
+    const TempDir dir;
+    GltfPart floor;
+    floor.mesh = triangulated(unit_box_quads("floor"));
+    floor.base_color = {0.25, 0.5, 0.75};
+    GltfPart lamp;
+    lamp.mesh = triangulated(unit_box_quads("lamp"));
+    lamp.translation = Vec3(3, 0, 0.5);
+    lamp.emissive = {1, 0.5, 0.25};
+    for (bool glb : {false, true}) {
+        const std::string path = dir.file(glb ? "two.glb" : "two.gltf");
+        write_text(path, gltf({floor, lamp}, glb));
+        const Scene s = load_scene(path);
+        REQUIRE(s.surfaces.size() == 24);
+        const PatchGroups g = surface_groups(s);
+        CHECK(g.names == std::vector<std::string>{"floor", "lamp"});
+        CHECK(s.surfaces[12].polygon[0].isApprox(Vec3(3, 0, 0.5)));
+        const Material& a = s.material_of_surface(0);
+        const Material& b = s.material_of_surface(12);
+        CHECK(a.reflectance.isApprox(Rgb(0.25, 0.5, 0.75)));
+        CHECK(a.emission.isZero());
+        CHECK(b.emission.isApprox(Rgb(1, 0.5, 0.25)));
+    }
+}
+
+TEST_CASE("mesh: bad meshes are input errors naming the file, mesh and face") {
+    const TempDir dir;
+    TestMesh tris = triangulated(unit_box_quads("box"));
+    // A degenerate triangle (two corners at one point).
+    TestMesh flat = tris;
+    flat.faces[4] = {0, 1, 1};
+    write_text(dir.file("flat.stl"), stl_binary(flat));
+    CHECK(input_error([&] {
+              load_scene(dir.file("flat.stl"));
+          }).find("flat.stl: mesh 'flat' face 5 has a zero-length edge") != std::string::npos);
+    // A NaN coordinate.
+    TestMesh bad = tris;
+    bad.vertices[6].y() = std::numeric_limits<double>::quiet_NaN();
+    write_text(dir.file("nan.stl"), stl_binary(bad));
+    CHECK(input_error([&] { load_scene(dir.file("nan.stl")); }).find("nan.stl: mesh 'nan' face") !=
+          std::string::npos);
+    CHECK(input_error([&] {
+              load_scene(dir.file("nan.stl"));
+          }).find("has a coordinate that is not finite") != std::string::npos);
+    // Not a mesh at all, and a missing file.
+    write_text(dir.file("junk.ply"), "ply\nformat nonsense\n");
+    CHECK(input_error([&] {
+              load_scene(dir.file("junk.ply"));
+          }).rfind(dir.file("junk.ply") + ": cannot read the mesh (Open Asset Import: ", 0) == 0);
+    CHECK(input_error([&] { load_scene(dir.file("missing.glb")); }) ==
+          dir.file("missing.glb") + ": cannot open file");
+    // A face that indexes past the vertices.
+    write_text(dir.file("index.off"), "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n");
+    CHECK(input_error([&] { load_scene(dir.file("index.off")); }) ==
+          dir.file("index.off") +
+              ": bad mesh (Open Asset Import: OFF: Vertex index is out of range)");
+}
+
+TEST_CASE("mesh: the CLI computes on an STL and refuses a broken one with one message") {
+    Cli cli;
+    write_text(cli.file("box.stl"), stl_ascii(triangulated(unit_box_quads("box"))));
+    CliResult r = cli.run("compute box.stl -o F.csv --method analytic");
+    INFO(r.out << r.err);
+    CHECK(r.code == 0);
+    TestMesh flat = triangulated(unit_box_quads("box"));
+    flat.faces[0] = {0, 0, 1};
+    write_text(cli.file("flat.stl"), stl_binary(flat));
+    r = cli.run("compute flat.stl -o G.csv");
+    CHECK(r.code == 1);
+    CHECK(r.one_error_line());
+    CHECK_FALSE(std::filesystem::exists(cli.file("G.csv")));
+}
