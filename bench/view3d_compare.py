@@ -126,6 +126,70 @@ def split(poly, m):
     return out
 
 
+def urban(n, seed=1):
+    """An urban array as urban-climate preprocessors write it for View3D: n x n box buildings of
+    random heights (uniform in [1, 4], seeded) on 2 x 2 footprints with streets 1 wide, on a
+    ground of rectangles that tile [0, 3n + 1]^2 minus the footprints; every rectangle (ground
+    piece, wall, roof) as two triangles. 10 n^2 + 2 (n + 1)^2 facets (n = 9: 1,010; n = 29:
+    10,210; n = 50: 30,202), open to the sky. Ground and roofs face +z, walls outward."""
+    rng = np.random.default_rng(seed)
+    heights = rng.uniform(1.0, 4.0, size=(n, n))
+    rects = []  # (corner, e1, e2) with front e1 x e2
+    L = 3 * n + 1
+    for k in range(n + 1):  # streets along x
+        rects.append(((0.0, 3.0 * k, 0.0), (L, 0, 0), (0, 1.0, 0)))
+    for y in range(n):  # street pieces between the buildings of row y
+        for k in range(n + 1):
+            rects.append(((3.0 * k, 3.0 * y + 1, 0.0), (1.0, 0, 0), (0, 2.0, 0)))
+    for y in range(n):
+        for x in range(n):
+            h = float(heights[y, x])
+            x0, y0 = 3.0 * x + 1, 3.0 * y + 1
+            rects += [((x0, y0, 0.0), (0, 0, h), (0, 2.0, 0)),         # -x
+                      ((x0 + 2, y0, 0.0), (0, 2.0, 0), (0, 0, h)),     # +x
+                      ((x0, y0, 0.0), (2.0, 0, 0), (0, 0, h)),         # -y
+                      ((x0, y0 + 2, 0.0), (0, 0, h), (2.0, 0, 0)),     # +y
+                      ((x0, y0, h), (2.0, 0, 0), (0, 2.0, 0))]         # roof
+    tris = []
+    for o, e1, e2 in rects:
+        a = tuple(o)
+        b = tuple(o[k] + e1[k] for k in range(3))
+        c = tuple(o[k] + e1[k] + e2[k] for k in range(3))
+        d = tuple(o[k] + e2[k] for k in range(3))
+        tris += [[a, b, c], [a, c, d]]
+    return tris, []
+
+
+def sphere_in_box(m, seed=0):
+    """Curved geometry: a closed box room (each face 4 x 4 quads, as two triangles each) around
+    a faceted sphere of radius 0.25 (a UV sphere of m latitude bands and 2m longitudes, caps as
+    triangles, every quad as two triangles, facing out). 4 m^2 - 4 m + 192 facets (m = 22: 2,040)."""
+    s = []
+    faces = [((0, 0, 0), (0, 1, 0), (0, 0, 1)), ((1, 0, 0), (0, 0, 1), (0, 1, 0)),
+             ((0, 0, 0), (0, 0, 1), (1, 0, 0)), ((0, 1, 0), (1, 0, 0), (0, 0, 1)),
+             ((0, 0, 0), (1, 0, 0), (0, 1, 0)), ((0, 0, 1), (0, 1, 0), (1, 0, 0))]
+    for o, e1, e2 in faces:
+        for q in grid_quads(o, e1, e2, 4):
+            s += [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]
+    c, r = (0.5, 0.5, 0.5), 0.25
+
+    def pt(i, j):
+        th = np.pi * i / m
+        ph = 2 * np.pi * j / (2 * m)
+        return (c[0] + r * np.sin(th) * np.cos(ph), c[1] + r * np.sin(th) * np.sin(ph),
+                c[2] + r * np.cos(th))
+    for i in range(m):
+        for j in range(2 * m):
+            a, b, cc, d = pt(i, j), pt(i + 1, j), pt(i + 1, j + 1), pt(i, j + 1)
+            if i == 0:
+                s.append([a, b, cc])
+            elif i == m - 1:
+                s.append([a, b, d])
+            else:
+                s += [[a, b, cc], [a, cc, d]]
+    return s, []
+
+
 def cornell(m):
     return [q for p in CORNELL for q in split(p, m)], []
 
@@ -197,31 +261,40 @@ def read_view3d_binary(path, n):
     return data[n:n + n * n].reshape(n, n).astype(np.float64)
 
 
-def compare(name, vs3, n, args, work):
-    out = {"case": name, "surfaces": n}
+def run_view3d(name, vs3, n, args, work):
+    """View3D's {wall, cpu, peak_mb, rc} and its matrix (None when it failed or was skipped)."""
+    if args.view3d == "none":
+        return {"wall": float("nan"), "cpu": float("nan"), "peak_mb": float("nan"), "rc": 0}, None
     v3_out = work / f"{name}.view3d.bin"
     wall, cpu, mem, rc, err = run([args.view3d, vs3.name, v3_out.name], work)
-    out["view3d"] = {"wall": wall, "cpu": cpu, "peak_mb": mem, "rc": rc}
     if rc != 0 or not v3_out.exists():
         print(f"{name}: View3D failed (exit {rc}): {err.strip()}", file=sys.stderr)
-        V = None
-    else:
-        V = read_view3d_binary(v3_out, n)
-    F_path = work / f"{name}.formfactor.npy"
-    rep = work / f"{name}.report.json"
+        return {"wall": wall, "cpu": cpu, "peak_mb": mem, "rc": rc}, None
+    return {"wall": wall, "cpu": cpu, "peak_mb": mem, "rc": rc}, read_view3d_binary(v3_out, n)
+
+
+def compare(name, vs3, n, args, work, view3d, V, tolerance=None):
+    out = {"case": name, "surfaces": n, "tolerance": tolerance, "view3d": view3d}
+    tag = f"{name}.tol{tolerance:g}" if tolerance else name
+    F_path = work / f"{tag}.formfactor.npy"
+    rep = work / f"{tag}.report.json"
     cmd = [args.formfactor, "compute", vs3.name, "-o", F_path.name, "--threads",
            str(args.threads), "--report", rep.name] + args.formfactor_args
+    if tolerance:
+        cmd += ["--tolerance", f"{tolerance:g}"]
     wall, cpu, mem, rc, err = run(cmd, work)
     out["formfactor"] = {"wall": wall, "cpu": cpu, "peak_mb": mem, "rc": rc}
     if rc != 0:
         print(f"{name}: formfactor failed (exit {rc}): {err.strip()}", file=sys.stderr)
         return out
     F = np.load(F_path)
+    out["F_path"] = str(F_path)
     try:
         details = json.loads(rep.read_text()).get("details", {})
         ob = details.get("obstructions", {})
         out["formfactor"]["error_bound"] = details.get("error_bound_per_entry")
         out["formfactor"]["partly_hidden_pairs"] = ob.get("patch_pairs_partly_hidden")
+        out["formfactor"]["point_evaluations"] = ob.get("point_evaluations")
     except (OSError, ValueError):
         pass
     if V is not None:
@@ -235,6 +308,21 @@ def compare(name, vs3, n, args, work):
     return out
 
 
+def print_line(name, tol, n, r):
+    v, f = r["view3d"], r["formfactor"]
+    ratio = v["cpu"] / f["cpu"] if f.get("cpu") else float("nan")
+    line = (f"{name:<14} {tol or 0:>6.0e} {n:>5} | {v['wall']:>10.2f}s {v['cpu']:>7.2f}s "
+            f"{v['peak_mb']:>6.0f} | {f['wall']:>14.2f}s {f.get('cpu', float('nan')):>7.2f}s "
+            f"{f.get('peak_mb', float('nan')):>6.0f} | {ratio:>8.1f}x |")
+    d = r.get("diff")
+    if d:
+        line += (f" {d['max']:>9.2e} {str(tuple(d['at'])):>11} {d['mean']:>9.2e}"
+                 f" {d['above_1e-4']:>6}")
+    if "error_vs_tightest" in r:
+        line += f" | {r['error_vs_tightest']:>15.2e}"
+    print(line, flush=True)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--view3d", default=os.environ.get("VIEW3D"),
@@ -242,6 +330,13 @@ def main():
     ap.add_argument("--formfactor", default=str(REPO / "build" / "bin" / "formfactor"))
     ap.add_argument("--rooms", type=int, nargs="*", default=[16, 32], help="room sizes n")
     ap.add_argument("--cornell", type=int, default=12, help="Cornell box M x M (0: skip)")
+    ap.add_argument("--urban", type=int, nargs="*", default=[],
+                    help="urban arrays n x n of triangulated buildings (9: 1,010 facets)")
+    ap.add_argument("--sphere", type=int, default=0,
+                    help="faceted sphere of m bands in a box (22: 2,040 facets; 0: skip)")
+    ap.add_argument("--tolerances", type=float, nargs="*", default=[],
+                    help="run formfactor at each --tolerance; the tightest is the reference "
+                    "for the measured error of the others")
     ap.add_argument("--box", choices=["S", "O", "both"], default="both")
     ap.add_argument("--o-split", action="store_true",
                     help="O records split (n/2) x (n/2) per box face (as tests/data/repro/ has them)"
@@ -254,9 +349,10 @@ def main():
     args = ap.parse_args()
     if not args.view3d:
         ap.error("give the View3D binary with --view3d or $VIEW3D")
-    args.view3d = str(Path(args.view3d).resolve())
+    if args.view3d != "none":
+        args.view3d = str(Path(args.view3d).resolve())
     args.formfactor = str(Path(args.formfactor).resolve())
-    for exe in (args.view3d, args.formfactor):
+    for exe in ([args.view3d] if args.view3d != "none" else []) + [args.formfactor]:
         if not os.access(exe, os.X_OK):
             ap.error(f"not executable: {exe}")
 
@@ -268,6 +364,12 @@ def main():
     if args.cornell > 0:
         m = args.cornell
         cases.append((f"cornell-{m}", lambda m=m: cornell(m), f"Cornell box {m}x{m}"))
+    for n in args.urban:
+        cases.append((f"urban-{n}", lambda n=n: urban(n), f"urban array {n}x{n}"))
+    if args.sphere > 0:
+        m = args.sphere
+        cases.append((f"sphere-{m}", lambda m=m: sphere_in_box(m), f"sphere {m} in a box"))
+    tolerances = sorted(args.tolerances) or [None]
 
     tmp = None
     if args.workdir:
@@ -279,9 +381,9 @@ def main():
 
     print(f"View3D: {args.view3d}\nformfactor: {args.formfactor} --threads {args.threads}"
           f" {' '.join(args.formfactor_args)}\nfiles: {work}\n")
-    hdr = (f"{'case':<14} {'N':>5} | {'View3D wall':>11} {'cpu':>8} {'MB':>6} | "
+    hdr = (f"{'case':<14} {'tol':>6} {'N':>5} | {'View3D wall':>11} {'cpu':>8} {'MB':>6} | "
            f"{'formfactor wall':>15} {'cpu':>8} {'MB':>6} | {'cpu ratio':>9} | "
-           f"{'max |dF|':>9} {'at':>11} {'mean |dF|':>9} {'>1e-4':>6}")
+           f"{'max |dF|':>9} {'at':>11} {'mean |dF|':>9} {'>1e-4':>6} | {'err vs tightest':>15}")
     print(hdr)
     print("-" * len(hdr))
     results = []
@@ -289,18 +391,18 @@ def main():
         s, o = make()
         vs3 = work / f"{name}.vs3"
         write_vs3(vs3, title, s, o)
-        r = compare(name, vs3, len(s), args, work)
-        results.append(r)
-        v, f = r["view3d"], r["formfactor"]
-        ratio = v["cpu"] / f["cpu"] if f.get("cpu") else float("nan")
-        line = (f"{name:<14} {len(s):>5} | {v['wall']:>10.2f}s {v['cpu']:>7.2f}s "
-                f"{v['peak_mb']:>6.0f} | {f['wall']:>14.2f}s {f['cpu']:>7.2f}s "
-                f"{f['peak_mb']:>6.0f} | {ratio:>8.1f}x |")
-        d = r.get("diff")
-        if d:
-            line += (f" {d['max']:>9.2e} {str(tuple(d['at'])):>11} {d['mean']:>9.2e}"
-                     f" {d['above_1e-4']:>6}")
-        print(line, flush=True)
+        view3d, V = run_view3d(name, vs3, len(s), args, work)
+        reference = None
+        for tol in tolerances:
+            r = compare(name, vs3, len(s), args, work, view3d, V, tol)
+            results.append(r)
+            if "F_path" in r:
+                F = np.load(r["F_path"])
+                if reference is None:
+                    reference = F
+                else:
+                    r["error_vs_tightest"] = float(np.abs(F - reference).max())
+            print_line(name, tol, len(s), r)
     print()
     for r in results:
         d = r.get("diff")

@@ -26,10 +26,13 @@ struct Poly3 {
     int n = 0;
     std::array<Vec3, kCap> v;
 };
-/// A convex polygon in a plane's 2D coordinates (n vertices).
+/// A convex polygon in a plane's 2D coordinates (n vertices). The constructor leaves the
+/// coordinates uninitialised: vectors of shadows value-initialise their new elements, which would
+/// otherwise zero 2 × kCap doubles per shadow.
 struct Poly2 {
     int n = 0;
     std::array<double, kCap> x, y;
+    Poly2() noexcept {}  // NOLINT(modernize-use-equals-default): = default would zero x and y
 };
 
 /// Keeps the part of `in` where n·y − off ≥ 0 (Sutherland–Hodgman; convex in, convex out).
