@@ -129,18 +129,21 @@ def split(poly, m):
 def urban(n, seed=1):
     """An urban array as urban-climate preprocessors write it for View3D: n x n box buildings of
     random heights (uniform in [1, 4], seeded) on 2 x 2 footprints with streets 1 wide, on a
-    ground of rectangles that tile [0, 3n + 1]^2 minus the footprints; every rectangle (ground
-    piece, wall, roof) as two triangles. 10 n^2 + 2 (n + 1)^2 facets (n = 9: 1,010; n = 29:
-    10,210; n = 50: 30,202), open to the sky. Ground and roofs face +z, walls outward."""
+    ground of unit squares that tile [0, 3n + 1]^2 minus the footprints; every rectangle (ground
+    square, wall, roof) as two triangles. 10 n^2 + 2 ((n + 1)(3n + 1) + 2 n (n + 1)) facets
+    (n = 7: 1,066; n = 22: 9,946; n = 38: 29,338), open to the sky. Ground and roofs face +z,
+    walls outward."""
     rng = np.random.default_rng(seed)
     heights = rng.uniform(1.0, 4.0, size=(n, n))
     rects = []  # (corner, e1, e2) with front e1 x e2
     L = 3 * n + 1
-    for k in range(n + 1):  # streets along x
-        rects.append(((0.0, 3.0 * k, 0.0), (L, 0, 0), (0, 1.0, 0)))
+    for k in range(n + 1):  # streets along x, as unit squares
+        for i in range(L):
+            rects.append(((float(i), 3.0 * k, 0.0), (1.0, 0, 0), (0, 1.0, 0)))
     for y in range(n):  # street pieces between the buildings of row y
         for k in range(n + 1):
-            rects.append(((3.0 * k, 3.0 * y + 1, 0.0), (1.0, 0, 0), (0, 2.0, 0)))
+            for d in range(2):
+                rects.append(((3.0 * k, 3.0 * y + 1 + d, 0.0), (1.0, 0, 0), (0, 1.0, 0)))
     for y in range(n):
         for x in range(n):
             h = float(heights[y, x])
