@@ -14,7 +14,10 @@ here=$(cd "$(dirname "$0")" && pwd)
 data="$here/../tests/data"
 targets=("$@")
 if [ ${#targets[@]} -eq 0 ]; then
-    targets=(obj vs3 properties matrix_csv matrix_npy matrix_txt matrix_mtx solution points msh mesh)
+    # Not `mesh` by default: it fuzzes Open Asset Import (STL/PLY/glTF/OFF), whose 5.2.5 in Debian
+    # loops forever on some damaged ASCII PLY headers and leaks on others; name it to run it.
+    targets=(obj vs3 properties matrix_csv matrix_npy matrix_txt matrix_mtx solution points msh idf
+        matrix_dat)
 fi
 
 "$build/fuzz/fuzz_seeds" "$data" "$build/fuzz-seeds" || exit 1
