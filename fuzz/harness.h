@@ -60,7 +60,7 @@ struct TargetName {
 };
 
 /// Every target with the name of its fuzzer (`fuzz_NAME`) and corpus folder.
-inline constexpr std::array<TargetName, 11> kTargets = {{
+inline constexpr std::array<TargetName, 13> kTargets = {{
     {"obj", Target::obj},
     {"vs3", Target::vs3},
     {"properties", Target::properties},

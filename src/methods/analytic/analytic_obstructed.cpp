@@ -395,7 +395,7 @@ struct PairStats {
     double error = 0;
     std::size_t points = 0, cells = 0;
     int level = 0, capped = 0;
-    bool integrated = false, changed = false, bracketed = false;
+    bool integrated = false, changed = false;
 };
 
 // The same summed over pairs (per thread, then over threads: sums, maxima and counts, the same
@@ -404,12 +404,11 @@ constexpr int kLevels = 16;
 struct PartialStats {
     std::array<std::size_t, kLevels + 1> levels{};
     double max_error = 0;
-    std::size_t points = 0, cells = 0, capped = 0, changed = 0, bracketed = 0;
+    std::size_t points = 0, cells = 0, capped = 0, changed = 0;
     void add(const PairStats& p) {
         points += p.points;
         cells += p.cells;
         capped += static_cast<std::size_t>(p.capped);
-        bracketed += p.bracketed ? 1 : 0;
         if (!p.integrated) return;
         changed += p.changed ? 1 : 0;
         max_error = std::max(max_error, p.error);
@@ -422,7 +421,6 @@ struct PartialStats {
         cells += o.cells;
         capped += o.capped;
         changed += o.changed;
-        bracketed += o.bracketed;
     }
 };
 
@@ -459,17 +457,6 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
     const double unobs = unobstructed(s, r);
     if (!(unobs > 0.0)) return v;
     PairStats& st = v.stats;
-    if (unobs <= 2.0 * tol) {
-        // The bracket 0 ≤ F_sr ≤ F_unobstructed is within the tolerance: its midpoint is off by
-        // at most unobs / 2 ≤ tol, a bound that needs no integration point (Lischinski, Smits &
-        // Greenberg 1994: conservative bounds before refinement).
-        v.f = 0.5 * unobs;
-        v.back = a_r > 0.0 ? v.f * a_s / a_r : 0.0;
-        v.integrated = st.integrated = true;
-        st.changed = st.bracketed = true;
-        st.error = 0.5 * unobs;
-        return v;
-    }
     const Polygon& ps = scene.patches[s].polygon;
     const std::vector<Polygon> parts = BlockerSet::convex_parts(scene.patches[r].polygon);
     double hidden_sum = 0.0, err = 0.0;
@@ -515,7 +502,6 @@ void report_obstructions(const Obstructions& S, const PartialStats& total, std::
     o["cells"] = total.cells;
     o["point_evaluations"] = total.points;
     o["capped_pairs"] = total.capped;
-    o["bracketed_pairs"] = total.bracketed;
     o["tolerance"] = tol;
     o["max_error_estimate"] = total.max_error;
     o["threads"] = threads;
