@@ -225,11 +225,11 @@ void merge_solid_shadows(std::vector<Poly2>& shadows, std::vector<int>& solid_of
         const int so = raw[r].solid;
         std::size_t q = r;
         while (q < raw.size() && raw[q].solid == so) ++q;
-        const bool with_shadows = std::binary_search(
-            by_solid.begin(), by_solid.end(), std::make_pair(so, -1),
-            [](const std::pair<int, int>& a, const std::pair<int, int>& b) {
-                return a.first < b.first;
-            });
+        const bool with_shadows =
+            std::binary_search(by_solid.begin(), by_solid.end(), std::make_pair(so, -1),
+                               [](const std::pair<int, int>& a, const std::pair<int, int>& b) {
+                                   return a.first < b.first;
+                               });
         if (!with_shadows) emit(so, 0, 0);
         r = q;
     }
@@ -685,8 +685,8 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
     const PairGeometry pg{area_s, ns, rc, sin2_receiver};
     // Sender pieces: the sender cut along the lines where the integrand has kinks, then
     // triangles (or the sender's own quad when nothing cuts it).
-    return integrate_sender(split_by_events(s, ns, rc, blockers, cand, n, eps), pg, blockers,
-                            cand, n, target, eps, kMaxCells);
+    return integrate_sender(split_by_events(s, ns, rc, blockers, cand, n, eps), pg, blockers, cand,
+                            n, target, eps, kMaxCells);
 }
 
 namespace {
