@@ -43,6 +43,7 @@
 #include "formfactor/pipeline_sparse.h"
 #include "formfactor/scene/city.h"
 #include "formfactor/scene/closure.h"
+#include "formfactor/scene/energyplus.h"
 #include "formfactor/scene/merge_coplanar.h"
 #include "formfactor/scene/mesh_io.h"
 #include "formfactor/scene/points.h"
