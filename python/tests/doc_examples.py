@@ -3,7 +3,7 @@
 
 Every fenced block tagged ``sh``, ``bash``, ``shell``, ``console`` or ``python`` is an example.
 The blocks of one page run in page order in one fresh directory, which holds a copy of
-examples/ and a link ``build`` to the build tree; ``formfactor`` is on PATH and the Python module
+examples/, a link ``build`` to the build tree and a link ``tests`` to the test data; ``formfactor`` is on PATH and the Python module
 on PYTHONPATH. Shell blocks run under ``bash -e -o pipefail``; in ``console`` blocks only the
 lines after ``$ `` are run (the rest is the output shown). The Python blocks of a page share one
 namespace. An HTML comment on the line(s) just before a block changes what runs:
@@ -140,7 +140,7 @@ def console_commands(code):
 
 
 def prepare_dir(work, source_dir, build_dir):
-    """A fresh page directory: examples/ copied, build/ linked."""
+    """A fresh page directory: examples/ copied, build/ and tests/ (its data files) linked."""
     work = pathlib.Path(work)
     work.mkdir(parents=True, exist_ok=True)
     examples = pathlib.Path(source_dir) / "examples"
@@ -148,6 +148,9 @@ def prepare_dir(work, source_dir, build_dir):
         shutil.copytree(examples, work / "examples")
     if pathlib.Path(build_dir).is_dir():
         (work / "build").symlink_to(pathlib.Path(build_dir).resolve(), target_is_directory=True)
+    tests = pathlib.Path(source_dir) / "tests"
+    if tests.is_dir():
+        (work / "tests").symlink_to(tests.resolve(), target_is_directory=True)
     return work
 
 

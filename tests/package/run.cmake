@@ -34,7 +34,8 @@ foreach(file include/formfactor/formfactor.h include/formfactor/scene/scene.h bi
     endif()
 endforeach()
 step("installed CLI" ${prefix}/bin/formfactor --version)
-if(NOT step_output STREQUAL "formfactor ${FF_VERSION}\n")
+string(FIND "${step_output}" "formfactor ${FF_VERSION}\n" at)
+if(NOT at EQUAL 0)
     message(FATAL_ERROR "installed CLI --version printed '${step_output}'")
 endif()
 
