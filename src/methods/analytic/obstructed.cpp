@@ -627,28 +627,12 @@ struct SenderMap {
     }
 };
 
-// The sender's area and normal, the receiver, and the sine² of the lowest elevation at which
-// the sender sees the receiver (see hidden_integral()).
-struct PairGeometry {
-    double area_s;
-    Vec3 ns;
-    const Receiver& rc;
-    double sin2_receiver;
-};
-
-constexpr std::size_t kMaxCells = 4096;
-constexpr int kMaxLevel = 14;
-
 struct Cell {
     int map = 0;
     double u0 = 0, u1 = 1, v0 = 0, v1 = 1;
     int level = 0;
     double value = 0, error = 0;
 };
-
-HiddenIntegral integrate_sender(const std::vector<Polygon>& pieces, const PairGeometry& pg,
-                                const BlockerSet& blockers, const int* cand, int n, double target,
-                                double eps, std::size_t max_cells);
 
 }  // namespace
 
@@ -682,23 +666,9 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
         if (hmin > 0.0 && dmax > 0.0) sin_receiver = std::min(1.0, hmin / dmax);
     }
     const double sin2_receiver = sin_receiver * sin_receiver;
-    const PairGeometry pg{area_s, ns, rc, sin2_receiver};
     // Sender pieces: the sender cut along the lines where the integrand has kinks, then
     // triangles (or the sender's own quad when nothing cuts it).
-    return integrate_sender(split_by_events(s, ns, rc, blockers, cand, n, eps), pg, blockers, cand,
-                            n, target, eps, kMaxCells);
-}
-
-namespace {
-
-HiddenIntegral integrate_sender(const std::vector<Polygon>& pieces, const PairGeometry& pg,
-                                const BlockerSet& blockers, const int* cand, int n, double target,
-                                double eps, std::size_t max_cells) {
-    HiddenIntegral out;
-    const double area_s = pg.area_s;
-    const Vec3& ns = pg.ns;
-    const Receiver& rc = pg.rc;
-    const double sin2_receiver = pg.sin2_receiver;
+    const std::vector<Polygon> pieces = split_by_events(s, ns, rc, blockers, cand, n, eps);
     // Each convex piece is mapped from the unit square by quads (0, k, k+1, k+2) of its fan
     // (convex, as parts of a convex polygon) and a last triangle when the count is odd: half
     // the maps, so half the cells, of a fan of triangles. Slivers below 1e-12 of the sender
@@ -894,15 +864,17 @@ HiddenIntegral integrate_sender(const std::vector<Polygon>& pieces, const PairGe
         heap.push_back(c);
     }
     std::make_heap(heap.begin(), heap.end(), worse);
+    constexpr std::size_t kMaxCells = 4096;
+    constexpr int kMaxLevel = 14;
     std::vector<Cell> done;
     while (total_error > target && !heap.empty()) {
         std::pop_heap(heap.begin(), heap.end(), worse);
         Cell c = heap.back();
         heap.pop_back();
-        if (c.level >= kMaxLevel || heap.size() + done.size() + 4 > max_cells) {
+        if (c.level >= kMaxLevel || heap.size() + done.size() + 4 > kMaxCells) {
             out.capped = true;
             done.push_back(c);
-            if (heap.size() + done.size() + 4 > max_cells) break;
+            if (heap.size() + done.size() + 4 > kMaxCells) break;
             continue;
         }
         total_error -= c.error;
@@ -938,8 +910,6 @@ HiddenIntegral integrate_sender(const std::vector<Polygon>& pieces, const PairGe
     out.cells = done.size();
     return out;
 }
-
-}  // namespace
 
 }  // namespace detail
 
