@@ -9,7 +9,7 @@
 #include "formfactor/solve/radiosity.h"
 
 // random_open_matrix, shared with the tests.
-#include "../tests/solve_fixtures.h"
+#include "../tests/support/fixtures.h"
 
 using namespace formfactor;
 
@@ -28,7 +28,7 @@ PatchProperties props(int n) {
 
 void solve(benchmark::State& state, SolverKind kind) {
     const int n = static_cast<int>(state.range(0));
-    const FormFactors ff = ff_test::random_open_matrix(n, 1);
+    const FormFactors ff = formfactor::testing::random_open_matrix(n, 1);
     const PatchProperties p = props(n);
     SolverOptions o;
     o.solver = kind;
@@ -48,7 +48,7 @@ void BM_direct(benchmark::State& s) { solve(s, SolverKind::direct); }
 
 void BM_repair_both(benchmark::State& state) {
     const int n = static_cast<int>(state.range(0));
-    const FormFactors ff = ff_test::random_open_matrix(n, 1);
+    const FormFactors ff = formfactor::testing::random_open_matrix(n, 1);
     RepairOptions o;
     o.mode = RepairMode::both;
     o.force_closure = true;

@@ -16,8 +16,9 @@
 #include "formfactor/kernels/analytic.h"
 #include "formfactor/methods/method.h"
 #include "kernels/analytic_internal.h"
-#include "method_runner.h"
 #include "methods/analytic/analytic_method.h"
+#include "support/method_runner.h"
+#include "support/scenes.h"
 
 using formfactor::testing::run_method;
 
@@ -159,30 +160,6 @@ std::vector<Config> configurations() {
     c.push_back({"far apart", quad(Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0)),
                  reversed(quad(Vec3(3, 5, 40), Vec3(1, 0, 0.2), Vec3(0, 1.3, 0)))});
     return c;
-}
-
-// Unit cube, inward faces, each split n × n; surfaces and patches.
-Scene cube_scene(int n) {
-    Scene s;
-    s.name = "cube";
-    const Vec3 o[6] = {Vec3(0, 0, 0), Vec3(1, 0, 1), Vec3(0, 0, 0),
-                       Vec3(1, 1, 0), Vec3(0, 0, 0), Vec3(0, 1, 1)};
-    const Vec3 u[6] = {Vec3(0, 1, 0), Vec3(0, 1, 0), Vec3(0, 0, 1),
-                       Vec3(0, 0, 1), Vec3(1, 0, 0), Vec3(1, 0, 0)};
-    const Vec3 v[6] = {Vec3(0, 0, 1),  Vec3(0, 0, -1), Vec3(1, 0, 0),
-                       Vec3(-1, 0, 0), Vec3(0, 1, 0),  Vec3(0, -1, 0)};
-    const char* names[6] = {"x0", "x1", "y0", "y1", "z0", "z1"};
-    for (int f = 0; f < 6; ++f) {
-        Surface sf;
-        sf.name = names[f];
-        sf.polygon = quad(o[f], u[f], v[f]);
-        s.surfaces.push_back(sf);
-        for (int i = 0; i < n; ++i)
-            for (int j = 0; j < n; ++j)
-                s.patches.push_back(formfactor::make_patch(
-                    quad(o[f] + (u[f] * j + v[f] * i) / n, u[f] / n, v[f] / n), f));
-    }
-    return s;
 }
 
 Mat3 rotation(double a, double b, double c) {
@@ -366,7 +343,7 @@ TEST_CASE("analytic: the far-field rule stays within its error bound") {
 
 TEST_CASE(
     "analytic: method on a subdivided cube closes rows, is reciprocal and thread-independent") {
-    const Scene scene = cube_scene(4);
+    const Scene scene = testing::unit_cube(4);
     const auto method = make_method("analytic");
     CHECK(method->name() == "analytic");
     method->check(scene);
@@ -405,7 +382,7 @@ TEST_CASE(
 
 TEST_CASE("analytic: check() accepts scenes with obstructions, may_obstruct() finds them") {
     const auto method = make_method("analytic");
-    Scene cube = cube_scene(1);
+    Scene cube = testing::unit_cube(1);
     CHECK_NOTHROW(method->check(cube));
     // Two parallel plates facing each other.
     Scene plates;
@@ -431,7 +408,7 @@ TEST_CASE("analytic: check() accepts scenes with obstructions, may_obstruct() fi
     CHECK_FALSE(AnalyticMethod::may_obstruct(plates));
     CHECK_FALSE(AnalyticMethod::may_obstruct(cube));
     // A box inside a room: the box's faces have room faces on both sides of their planes.
-    Scene room = cube_scene(1);
+    Scene room = testing::unit_cube(1);
     const Vec3 lo(0.4, 0.4, 0.0), e(0.2, 0.2, 0.2);
     Surface top;
     top.name = "box top";

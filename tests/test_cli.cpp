@@ -7,8 +7,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "cli_runner.h"
 #include "formfactor/output/matrix_io.h"
+#include "support/cli_runner.h"
 
 using namespace formfactor;
 using formfactor::testing::Cli;
@@ -247,7 +247,7 @@ TEST_CASE("cli: the default method handles occlusion, standard errors of Monte-C
     CHECK(report["method"] == "mc-target");
     CHECK(report["outputs"]["standard_error"] == "se.csv");
     CHECK(read_matrix(cli.file("se.csv")).rows() == 20);
-    // Same formats as -o, View3D's text layout included; the old spelling still works.
+    // Same formats as -o, View3D's text layout included; --stderr is an alias of --standard-error.
     r = cli.run("compute plates --method mc-area --samples 256 -o F2.npy --stderr se2.txt");
     REQUIRE(r.code == 0);
     CHECK(read_matrix(cli.file("se2.txt")).rows() == 2);

@@ -9,10 +9,10 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "cli_runner.h"
 #include "formfactor/core/error.h"
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/scene/points.h"
+#include "support/cli_runner.h"
 
 using namespace formfactor;
 using formfactor::testing::Cli;

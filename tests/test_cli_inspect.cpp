@@ -3,7 +3,7 @@
 
 #include <filesystem>
 
-#include "cli_runner.h"
+#include "support/cli_runner.h"
 
 using formfactor::testing::Cli;
 

@@ -16,7 +16,7 @@
 
 #include "formfactor/core/atomic_file.h"
 #include "formfactor/core/cancel.h"
-#include "temp_dir.h"
+#include "support/temp_dir.h"
 
 using namespace formfactor;
 using formfactor::testing::read_text;

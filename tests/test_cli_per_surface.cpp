@@ -9,8 +9,8 @@
 #include <sstream>
 #include <string>
 
-#include "cli_runner.h"
 #include "formfactor/output/matrix_io.h"
+#include "support/cli_runner.h"
 
 using namespace formfactor;
 using formfactor::testing::Cli;

@@ -8,9 +8,9 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
-#include "cli_runner.h"
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/solution_io.h"
+#include "support/cli_runner.h"
 
 using namespace formfactor;
 using formfactor::testing::Cli;

@@ -12,11 +12,11 @@
 #include <sstream>
 #include <string>
 
-#include "cli_runner.h"
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/sparse_io.h"
 #include "formfactor/pipeline_sparse.h"
 #include "formfactor/scene/city.h"
+#include "support/cli_runner.h"
 
 using namespace formfactor;
 using formfactor::testing::Cli;

@@ -8,14 +8,15 @@
 #include <string>
 #include <vector>
 
-#include "cli_runner.h"
-#include "closed_test_scenes.h"
 #include "formfactor/pipeline.h"
 #include "formfactor/scene/closure.h"
 #include "formfactor/visibility/visibility.h"
+#include "support/cli_runner.h"
+#include "support/closed_rooms.h"
+#include "support/scenes.h"
 
 using namespace formfactor;
-using namespace formfactor::closed_test;
+using namespace formfactor::testing;
 
 namespace {
 
@@ -31,7 +32,7 @@ Scene l_hall() {
 Scene sphere_in_room(int n) {
     std::vector<Polygon> faces = room_faces(Cells{3, 3, 3}, 1.0);
     for (const Polygon& p : sphere_faces(Vec3(1.5, 1.5, 1.5), 0.8, 8, 12)) faces.push_back(p);
-    return scene_of(faces, n, "sphere in a room");
+    return scene_of(faces, {}, n);
 }
 
 struct Rooms {
@@ -41,10 +42,10 @@ struct Rooms {
 
 // The closed rooms of the tests at subdivision n.
 std::vector<Rooms> rooms(int n) {
-    return {{"box", scene_of(room_faces(box_room(), 1.0), n, "box")},
-            {"L", scene_of(room_faces(l_room(), 1.0), n, "L")},
-            {"U", scene_of(room_faces(u_room(), 1.0), n, "U")},
-            {"box on the floor", scene_of(room_faces(box_on_floor_room(), 1.0), n, "box on floor")},
+    return {{"box", scene_of(room_faces(box_room(), 1.0), {}, n)},
+            {"L", scene_of(room_faces(l_room(), 1.0), {}, n)},
+            {"U", scene_of(room_faces(u_room(), 1.0), {}, n)},
+            {"box on the floor", scene_of(room_faces(box_on_floor_room(), 1.0), {}, n)},
             {"sphere in a room", sphere_in_room(n)}};
 }
 
@@ -125,24 +126,24 @@ TEST_CASE("closed models: holes, T-junctions, flipped faces and exposed bodies a
 
     std::vector<Polygon> faces = room_faces(box_room(), 1.0);
     std::vector<Polygon> missing(faces.begin() + 1, faces.end());
-    const Closure hole = check_closure(scene_of(missing, 2, "hole"));
+    const Closure hole = check_closure(scene_of(missing, {}, 2));
     CHECK_FALSE(hole.closed);
     CHECK(hole.open_edges == 2 * 4);  // the missing face's border, in 2 × 2 patches
 
     std::vector<Polygon> flipped = faces;
     std::reverse(flipped[0].vertices.begin(), flipped[0].vertices.end());
-    const Closure flip = check_closure(scene_of(flipped, 1, "flipped"));
+    const Closure flip = check_closure(scene_of(flipped, {}, 1));
     CHECK_FALSE(flip.closed);
     CHECK(flip.misoriented_edges == 4);
 
     // A sphere alone, and one outside the room: watertight, but its fronts face open space.
-    const Closure alone = check_closure(scene_of(sphere_faces(Vec3::Zero(), 1, 6, 8), 1, "s"));
+    const Closure alone = check_closure(scene_of(sphere_faces(Vec3::Zero(), 1, 6, 8), {}, 1));
     CHECK(alone.watertight);
     CHECK_FALSE(alone.closed);
     CHECK(alone.exposed_bodies == 1);
     std::vector<Polygon> outside = room_faces(box_room(), 1.0);
     for (const Polygon& p : sphere_faces(Vec3(5, 1, 1), 0.5, 6, 8)) outside.push_back(p);
-    const Closure out = check_closure(scene_of(outside, 1, "outside"));
+    const Closure out = check_closure(scene_of(outside, {}, 1));
     CHECK(out.watertight);
     CHECK(out.exposed_bodies == 1);
     CHECK(out.summary().find("outwards") != std::string::npos);
@@ -154,10 +155,10 @@ TEST_CASE("closed models: holes, T-junctions, flipped faces and exposed bodies a
 TEST_CASE("closed models: vertices jittered by 1e-9 of the size are welded, gaps of 1e-6 are not") {
     for (bool shared : {true, false}) {
         CAPTURE(shared);
-        const Scene s = scene_of(jittered(room_faces(l_room(), 1.0), 1e-9, shared, 7), 2, "L");
+        const Scene s = scene_of(jittered(room_faces(l_room(), 1.0), 1e-9, shared, 7), {}, 2);
         CHECK(check_closure(s).closed);
     }
-    const Scene gap = scene_of(jittered(room_faces(l_room(), 1.0), 1e-6, false, 7), 1, "L");
+    const Scene gap = scene_of(jittered(room_faces(l_room(), 1.0), 1e-6, false, 7), {}, 1);
     CHECK_FALSE(check_closure(gap).closed);
 }
 
@@ -248,7 +249,7 @@ TEST_CASE("closed models: no ray escapes rooms with jittered vertices (10^6 rays
     for (bool shared : {true, false})
         for (const Cells& cells : {l_room(), box_on_floor_room()}) {
             CAPTURE(shared);
-            const Scene s = scene_of(jittered(room_faces(cells, 1.0), 1e-9, shared, 3), 2, "j");
+            const Scene s = scene_of(jittered(room_faces(cells, 1.0), 1e-9, shared, 3), {}, 2);
             REQUIRE(check_closure(s).closed);
             const Escapes e = hemisphere(s, 1000000, false);
             MESSAGE(s.patches.size() << " patches: " << e.rays << " rays, " << e.recast
@@ -263,7 +264,7 @@ TEST_CASE("closed models: jittered rooms lose no mc-hemisphere ray (2000 rays pe
         for (bool robust : {false, true}) {
             CAPTURE(shared);
             CAPTURE(robust);
-            const Scene s = scene_of(jittered(room_faces(u_room(), 1.0), 1e-9, shared, 5), 2, "j");
+            const Scene s = scene_of(jittered(room_faces(u_room(), 1.0), 1e-9, shared, 5), {}, 2);
             const Escapes e = hemisphere(s, 2000, robust);
             CHECK(e.closed);
             CHECK(e.escapes == 0);

@@ -15,7 +15,7 @@
 #include "formfactor/methods/method.h"
 #include "formfactor/scene/room.h"
 #include "formfactor/scene/scene.h"
-#include "method_runner.h"
+#include "support/method_runner.h"
 
 using formfactor::testing::run_method;
 

@@ -1,6 +1,6 @@
 // The differential harness of the obstructed `analytic` method (label obstructed-references):
-// random obstructed scenes (obstructed_scenes.h), each written in every form the project reads,
-// and every form's matrix held against
+// random obstructed scenes (support/random_geometry.h), each written in every form the project
+// reads, and every form's matrix held against
 //  - mc-target (Embree rays; knows nothing of shafts, shadows or blocker sets) within k standard
 //    errors of its replicates plus the analytic method's own reported error bound;
 //  - the unobstructed exact value (obstruction never adds light);
@@ -24,16 +24,16 @@
 #include "formfactor/core/random.h"
 #include "formfactor/kernels/analytic.h"
 #include "formfactor/methods/method.h"
-#include "obstructed_checks.h"
-#include "obstructed_scenes.h"
-#include "student_t.h"
-#include "temp_dir.h"
+#include "support/obstructed_checks.h"
+#include "support/random_geometry.h"
+#include "support/student_t.h"
+#include "support/temp_dir.h"
 
 using namespace formfactor;
-using gen::Form;
-using test::AnalyticRun;
-using test::McReference;
-using test::run_analytic;
+using testing::AnalyticRun;
+using testing::Form;
+using testing::McReference;
+using testing::run_analytic;
 
 namespace {
 
@@ -84,7 +84,7 @@ struct FormResult {
 struct HarnessOptions {
     std::uint64_t mc_samples = 1 << 13;
     std::size_t mc_patches = 10;  // patches in the mc-target sub-scene (0 = all)
-    std::vector<Form> forms = gen::all_forms();
+    std::vector<Form> forms = testing::all_forms();
     int threads = 0;
     long style = -1;  // the foreign writers' style bits (-1: the geometry's own)
     /// > 0: the (up to three) entries where the forms are furthest from mc-target are estimated
@@ -105,7 +105,7 @@ double mc_allowance(double unobstructed, double se, std::uint64_t samples) {
     return unobstructed * (per_n + 2e-5) + 1e-9;
 }
 
-std::vector<FormResult> check_geometry(const gen::Geometry& g, const HarnessOptions& h,
+std::vector<FormResult> check_geometry(const testing::Geometry& g, const HarnessOptions& h,
                                        std::uint64_t seed) {
     testing::TempDir dir;
     std::vector<Polygon> all = g.room;
@@ -128,9 +128,9 @@ std::vector<FormResult> check_geometry(const gen::Geometry& g, const HarnessOpti
             std::swap(chosen[k], chosen[splitmix64(state++) % (k + 1)]);
         chosen.resize(h.mc_patches);
     }
-    const McReference mc = test::mc_reference(all, {}, chosen, h.mc_samples, seed);
+    const McReference mc = testing::mc_reference(all, {}, chosen, h.mc_samples, seed);
     const std::size_t nm = mc.patches.size();
-    const double k = test::simultaneous_k(double(nm * nm * h.forms.size()), mc.dof);
+    const double k = testing::simultaneous_k(double(nm * nm * h.forms.size()), mc.dof);
 
     std::vector<FormResult> results;
     std::vector<AnalyticRun> runs;  // per result (empty F when not loaded)
@@ -138,21 +138,22 @@ std::vector<FormResult> check_geometry(const gen::Geometry& g, const HarnessOpti
     bool have_r = false, have_o = false;
     for (Form f : h.forms) {
         FormResult res;
-        res.form = gen::form_name(f);
-        const bool radiate = gen::blockers_radiate(f);
+        res.form = testing::form_name(f);
+        const bool radiate = testing::blockers_radiate(f);
         const std::size_t n = radiate ? n_all : n_room;
         AnalyticRun run;
         try {
             // FF_DIFFERENTIAL_KEEP=dir keeps the written files there (a development aid).
             const char* keep = std::getenv("FF_DIFFERENTIAL_KEEP");
-            const Scene s = gen::load_form(g, f, keep ? std::string(keep) : dir.path().string());
+            const Scene s =
+                testing::load_form(g, f, keep ? std::string(keep) : dir.path().string());
             if (s.patches.size() != n)
                 throw std::runtime_error("loaded " + std::to_string(s.patches.size()) +
                                          " patches, expected " + std::to_string(n));
             run = run_analytic(s, h.threads);
             res.loaded = true;
             // Into the kScene numbering.
-            const std::vector<std::size_t> order = gen::patch_order(g, f);
+            const std::vector<std::size_t> order = testing::patch_order(g, f);
             DenseMatrix canonical(I(n), I(n));
             for (std::size_t a = 0; a < n; ++a)
                 for (std::size_t b = 0; b < n; ++b)
@@ -238,10 +239,11 @@ std::vector<FormResult> check_geometry(const gen::Geometry& g, const HarnessOpti
         for (std::size_t e = 0; e < entries.size(); ++e) {
             const auto [ri, rj] = entries[e];
             const McReference hi =
-                test::mc_reference(all, {}, {ri, rj}, h.referee_samples, seed + 1000003 + e);
+                testing::mc_reference(all, {}, {ri, rj}, h.referee_samples, seed + 1000003 + e);
             const std::size_t a = ri < rj ? 0 : 1, b = 1 - a;
             const double m = hi.F(I(a), I(b)), se = hi.se(I(a), I(b));
-            const double kr = test::simultaneous_k(double(entries.size() * results.size()), hi.dof);
+            const double kr =
+                testing::simultaneous_k(double(entries.size() * results.size()), hi.dof);
             for (std::size_t r = 0; r < results.size(); ++r) {
                 if (!results[r].loaded || runs[r].ff.F.rows() <= I(std::max(ri, rj))) continue;
                 const double f = runs[r].ff.F(I(ri), I(rj));
@@ -271,12 +273,12 @@ std::string failed_checks(const FormResult& r) {
 /// Runs the harness on the geometries of `seeds` and CHECKs every form of each. Prints, per
 /// geometry as it is done, one line per form (its time, reported bound and the worst entry of
 /// each check), and at the end the failing forms.
-void run_harness(const std::vector<std::uint64_t>& seeds, const gen::GeneratorOptions& go,
+void run_harness(const std::vector<std::uint64_t>& seeds, const testing::GeneratorOptions& go,
                  const HarnessOptions& h) {
     std::size_t failures = 0, forms = 0;
     std::ostringstream summary;
     for (std::uint64_t seed : seeds) {
-        gen::Geometry g = gen::random_geometry(seed, go);
+        testing::Geometry g = testing::random_geometry(seed, go);
         if (h.style >= 0) g.style = static_cast<std::uint64_t>(h.style);
         const auto t0 = Clock::now();
         const std::vector<FormResult> results = check_geometry(g, h, seed);
@@ -323,7 +325,7 @@ void run_harness(const std::vector<std::uint64_t>& seeds, const gen::GeneratorOp
 // The slow slice: rooms n = 2..4, up to three blockers split 1×1 or 2×2, every form,
 // mc-target on 24 patches, and the three entries furthest from it estimated again with 2^20
 // samples.
-void long_settings(gen::GeneratorOptions& go, HarnessOptions& h) {
+void long_settings(testing::GeneratorOptions& go, HarnessOptions& h) {
     go.room_n = {2, 3, 4};
     go.max_blockers = 3;
     go.blocker_split = {1, 2};
@@ -342,29 +344,30 @@ std::vector<std::uint64_t> seed_range(std::uint64_t first, std::uint64_t last) {
 
 TEST_CASE("differential: t quantiles for the replicate standard errors") {
     // Tables: t_{0.975, 15} = 2.131, t_{0.9995, 15} = 4.073, t_{0.975, 1} = 12.706.
-    CHECK(test::student_t_two_sided_quantile(0.05, 15) == doctest::Approx(2.1314).epsilon(1e-4));
-    CHECK(test::student_t_two_sided_quantile(0.001, 15) == doctest::Approx(4.0728).epsilon(1e-4));
-    CHECK(test::student_t_two_sided_quantile(0.05, 1) == doctest::Approx(12.7062).epsilon(1e-4));
-    CHECK(test::student_t_two_sided_tail(0, 15) == doctest::Approx(1.0));
+    CHECK(testing::student_t_two_sided_quantile(0.05, 15) == doctest::Approx(2.1314).epsilon(1e-4));
+    CHECK(testing::student_t_two_sided_quantile(0.001, 15) ==
+          doctest::Approx(4.0728).epsilon(1e-4));
+    CHECK(testing::student_t_two_sided_quantile(0.05, 1) == doctest::Approx(12.7062).epsilon(1e-4));
+    CHECK(testing::student_t_two_sided_tail(0, 15) == doctest::Approx(1.0));
 }
 
 TEST_CASE("differential: the generator's forms describe one geometry") {
     for (std::uint64_t seed = 1; seed <= 12; ++seed) {
-        const gen::Geometry g = gen::random_geometry(seed);
+        const testing::Geometry g = testing::random_geometry(seed);
         CAPTURE(g.label);
         testing::TempDir dir;
-        const Scene ref = gen::make_scene(g, true);
-        for (Form f : gen::all_forms()) {
-            CAPTURE(gen::form_name(f));
-            const Scene s = gen::load_form(g, f, dir.path().string());
-            const bool radiate = gen::blockers_radiate(f);
+        const Scene ref = testing::make_scene(g, true);
+        for (Form f : testing::all_forms()) {
+            CAPTURE(testing::form_name(f));
+            const Scene s = testing::load_form(g, f, dir.path().string());
+            const bool radiate = testing::blockers_radiate(f);
             REQUIRE(s.patches.size() == g.room.size() + (radiate ? g.blockers.size() : 0));
             double area_o = 0, area_ref = 0;
             for (const Surface& sf : s.surfaces)
                 if (sf.obstruction) area_o += area(sf.polygon);
             for (const Polygon& p : g.obstructions) area_ref += area(p);
             CHECK(area_o == doctest::Approx(radiate ? 0.0 : area_ref).epsilon(1e-12));
-            const std::vector<std::size_t> order = gen::patch_order(g, f);
+            const std::vector<std::size_t> order = testing::patch_order(g, f);
             for (std::size_t i = 0; i < s.patches.size(); ++i) {
                 const Patch& r = ref.patches[order[i]];
                 CHECK((s.patches[i].centroid - r.centroid).norm() <= 1e-12);
@@ -380,7 +383,7 @@ TEST_CASE("differential: analytic against mc-target and itself on random scenes 
     // Geometries chosen among the first seeds of the default generator for their spread (boxes
     // touching, resting on walls, open, a thin plate, a tilted box, a single quad with vertex
     // jitter) at a cost of seconds: rooms n = 2, 3; five forms; mc-target on 10 patches.
-    gen::GeneratorOptions go;
+    testing::GeneratorOptions go;
     HarnessOptions h;
     h.mc_samples = 1 << 13;
     h.mc_patches = 10;
@@ -394,7 +397,7 @@ TEST_CASE("differential: analytic against mc-target and itself on random scenes 
 // `build/formfactor_tests -tc='*random scenes (long)*' --no-skip`.
 TEST_CASE("differential: analytic against mc-target and itself on random scenes (long)" *
           doctest::test_suite("slow") * doctest::skip()) {
-    gen::GeneratorOptions go;
+    testing::GeneratorOptions go;
     HarnessOptions h;
     long_settings(go, h);
     run_harness(seed_range(100, 119), go, h);
@@ -412,7 +415,7 @@ TEST_CASE("differential: seeds from FF_DIFFERENTIAL_SEEDS (a development aid)" *
     std::istringstream in(env);
     std::uint64_t first = 1, last = 1;
     in >> first >> last;
-    gen::GeneratorOptions go;
+    testing::GeneratorOptions go;
     HarnessOptions h;
     if (std::getenv("FF_DIFFERENTIAL_LONG")) long_settings(go, h);
     std::vector<int> ns;
@@ -422,8 +425,8 @@ TEST_CASE("differential: seeds from FF_DIFFERENTIAL_SEEDS (a development aid)" *
     if (const char* r = std::getenv("FF_DIFFERENTIAL_REFEREE")) h.referee_samples = std::atol(r);
     if (const char* forms = std::getenv("FF_DIFFERENTIAL_FORMS")) {
         h.forms.clear();
-        for (Form f : gen::all_forms())
-            if ((std::string(" ") + forms + " ").find(" " + gen::form_name(f) + " ") !=
+        for (Form f : testing::all_forms())
+            if ((std::string(" ") + forms + " ").find(" " + testing::form_name(f) + " ") !=
                 std::string::npos)
                 h.forms.push_back(f);
     }

@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "cli_runner.h"
-#include "temp_dir.h"
+#include "support/cli_runner.h"
+#include "support/temp_dir.h"
 
 using formfactor::testing::read_text;
 using formfactor::testing::shell_quote;

@@ -11,11 +11,11 @@
 #include <sstream>
 #include <string>
 
-#include "cli_runner.h"
 #include "formfactor/core/error.h"
 #include "formfactor/output/energyplus_view_factors.h"
 #include "formfactor/scene/scene.h"
 #include "scene/energyplus_objects.h"
+#include "support/cli_runner.h"
 
 using namespace formfactor;
 using formfactor::testing::Cli;

@@ -23,7 +23,7 @@
 #include <string>
 #include <vector>
 
-#include "cli_runner.h"
+#include "support/cli_runner.h"
 
 using formfactor::testing::Cli;
 using formfactor::testing::CliResult;

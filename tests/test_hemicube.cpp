@@ -8,13 +8,14 @@
 #include "formfactor/core/error.h"
 #include "formfactor/kernels/analytic.h"
 #include "formfactor/methods/hemicube.h"
-#include "method_runner.h"
-#include "projection_test_scenes.h"
+#include "support/lambert.h"
+#include "support/method_runner.h"
+#include "support/scenes.h"
 
 using formfactor::testing::run_method;
 
 using namespace formfactor;
-using namespace projection_test;
+using namespace formfactor::testing;
 
 namespace {
 
@@ -61,10 +62,10 @@ TEST_CASE("hemicube: delta form factors sum to 1, each face holding its analytic
 }
 
 TEST_CASE("hemicube: a point to a rectangle matches Howell B-3 and B-4") {
-    const Scene b3 = make_scene({rect_b3(1, 1, 1)});
-    const Scene b3w = make_scene({rect_b3(10, 10, 1)});
+    const Scene b3 = scene_of({rect_b3(1, 1, 1)});
+    const Scene b3w = scene_of({rect_b3(10, 10, 1)});
     const Scene b4 =
-        make_scene({Polygon{{Vec3(0, 1, 0), Vec3(1, 1, 0), Vec3(1, 1, 1), Vec3(0, 1, 1)}}});
+        scene_of({Polygon{{Vec3(0, 1, 0), Vec3(1, 1, 0), Vec3(1, 1, 1), Vec3(0, 1, 1)}}});
     // Aliasing: misassigned cells lie along the projected outline; at R = 256 their share is a
     // few 1e-5 for the horizontal rectangles (oblique edges on the top face average out).
     for (double rot : {0.0, 0.3, 1.1}) {
@@ -85,7 +86,7 @@ TEST_CASE("hemicube: the error falls as the resolution grows (R = 64, 128, 256, 
     // A tilted triangle seen from an off-axis point, exact by Lambert's formula; the mean
     // absolute error over 8 rotations of the cube, per resolution.
     const Polygon tri{{Vec3(0.2, -0.3, 1.0), Vec3(-0.8, -0.6, 0.7), Vec3(-0.5, 0.9, 1.4)}};
-    const Scene s = make_scene({tri});
+    const Scene s = scene_of({tri});
     const Vec3 x(0.1, 0.05, 0.0);
     const double exact = lambert(x, Vec3::UnitZ(), tri);
     std::vector<double> err;
@@ -200,8 +201,8 @@ TEST_CASE("hemicube: an obstruction between the plates hides what it covers") {
     // (Lambert) form factor.
     const Polygon blocker{{Vec3(0.375, 0.375, 0.5), Vec3(0.625, 0.375, 0.5),
                            Vec3(0.625, 0.625, 0.5), Vec3(0.375, 0.625, 0.5)}};
-    const Scene open = make_scene(plates());
-    const Scene blocked = make_scene(plates(), 1, {blocker});
+    const Scene open = scene_of(plates());
+    const Scene blocked = scene_of(plates(), {blocker});
     const Vec3 x(0.5, 0.5, 0.0);
     const double f_open = lambert(x, Vec3::UnitZ(), plates()[1]);
     const double f_blocked = f_open - lambert(x, Vec3::UnitZ(), blocker);
@@ -225,7 +226,7 @@ TEST_CASE("hemicube: back faces block but earn nothing") {
     const Polygon bottom = plates()[0];
     const Polygon top_up{{Vec3(0, 0, 1), Vec3(1, 0, 1), Vec3(1, 1, 1), Vec3(0, 1, 1)}};
     const Polygon high{{Vec3(0, 0, 2), Vec3(0, 1, 2), Vec3(1, 1, 2), Vec3(1, 0, 2)}};
-    const Scene s = make_scene({bottom, top_up, high});
+    const Scene s = scene_of({bottom, top_up, high});
     const auto row = hemicube_point_row(s, Vec3(0.5, 0.5, 0), Vec3::UnitZ(), 128, 0.0, 0);
     CHECK(row[1] == 0.0);
     CHECK(row[2] == 0.0);
@@ -277,8 +278,8 @@ TEST_CASE("hemicube: non-convex and many-sided patches") {
         const double a = -2.0 * kPi * k / 12.0;  // clockwise seen from above: faces down
         gon.vertices.push_back(Vec3(0.3 + 0.6 * std::cos(a), 0.6 * std::sin(a), 1.5));
     }
-    const Scene s = make_scene({ell});
-    const Scene g = make_scene({gon});
+    const Scene s = scene_of({ell});
+    const Scene g = scene_of({gon});
     for (double rot : {0.0, 0.5}) {
         CHECK(std::abs(hemicube_point_row(s, Vec3::Zero(), Vec3::UnitZ(), 256, rot)[0] - f_ell) <
               2e-4);
@@ -286,7 +287,7 @@ TEST_CASE("hemicube: non-convex and many-sided patches") {
                        lambert(Vec3::Zero(), Vec3::UnitZ(), gon)) < 1e-4);
     }
     // Several points on the L: the row is still a weighted mean (reciprocity with a floor).
-    Scene box = make_scene({plates()[0], ell});
+    Scene box = scene_of({plates()[0], ell});
     const auto F = run(box, 128, 9).F;
     CHECK(F(0, 1) * 1.0 == doctest::Approx(F(1, 0) * area(ell)).epsilon(0.01));
 }
@@ -323,7 +324,7 @@ TEST_CASE("hemicube: a blocker between the plates, area to area, against the ana
                       point_to_polygon(p, Vec3::UnitZ(), shadow));
         }
     }
-    const Scene blocked = make_scene(plates(), 1, {blocker});
+    const Scene blocked = scene_of(plates(), {blocker});
     const auto F = run(blocked, 256, 64).F;
     CHECK(exact < kC11_a1_b1_c1 - 0.02);  // the blocker takes a sixth of the exchange
     // 8 × 8 Gauss points ignore the kinks of the integrand: that, not aliasing, is most of

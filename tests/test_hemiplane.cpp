@@ -5,14 +5,15 @@
 
 #include "formfactor/core/error.h"
 #include "formfactor/methods/hemiplane.h"
-#include "method_runner.h"
 #include "methods/projection/projection_common.h"
-#include "projection_test_scenes.h"
+#include "support/lambert.h"
+#include "support/method_runner.h"
+#include "support/scenes.h"
 
 using formfactor::testing::run_method;
 
 using namespace formfactor;
-using namespace projection_test;
+using namespace formfactor::testing;
 
 namespace {
 
@@ -79,7 +80,7 @@ TEST_CASE("hemiplane: points see within the stated bound of the exact values") {
     const Polygon b4 = Polygon{{Vec3(0, 1, 0), Vec3(1, 1, 0), Vec3(1, 1, 1), Vec3(0, 1, 1)}};
     const Polygon tri{{Vec3(0.2, -0.3, 1.0), Vec3(-0.8, -0.6, 0.7), Vec3(-0.5, 0.9, 1.4)}};
     for (const Polygon& poly : {b3, b3w, b4, tri}) {
-        const Scene s = make_scene({poly});
+        const Scene s = scene_of({poly});
         const double full = lambert(Vec3::Zero(), Vec3::UnitZ(), poly);
         for (double rot : {0.0, 0.3, 1.1}) {
             const HemiplaneRow r = hemiplane_point_row(s, Vec3::Zero(), Vec3::UnitZ(), 256, rot);
@@ -101,7 +102,7 @@ TEST_CASE("hemiplane: points see within the stated bound of the exact values") {
 
 TEST_CASE("hemiplane: the error falls as the resolution grows (R = 64, 128, 256, 512)") {
     const Polygon tri{{Vec3(0.2, -0.3, 1.0), Vec3(-0.8, -0.6, 0.7), Vec3(-0.5, 0.9, 1.4)}};
-    const Scene s = make_scene({tri});
+    const Scene s = scene_of({tri});
     const Vec3 x(0.1, 0.05, 0.0);
     std::vector<double> err, amb;
     for (int R : {64, 128, 256, 512}) {

@@ -11,8 +11,8 @@
 #include "formfactor/methods/method.h"
 #include "formfactor/methods/point_factors.h"
 #include "formfactor/scene/scene.h"
-#include "method_runner.h"
-#include "scene_test_util.h"
+#include "support/files.h"
+#include "support/method_runner.h"
 
 using formfactor::testing::run_method;
 
@@ -58,7 +58,7 @@ std::string disks_obj(int sides, bool blocker = false, double blocker_radius = 0
 }
 
 Scene load_disks(int sides, bool blocker = false, double blocker_radius = 0.5) {
-    return load_scene(formfactor::test::write_file(
+    return load_scene(formfactor::testing::write_file(
         "disks" + std::to_string(sides) + (blocker ? "b" : "") + ".obj",
         disks_obj(sides, blocker, blocker_radius)));
 }
@@ -95,8 +95,8 @@ TEST_CASE("large polygons: a bad vertex in a long face is still reported with it
     text += "f 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18 19 20 21 22 23 24 25 26 27 28 29 30";
     for (int k = 31; k < 300; ++k) (text += ' ') += std::to_string(k);
     text += " 9999\n";
-    const std::string p = formfactor::test::write_file("bad_long.obj", text);
-    const std::string m = formfactor::test::input_error([&] { load_scene(p); });
+    const std::string p = formfactor::testing::write_file("bad_long.obj", text);
+    const std::string m = formfactor::testing::input_error([&] { load_scene(p); });
     CHECK(m.find("bad_long.obj:" + std::to_string(2 * 400 + 6) + ":") != std::string::npos);
     CHECK(m.find("9999") != std::string::npos);
 }

@@ -11,11 +11,11 @@
 #include "formfactor/matrix/sparse.h"
 #include "formfactor/pipeline.h"
 #include "formfactor/scene/scene.h"
-#include "scene_test_util.h"
+#include "support/files.h"
 
 using namespace formfactor;
-using formfactor::test::data;
-using formfactor::test::write_file;
+using formfactor::testing::data;
+using formfactor::testing::write_file;
 
 namespace {
 

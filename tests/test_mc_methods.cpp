@@ -8,14 +8,14 @@
 #include "formfactor/core/error.h"
 #include "formfactor/kernels/analytic.h"
 #include "formfactor/methods/method.h"
-#include "mc_test_scenes.h"
-#include "method_runner.h"
+#include "support/method_runner.h"
+#include "support/scenes.h"
 
 using formfactor::testing::run_method;
 
 using namespace formfactor;
-using mc_test::quad;
-using mc_test::scene_of;
+using testing::quad;
+using testing::scene_of;
 
 namespace {
 
@@ -40,11 +40,11 @@ struct CatalogCase {
 };
 
 std::vector<CatalogCase> catalog() {
-    return {{"C-11 1x1x1", mc_test::parallel_rects(1, 1, 1), 0.19982489569838746},
-            {"C-14 1x1x1", mc_test::perpendicular_squares(), 0.20004377607540316},
-            {"C-11 2x1x1", mc_test::parallel_rects(2, 1, 1), 0.2858753848507147},
-            {"C-11 10x10x1", mc_test::parallel_rects(10, 10, 1), 0.8269945223972565},
-            {"C-11 0.2x0.2x1", mc_test::parallel_rects(0.2, 0.2, 1), 0.01240397731324307}};
+    return {{"C-11 1x1x1", testing::parallel_rects(1, 1, 1), 0.19982489569838746},
+            {"C-14 1x1x1", testing::perpendicular_squares(), 0.20004377607540316},
+            {"C-11 2x1x1", testing::parallel_rects(2, 1, 1), 0.2858753848507147},
+            {"C-11 10x10x1", testing::parallel_rects(10, 10, 1), 0.8269945223972565},
+            {"C-11 0.2x0.2x1", testing::parallel_rects(0.2, 0.2, 1), 0.01240397731324307}};
 }
 
 // F(dA → polygon), exact (Lambert's contour formula, kernels/analytic.h).
@@ -93,14 +93,14 @@ TEST_CASE("mc: area sampling across a shared edge (infinite variance) still conv
     // moment diverge: the standard error is unreliable and single runs have heavy right tails
     // (over 64 seeds at N = 32768, Sobol: median 0.1967, extremes 0.188 and 0.218, RMS error
     // 0.0076). The estimate is unbiased and converges; check it is within 0.03.
-    const FormFactors ff = run("mc-area", mc_test::perpendicular_squares(), 32768, 1, "sobol");
+    const FormFactors ff = run("mc-area", testing::perpendicular_squares(), 32768, 1, "sobol");
     CHECK(ff.F(0, 1) == doctest::Approx(0.20004377607540316).epsilon(0.03 / 0.2));
     CHECK(ff.F(1, 0) == doctest::Approx(0.20004377607540316).epsilon(0.03 / 0.2));
 }
 
 TEST_CASE("mc: the error falls like 1/sqrt(N) or faster") {
     // RMS error over 32 seeds at N, 4N, 16N on C-11 (1×1 at distance 1).
-    const Scene s = mc_test::parallel_rects(1, 1, 1);
+    const Scene s = testing::parallel_rects(1, 1, 1);
     const double exact = 0.19982489569838746;
     for (const std::string& method : kMethods) {
         for (const std::string sampler : {"random", "sobol"}) {
@@ -124,7 +124,7 @@ TEST_CASE("mc: the error falls like 1/sqrt(N) or faster") {
 }
 
 TEST_CASE("mc: the same seed gives the same matrix for any thread count") {
-    const Scene s = mc_test::unit_cube(2);
+    const Scene s = testing::unit_cube(2);
     for (const std::string& method : kMethods) {
         for (const std::string sampler : {"sobol", "random"}) {
             CAPTURE(method);
@@ -140,7 +140,7 @@ TEST_CASE("mc: the same seed gives the same matrix for any thread count") {
 }
 
 TEST_CASE("mc: rows of a closed cube sum to 1") {
-    const Scene s = mc_test::unit_cube(2);
+    const Scene s = testing::unit_cube(2);
     nlohmann::json d;
     const FormFactors h = run("mc-hemisphere", s, 4000, 5, "sobol", 0, &d);
     // Every ray hits the front of some patch: exactly 1 (no leaks between the triangles).
@@ -226,7 +226,7 @@ TEST_CASE("mc: splitting a receiver into pieces adds up") {
 }
 
 TEST_CASE("mc: bad options are reported") {
-    const Scene s = mc_test::parallel_rects(1, 1, 1);
+    const Scene s = testing::parallel_rects(1, 1, 1);
     MethodOptions o;
     CHECK_THROWS_AS(parse_sampler("qmc"), OptionError);
     o.samples = std::uint64_t(1) << 33;  // more than a stream holds

@@ -9,14 +9,14 @@
 #include "formfactor/methods/method.h"
 #include "formfactor/pipeline.h"
 #include "formfactor/scene/scene.h"
-#include "mc_test_scenes.h"
-#include "method_runner.h"
+#include "support/method_runner.h"
+#include "support/scenes.h"
 
 using formfactor::testing::run_method;
 
 using namespace formfactor;
-using mc_test::quad;
-using mc_test::scene_of;
+using testing::quad;
+using testing::scene_of;
 
 namespace {
 
@@ -56,11 +56,11 @@ ShadowCase shadow_case() {
 
 TEST_CASE("mc-target: exact when nothing blocks") {
     const std::pair<Scene, double> cases[] = {
-        {mc_test::parallel_rects(1, 1, 1), 0.19982489569838746},
-        {mc_test::perpendicular_squares(), 0.20004377607540316},
-        {mc_test::parallel_rects(2, 1, 1), 0.2858753848507147},
-        {mc_test::parallel_rects(10, 10, 1), 0.8269945223972565},
-        {mc_test::parallel_rects(0.2, 0.2, 1), 0.01240397731324307}};
+        {testing::parallel_rects(1, 1, 1), 0.19982489569838746},
+        {testing::perpendicular_squares(), 0.20004377607540316},
+        {testing::parallel_rects(2, 1, 1), 0.2858753848507147},
+        {testing::parallel_rects(10, 10, 1), 0.8269945223972565},
+        {testing::parallel_rects(0.2, 0.2, 1), 0.01240397731324307}};
     for (const auto& [scene, exact] : cases) {
         for (const char* sampler : {"sobol", "random"}) {
             const FormFactors ff = run_target(scene, 64, 1, sampler);
@@ -70,7 +70,7 @@ TEST_CASE("mc-target: exact when nothing blocks") {
         }
     }
     // A closed cube (convex: nothing blocks): rows sum to 1 to rounding.
-    const FormFactors cube = run_target(mc_test::unit_cube(2), 16);
+    const FormFactors cube = run_target(testing::unit_cube(2), 16);
     for (Eigen::Index i = 0; i < cube.F.rows(); ++i)
         CHECK(cube.F.row(i).sum() == doctest::Approx(1.0).epsilon(1e-12));
 }

@@ -7,16 +7,16 @@
 #include <string>
 #include <vector>
 
-#include "cli_runner.h"
 #include "formfactor/matrix/aggregate.h"
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/pipeline.h"
 #include "formfactor/scene/merge_coplanar.h"
 #include "formfactor/scene/mesh_io.h"
 #include "formfactor/scene/scene.h"
-#include "mesh_files.h"
-#include "scene_test_util.h"
-#include "temp_dir.h"
+#include "support/cli_runner.h"
+#include "support/files.h"
+#include "support/mesh_files.h"
+#include "support/temp_dir.h"
 
 using namespace formfactor;
 using namespace formfactor::testing;
@@ -52,7 +52,7 @@ TEST_CASE("merge coplanar: the box as STL (ASCII, binary) merges into the OBJ's 
         const Scene s = prepare_scene(o);
         REQUIRE(s.surfaces.size() == 6);  // a CAD box is 6 surfaces
         for (std::size_t k = 0; k < 6; ++k) {
-            CHECK(test::same_cycle(s.surfaces[k].polygon, reference.surfaces[k].polygon, 0.0));
+            CHECK(testing::same_cycle(s.surfaces[k].polygon, reference.surfaces[k].polygon, 0.0));
             CHECK(s.surfaces[k].combine == (k == 0 ? -1 : 0));  // still one mesh, one group
         }
         const DenseMatrix F = compute_form_factors(s).form_factors.F;
@@ -114,7 +114,7 @@ TEST_CASE("merge coplanar: a bent region stays apart, each Gmsh group merges on 
     CHECK(s.surfaces.size() == 1);
 
     // Gmsh: each physical group merges on its own (the plates of tests/data are single quads).
-    Scene g = load_msh(test::data("gmsh/plates-4.1.msh"));
+    Scene g = load_msh(testing::data("gmsh/plates-4.1.msh"));
     const std::size_t n = g.surfaces.size();
     merge_coplanar(g);
     CHECK(g.surfaces.size() == n);

@@ -25,8 +25,8 @@
 #include "formfactor/scene/scene.h"
 #include "formfactor/scene/scene_io.h"
 #include "kernels/analytic_internal.h"
-#include "method_runner.h"
-#include "scene_test_util.h"
+#include "support/files.h"
+#include "support/method_runner.h"
 
 using formfactor::testing::run_method;
 
@@ -404,7 +404,7 @@ TEST_CASE("obstructed: room scene, box as patches or as obstructions, VS3 round 
     CHECK(std::abs(dg.row_sum_max - 1.0) <= 120 * 1e-6);
     CHECK(dg.negative_entries == 0);
     // Written as VS3 (every patch a surface, the box as O records) and read back: same matrix.
-    const std::string path = (test::scratch_dir() / "room-4-obstruction.vs3").string();
+    const std::string path = (testing::scratch_dir() / "room-4-obstruction.vs3").string();
     save_vs3(with_obstruction, path);
     Scene back = load_scene(path);
     REQUIRE(back.patches.size() == 96);
@@ -414,8 +414,9 @@ TEST_CASE("obstructed: room scene, box as patches or as obstructions, VS3 round 
     CHECK((c.F - b.F).cwiseAbs().maxCoeff() <= 1e-12);
     // The committed fixtures (tests/data/room-4*.vs3, written by save_vs3) give the same.
     nlohmann::json d4, d5;
-    const FormFactors e = run_method(*m, load_scene(test::data("room-4.vs3")), o, d4);
-    const FormFactors g = run_method(*m, load_scene(test::data("room-4-obstruction.vs3")), o, d5);
+    const FormFactors e = run_method(*m, load_scene(testing::data("room-4.vs3")), o, d4);
+    const FormFactors g =
+        run_method(*m, load_scene(testing::data("room-4-obstruction.vs3")), o, d5);
     CHECK((e.F - a.F).cwiseAbs().maxCoeff() <= 1e-12);
     CHECK((g.F - b.F).cwiseAbs().maxCoeff() <= 1e-12);
     // And the built-in names.

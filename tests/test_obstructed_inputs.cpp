@@ -17,15 +17,15 @@
 #include "formfactor/methods/obstructed.h"
 #include "formfactor/scene/room.h"
 #include "kernels/analytic_internal.h"
-#include "obstructed_checks.h"
-#include "obstructed_scenes.h"
-#include "student_t.h"
-#include "temp_dir.h"
+#include "support/obstructed_checks.h"
+#include "support/random_geometry.h"
+#include "support/student_t.h"
+#include "support/temp_dir.h"
 
 using namespace formfactor;
-using test::AnalyticRun;
-using test::McReference;
-using test::run_analytic;
+using testing::AnalyticRun;
+using testing::McReference;
+using testing::run_analytic;
 
 namespace {
 
@@ -42,7 +42,7 @@ std::size_t surface_patch(const Scene& s, const std::string& name) {
     return 0;
 }
 
-// Largest |F_a − P F_b Pᵀ| over the patches of a (perm from test::match_patches).
+// Largest |F_a − P F_b Pᵀ| over the patches of a (perm from testing::match_patches).
 double max_difference(const DenseMatrix& a, const DenseMatrix& b,
                       const std::vector<std::size_t>& perm) {
     double d = 0;
@@ -68,12 +68,12 @@ std::pair<std::size_t, std::size_t> argmax_difference(const DenseMatrix& a, cons
 // Where two forms of one geometry disagree most, which one mc-target agrees with.
 void referee(const Scene& sa, const AnalyticRun& a, const std::string& name_a, const Scene& sb,
              const AnalyticRun& b, const std::string& name_b) {
-    const std::vector<std::size_t> perm = test::match_patches(sa, sb);
+    const std::vector<std::size_t> perm = testing::match_patches(sa, sb);
     const auto [i, j] = argmax_difference(a.ff.F, b.ff.F, perm);
-    const McReference mc = test::mc_reference(sa, {i, j}, 1 << 16);
+    const McReference mc = testing::mc_reference(sa, {i, j}, 1 << 16);
     const std::size_t mi = i < j ? 0 : 1, mj = 1 - mi;
     const double m = mc.F(I(mi), I(mj)), se = mc.se(I(mi), I(mj));
-    const double k = test::simultaneous_k(2, mc.dof);
+    const double k = testing::simultaneous_k(2, mc.dof);
     const double fa = a.ff.F(I(i), I(j)), fb = b.ff.F(I(perm[i]), I(perm[j]));
     MESSAGE("largest difference at [" << i << "," << j << "] (" << name_a
                                       << " numbering): " << name_a << " " << fa << ", " << name_b
@@ -95,8 +95,8 @@ double worst_row(const DenseMatrix& F, bool closed) {
 // The F[0,81] entry of the room-4 reproducers (floor corner patch z0_0_0 → wall patch
 // y1_1_0), the mc-target value 0.0022663 ± 2.8e-6 of an independent run and our own estimate.
 void check_room4_entry(const Scene& s, const AnalyticRun& a) {
-    const McReference mc = test::mc_reference(s, {0, 81}, 1 << 16);
-    const double k = test::simultaneous_k(2, mc.dof);
+    const McReference mc = testing::mc_reference(s, {0, 81}, 1 << 16);
+    const double k = testing::simultaneous_k(2, mc.dof);
     const double m = mc.F(0, 1), se = mc.se(0, 1), f = a.ff.F(0, 81);
     MESSAGE("F[0,81]: analytic " << f << " (bound " << a.bound << "), mc-target " << m << " ± "
                                  << se
@@ -147,11 +147,11 @@ std::vector<std::pair<std::size_t, std::size_t>> hidden_opposite_pairs(const Sce
 // the reproducers were (shared vertices, polygons starting at various vertices), loaded back.
 void check_room_obstruction_hidden_pairs(int n) {
     const std::vector<Polygon> box =
-        gen::box_faces(Vec3(0.5, 0.5, 0.3), Vec3(0.2, 0.2, 0.2), Mat3::Identity());
-    const gen::Geometry g = gen::room_with_blockers(n, {box}, n / 2, false,
-                                                    "room n=" + std::to_string(n) + " box=O", true);
+        testing::box_faces(Vec3(0.5, 0.5, 0.3), Vec3(0.2, 0.2, 0.2), Mat3::Identity());
+    const testing::Geometry g = testing::room_with_blockers(
+        n, {box}, n / 2, false, "room n=" + std::to_string(n) + " box=O", true);
     testing::TempDir dir;
-    const Scene s = gen::load_form(g, gen::Form::kVs3Obstruction, dir.path().string());
+    const Scene s = testing::load_form(g, testing::Form::kVs3Obstruction, dir.path().string());
     REQUIRE(s.patches.size() == static_cast<std::size_t>(6 * n * n));
     REQUIRE(s.obstruction_count() == static_cast<std::size_t>(6 * (n / 2) * (n / 2)));
     const AnalyticRun a = run_analytic(s);
@@ -184,7 +184,7 @@ void check_room_obstruction_hidden_pairs(int n) {
     // Same matrix as the built-in room with the box as six whole obstructions.
     const Scene builtin = room_scene(n, RoomBox::kObstruction);
     const AnalyticRun b = run_analytic(builtin);
-    const double d = max_difference(a.ff.F, b.ff.F, test::match_patches(s, builtin));
+    const double d = max_difference(a.ff.F, b.ff.F, testing::match_patches(s, builtin));
     MESSAGE("room n=" << n << ": max |F(vs3, O split) − F(built-in, O whole)| = " << d);
     CHECK(d <= a.bound + b.bound);
     referee(s, a, "vs3", builtin, b, "built-in");
@@ -208,7 +208,7 @@ TEST_SUITE("obstructed-references") {
         // The same geometry as the built-in room-4: the same matrix.
         const Scene builtin = load_scene("room-4");
         const AnalyticRun b = run_analytic(builtin);
-        const double d = max_difference(a.ff.F, b.ff.F, test::match_patches(s, builtin));
+        const double d = max_difference(a.ff.F, b.ff.F, testing::match_patches(s, builtin));
         MESSAGE("max |F(vs3) − F(room-4)| = " << d);
         CHECK(d <= a.bound + b.bound);
         referee(s, a, "vs3", builtin, b, "room-4");
@@ -224,7 +224,7 @@ TEST_SUITE("obstructed-references") {
         CHECK(rows <= 96 * a.bound);
         const Scene builtin = load_scene("room-4-obstruction");
         const AnalyticRun b = run_analytic(builtin);
-        const double d = max_difference(a.ff.F, b.ff.F, test::match_patches(s, builtin));
+        const double d = max_difference(a.ff.F, b.ff.F, testing::match_patches(s, builtin));
         MESSAGE("max |F(vs3, O) − F(room-4-obstruction)| = " << d);
         CHECK(d <= a.bound + b.bound);
         referee(s, a, "vs3", builtin, b, "room-4-obstruction");
@@ -239,7 +239,7 @@ TEST_SUITE("obstructed-references") {
         const Scene s = load_scene(repro("hidden_pair.obj"));
         REQUIRE(s.patches.size() == 2);
         const AnalyticRun a = run_analytic(s);
-        const McReference mc = test::mc_reference(s, {0, 1}, 1 << 14);
+        const McReference mc = testing::mc_reference(s, {0, 1}, 1 << 14);
         MESSAGE("F_ab: analytic " << a.ff.F(0, 1) << " (bound " << a.bound << "), mc-target "
                                   << mc.F(0, 1) << " ± " << mc.se(0, 1));
         CHECK(mc.F(0, 1) == 0.0);  // every ray blocked
@@ -257,9 +257,9 @@ TEST_SUITE("obstructed-references") {
         const AnalyticRun a = run_analytic(s);
         const std::size_t south = surface_patch(s, "SouthWall"),
                           floor2 = surface_patch(s, "Floor2");
-        const McReference mc = test::mc_reference(s, {south, floor2}, 1 << 18);
+        const McReference mc = testing::mc_reference(s, {south, floor2}, 1 << 18);
         const std::size_t ms = south < floor2 ? 0 : 1, mf = 1 - ms;
-        const double k = test::simultaneous_k(2, mc.dof);
+        const double k = testing::simultaneous_k(2, mc.dof);
         const double f = a.ff.F(I(south), I(floor2)), m = mc.F(I(ms), I(mf)),
                      se = mc.se(I(ms), I(mf));
         MESSAGE("F(SouthWall -> Floor2): analytic "
@@ -319,7 +319,7 @@ TEST_SUITE("obstructed-references") {
             MethodResult r =
                 make_method("analytic")
                     ->compute(MethodContext{sc, o, nullptr, nullptr, RowRange{57, 58}});
-            bound = test::reported_bound(to_json(r.report), o.obstructed_tolerance);
+            bound = testing::reported_bound(to_json(r.report), o.obstructed_tolerance);
             return DenseMatrix(r.form_factors.F);
         };
         const Scene from_obj =

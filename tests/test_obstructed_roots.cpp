@@ -11,8 +11,8 @@
 #include "formfactor/methods/method.h"
 #include "formfactor/scene/room.h"
 #include "formfactor/scene/scene.h"
-#include "method_runner.h"
 #include "methods/analytic/obstructed_internal.h"
+#include "support/method_runner.h"
 
 using formfactor::testing::run_method;
 

@@ -15,7 +15,7 @@
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/patch_table.h"
 #include "formfactor/output/report.h"
-#include "temp_dir.h"
+#include "support/temp_dir.h"
 
 using namespace formfactor;
 using formfactor::testing::read_text;

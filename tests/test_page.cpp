@@ -8,12 +8,12 @@
 #include <filesystem>
 #include <string>
 
-#include "cli_runner.h"
 #include "formfactor/core/error.h"
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/page.h"
 #include "formfactor/scene/scene.h"
-#include "temp_dir.h"
+#include "support/cli_runner.h"
+#include "support/temp_dir.h"
 
 using namespace formfactor;
 using formfactor::testing::Cli;

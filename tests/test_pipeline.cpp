@@ -9,10 +9,10 @@
 #include <string>
 #include <thread>
 
-#include "cli_runner.h"
 #include "formfactor/core/error.h"
 #include "formfactor/pipeline.h"
 #include "formfactor/scene/scene.h"
+#include "support/cli_runner.h"
 
 using namespace formfactor;
 

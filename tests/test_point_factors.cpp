@@ -12,11 +12,11 @@
 #include "formfactor/methods/point_factors.h"
 #include "formfactor/scene/room.h"
 #include "formfactor/scene/scene.h"
-#include "mc_test_scenes.h"
+#include "support/scenes.h"
 
 using namespace formfactor;
-using formfactor::mc_test::quad;
-using formfactor::mc_test::scene_of;
+using formfactor::testing::quad;
+using formfactor::testing::scene_of;
 
 namespace {
 

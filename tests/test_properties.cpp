@@ -5,24 +5,21 @@
 
 #include "formfactor/core/error.h"
 #include "formfactor/solve/properties.h"
-#include "solve_fixtures.h"
+#include "support/files.h"
+#include "support/fixtures.h"
 
 using namespace formfactor;
-using namespace ff_test;
+using namespace formfactor::testing;
 
 namespace {
 
-// Writes `text` to a fresh file in the temp directory and returns its path.
+// Writes `text` to a file in this process's scratch folder and returns its path.
 std::string write_temp(const std::string& name, const std::string& text) {
-    const auto dir = std::filesystem::temp_directory_path() / "formfactor_test_properties";
-    std::filesystem::create_directories(dir);
-    const auto path = dir / name;
-    std::ofstream(path) << text;
-    return path.string();
+    return testing::write_file(name, text);
 }
 
 std::string error_of(const std::string& name, const std::string& text) {
-    const Scene s = cube_scene();
+    const Scene s = unit_cube();
     PatchProperties p = properties_from_scene(s);
     const std::string path = write_temp(name, text);
     try {
@@ -36,7 +33,7 @@ std::string error_of(const std::string& name, const std::string& text) {
 }  // namespace
 
 TEST_CASE("properties: from the scene's materials, then overridden per patch and per surface") {
-    Scene s = cube_scene();
+    Scene s = unit_cube();
     s.materials[1].reflectance = Rgb(0.1, 0.2, 0.3);
     s.materials[4].emission = Rgb(5, 6, 7);
     s.materials[2].temperature = 400.0;
@@ -106,7 +103,7 @@ TEST_CASE("properties: bad CSV input gives FILE:LINE errors") {
     CHECK(error_of("e14.csv", "").find("e14.csv: empty") != std::string::npos);
     CHECK(error_of("e15.csv", "patch,emission_b\n0,-2\n")
               .find("e15.csv:2: emission_b = -2 must be") != std::string::npos);
-    const Scene s = cube_scene();
+    const Scene s = unit_cube();
     PatchProperties p = properties_from_scene(s);
     CHECK_THROWS_WITH_AS(apply_properties_csv("/nonexistent/p.csv", s, p),
                          doctest::Contains("/nonexistent/p.csv: cannot open"), InputError);

@@ -6,20 +6,20 @@
 #include <nlohmann/json.hpp>
 
 #include "formfactor/core/error.h"
+#include "formfactor/methods/method.h"
 #include "formfactor/output/render.h"
+#include "formfactor/solve/radiosity.h"
 #include "output/render_internal.h"
-#include "solve_fixtures.h"
+#include "support/files.h"
+#include "support/fixtures.h"
+#include "support/method_runner.h"
 
 using namespace formfactor;
-using namespace ff_test;
+using namespace formfactor::testing;
 
 namespace {
 
-std::string temp_path(const std::string& name) {
-    const auto dir = std::filesystem::temp_directory_path() / "formfactor_test_render";
-    std::filesystem::create_directories(dir);
-    return (dir / name).string();
-}
+std::string temp_path(const std::string& name) { return (testing::scratch_dir() / name).string(); }
 
 struct Png {
     int w = 0, h = 0;
@@ -206,12 +206,6 @@ TEST_CASE("render: bad sizes, cameras and value counts are errors") {
     CHECK(info.triangles == 10);
     CHECK_THROWS_AS(write_png("/nonexistent-dir/x.png", render_radiosity(t, r2, o)), InputError);
 }
-
-#include "formfactor/methods/method.h"
-#include "formfactor/solve/radiosity.h"
-#include "method_runner.h"
-
-using formfactor::testing::run_method;
 
 TEST_CASE("render: the empty Cornell box solved and seen through its published camera") {
     Scene s = load_scene("cornell-empty");

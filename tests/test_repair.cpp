@@ -5,10 +5,10 @@
 #include "formfactor/core/error.h"
 #include "formfactor/matrix/repair.h"
 #include "formfactor/output/report.h"
-#include "solve_fixtures.h"
+#include "support/fixtures.h"
 
 using namespace formfactor;
-using namespace ff_test;
+using namespace formfactor::testing;
 
 namespace {
 

@@ -6,10 +6,10 @@
 #include "formfactor/core/random.h"
 #include "formfactor/geometry/sampling.h"
 #include "formfactor/kernels/analytic.h"
-#include "mc_test_scenes.h"
+#include "support/scenes.h"
 
 using namespace formfactor;
-using formfactor::mc_test::quad;
+using formfactor::testing::quad;
 
 TEST_CASE("sampling: point sets are uniform and deterministic") {
     for (SamplerKind kind :

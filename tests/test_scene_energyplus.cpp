@@ -14,14 +14,14 @@
 #include "formfactor/scene/energyplus.h"
 #include "formfactor/scene/scene.h"
 #include "formfactor/scene/scene_io.h"
-#include "method_runner.h"
-#include "scene_test_util.h"
+#include "support/files.h"
+#include "support/method_runner.h"
 
 using namespace formfactor;
-using formfactor::test::data;
-using formfactor::test::input_error;
-using formfactor::test::scratch_dir;
+using formfactor::testing::data;
+using formfactor::testing::input_error;
 using formfactor::testing::run_method;
+using formfactor::testing::scratch_dir;
 
 namespace {
 

@@ -10,17 +10,17 @@
 #include <string>
 #include <vector>
 
-#include "cli_runner.h"
 #include "formfactor/core/error.h"
 #include "formfactor/matrix/aggregate.h"
 #include "formfactor/pipeline.h"
 #include "formfactor/scene/mesh_io.h"
-#include "scene_test_util.h"
-#include "temp_dir.h"
+#include "support/cli_runner.h"
+#include "support/files.h"
+#include "support/temp_dir.h"
 
 using namespace formfactor;
-using formfactor::test::data;
-using formfactor::test::input_error;
+using formfactor::testing::data;
+using formfactor::testing::input_error;
 using formfactor::testing::shell_quote;
 using formfactor::testing::TempDir;
 using formfactor::testing::write_text;
@@ -107,7 +107,7 @@ TEST_CASE("gmsh: the box gmsh writes reads the same in 2.2 and 4.1, text and bin
             CHECK(s.surfaces[k].name == first.surfaces[k].name);
             CHECK(s.surfaces[k].combine == first.surfaces[k].combine);
             // Text files hold 16 significant digits, binary ones every bit.
-            CHECK(test::same_cycle(s.surfaces[k].polygon, first.surfaces[k].polygon, 1e-14));
+            CHECK(testing::same_cycle(s.surfaces[k].polygon, first.surfaces[k].polygon, 1e-14));
         }
         // Every element faces into the box (the curve loops say so, and the node order keeps it).
         double area = 0.0;
@@ -187,14 +187,14 @@ TEST_CASE("gmsh: hand-written 2.2 and 4.1 files: quads, names, obstruction group
         CHECK(s->patches[0].normal.z() == doctest::Approx(1.0));
         CHECK(s->patches[1].normal.z() == doctest::Approx(-1.0));
         for (std::size_t k = 0; k < 3; ++k)
-            CHECK(test::same_cycle(a.surfaces[k].polygon, b.surfaces[k].polygon, 0.0));
+            CHECK(testing::same_cycle(a.surfaces[k].polygon, b.surfaces[k].polygon, 0.0));
     }
     CHECK(a.surfaces[0].where.line == 27);
 }
 
 TEST_CASE("gmsh: error messages name file, line or element, and what is wrong") {
     auto err = [](const std::string& name, const std::string& text) {
-        const std::string path = test::write_file(name, text);
+        const std::string path = testing::write_file(name, text);
         return input_error([&] { load_msh(path); });
     };
     const std::string head = "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n";

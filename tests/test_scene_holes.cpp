@@ -9,12 +9,12 @@
 #include "formfactor/core/error.h"
 #include "formfactor/scene/scene.h"
 #include "formfactor/scene/scene_io.h"
-#include "scene_test_util.h"
+#include "support/files.h"
 
 using namespace formfactor;
-using formfactor::test::data;
-using formfactor::test::input_error;
-using formfactor::test::write_file;
+using formfactor::testing::data;
+using formfactor::testing::input_error;
+using formfactor::testing::write_file;
 
 namespace {
 
@@ -41,7 +41,7 @@ const std::vector<double> kRoomAreas{12.0,                    // floor
 std::string vs3_error(const std::string& name, const std::string& text) {
     const std::string p = write_file(name, text);
     const std::string m = input_error([&] { load_scene(p); });
-    const std::string dir = formfactor::test::scratch_dir().string() + "/";
+    const std::string dir = formfactor::testing::scratch_dir().string() + "/";
     return m.rfind(dir, 0) == 0 ? m.substr(dir.size()) : m;
 }
 
@@ -140,7 +140,7 @@ TEST_CASE("scene: VS3 subsurface errors") {
 
 TEST_CASE("scene: writers keep holes (VS3 as subsurfaces, OBJ as pieces)") {
     const Scene a = load_scene(data("room-windows.vs3"));
-    const std::string vs3 = (formfactor::test::scratch_dir() / "holes.vs3").string();
+    const std::string vs3 = (formfactor::testing::scratch_dir() / "holes.vs3").string();
     save_vs3(a, vs3);
     const Scene b = load_scene(vs3);
     REQUIRE(b.surfaces.size() == a.surfaces.size());
@@ -150,7 +150,7 @@ TEST_CASE("scene: writers keep holes (VS3 as subsurfaces, OBJ as pieces)") {
     }
     CHECK(std::abs(b.total_patch_area() - 59.0) <= 1e-12 * 59.0);
 
-    const std::string obj = (formfactor::test::scratch_dir() / "holes.obj").string();
+    const std::string obj = (formfactor::testing::scratch_dir() / "holes.obj").string();
     save_obj(a, obj);
     const Scene c = load_scene(obj);
     CHECK(c.surfaces.size() > a.surfaces.size());  // walls with holes come back in pieces

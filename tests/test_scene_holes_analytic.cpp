@@ -12,14 +12,14 @@
 #include "formfactor/matrix/aggregate.h"
 #include "formfactor/methods/method.h"
 #include "formfactor/scene/scene.h"
-#include "method_runner.h"
-#include "scene_test_util.h"
+#include "support/files.h"
+#include "support/method_runner.h"
 
 using formfactor::testing::run_method;
 
 using namespace formfactor;
-using formfactor::test::data;
-using formfactor::test::write_file;
+using formfactor::testing::data;
+using formfactor::testing::write_file;
 
 namespace {
 

@@ -10,18 +10,18 @@
 #include <string>
 #include <vector>
 
-#include "cli_runner.h"
 #include "formfactor/core/error.h"
 #include "formfactor/matrix/aggregate.h"
 #include "formfactor/pipeline.h"
 #include "formfactor/scene/mesh_io.h"
 #include "formfactor/scene/scene.h"
-#include "mesh_files.h"
-#include "scene_test_util.h"
-#include "temp_dir.h"
+#include "support/cli_runner.h"
+#include "support/files.h"
+#include "support/mesh_files.h"
+#include "support/temp_dir.h"
 
 using namespace formfactor;
-using formfactor::test::input_error;
+using formfactor::testing::input_error;
 using namespace formfactor::testing;
 
 namespace {
@@ -54,7 +54,7 @@ TEST_CASE("mesh: a triangulated box as STL (ASCII, binary), PLY, OFF and glTF eq
         const Scene s = load_scene(dir.file(name));
         REQUIRE(s.surfaces.size() == 12);
         for (std::size_t k = 0; k < 12; ++k)
-            CHECK(test::same_cycle(s.surfaces[k].polygon, reference.surfaces[k].polygon, 0.0));
+            CHECK(testing::same_cycle(s.surfaces[k].polygon, reference.surfaces[k].polygon, 0.0));
         // One surface group per mesh, named as the file names it (ASCII STL: `solid box`; glTF:
         // the node; files without names: the file's stem).
         const PatchGroups g = surface_groups(s);

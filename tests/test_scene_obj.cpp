@@ -6,19 +6,19 @@
 
 #include "formfactor/scene/scene.h"
 #include "formfactor/scene/scene_io.h"
-#include "scene_test_util.h"
+#include "support/files.h"
 
 using namespace formfactor;
-using formfactor::test::data;
-using formfactor::test::input_error;
-using formfactor::test::write_file;
+using formfactor::testing::data;
+using formfactor::testing::input_error;
+using formfactor::testing::write_file;
 
 namespace {
 std::string obj_error(const std::string& name, const std::string& text) {
     const std::string p = write_file(name, text);
     const std::string m = input_error([&] { load_scene(p); });
     // Strip the folder: messages start with the path.
-    const std::string dir = formfactor::test::scratch_dir().string() + "/";
+    const std::string dir = formfactor::testing::scratch_dir().string() + "/";
     return m.rfind(dir, 0) == 0 ? m.substr(dir.size()) : m;
 }
 const std::string kVerts = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n";
@@ -127,7 +127,7 @@ TEST_CASE("scene: OBJ MTL errors name the MTL file and line") {
 TEST_CASE("scene: OBJ round trip keeps surfaces, flags and materials") {
     for (const std::string& name : {std::string("cornell"), data("room.obj")}) {
         const Scene a = load_scene(name);
-        const std::string out = (formfactor::test::scratch_dir() / "rt.obj").string();
+        const std::string out = (formfactor::testing::scratch_dir() / "rt.obj").string();
         save_obj(a, out);
         CHECK_FALSE(std::filesystem::exists(out + ".tmp"));
         const Scene b = load_scene(out);

@@ -5,10 +5,10 @@
 #include <string>
 
 #include "formfactor/scene/scene.h"
-#include "scene_test_util.h"
+#include "support/files.h"
 
 using namespace formfactor;
-using formfactor::test::input_error;
+using formfactor::testing::input_error;
 
 namespace {
 std::string check(const Polygon& p, const std::string& what = "face") {
@@ -77,6 +77,6 @@ TEST_CASE("scene: load_scene reports a missing file, an unknown extension or bui
                      0) == 0);
     CHECK(input_error([] { builtin_scene("box"); }).rfind("box: unknown built-in scene", 0) == 0);
     CHECK(input_error([] {
-              load_scene(formfactor::test::scratch_dir().string() + "/x.OBJ");
+              load_scene(formfactor::testing::scratch_dir().string() + "/x.OBJ");
           }).find("cannot open file") != std::string::npos);
 }

@@ -5,19 +5,19 @@
 
 #include "formfactor/scene/scene.h"
 #include "formfactor/scene/scene_io.h"
-#include "scene_test_util.h"
+#include "support/files.h"
 
 using namespace formfactor;
-using formfactor::test::data;
-using formfactor::test::input_error;
-using formfactor::test::same_cycle;
-using formfactor::test::write_file;
+using formfactor::testing::data;
+using formfactor::testing::input_error;
+using formfactor::testing::same_cycle;
+using formfactor::testing::write_file;
 
 namespace {
 std::string vs3_error(const std::string& name, const std::string& text) {
     const std::string p = write_file(name, text);
     const std::string m = input_error([&] { load_scene(p); });
-    const std::string dir = formfactor::test::scratch_dir().string() + "/";
+    const std::string dir = formfactor::testing::scratch_dir().string() + "/";
     return m.rfind(dir, 0) == 0 ? m.substr(dir.size()) : m;
 }
 const std::string kHead = "T test\nF 3\nV 1 0 0 0\nV 2 1 0 0\nV 3 1 1 0\nV 4 0 1 0\n";  // lines 1-6
@@ -141,7 +141,7 @@ TEST_CASE("scene: VS3 round trip keeps surfaces, obstruction flags and emissivit
     for (const std::string& name :
          {data("obstructed.vs3"), data("lshape-3.vs3"), std::string("cube")}) {
         const Scene a = load_scene(name);
-        const std::string out = (formfactor::test::scratch_dir() / "rt.vs3").string();
+        const std::string out = (formfactor::testing::scratch_dir() / "rt.vs3").string();
         save_vs3(a, out);
         CHECK_FALSE(std::filesystem::exists(out + ".tmp"));
         const Scene b = load_scene(out);
@@ -171,7 +171,7 @@ TEST_CASE("scene: VS3 writer puts obstructions last and splits what View3D canno
     pent.polygon =
         Polygon{{Vec3(0, 0, 3), Vec3(2, 0, 3), Vec3(2, 1, 3), Vec3(1, 2, 3), Vec3(0, 1, 3)}};
     c.surfaces.push_back(pent);
-    const std::string out = (formfactor::test::scratch_dir() / "split.vs3").string();
+    const std::string out = (formfactor::testing::scratch_dir() / "split.vs3").string();
     save_vs3(c, out);
     const Scene b = load_scene(out);
     REQUIRE(b.surfaces.size() == 6);  // 2 quads + 3 pentagon triangles + obstruction

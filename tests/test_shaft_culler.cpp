@@ -7,12 +7,12 @@
 #include "formfactor/geometry/sampling.h"
 #include "formfactor/kernels/analytic.h"
 #include "formfactor/visibility/visibility.h"
-#include "mc_test_scenes.h"
+#include "support/scenes.h"
 #include "visibility/shaft_culler.h"
 
 using namespace formfactor;
-using mc_test::quad;
-using mc_test::scene_of;
+using testing::quad;
+using testing::scene_of;
 
 namespace {
 

@@ -5,19 +5,18 @@
 
 #include "formfactor/core/error.h"
 #include "formfactor/output/solution_io.h"
-#include "solve_fixtures.h"
+#include "support/files.h"
+#include "support/fixtures.h"
 
 using namespace formfactor;
-using namespace ff_test;
+using namespace formfactor::testing;
 
 namespace {
 
 std::string temp_file(const std::string& name, const std::string& text = "") {
-    const auto dir = std::filesystem::temp_directory_path() / "formfactor_test_solution_io";
-    std::filesystem::create_directories(dir);
-    const auto p = dir / name;
-    if (!text.empty()) std::ofstream(p) << text;
-    return p.string();
+    const std::string p = (testing::scratch_dir() / name).string();
+    if (!text.empty()) testing::write_text(p, text);
+    return p;
 }
 
 std::string error_of(const std::string& name, const std::string& text,

@@ -5,10 +5,10 @@
 #include "formfactor/core/error.h"
 #include "formfactor/solve/radiosity.h"
 #include "formfactor/solve/thermal.h"
-#include "solve_fixtures.h"
+#include "support/fixtures.h"
 
 using namespace formfactor;
-using namespace ff_test;
+using namespace formfactor::testing;
 
 namespace {
 

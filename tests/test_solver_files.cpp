@@ -8,13 +8,13 @@
 #include <random>
 #include <sstream>
 
-#include "cli_runner.h"
 #include "formfactor/core/error.h"
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/patch_table.h"
 #include "formfactor/output/vtu.h"
 #include "formfactor/scene/scene.h"
-#include "temp_dir.h"
+#include "support/cli_runner.h"
+#include "support/temp_dir.h"
 
 using namespace formfactor;
 using formfactor::testing::Cli;

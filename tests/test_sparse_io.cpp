@@ -14,7 +14,7 @@
 #include "formfactor/output/sparse_io.h"
 #include "formfactor/pipeline_sparse.h"
 #include "formfactor/scene/city.h"
-#include "temp_dir.h"
+#include "support/temp_dir.h"
 
 using namespace formfactor;
 using formfactor::testing::TempDir;

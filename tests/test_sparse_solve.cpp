@@ -15,10 +15,10 @@
 #include "formfactor/solve/radiosity.h"
 #include "formfactor/solve/thermal.h"
 #include "solve/linear_system.h"
-#include "solve_fixtures.h"
+#include "support/fixtures.h"
 
 using namespace formfactor;
-using namespace ff_test;
+using namespace formfactor::testing;
 
 namespace {
 

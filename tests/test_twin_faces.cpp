@@ -15,9 +15,9 @@
 #include "formfactor/methods/method.h"
 #include "formfactor/scene/scene.h"
 #include "formfactor/visibility/visibility.h"
-#include "mc_test_scenes.h"
-#include "method_runner.h"
-#include "projection_test_scenes.h"
+#include "support/lambert.h"
+#include "support/method_runner.h"
+#include "support/scenes.h"
 
 using formfactor::testing::run_method;
 
@@ -33,11 +33,11 @@ constexpr int kFloor = 0, kFinUp = 1, kFinDown = 2;
 Scene twin_scene() { return load_scene(std::string(FF_TEST_DATA_DIR) + "/twin_faces.obj"); }
 
 const Polygon kFloorQuad =
-    mc_test::quad(Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0));
+    testing::quad(Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0));
 const Polygon kUpQuad =
-    mc_test::quad(Vec3(0, 0, 0.5), Vec3(1, 0, 0.5), Vec3(1, 1, 0.5), Vec3(0, 1, 0.5));
+    testing::quad(Vec3(0, 0, 0.5), Vec3(1, 0, 0.5), Vec3(1, 1, 0.5), Vec3(0, 1, 0.5));
 const Polygon kDownQuad =
-    mc_test::quad(Vec3(0, 0, 0.5), Vec3(0, 1, 0.5), Vec3(1, 1, 0.5), Vec3(1, 0, 0.5));
+    testing::quad(Vec3(0, 0, 0.5), Vec3(0, 1, 0.5), Vec3(1, 1, 0.5), Vec3(1, 0, 0.5));
 
 // The twins meshed differently, listed down face first: the floor (patch 0), fin_down split
 // 3 × 3 (patches 1–9), fin_up split 2 × 2 (patches 10–13). Credit must go cell by cell or ray
@@ -50,7 +50,7 @@ Scene mismatched_twins() {
         Surface surf;
         surf.polygon = p;
         s.surfaces.push_back(surf);
-        for (const Polygon& c : projection_test::split_quad(p, n))
+        for (const Polygon& c : testing::split_quad(p, n))
             s.patches.push_back(make_patch(c, static_cast<int>(s.surfaces.size()) - 1));
     };
     add(kFloorQuad, 1);
@@ -211,7 +211,7 @@ TEST_CASE("twin faces: a first hit on the back of a twin goes to the front face 
     const Scene file = twin_scene();
     REQUIRE(file.patches.size() == 3u);
     const Scene reordered =
-        mc_test::scene_of({kFloorQuad, kDownQuad, kUpQuad});  // fin_down before fin_up
+        testing::scene_of({kFloorQuad, kDownQuad, kUpQuad});  // fin_down before fin_up
     for (auto batching : kBatchings) {
         CAPTURE(static_cast<int>(batching));
         const HitTally a = tally_up_rays(file, batching, kFloor);
@@ -238,19 +238,19 @@ TEST_CASE("twin faces: a first hit on the back of a twin goes to the front face 
 
 TEST_CASE("twin faces: a back face with nothing coincident, and an obstruction, still block") {
     const Polygon ceiling =
-        mc_test::quad(Vec3(0, 0, 1), Vec3(0, 1, 1), Vec3(1, 1, 1), Vec3(1, 0, 1));  // faces down
+        testing::quad(Vec3(0, 0, 1), Vec3(0, 1, 1), Vec3(1, 1, 1), Vec3(1, 0, 1));  // faces down
     // fin_up alone between the floor and a ceiling: a genuine back face.
-    const Scene lone = mc_test::scene_of({kFloorQuad, kUpQuad, ceiling});
+    const Scene lone = testing::scene_of({kFloorQuad, kUpQuad, ceiling});
     // An obstruction plate there instead: blocks from both sides.
-    const Scene plate = mc_test::scene_of({kFloorQuad, ceiling}, {kUpQuad});
+    const Scene plate = testing::scene_of({kFloorQuad, ceiling}, {kUpQuad});
     // fin_up a little below fin_down (an inverted thin plate). The offset is 1e-5 of the
     // diagonal (1.7e-5 here): 1e-4 below, fin_up's back is a genuine blocker; 5e-6 below, the two
     // are twins.
     auto up_at = [](double z) {
-        return mc_test::quad(Vec3(0, 0, z), Vec3(1, 0, z), Vec3(1, 1, z), Vec3(0, 1, z));
+        return testing::quad(Vec3(0, 0, z), Vec3(1, 0, z), Vec3(1, 1, z), Vec3(0, 1, z));
     };
-    const Scene apart = mc_test::scene_of({kFloorQuad, up_at(0.5 - 1e-4), kDownQuad, ceiling});
-    const Scene close = mc_test::scene_of({kFloorQuad, up_at(0.5 - 5e-6), kDownQuad, ceiling});
+    const Scene apart = testing::scene_of({kFloorQuad, up_at(0.5 - 1e-4), kDownQuad, ceiling});
+    const Scene close = testing::scene_of({kFloorQuad, up_at(0.5 - 5e-6), kDownQuad, ceiling});
     for (auto batching : kBatchings) {
         CAPTURE(static_cast<int>(batching));
         const HitTally a = tally_up_rays(lone, batching, 0);
@@ -293,8 +293,8 @@ TEST_CASE("twin faces: a patch lying on an obstruction is seen, the obstruction 
     // fin_down on an obstruction plate of the same size: the floor sees fin_down (exact C-11),
     // and nothing beyond (a ceiling above the plate gets 0).
     const Polygon ceiling =
-        mc_test::quad(Vec3(0, 0, 1), Vec3(0, 1, 1), Vec3(1, 1, 1), Vec3(1, 0, 1));
-    const Scene s = mc_test::scene_of({kFloorQuad, kDownQuad, ceiling}, {kUpQuad});
+        testing::quad(Vec3(0, 0, 1), Vec3(0, 1, 1), Vec3(1, 1, 1), Vec3(1, 0, 1));
+    const Scene s = testing::scene_of({kFloorQuad, kDownQuad, ceiling}, {kUpQuad});
     for (auto batching : kBatchings) {
         const HitTally a = tally_up_rays(s, batching, 0);
         CHECK(a.by_patch[1] == 972);

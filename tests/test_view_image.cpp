@@ -10,16 +10,13 @@
 #include "formfactor/methods/hemiplane.h"
 #include "formfactor/output/view_image.h"
 #include "formfactor/scene/scene.h"
+#include "support/files.h"
 
 using namespace formfactor;
 
 namespace {
 
-std::filesystem::path temp_dir() {
-    const auto dir = std::filesystem::temp_directory_path() / "formfactor_view_image_test";
-    std::filesystem::create_directories(dir);
-    return dir;
-}
+std::filesystem::path temp_dir() { return testing::scratch_dir(); }
 
 }  // namespace
 

@@ -5,11 +5,11 @@
 
 #include "formfactor/core/error.h"
 #include "formfactor/visibility/visibility.h"
-#include "mc_test_scenes.h"
+#include "support/scenes.h"
 
 using namespace formfactor;
-using mc_test::quad;
-using mc_test::scene_of;
+using testing::quad;
+using testing::scene_of;
 
 namespace {
 
@@ -42,7 +42,7 @@ Scene gap_scene() {
 TEST_CASE("visibility: occlusion through a gap, and first hits") {
     for (const Vec3& offset : {Vec3(0, 0, 0), Vec3(1e4, -2e4, 3e4)}) {
         CAPTURE(offset.transpose());
-        const Scene s = mc_test::translated(gap_scene(), offset);
+        const Scene s = testing::translated(gap_scene(), offset);
         auto v = make_visibility(s);
         CHECK(v->triangle_count() == 12);
         const Vec3 o = offset;

@@ -1,7 +1,5 @@
 #pragma once
-// Helpers of the scene tests: scratch files and error messages.
-
-#include <unistd.h>
+// Helpers of the scene tests: scratch files, fixtures in tests/data and error messages.
 
 #include <filesystem>
 #include <fstream>
@@ -10,22 +8,21 @@
 
 #include "formfactor/core/error.h"
 #include "formfactor/scene/scene.h"
+#include "temp_dir.h"
 
-namespace formfactor::test {
+namespace formfactor::testing {
 
-/// A scratch folder for this test process.
-inline std::filesystem::path scratch_dir() {
-    const auto d = std::filesystem::temp_directory_path() /
-                   ("formfactor_scene_tests_" + std::to_string(::getpid()));
-    std::filesystem::create_directories(d);
-    return d;
+/// A scratch folder of this test process (a TempDir, removed when the process exits).
+inline const std::filesystem::path& scratch_dir() {
+    static const TempDir dir;
+    return dir.path();
 }
 
-/// Writes `text` to a scratch file and returns its path.
+/// Writes `text` to a file in scratch_dir() and returns its path.
 inline std::string write_file(const std::string& name, const std::string& text) {
-    const auto p = scratch_dir() / name;
-    std::ofstream(p, std::ios::binary) << text;
-    return p.string();
+    const std::string p = (scratch_dir() / name).string();
+    write_text(p, text);
+    return p;
 }
 
 /// The message of the InputError that `f` throws ("" when it throws none).
@@ -55,4 +52,4 @@ inline bool same_cycle(const Polygon& a, const Polygon& b, double tol = 1e-12) {
     return false;
 }
 
-}  // namespace formfactor::test
+}  // namespace formfactor::testing

@@ -1,6 +1,6 @@
 #pragma once
-// Shared fixtures of the solve / repair / render tests: exact enclosure matrices (copied from
-// the reference catalog, Howell C-11 and C-14) and hand-built scenes.
+// Fixtures of the solve / repair / render tests: exact enclosure matrices (copied from the
+// reference catalog, Howell C-11 and C-14) and a hand-built open box.
 
 #include <cstdint>
 #include <random>
@@ -9,13 +9,12 @@
 #include "formfactor/geometry/polygon.h"
 #include "formfactor/matrix/form_factors.h"
 #include "formfactor/scene/scene.h"
+#include "scenes.h"
 
-namespace ff_test {
+namespace formfactor::testing {
 
-using namespace formfactor;
-
-// Unit cube, interior faces: opposite 0.19982489569838746 (C-11, a = b = c = 1), adjacent
-// 0.20004377607540316 (C-14, l = w = h = 1). Face order: x=0, x=1, y=0, y=1, z=0, z=1.
+// Unit cube (unit_cube()), interior faces: opposite 0.19982489569838746 (C-11, a = b = c = 1),
+// adjacent 0.20004377607540316 (C-14, l = w = h = 1). Face order: x=0, x=1, y=0, y=1, z=0, z=1.
 inline constexpr double kCubeOpposite = 0.19982489569838746;
 inline constexpr double kCubeAdjacent = 0.20004377607540316;
 
@@ -71,41 +70,6 @@ inline FormFactors random_open_matrix(int n, std::uint32_t seed) {
     return ff;
 }
 
-// Axis-aligned quad: corner o, edges e1, e2 (front = e1 × e2).
-inline Polygon quad(const Vec3& o, const Vec3& e1, const Vec3& e2) {
-    return Polygon{{o, o + e1, o + e1 + e2, o + e2}};
-}
-
-// The unit cube seen from inside, faces in cube_matrix() order, one patch each, named
-// x0, x1, y0, y1, z0, z1, each with its own material (same name).
-inline Scene cube_scene() {
-    Scene s;
-    s.name = "test-cube";
-    s.enclosure = true;
-    const Vec3 X = Vec3::UnitX(), Y = Vec3::UnitY(), Z = Vec3::UnitZ(), O = Vec3::Zero();
-    const Polygon faces[6] = {
-        quad(O, Y, Z),  // x = 0, normal +x
-        quad(X, Z, Y),  // x = 1, normal −x
-        quad(O, Z, X),  // y = 0, normal +y
-        quad(Y, X, Z),  // y = 1, normal −y
-        quad(O, X, Y),  // z = 0, normal +z
-        quad(Z, Y, X),  // z = 1, normal −z
-    };
-    const char* names[6] = {"x0", "x1", "y0", "y1", "z0", "z1"};
-    for (int f = 0; f < 6; ++f) {
-        Material m;
-        m.name = names[f];
-        s.materials.push_back(m);
-        Surface sf;
-        sf.name = names[f];
-        sf.polygon = faces[f];
-        sf.material = f;
-        s.surfaces.push_back(sf);
-        s.patches.push_back(formfactor::make_patch(faces[f], f));
-    }
-    return s;
-}
-
 // n×n sub-quads of the parallelogram (o, o + e1, o + e1 + e2, o + e2), row-major.
 inline std::vector<Polygon> grid(const Vec3& o, const Vec3& e1, const Vec3& e2, int n) {
     std::vector<Polygon> out;
@@ -157,4 +121,4 @@ inline Scene open_box_scene(int n, std::vector<Rgb>& radiance) {
     return s;
 }
 
-}  // namespace ff_test
+}  // namespace formfactor::testing

@@ -1,6 +1,6 @@
 #pragma once
-// Closed models for the closed-model tests: rooms made of unit cells (a box, an L, a U, a room
-// with a box standing on its floor), a faceted sphere, and vertex jitter.
+// Closed models for the closed-model tests (scenes through scene_of()): rooms made of unit cells (a
+// box, an L, a U, a room with a box standing on its floor), a faceted sphere, and vertex jitter.
 
 #include <cmath>
 #include <functional>
@@ -11,7 +11,7 @@
 #include "formfactor/geometry/polygon.h"
 #include "formfactor/scene/scene.h"
 
-namespace formfactor::closed_test {
+namespace formfactor::testing {
 
 /// Which unit cells (i, j, k) of an nx × ny × nz block are inside the room.
 struct Cells {
@@ -72,22 +72,6 @@ inline std::vector<Polygon> sphere_faces(const Vec3& centre, double radius, int 
     return out;
 }
 
-/// A scene with one surface per polygon (flip: every polygon reversed), subdivided n × n.
-inline Scene scene_of(const std::vector<Polygon>& polys, int n, const std::string& name) {
-    Scene s;
-    s.name = name;
-    s.materials.push_back(Material{});
-    for (const Polygon& p : polys) {
-        Surface f;
-        f.name = "f";
-        f.name += std::to_string(s.surfaces.size());
-        f.polygon = p;
-        s.surfaces.push_back(f);
-    }
-    subdivide(s, SubdivisionOptions{n, 0.0});
-    return s;
-}
-
 /// Every vertex moved by up to `amount` in each coordinate. shared: one displacement per
 /// position (the model stays watertight exactly); otherwise each polygon's copy moves on its
 /// own (cracks of ~amount between neighbours).
@@ -121,4 +105,4 @@ inline Cells box_on_floor_room() {
     return Cells{3, 3, 2, [](int i, int j, int k) { return !(i == 1 && j == 1 && k == 0); }};
 }
 
-}  // namespace formfactor::closed_test
+}  // namespace formfactor::testing

@@ -16,11 +16,10 @@
 #include "formfactor/methods/method.h"
 #include "formfactor/scene/scene.h"
 #include "method_runner.h"
-#include "obstructed_scenes.h"
+#include "random_geometry.h"
+#include "scenes.h"
 
-using formfactor::testing::run_method;
-
-namespace formfactor::test {
+namespace formfactor::testing {
 
 /// The analytic method's matrix and what it reports.
 struct AnalyticRun {
@@ -73,7 +72,7 @@ inline McReference mc_reference(const std::vector<Polygon>& all,
     std::vector<bool> in(all.size(), false);
     for (std::size_t k : chosen) in[k] = true;
     for (std::size_t k = 0; k < all.size(); ++k) (in[k] ? patches : others).push_back(all[k]);
-    const Scene s = gen::sub_scene(patches, others);
+    const Scene s = scene_of(patches, others);
     MethodOptions o;
     o.samples = samples;
     o.seed = seed;
@@ -118,4 +117,4 @@ inline std::vector<std::size_t> match_patches(const Scene& a, const Scene& b, do
     return perm;
 }
 
-}  // namespace formfactor::test
+}  // namespace formfactor::testing

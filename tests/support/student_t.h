@@ -6,7 +6,7 @@
 #include <algorithm>
 #include <cmath>
 
-namespace formfactor::test {
+namespace formfactor::testing {
 
 /// Regularised incomplete beta function I_x(a, b) (continued fraction, modified Lentz;
 /// Numerical Recipes §6.4), accurate to ~1e-14 for the arguments used here.
@@ -63,4 +63,4 @@ inline double simultaneous_k(double comparisons, double dof, double family_p = 1
     return student_t_two_sided_quantile(family_p / std::max(1.0, comparisons), dof);
 }
 
-}  // namespace formfactor::test
+}  // namespace formfactor::testing

@@ -1,5 +1,5 @@
 #pragma once
-// Runs one method the way the tests did before the pipeline API: every row, no progress, the
+// Runs one method directly, without the pipeline: every row, no progress, the
 // report's "details" as JSON (to_json of the typed report, the same keys the run report holds).
 
 #include <nlohmann/json.hpp>

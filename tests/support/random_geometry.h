@@ -14,7 +14,7 @@
 #include "formfactor/geometry/polygon.h"
 #include "formfactor/scene/scene.h"
 
-namespace formfactor::gen {
+namespace formfactor::testing {
 
 /// Options of random_geometry().
 struct GeneratorOptions {
@@ -78,8 +78,8 @@ bool blockers_radiate(Form f);
 /// the identity except for the permuted forms.
 std::vector<std::size_t> patch_order(const Geometry& g, Form f);
 
-/// The in-memory Scene: one surface per patch (room, then blockers when radiating, else
-/// obstruction-only surfaces), patches = surfaces.
+/// The in-memory Scene (scene_of()): one surface per patch (room, then blockers when radiating,
+/// else obstruction-only surfaces), patches = surfaces.
 Scene make_scene(const Geometry& g, bool blockers_radiate);
 
 /// OBJ text in the foreign style of g.style (shared or per-face vertices, negative indices,
@@ -93,13 +93,9 @@ std::string vs3_text(const Geometry& g, bool blockers_radiate);
 /// load_scene() (patches = surfaces).
 Scene load_form(const Geometry& g, Form f, const std::string& dir);
 
-/// A scene whose patches are `patches` (one surface each) and whose other polygons are
-/// obstruction-only: F among the patches is the same as in any scene of the same polygons.
-Scene sub_scene(const std::vector<Polygon>& patches, const std::vector<Polygon>& others);
-
 /// The outward faces of a box: centre c, half-extents h, rotation R (columns = box axes).
 std::vector<Polygon> box_faces(const Vec3& c, const Vec3& h, const Mat3& R);
 /// The outward faces of an icosahedron of circumradius r centred at c, rotated by R.
 std::vector<Polygon> icosahedron_faces(const Vec3& c, double r, const Mat3& R);
 
-}  // namespace formfactor::gen
+}  // namespace formfactor::testing

@@ -1,6 +1,6 @@
-// Random obstructed scenes and their forms (see obstructed_scenes.h).
+// Random obstructed scenes and their forms (see random_geometry.h).
 
-#include "obstructed_scenes.h"
+#include "random_geometry.h"
 
 #include <algorithm>
 #include <array>
@@ -13,8 +13,9 @@
 
 #include "formfactor/core/random.h"
 #include "formfactor/scene/scene_io.h"
+#include "scenes.h"
 
-namespace formfactor::gen {
+namespace formfactor::testing {
 
 namespace {
 
@@ -464,28 +465,10 @@ std::vector<std::size_t> patch_order(const Geometry& g, Form f) {
     return v;
 }
 
-Scene sub_scene(const std::vector<Polygon>& patches, const std::vector<Polygon>& others) {
-    Scene s;
-    s.name = "sub-scene";
-    s.materials.push_back(Material{});
-    auto add = [&](const Polygon& p, bool obstruction, const std::string& prefix) {
-        Surface sf;
-        sf.name = prefix + std::to_string(s.surfaces.size() + 1);
-        sf.polygon = p;
-        sf.obstruction = obstruction;
-        sf.where = {s.name, 0};
-        s.surfaces.push_back(std::move(sf));
-    };
-    for (const Polygon& p : patches) add(p, false, "p");
-    for (const Polygon& p : others) add(p, true, "o");
-    subdivide(s, SubdivisionOptions{});
-    return s;
-}
-
 Scene make_scene(const Geometry& g, bool radiate) {
     std::vector<Polygon> patches = g.room;
     if (radiate) patches.insert(patches.end(), g.blockers.begin(), g.blockers.end());
-    Scene s = sub_scene(patches, radiate ? std::vector<Polygon>{} : g.obstructions);
+    Scene s = scene_of(patches, radiate ? std::vector<Polygon>{} : g.obstructions);
     s.name = g.label;
     s.enclosure = g.closed && radiate;
     return s;
@@ -603,7 +586,7 @@ Scene load_form(const Geometry& g, Form f, const std::string& dir) {
             if (!radiate)
                 for (std::size_t k : shuffled(g.obstructions.size(), g.style + 5))
                     others.push_back(g.obstructions[k]);
-            Scene s = sub_scene(patches, others);
+            Scene s = scene_of(patches, others);
             s.enclosure = g.closed && radiate;
             return s;
         }
@@ -629,4 +612,4 @@ Scene load_form(const Geometry& g, Form f, const std::string& dir) {
     return make_scene(g, radiate);
 }
 
-}  // namespace formfactor::gen
+}  // namespace formfactor::testing
