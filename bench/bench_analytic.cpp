@@ -10,7 +10,7 @@
 #include <memory>
 #include <random>
 
-#include "../tests/method_runner.h"
+#include "../tests/support/method_runner.h"
 #include "formfactor/kernels/analytic.h"
 #include "formfactor/methods/method.h"
 #include "formfactor/scene/scene.h"

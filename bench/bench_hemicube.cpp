@@ -10,7 +10,7 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
-#include "../tests/method_runner.h"
+#include "../tests/support/method_runner.h"
 #include "formfactor/methods/hemicube.h"
 #include "formfactor/methods/hemiplane.h"
 #include "formfactor/scene/scene.h"

@@ -9,7 +9,7 @@
 #include <cmath>
 #include <ctime>
 
-#include "../tests/method_runner.h"
+#include "../tests/support/method_runner.h"
 #include "bench_common.h"
 #include "formfactor/methods/method.h"
 

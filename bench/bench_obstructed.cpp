@@ -19,7 +19,7 @@
 #include <memory>
 #include <string>
 
-#include "../tests/method_runner.h"
+#include "../tests/support/method_runner.h"
 #include "formfactor/matrix/form_factors.h"
 #include "formfactor/methods/method.h"
 #include "formfactor/scene/room.h"

@@ -11,7 +11,7 @@
 #include <streambuf>
 #include <string>
 
-#include "../tests/method_runner.h"
+#include "../tests/support/method_runner.h"
 #include "formfactor/methods/method.h"
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/patch_table.h"
