@@ -22,8 +22,8 @@
 #include <string>
 
 #include "bench_common.h"
-#include "formfactor/matrix/hierarchical.h"
 #include "formfactor/matrix/memory.h"
+#include "formfactor/methods/hierarchical_build.h"
 #include "formfactor/pipeline.h"
 #include "formfactor/scene/room.h"
 #include "formfactor/solve/properties.h"
@@ -93,7 +93,7 @@ void BM_HierarchicalVsDense(benchmark::State& state) {
             HierarchicalOptions ho;
             ho.tolerance = target;
             const double t1 = process_cpu_seconds();
-            const HierarchicalFormFactors H = HierarchicalFormFactors::build(s, ho);
+            const HierarchicalFormFactors H = build_hierarchical(s, ho);
             ThermalOptions hto = to;
             hto.solver.residual = 1e-10;
             const ThermalResult h = solve_thermal(H, props, hto);
@@ -124,7 +124,7 @@ void BM_HierarchicalClosedRoom(benchmark::State& state) {
     for (auto _ : state) {
         HierarchicalOptions ho;
         ho.tolerance = 1e-6;
-        const HierarchicalFormFactors H = HierarchicalFormFactors::build(s, ho);
+        const HierarchicalFormFactors H = build_hierarchical(s, ho);
         ThermalOptions to;
         to.solver.solver = SolverKind::gmres;
         to.solver.residual = 1e-8;

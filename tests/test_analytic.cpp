@@ -404,9 +404,9 @@ TEST_CASE("analytic: check() accepts scenes with obstructions, may_obstruct() fi
     o.polygon = quad(Vec3(0.2, 0.2, 0.5), Vec3(0.5, 0, 0), Vec3(0, 0.5, 0));
     obst.surfaces.push_back(o);
     CHECK_NOTHROW(method->check(obst));
-    CHECK(AnalyticMethod::may_obstruct(obst));
-    CHECK_FALSE(AnalyticMethod::may_obstruct(plates));
-    CHECK_FALSE(AnalyticMethod::may_obstruct(cube));
+    CHECK(may_obstruct(obst));
+    CHECK_FALSE(may_obstruct(plates));
+    CHECK_FALSE(may_obstruct(cube));
     // A box inside a room: the box's faces have room faces on both sides of their planes.
     Scene room = testing::unit_cube(1);
     const Vec3 lo(0.4, 0.4, 0.0), e(0.2, 0.2, 0.2);
@@ -419,7 +419,7 @@ TEST_CASE("analytic: check() accepts scenes with obstructions, may_obstruct() fi
     side.polygon = quad(lo, Vec3(0, 0, e.z()), Vec3(0, -e.y(), 0));
     room.surfaces.push_back(side);
     CHECK_NOTHROW(method->check(room));
-    CHECK(AnalyticMethod::may_obstruct(room));
+    CHECK(may_obstruct(room));
     MethodOptions bad;
     bad.tolerance = -1.0;
     nlohmann::json d;

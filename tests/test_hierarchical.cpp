@@ -11,7 +11,7 @@
 #include <random>
 
 #include "formfactor/core/error.h"
-#include "formfactor/matrix/hierarchical.h"
+#include "formfactor/methods/hierarchical_build.h"
 #include "formfactor/pipeline.h"
 #include "formfactor/scene/room.h"
 #include "formfactor/solve/properties.h"
@@ -51,7 +51,7 @@ TEST_CASE("hierarchical: a closed room's products match the exact matrix within 
     HierarchicalOptions o;
     o.tolerance = 1e-6;
     o.leaf_size = 16;
-    const HierarchicalFormFactors H = HierarchicalFormFactors::build(s, o);
+    const HierarchicalFormFactors H = build_hierarchical(s, o);
     const HierarchicalStats& st = H.stats();
     CHECK(st.low_rank_blocks > 0);
     CHECK(st.zero_blocks > 0);
@@ -92,7 +92,7 @@ TEST_CASE("hierarchical: the error falls when the target is tightened") {
         HierarchicalOptions o;
         o.tolerance = tol;
         o.leaf_size = 8;
-        const HierarchicalFormFactors H = HierarchicalFormFactors::build(s, o);
+        const HierarchicalFormFactors H = build_hierarchical(s, o);
         const double err = product_error(H, F);
         MESSAGE("tolerance " << tol << ": error " << err << ", values " << H.stats().low_rank_values
                              << ", mean rank " << H.stats().mean_rank);
@@ -111,9 +111,9 @@ TEST_CASE("hierarchical: products are bit-identical for any thread count") {
     HierarchicalOptions o;
     o.leaf_size = 8;
     o.threads = 1;
-    const HierarchicalFormFactors H1 = HierarchicalFormFactors::build(s, o);
+    const HierarchicalFormFactors H1 = build_hierarchical(s, o);
     o.threads = 2;
-    const HierarchicalFormFactors H2 = HierarchicalFormFactors::build(s, o);
+    const HierarchicalFormFactors H2 = build_hierarchical(s, o);
     const auto n = static_cast<Eigen::Index>(H1.size());
     const Eigen::MatrixXd X = Eigen::MatrixXd::Random(n, 2);
     Eigen::MatrixXd Y1, Y2, Y3;
@@ -132,7 +132,7 @@ TEST_CASE("hierarchical: thermal and radiosity solves agree with the dense solve
     HierarchicalOptions o;
     o.tolerance = 1e-6;
     o.leaf_size = 16;
-    const HierarchicalFormFactors H = HierarchicalFormFactors::build(s, o);
+    const HierarchicalFormFactors H = build_hierarchical(s, o);
 
     // Thermal: the floor (patches of surface 0) hot, the rest at fixed temperatures or
     // adiabatic, grey emissivities down to 0.1 (a stiff system for Jacobi).
@@ -205,7 +205,7 @@ TEST_CASE("hierarchical: a closed room with no temperature is refused, as with t
     HierarchicalOptions o;
     o.tolerance = 1e-6;
     o.leaf_size = 16;
-    const HierarchicalFormFactors H = HierarchicalFormFactors::build(s, o);
+    const HierarchicalFormFactors H = build_hierarchical(s, o);
     PatchProperties props = properties_from_scene(s);
     for (std::size_t i = 0; i < s.patches.size(); ++i) {
         props.temperature[i] = std::numeric_limits<double>::quiet_NaN();
@@ -220,7 +220,7 @@ TEST_CASE("hierarchical: a closed room with no temperature is refused, as with t
 TEST_CASE("hierarchical: per-surface factors from the operator") {
     const Scene s = room_scene(8, RoomBox::kNone);
     const DenseMatrix F = dense_of(s);
-    const HierarchicalFormFactors H = HierarchicalFormFactors::build(s, {});
+    const HierarchicalFormFactors H = build_hierarchical(s, {});
     std::vector<int> group(s.patches.size());
     for (std::size_t i = 0; i < group.size(); ++i) group[i] = s.patches[i].surface;
     const std::size_t g = s.surfaces.size();
@@ -241,16 +241,16 @@ TEST_CASE("hierarchical: per-surface factors from the operator") {
 }
 
 TEST_CASE("hierarchical: obstructed scenes and bad options are refused") {
-    CHECK_THROWS_WITH_AS(HierarchicalFormFactors::build(room_scene(4), {}),
-                         doctest::Contains("obstructions"), Error);
+    CHECK_THROWS_WITH_AS(build_hierarchical(room_scene(4), {}), doctest::Contains("obstructions"),
+                         Error);
     const Scene s = room_scene(4, RoomBox::kNone);
     HierarchicalOptions o;
     o.tolerance = 0.0;
-    CHECK_THROWS_AS(HierarchicalFormFactors::build(s, o), OptionError);
+    CHECK_THROWS_AS(build_hierarchical(s, o), OptionError);
     o = {};
     o.eta = -1.0;
-    CHECK_THROWS_AS(HierarchicalFormFactors::build(s, o), OptionError);
+    CHECK_THROWS_AS(build_hierarchical(s, o), OptionError);
     o = {};
     o.leaf_size = 0;
-    CHECK_THROWS_AS(HierarchicalFormFactors::build(s, o), OptionError);
+    CHECK_THROWS_AS(build_hierarchical(s, o), OptionError);
 }

@@ -9,8 +9,8 @@
 
 #include "common.h"
 #include "formfactor/core/atomic_file.h"
-#include "formfactor/matrix/hierarchical.h"
 #include "formfactor/matrix/repair.h"
+#include "formfactor/methods/hierarchical_build.h"
 #include "formfactor/output/render.h"
 #include "formfactor/scene/scene.h"
 #include "formfactor/solve/properties.h"

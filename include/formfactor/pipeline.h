@@ -28,6 +28,7 @@
 #include "formfactor/methods/method.h"
 #include "formfactor/methods/projection_view.h"
 #include "formfactor/methods/traits.h"
+#include "formfactor/scene/obstruction.h"
 #include "formfactor/scene/scene.h"
 #include "formfactor/visibility/visibility.h"
 

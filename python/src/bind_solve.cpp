@@ -376,7 +376,7 @@ vectors without forming it (docs/hierarchical.md). ``op @ x`` or ``op.matvec(x)`
                     HierarchicalOptions oo = o;
                     oo.progress = sink;
                     return std::make_shared<const HierarchicalFormFactors>(
-                        HierarchicalFormFactors::build(*s.scene, oo));
+                        build_hierarchical(*s.scene, oo));
                 },
                 progress);
             return PyHierarchical{s.scene, std::move(op)};

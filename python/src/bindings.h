@@ -21,7 +21,7 @@
 #include "formfactor/core/error.h"
 #include "formfactor/core/progress.h"
 #include "formfactor/core/types.h"
-#include "formfactor/matrix/hierarchical.h"
+#include "formfactor/methods/hierarchical_build.h"
 #include "formfactor/pipeline.h"
 #include "formfactor/scene/scene.h"
 

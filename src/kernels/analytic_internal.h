@@ -2,14 +2,12 @@
 // Internals of the analytic method shared by its source files (not public API).
 
 #include <array>
-#include <cstdint>
 #include <vector>
 
 #include "formfactor/core/error.h"
 #include "formfactor/core/progress.h"
 #include "formfactor/core/types.h"
 #include "formfactor/kernels/analytic.h"
-#include "formfactor/matrix/form_factors.h"
 
 namespace formfactor::detail {
 
@@ -60,64 +58,6 @@ double far_field_kernel_sum(const RuleView& ra, const Vec3& na, const RuleView& 
 /// polygon_to_polygon; with allow_far_field false always by the double contour integral (for
 /// tests and calibration).
 double polygon_to_polygon_contour(const Polygon& a, const Polygon& b, bool allow_far_field);
-
-/// Counts of unobstructed_form_factors(): pairs (j > i) facing away (zero), by the far-field
-/// rule (far) and by the contour integral (exact); kernel evaluations of the far-field rule and
-/// pairs per far-field order.
-struct UnobstructedStats {
-    std::size_t zero = 0, far = 0, exact = 0;
-    std::size_t points = 0;
-    std::array<std::size_t, kMaxFarFieldOrder + 1> order_hist{};
-};
-
-/// The unobstructed form factors of every ordered pair of the polygons into F (n×n, row i from
-/// polys[i]) and their areas: each unordered pair once, by the double contour integral when
-/// near, by the far-field rule when its a-priori error bound is ≤ tol; the lower triangle by
-/// reciprocity A_j F_ji = A_i F_ij. progress (may be null) advances once per row.
-UnobstructedStats unobstructed_form_factors(const std::vector<const Polygon*>& polys, double tol,
-                                            int threads, Progress* progress, DenseMatrix& F,
-                                            std::vector<double>& areas);
-
-/// Rows [rows.begin, rows.end) of that matrix, with the upper-triangle values U_ac (a < c) of
-/// every pair that touches the block: the block's rows (F, rows.size() × n) and the pairs of the
-/// rows before it with the block's patches (left, rows.begin × rows.size()). Every value is the
-/// one unobstructed_form_factors() gives, bit for bit. Cost: the block's rows plus rows.begin ×
-/// rows.size() pairs, not n².
-struct UnobstructedBlock {
-    RowRange rows;
-    std::size_t n = 0;
-    DenseMatrix F;
-    DenseMatrix left;
-    std::vector<double> areas;
-    /// U_ac (a < c) of a pair that touches the block.
-    double upper(std::size_t a, std::size_t c) const;
-    /// The whole matrix's unobstructed F_sr, for a pair that touches the block.
-    double unobstructed(std::size_t s, std::size_t r) const;
-    /// Sets F_ij when row i is in the block (else nothing: the row is not asked for).
-    void set(std::size_t i, std::size_t j, double v) {
-        if (rows.contains(i))
-            F(static_cast<Eigen::Index>(i - rows.begin), static_cast<Eigen::Index>(j)) = v;
-    }
-};
-UnobstructedStats unobstructed_block(const std::vector<const Polygon*>& polys, double tol,
-                                     int threads, Progress* progress, RowRange rows,
-                                     UnobstructedBlock& out);
-
-/// The entry of the lower triangle from the upper one: F_ji = A_i F_ij / A_j (i < j), written
-/// once here so that every path (dense, blocks, sparse rows) evaluates it alike.
-inline double reciprocal_entry(double upper, double area_i, double area_j) {
-    return area_j > 0.0 ? upper * area_i / area_j : 0.0;
-}
-
-/// The unobstructed U_ij of the listed pairs only: for each row i, the columns columns[i] (all
-/// > i, ascending) get values[i][k] = U_{i, columns[i][k]}, bit for bit the value
-/// unobstructed_form_factors() gives. Cost: the listed pairs, not n². progress (may be null)
-/// advances once per row.
-UnobstructedStats unobstructed_pairs(const std::vector<const Polygon*>& polys, double tol,
-                                     int threads, Progress* progress,
-                                     const std::vector<std::vector<std::int32_t>>& columns,
-                                     std::vector<std::vector<double>>& values,
-                                     std::vector<double>& areas);
 
 /// Relative error factor of an order-n Gauss rule over a polygon of circumradius R seen from a
 /// point at distance D ≥ R from its centroid, q = R/D < 1 (see docs/analytic.md).

@@ -50,15 +50,4 @@ MethodKind default_method(const Scene&) {
     return MethodKind::analytic;
 }
 
-bool may_obstruct(const Scene& scene) { return AnalyticMethod::may_obstruct(scene); }
-
-RowRange RowRange::clamped(std::size_t n) const {
-    RowRange r{begin, std::min(end, n)};
-    if (r.begin > r.end)
-        throw OptionError("rows", "the row range [" + std::to_string(begin) + ", " +
-                                      (end == kEnd ? std::string("end") : std::to_string(end)) +
-                                      ") is outside the " + std::to_string(n) + " patches");
-    return r;
-}
-
 }  // namespace formfactor

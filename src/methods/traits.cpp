@@ -4,6 +4,7 @@
 
 #include "formfactor/core/error.h"
 #include "formfactor/core/random.h"
+#include "formfactor/scene/obstruction.h"
 
 namespace formfactor {
 

@@ -22,6 +22,21 @@ inline constexpr double kPi = 3.14159265358979323846;
 /// Stefan–Boltzmann constant, W/(m² K⁴) (CODATA 2018, exact).
 inline constexpr double kStefanBoltzmann = 5.670374419e-8;
 
+/// Row-major dense matrix: row i = from patch i (a form-factor matrix or a block of its rows).
+using DenseMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+/// Rows [begin, end) of F (patch indices). The default is every row; end is clamped to N.
+struct RowRange {
+    static constexpr std::size_t kEnd = std::numeric_limits<std::size_t>::max();
+    std::size_t begin = 0;
+    std::size_t end = kEnd;
+
+    /// The range within [0, n): throws OptionError("rows") when begin > min(end, n).
+    RowRange clamped(std::size_t n) const;
+    std::size_t size() const { return end - begin; }
+    bool contains(std::size_t i) const { return i >= begin && i < end; }
+};
+
 /// An oriented plane n·x = d with unit normal n.
 struct Plane {
     Vec3 n = Vec3::UnitZ();

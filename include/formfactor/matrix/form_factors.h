@@ -12,21 +12,6 @@
 
 namespace formfactor {
 
-/// Row-major dense matrix: row i = from patch i.
-using DenseMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-
-/// Rows [begin, end) of F (patch indices). The default is every row; end is clamped to N.
-struct RowRange {
-    static constexpr std::size_t kEnd = std::numeric_limits<std::size_t>::max();
-    std::size_t begin = 0;
-    std::size_t end = kEnd;
-
-    /// The range within [0, n): throws OptionError("rows") when begin > min(end, n).
-    RowRange clamped(std::size_t n) const;
-    std::size_t size() const { return end - begin; }
-    bool contains(std::size_t i) const { return i >= begin && i < end; }
-};
-
 /// F_ij from patch i to patch j, with the patch areas, and the standard error of each entry for
 /// methods that have one. A block of rows (a row range of the pipeline) holds rows
 /// [first_row, first_row + F.rows()) and every column; `areas` has every patch.

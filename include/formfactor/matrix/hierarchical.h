@@ -1,6 +1,8 @@
 #pragma once
 /// A hierarchical (H-matrix) form-factor operator for scenes in which everything sees everything
-/// (closed rooms, furnaces, convex cavities): F is never formed. See docs/hierarchical.md.
+/// (closed rooms, furnaces, convex cavities): F is never formed. See docs/hierarchical.md. This
+/// header holds its storage and products; build_hierarchical() (methods/hierarchical_build.h)
+/// computes its blocks.
 ///
 /// A cluster tree over the patches (binary, split at the median of the longest axis of the
 /// centroids, leaves of at most leaf_size patches) partitions the unordered cluster pairs into
@@ -20,8 +22,8 @@
 /// of the refinement oracle, and it falls when the target is tightened.
 ///
 /// Obstruction: blocks are exact only without blockers. A scene in which a surface can block a
-/// segment between two others (AnalyticMethod::may_obstruct) is refused with an Error naming the
-/// alternatives (dense or sparse storage); visibility in blocks is left for later.
+/// segment between two others (may_obstruct(), scene/obstruction.h) is refused with an Error naming
+/// the alternatives (dense or sparse storage); visibility in blocks is left for later.
 ///
 /// Products are deterministic: the blocks are summed in a fixed order of fixed chunks, so y = F x
 /// is bit-identical for any thread count.
@@ -32,27 +34,8 @@
 #include <vector>
 
 #include "formfactor/matrix/form_factors.h"
-#include "formfactor/scene/scene.h"
 
 namespace formfactor {
-
-class ProgressSink;
-
-/// How the operator is built.
-struct HierarchicalOptions {
-    /// Error target: relative Frobenius error of each compressed block (the entries of the
-    /// compressed blocks are computed to a tenth of it). Tighter targets cost more ranks.
-    double tolerance = 1e-6;
-    /// Admissibility: a cluster pair is compressed when 2·max(r_P, r_Q) ≤ eta · (|c_P − c_Q| −
-    /// r_P − r_Q) (bounding spheres).
-    double eta = 1.5;
-    /// Patches per leaf cluster at most.
-    std::size_t leaf_size = 32;
-    /// Threads (0 = all cores).
-    int threads = 0;
-    /// Receives the progress of the build (blocks done), or none.
-    ProgressSink* progress = nullptr;
-};
 
 /// What the build made and what it cost.
 struct HierarchicalStats {
@@ -74,18 +57,27 @@ struct HierarchicalStats {
     std::size_t leaf_size = 0;
 };
 
-/// True when HierarchicalFormFactors::build() accepts the scene's geometry: no surface can
-/// block the view between two others (within 1e-6 of the scene's size; surfaces, or patches when
-/// the scene has none). What `solve --storage auto` asks before it picks the operator.
-bool hierarchical_accepts(const Scene& scene);
-
 /// The operator. Patch order is the scene's.
 class HierarchicalFormFactors {
   public:
-    /// Builds the operator of the scene's patches. Throws OptionError for bad options, Error for
-    /// a scene with obstructions (see above), ResourceError when the estimated memory does not
-    /// fit.
-    static HierarchicalFormFactors build(const Scene& scene, const HierarchicalOptions& options);
+    /// One stored block of the partition, on patch ranges of the cluster order: rows
+    /// [p, p + m), columns [q, q + n) (p ≤ q; p = q only for a dense diagonal block, which holds
+    /// all of F_PP). Dense: F_PQ row-major in `u` (rank 0). Low-rank: F_PQ = U Vᵀ, U m × rank
+    /// and V n × rank column-major in `u` and `v`.
+    struct Block {
+        std::uint32_t p = 0, m = 0, q = 0, n = 0;
+        std::uint32_t rank = 0;
+        std::vector<double> u, v;
+    };
+    /// Products are summed in this many fixed chunks of blocks (deterministic for any thread
+    /// count).
+    static constexpr std::size_t kChunks = 16;
+
+    /// The operator of the given blocks (build_hierarchical() in methods/hierarchical_build.h
+    /// makes them): areas in scene order, order[k] the patch at cluster position k, blocks on
+    /// cluster-order ranges; the stats as the build counted them (bytes is filled in here).
+    HierarchicalFormFactors(std::vector<double> areas, std::vector<std::uint32_t> order,
+                            std::vector<Block> blocks, HierarchicalStats stats);
 
     std::size_t size() const { return areas_.size(); }
     const std::vector<double>& areas() const { return areas_; }
@@ -101,16 +93,6 @@ class HierarchicalFormFactors {
     /// 0 ≤ g < groups), from `groups` products with indicator vectors: cost groups × product.
     DenseMatrix per_group(const std::vector<int>& group_of_patch, std::size_t groups,
                           int threads = 0) const;
-
-    /// One stored block of the partition, on patch ranges of the cluster order: rows
-    /// [p, p + m), columns [q, q + n) (p ≤ q; p = q only for a dense diagonal block, which holds
-    /// all of F_PP). Dense: F_PQ row-major in `u` (rank 0). Low-rank: F_PQ = U Vᵀ, U m × rank
-    /// and V n × rank column-major in `u` and `v`.
-    struct Block {
-        std::uint32_t p = 0, m = 0, q = 0, n = 0;
-        std::uint32_t rank = 0;
-        std::vector<double> u, v;
-    };
 
   private:
     std::vector<double> areas_;         ///< scene order

@@ -143,8 +143,5 @@ std::unique_ptr<Method> make_method(const std::string& name);
 std::vector<std::string> method_names();
 /// The most accurate method that can handle the scene.
 MethodKind default_method(const Scene& scene);
-/// True when some surface of the scene may block the view between two others (a conservative
-/// test: obstruction-only surfaces, or a surface with other surfaces on both sides of its plane).
-bool may_obstruct(const Scene& scene);
 
 }  // namespace formfactor

@@ -2,7 +2,9 @@
 // The `analytic` method (private header: the registry creates it by name).
 
 #include "formfactor/methods/method.h"
+#include "formfactor/scene/obstruction.h"
 #include "kernels/analytic_internal.h"
+#include "kernels/unobstructed.h"
 
 namespace formfactor {
 
@@ -23,13 +25,12 @@ class AnalyticMethod final : public Method {
     /// the pairs the classification finds visible or partly hidden (no N² work, no rows × N
     /// block); the same values as the dense matrix (docs/sparse.md).
     using Method::emits_sparse_rows;
-    bool emits_sparse_rows(const Scene& scene) const override { return may_obstruct(scene); }
+    bool emits_sparse_rows(const Scene& scene) const override {
+        return formfactor::may_obstruct(scene);
+    }
     bool sparse_rows_at_once() const override { return true; }
 
-    /// True when some surface may block a segment between two others (an obstruction-only
-    /// surface, or a surface with vertices of other surfaces on both sides of its plane).
-    /// `relative_tolerance` × the scene's diagonal is the distance from a plane below which a
-    /// vertex counts as in it.
+    /// formfactor::may_obstruct (scene/obstruction.h), the one the library calls.
     static bool may_obstruct(const Scene& scene, double relative_tolerance = 1e-9);
 
     /// Largest tolerance of the unobstructed values in an obstructed scene (see compute()).

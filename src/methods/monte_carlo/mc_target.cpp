@@ -18,7 +18,7 @@
 #include "formfactor/geometry/sampling.h"
 #include "formfactor/kernels/analytic.h"
 #include "formfactor/visibility/visibility.h"
-#include "kernels/analytic_internal.h"
+#include "kernels/unobstructed.h"
 #include "methods/monte_carlo/mc_common.h"
 #include "visibility/shaft_culler.h"
 
@@ -103,25 +103,18 @@ class McTargetMethod final : public mc::MonteCarloMethod {
         // the double contour integral for near pairs, the far-field rule where its a-priori
         // bound is ≤ kUnoccludedTolerance, once per unordered pair and the other entry by
         // reciprocity). ff.F holds F_unocc until pass 2 scales its own row.
-        // A block of rows takes the analytic method's row range (unobstructed_block(): its rows
-        // and the pairs of the rows before it with its patches, the whole matrix's values bit
-        // for bit): ff.F is then rows × N, row i at i − off.
+        // A block of rows gets its rows and the pairs of the rows before it with its patches
+        // (the whole matrix's values bit for bit): ff.F is then rows × N, row i at i − off.
         std::vector<const Polygon*> polys(run.n);
         for (std::size_t p = 0; p < run.n; ++p) polys[p] = &run.scene.patches[p].polygon;
         const bool whole = run.rows.size() == run.n;
-        const std::size_t off = whole ? 0 : run.rows.begin;
-        detail::UnobstructedStats unocc;
-        if (whole) {
-            unocc = detail::unobstructed_form_factors(polys, kUnoccludedTolerance,
-                                                      run.options.threads, nullptr, ff.F, ff.areas);
-        } else {
-            detail::UnobstructedBlock block;
-            unocc = detail::unobstructed_block(polys, kUnoccludedTolerance, run.options.threads,
-                                               nullptr, run.rows, block);
-            ff.F = std::move(block.F);
-            ff.areas = std::move(block.areas);
-            ff.first_row = run.rows.begin;
-        }
+        const std::size_t off = run.rows.begin;
+        detail::UnobstructedBlock block;
+        const detail::UnobstructedStats unocc = detail::unobstructed_rows(
+            polys, kUnoccludedTolerance, run.options.threads, nullptr, run.rows, block);
+        ff.F = std::move(block.F);
+        ff.areas = std::move(block.areas);
+        ff.first_row = run.rows.begin;
         auto unocc_at = [&](std::size_t i, std::size_t j) {
             return ff.F(static_cast<Eigen::Index>(i - off), static_cast<Eigen::Index>(j));
         };

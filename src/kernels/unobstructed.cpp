@@ -1,0 +1,333 @@
+// The unobstructed form factors of polygon pairs: every unordered pair once, exactly (double
+// contour integral) when near, by a tensor Gauss rule with an a-priori error bound when far; the
+// other entry of the pair by reciprocity.
+
+#include "kernels/unobstructed.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "formfactor/core/error.h"
+#include "formfactor/core/parallel.h"
+#include "formfactor/core/progress.h"
+#include "formfactor/kernels/analytic.h"
+#include "kernels/analytic_internal.h"
+
+namespace formfactor::detail {
+
+namespace {
+
+/// Per-patch data of the far-field path, flat.
+struct PatchTable {
+    std::vector<Vec3> normal, centroid;
+    std::vector<double> area, radius, plane_d;
+    // Quadrature rules: for patch p and order n (1..kMaxFarFieldOrder), points
+    // [offset[p*K+n-1], offset[p*K+n-1] + count[p*K+n-1]) of x, y, z, w.
+    std::vector<std::size_t> offset;
+    std::vector<int> count;
+    std::vector<double> x, y, z, w;
+
+    RuleView rule(std::size_t p, int n) const {
+        const std::size_t k = p * kMaxFarFieldOrder + static_cast<std::size_t>(n - 1);
+        const std::size_t o = offset[k];
+        return {x.data() + o, y.data() + o, z.data() + o, w.data() + o, count[k]};
+    }
+};
+
+PatchTable build_table(const std::vector<const Polygon*>& polys, int threads) {
+    const std::size_t n = polys.size();
+    PatchTable t;
+    t.normal.resize(n);
+    t.centroid.resize(n);
+    t.area.resize(n);
+    t.radius.resize(n);
+    t.plane_d.resize(n);
+    // The rules are built in chunks of patches and copied into the flat arrays chunk by chunk:
+    // the rules of every patch at once (all orders, ~6.5 kB per quad) would double the table's
+    // peak memory (51 MB more at 7,776 patches).
+    constexpr std::size_t kChunk = 1024;
+    const std::size_t orders = static_cast<std::size_t>(kMaxFarFieldOrder);
+    t.offset.resize(n * orders);
+    t.count.resize(n * orders);
+    std::vector<PolygonRule> rules;
+    std::size_t total = 0;
+    for (std::size_t first = 0; first < n; first += kChunk) {
+        const std::size_t last = std::min(n, first + kChunk);
+        rules.assign((last - first) * orders, PolygonRule{});
+        parallel_for(last - first, threads, [&](std::size_t q) {
+            const std::size_t p = first + q;
+            const Polygon& poly = *polys[p];
+            t.normal[p] = normal(poly);
+            t.centroid[p] = centroid(poly);
+            t.area[p] = area(poly);
+            t.plane_d[p] = t.normal[p].dot(t.centroid[p]);
+            double r = 0.0;
+            for (const Vec3& v : poly.vertices) r = std::max(r, (v - t.centroid[p]).norm());
+            t.radius[p] = r;
+            for (int o = 1; o <= kMaxFarFieldOrder; ++o)
+                rules[q * orders + static_cast<std::size_t>(o - 1)] = polygon_rule(poly, o);
+        });
+        std::size_t chunk_points = 0;
+        for (const PolygonRule& rule : rules) chunk_points += rule.points.size();
+        if (first == 0) {
+            // Room for every patch at the first chunk's rate (+5 %): no doubling on growth.
+            const double estimate = 1.05 * double(chunk_points) * double(n) / double(last);
+            for (std::vector<double>* a : {&t.x, &t.y, &t.z, &t.w})
+                a->reserve(static_cast<std::size_t>(estimate));
+        }
+        for (std::size_t k = 0; k < rules.size(); ++k) {
+            const std::size_t slot = first * orders + k;
+            t.offset[slot] = total;
+            t.count[slot] = static_cast<int>(rules[k].points.size());
+            for (std::size_t m = 0; m < rules[k].points.size(); ++m) {
+                t.x.push_back(rules[k].points[m].x());
+                t.y.push_back(rules[k].points[m].y());
+                t.z.push_back(rules[k].points[m].z());
+                t.w.push_back(rules[k].weights[m]);
+            }
+            total += rules[k].points.size();
+        }
+    }
+    return t;
+}
+
+enum class Side { kFront, kBehind, kStraddles };
+
+// Where polygon q lies relative to the plane (n, d): a sphere test first, vertices if needed.
+// Vertices within eps of the plane count as on it (both sides).
+Side side_of(const Vec3& n, double d, const Vec3& c, double r, const Polygon& q, double eps) {
+    const double s = n.dot(c) - d;
+    if (s - r > eps) return Side::kFront;
+    if (s + r <= eps) return Side::kBehind;
+    bool front = false, behind = false;
+    for (const Vec3& v : q.vertices) {
+        const double dv = n.dot(v) - d;
+        if (dv > eps) front = true;
+        if (dv < -eps) behind = true;
+    }
+    if (!front) return Side::kBehind;  // behind or in the plane: nothing to see
+    return behind ? Side::kStraddles : Side::kFront;
+}
+
+using RowStats = UnobstructedStats;
+
+}  // namespace
+
+namespace {
+
+// The unobstructed pairs (i, j) of row i for j in [j_begin, j_end) (all j > i): zero when one
+// faces away (nothing emitted), the far-field rule when its bound allows, else the contour
+// integral; emit(j, U_ij) for every other pair. One code path for the whole matrix and for a
+// block of rows, so that a block holds the whole matrix's values bit for bit (a far-field
+// batch computes each pair independently of the others queued with it).
+// The columns j ∈ [begin, end) of a row, or a list of them (row_pairs() takes either).
+struct ColumnRange {
+    std::size_t begin, end;
+    template <class F>
+    void each(const F& f) const {
+        for (std::size_t j = begin; j < end; ++j) f(j);
+    }
+};
+struct ColumnList {
+    const std::int32_t* cols;
+    std::size_t count;
+    template <class F>
+    void each(const F& f) const {
+        for (std::size_t k = 0; k < count; ++k) f(static_cast<std::size_t>(cols[k]));
+    }
+};
+
+template <class Cols, class Emit>
+void row_pairs(const PatchTable& t, const std::vector<const Polygon*>& polys, double tol,
+               double eps, std::size_t i, const Cols& columns, RowStats& st, const Emit& emit) {
+    const Vec3& ni = t.normal[i];
+    const Vec3& ci = t.centroid[i];
+    thread_local FarFieldBatch batch;
+    batch.reset();
+    columns.each([&](std::size_t j) {
+        const Vec3& nj = t.normal[j];
+        const Vec3& cj = t.centroid[j];
+        const Side sj = side_of(ni, t.plane_d[i], cj, t.radius[j], *polys[j], eps);
+        if (sj == Side::kBehind) {
+            ++st.zero;
+            return;
+        }
+        const Side si = side_of(nj, t.plane_d[j], ci, t.radius[i], *polys[i], eps);
+        if (si == Side::kBehind) {
+            ++st.zero;
+            return;
+        }
+        if (sj == Side::kFront && si == Side::kFront) {
+            const double d = (cj - ci).norm();
+            const double ri = t.radius[i], rj = t.radius[j];
+            const double dmin = d - ri - rj;
+            if (dmin > 0.0) {
+                const double pref = std::max(t.area[i], t.area[j]) * kInvPi / (dmin * dmin);
+                const int oi =
+                    gauss_order_for_fast(pref, ri / (d - rj), 0.5 * tol, kMaxFarFieldOrder);
+                const int oj = oi == 0 ? 0
+                                       : gauss_order_for_fast(pref, rj / (d - ri), 0.5 * tol,
+                                                              kMaxFarFieldOrder);
+                if (oi > 0 && oj > 0) {
+                    batch.add(oi, j, t.rule(j, oj), nj, cj);
+                    ++st.far;
+                    st.points += static_cast<std::size_t>(t.rule(i, oi).count) *
+                                 static_cast<std::size_t>(t.rule(j, oj).count);
+                    ++st.order_hist[static_cast<std::size_t>(std::max(oi, oj))];
+                    return;
+                }
+            }
+        }
+        emit(j, std::max(0.0, polygon_to_polygon(*polys[i], *polys[j])));
+        ++st.exact;
+    });
+    batch.run([&](int order) { return t.rule(i, order); }, ni, ci, 1.0 / t.area[i],
+              [&](std::size_t j, double fij) { emit(j, std::max(0.0, fij)); });
+}
+
+Bounds3 polygons_box(const std::vector<const Polygon*>& polys) {
+    Bounds3 box;
+    for (const Polygon* p : polys)
+        for (const Vec3& v : p->vertices) box.extend(v);
+    return box;
+}
+
+RowStats sum_stats(const std::vector<RowStats>& stats) {
+    RowStats total;
+    for (const RowStats& s : stats) {
+        total.zero += s.zero;
+        total.far += s.far;
+        total.exact += s.exact;
+        total.points += s.points;
+        for (std::size_t o = 0; o < total.order_hist.size(); ++o)
+            total.order_hist[o] += s.order_hist[o];
+    }
+    return total;
+}
+
+UnobstructedStats whole_matrix(const std::vector<const Polygon*>& polys, double tol, int threads,
+                               Progress* progress, DenseMatrix& out_F, std::vector<double>& areas) {
+    const std::size_t n = polys.size();
+    out_F = DenseMatrix::Zero(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
+    const PatchTable t = build_table(polys, threads);
+    areas = t.area;
+    const Bounds3 box = polygons_box(polys);
+    const double eps = box.empty() ? 0.0 : 1e-12 * box.diagonal().norm();
+
+    std::vector<RowStats> stats(n);
+    double* F = out_F.data();
+    // Upper triangle: row i computes F_ij for j > i (each entry written by one task).
+    parallel_for(n, threads, [&](std::size_t i) {
+        row_pairs(t, polys, tol, eps, i, ColumnRange{i + 1, n}, stats[i],
+                  [&](std::size_t j, double v) { F[i * n + j] = v; });
+        if (progress) progress->advance();
+    });
+    // Lower triangle by reciprocity, A_j F_ji = A_i F_ij, in cache-friendly tiles.
+    constexpr std::size_t kTile = 64;
+    const std::size_t tiles = (n + kTile - 1) / kTile;
+    parallel_for(tiles, threads, [&](std::size_t bj) {
+        for (std::size_t bi = 0; bi <= bj; ++bi)
+            for (std::size_t j = bj * kTile; j < std::min(n, (bj + 1) * kTile); ++j)
+                for (std::size_t i = bi * kTile; i < std::min(j, (bi + 1) * kTile); ++i)
+                    F[j * n + i] = reciprocal_entry(F[i * n + j], t.area[i], t.area[j]);
+    });
+    return sum_stats(stats);
+}
+
+UnobstructedStats row_block(const std::vector<const Polygon*>& polys, double tol, int threads,
+                            Progress* progress, RowRange rows, UnobstructedBlock& out) {
+    const std::size_t n = polys.size(), b = rows.begin, e = rows.end, m = e - b;
+    const PatchTable t = build_table(polys, threads);
+    out.rows = rows;
+    out.n = n;
+    out.areas = t.area;
+    out.F = DenseMatrix::Zero(static_cast<Eigen::Index>(m), static_cast<Eigen::Index>(n));
+    out.left = DenseMatrix::Zero(static_cast<Eigen::Index>(b), static_cast<Eigen::Index>(m));
+    const Bounds3 box = polygons_box(polys);
+    const double eps = box.empty() ? 0.0 : 1e-12 * box.diagonal().norm();
+
+    // Rows before the block compute their pairs with the block's patches (into `left`), the
+    // block's rows their pairs with every later patch (into F's upper part).
+    std::vector<RowStats> stats(e);
+    parallel_for(e, threads, [&](std::size_t r) {
+        if (r < b) {
+            double* L = out.left.data() + r * m;
+            row_pairs(t, polys, tol, eps, r, ColumnRange{b, e}, stats[r],
+                      [&](std::size_t j, double v) { L[j - b] = v; });
+        } else {
+            double* row = out.F.data() + (r - b) * n;
+            row_pairs(t, polys, tol, eps, r, ColumnRange{r + 1, n}, stats[r],
+                      [&](std::size_t j, double v) { row[j] = v; });
+            if (progress) progress->advance();
+        }
+    });
+    // The block's entries below the diagonal, by reciprocity from the upper values.
+    parallel_for(m, threads, [&](std::size_t k) {
+        const std::size_t i = b + k;
+        double* row = out.F.data() + k * n;
+        for (std::size_t j = 0; j < i; ++j)
+            row[j] = reciprocal_entry(out.upper(j, i), t.area[j], t.area[i]);
+    });
+    return sum_stats(stats);
+}
+
+}  // namespace
+
+UnobstructedStats unobstructed_rows(const std::vector<const Polygon*>& polys, double tol,
+                                    int threads, Progress* progress, RowRange rows,
+                                    UnobstructedBlock& out) {
+    const std::size_t n = polys.size();
+    rows = rows.clamped(n);
+    if (rows.size() < n) return row_block(polys, tol, threads, progress, rows, out);
+    out.rows = rows;
+    out.n = n;
+    out.left = DenseMatrix::Zero(0, static_cast<Eigen::Index>(n));
+    return whole_matrix(polys, tol, threads, progress, out.F, out.areas);
+}
+
+UnobstructedStats unobstructed_pairs(const std::vector<const Polygon*>& polys, double tol,
+                                     int threads, Progress* progress,
+                                     const std::vector<std::vector<std::int32_t>>& columns,
+                                     std::vector<std::vector<double>>& values,
+                                     std::vector<double>& areas) {
+    const std::size_t n = polys.size();
+    FF_ASSERT(columns.size() == n);
+    const PatchTable t = build_table(polys, threads);
+    areas = t.area;
+    const Bounds3 box = polygons_box(polys);
+    const double eps = box.empty() ? 0.0 : 1e-12 * box.diagonal().norm();
+    values.assign(n, {});
+    std::vector<RowStats> stats(n);
+    parallel_for(n, threads, [&](std::size_t i) {
+        const std::vector<std::int32_t>& cols = columns[i];
+        std::vector<double>& row = values[i];
+        row.assign(cols.size(), 0.0);
+        if (!cols.empty()) {
+            // Emitted in any order (the far-field batch last): placed by column.
+            row_pairs(t, polys, tol, eps, i, ColumnList{cols.data(), cols.size()}, stats[i],
+                      [&](std::size_t j, double v) {
+                          const auto at = std::lower_bound(cols.begin(), cols.end(),
+                                                           static_cast<std::int32_t>(j));
+                          row[static_cast<std::size_t>(at - cols.begin())] = v;
+                      });
+        }
+        if (progress) progress->advance();
+    });
+    return sum_stats(stats);
+}
+
+double UnobstructedBlock::upper(std::size_t a, std::size_t c) const {
+    const std::size_t b = rows.begin, m = rows.size();
+    if (rows.contains(a)) return F(static_cast<Eigen::Index>(a - b), static_cast<Eigen::Index>(c));
+    FF_ASSERT(a < b && rows.contains(c));
+    return left.data()[a * m + (c - b)];
+}
+
+double UnobstructedBlock::unobstructed(std::size_t s, std::size_t r) const {
+    return s < r ? upper(s, r) : reciprocal_entry(upper(r, s), areas[r], areas[s]);
+}
+
+}  // namespace formfactor::detail
