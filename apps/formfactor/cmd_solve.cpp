@@ -246,7 +246,7 @@ void solve_sparse_scene(const SolveArgs& args, Scene& scene, StepTimes& times, S
     SparseComputeResult r;
     if (read) {
         Stopwatch sw;
-        SparseFormFactors F = read_sparse_matrix(args.matrix);
+        SparseFormFactors F = read_sparse_matrix(args.matrix, "--matrix");
         times.add("read matrix", sw.lap());
         r = sparse_form_factors_from_matrix(scene, std::move(F), args.repair.options(scene),
                                             args.matrix);

@@ -112,7 +112,7 @@ void run_view(const ViewArgs& args) {
         content.form_factors = &computed.ff;
     } else if (is_sparse_matrix_path(args.matrix)) {
         Stopwatch sw;
-        sparse = read_sparse_matrix(args.matrix);
+        sparse = read_sparse_matrix(args.matrix, "--matrix");
         if (sparse.n != n)
             throw InputError(
                 args.matrix, 0,

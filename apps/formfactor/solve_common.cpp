@@ -128,7 +128,7 @@ HierarchicalFormFactors build_hierarchical(const Scene& scene, double error_targ
     ho.threads = threads;
     TerminalProgress bar;
     ho.progress = &bar;
-    HierarchicalFormFactors H = build_hierarchical(scene, ho);
+    HierarchicalFormFactors H = formfactor::build_hierarchical(scene, ho);
     times.add("hierarchical operator", sw.lap());
     const HierarchicalStats& hs = H.stats();
     fmt::print(

@@ -219,8 +219,8 @@ SparseFormFactors read_matrix_market(std::istream& in, const std::string& name) 
     return F;
 }
 
-SparseFormFactors read_sparse_matrix(const std::string& path) {
-    const SparseMatrixFormat format = sparse_matrix_format_for(path, "--matrix");
+SparseFormFactors read_sparse_matrix(const std::string& path, const std::string& option) {
+    const SparseMatrixFormat format = sparse_matrix_format_for(path, option);
     if (std::filesystem::is_directory(path)) throw InputError(path, 0, "is a directory");
     SparseFormFactors F;
     if (format == SparseMatrixFormat::MatrixMarket) {

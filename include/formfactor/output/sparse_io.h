@@ -37,7 +37,7 @@ bool is_sparse_matrix_path(const std::string& path);
 
 /// The format for `path`'s extension; throws OptionError(option, "unknown ...") otherwise.
 SparseMatrixFormat sparse_matrix_format_for(const std::string& path,
-                                            const std::string& option = "-o");
+                                            const std::string& option = "output");
 
 /// What a sparse file says beyond F.
 struct SparseFileInfo {
@@ -59,11 +59,11 @@ void write_sparse_matrix(const std::string& path, const SparseFormFactors& F,
 /// the layout above (its `indptr`, `indices`, `data`, `areas` and, when present,
 /// `computed_row_sum`, `dropped`, `standard_error`). A `.mtx` file holds no areas: they are left
 /// empty for the caller to give (the scene's), the computed row sums are the stored ones and
-/// nothing counts as dropped. Throws OptionError for another extension and InputError(path,
-/// line, what is wrong) for a file that is not such a matrix: a bad header or size line, an
-/// index out of range, a repeated entry, a non-finite value, a missing or extra entry,
-/// inconsistent CSR arrays, sizes that would not fit in memory.
-SparseFormFactors read_sparse_matrix(const std::string& path);
+/// nothing counts as dropped. Throws OptionError(option, ...) for another extension and
+/// InputError(path, line, what is wrong) for a file that is not such a matrix: a bad header or
+/// size line, an index out of range, a repeated entry, a non-finite value, a missing or extra
+/// entry, inconsistent CSR arrays, sizes that would not fit in memory.
+SparseFormFactors read_sparse_matrix(const std::string& path, const std::string& option = "matrix");
 /// The Matrix Market reader behind read_sparse_matrix (`name` names the input in messages).
 SparseFormFactors read_matrix_market(std::istream& in, const std::string& name);
 /// The Matrix Market writer behind write_sparse_matrix (rows formatted in blocks).
