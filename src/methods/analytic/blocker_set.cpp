@@ -286,7 +286,10 @@ bool BlockerSet::solid_hides(int solid, const Vec3* a, int na, const Vec3* b, in
         };
         for (const Plane& f : so.faces)
             if (!plane(f)) return false;
-        return !so.open || plane(so.opening);
+        if (so.open && !plane(so.opening)) return false;
+        // More than a point: a segment from a point on a face (a patch of the solid itself)
+        // touches the solid where it starts, whatever it passes later.
+        return t1 - t0 > 1e-12;
     };
     for (int i = 0; i < na; ++i)
         for (int j = 0; j < nb; ++j)

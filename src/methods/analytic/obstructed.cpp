@@ -746,24 +746,8 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
         Shaft sh;
         sh.build(poly, np, ns, rc.poly.v.data(), rc.poly.n, rc.n, eps);
         if (sh.facing_away()) return;
-        ShaftClass cls = classify_shaft(sh, blockers, cand, n, kept, false);
+        const ShaftClass cls = classify_shaft(sh, blockers, cand, n, kept, false);
         if (cls == ShaftClass::kVisible) return;
-        // One convex solid (a building, a box) that hides the whole shaft, though none of its
-        // faces alone does: the cell is in its umbra.
-        if (cls == ShaftClass::kPartial) {
-            int tried[4] = {-1, -1, -1, -1};
-            for (int k : kept) {
-                const int so = blockers.piece(k).solid;
-                if (so < 0 || std::find(std::begin(tried), std::end(tried), so) != std::end(tried))
-                    continue;
-                std::rotate(std::begin(tried), std::begin(tried) + 3, std::end(tried));
-                tried[0] = so;
-                if (blockers.solid_hides(so, poly, np, rc.poly.v.data(), rc.poly.n)) {
-                    cls = ShaftClass::kHidden;
-                    break;
-                }
-            }
-        }
         // Hidden: the cell's whole unobstructed part, in closed form.
         if (cls == ShaftClass::kHidden) {
             Polygon cp;

@@ -67,7 +67,8 @@ class BlockerSet {
     bool culls_at(int solid, const Vec3& x, double face_distance) const;
     /// True when convex solid `solid` hides every segment between the convex polygons a (na
     /// vertices) and b (nb): neither reaches into it (each on or in front of one of its planes),
-    /// and every segment between a vertex of a and a vertex of b meets it. The points x whose
+    /// and every segment between a vertex of a and a vertex of b meets it (in more than one
+    /// point: a polygon on one of its faces touches it wherever it looks). The points x whose
     /// segment to a fixed point y meets a convex solid form a convex set (and so do the points
     /// y for a fixed x), so the vertex segments decide for all points; a segment between two
     /// points outside that passes through the interior crosses the boundary twice, at most once
@@ -143,6 +144,11 @@ class Shaft {
     bool piece_hides(const Vec3* p, int count, const Plane& pl) const;
     /// Every vertex of b is behind or on a's plane, or every vertex of a behind b's plane: F = 0.
     bool facing_away() const { return facing_away_; }
+    /// The two polygons of build().
+    const Vec3* a() const { return a_; }
+    const Vec3* b() const { return b_; }
+    int a_count() const { return na_; }
+    int b_count() const { return nb_; }
 
   private:
     const Vec3* a_ = nullptr;
@@ -161,8 +167,9 @@ class Shaft {
 enum class ShaftClass : std::uint8_t { kVisible, kHidden, kPartial };
 
 /// Classifies the pair behind `shaft` against the candidate pieces cand[0..n): kHidden when one
-/// piece hides every segment, kVisible when none can block, else kPartial with `kept` = the
-/// pieces that may block (a subset of cand, in order).
+/// piece, or the convex solid of some of them (BlockerSet::solid_hides()), hides every
+/// segment, kVisible when none can block, else kPartial with `kept` = the pieces that may block
+/// (a subset of cand, in order).
 ShaftClass classify_shaft(const Shaft& shaft, const BlockerSet& blockers, const int* cand, int n,
                           std::vector<int>& kept, bool exact = true);
 
