@@ -21,7 +21,8 @@ DEB_PACKAGES := cmake g++ make pkg-config \
 	python3-dev python3-numpy python3-scipy python3-pytest python3-matplotlib python3-h5py \
 	python3-setuptools python3-wheel python3-pip python3-venv \
 	clang libclang-rt-14-dev clang-format chromium \
-	gmsh libassimp-dev
+	gmsh libassimp-dev \
+	openmpi-bin libopenmpi-dev python3-mpi4py
 # node and npm bundle the result page (web/) at build time; a machine with its own node (e.g.
 # NodeSource's, which carries npm) keeps it.
 DEB_PACKAGES += $(if $(shell command -v npm),,nodejs npm)
