@@ -19,6 +19,7 @@ using namespace formfactor;
 using formfactor::testing::read_text;
 using formfactor::testing::shell_quote;
 using formfactor::testing::TempDir;
+using formfactor::testing::write_text;
 
 namespace {
 
@@ -64,18 +65,21 @@ std::string tagged(std::string text, const std::string& tag) {
     return text;
 }
 
-// `compute ARGS` on one process and on 2 and 3 ranks ("{}" in ARGS and FILES: 1, 2 or 3): the
-// bytes of each of FILES are the same in the three runs.
+// `formfactor ARGS` on one process and on 2 and 3 ranks ("{}" in ARGS and FILES: 1, 2 or 3):
+// the bytes of each of FILES are the same in the three runs.
 void check_same_files_on_any_rank_count(const std::string& args,
                                         const std::vector<std::string>& files) {
     TempDir dir;
-    const Run one = run(dir, 0, "compute " + tagged(args, "1"));
+    write_text(dir.file("p.csv"),
+               "surface,emissivity,temperature\nx0,1,300\nx1,0.5,300\ny0,1,300\ny1,1,300\n"
+               "z0,0.6,1000\nz1,0.8,400\n");
+    const Run one = run(dir, 0, tagged(args, "1"));
     INFO(said(one));
     REQUIRE(one.code == 0);
     for (int ranks : {2, 3}) {
         CAPTURE(ranks);
         const std::string tag = std::to_string(ranks);
-        const Run r = run(dir, ranks, "compute " + tagged(args, tag));
+        const Run r = run(dir, ranks, tagged(args, tag));
         INFO(said(r));
         REQUIRE(r.code == 0);
         CHECK(r.out.find("ranks      " + tag + " × ") != std::string::npos);
@@ -94,7 +98,7 @@ TEST_CASE(
     "mpi: analytic F of an obstructed room is bit-identical on 2 and 3 ranks as on one process" *
     doctest::test_suite("mpi")) {
     check_same_files_on_any_rank_count(
-        "room-4-obstruction --method analytic --threads 1 -o F{}.npy --patches P{}.csv",
+        "compute room-4-obstruction --method analytic --threads 1 -o F{}.npy --patches P{}.csv",
         {"F{}.npy", "P{}.csv"});
 }
 
@@ -103,7 +107,8 @@ TEST_CASE(
     "process" *
     doctest::test_suite("mpi")) {
     check_same_files_on_any_rank_count(
-        "cornell --subdivide 2 --method mc-hemisphere --samples 2000 --threads 1 -o F{}.npy "
+        "compute cornell --subdivide 2 --method mc-hemisphere --samples 2000 --threads 1 -o "
+        "F{}.npy "
         "--stderr SE{}.npy",
         {"F{}.npy", "SE{}.npy"});
 }
@@ -111,7 +116,7 @@ TEST_CASE(
 TEST_CASE("mpi: hemicube F is bit-identical on 2 and 3 ranks as on one process" *
           doctest::test_suite("mpi")) {
     check_same_files_on_any_rank_count(
-        "cornell --subdivide 3 --method hemicube --resolution 64 --threads 2 -o F{}.npy",
+        "compute cornell --subdivide 3 --method hemicube --resolution 64 --threads 2 -o F{}.npy",
         {"F{}.npy"});
 }
 
@@ -120,12 +125,25 @@ TEST_CASE("mpi: sparse .mtx is bit-identical on 2 and 3 ranks as on one process"
     // Rows the method emits sparse (analytic, obstructed), and dense blocks made sparse on
     // their rank (hemicube).
     check_same_files_on_any_rank_count(
-        "room-4-obstruction --method analytic --threshold 1e-3 --threads 1 -o F{}.mtx",
+        "compute room-4-obstruction --method analytic --threshold 1e-3 --threads 1 -o F{}.mtx",
         {"F{}.mtx"});
     check_same_files_on_any_rank_count(
-        "cornell --subdivide 2 --method hemicube --resolution 64 --threshold 1e-4 --repair "
+        "compute cornell --subdivide 2 --method hemicube --resolution 64 --threshold 1e-4 --repair "
         "reciprocity --threads 1 -o F{}.mtx",
         {"F{}.mtx"});
+}
+
+TEST_CASE("mpi: thermal and radiosity solves write the same solution on 2 and 3 ranks" *
+          doctest::test_suite("mpi")) {
+    // F over the ranks, gathered and solved on rank 0.
+    check_same_files_on_any_rank_count(
+        "solve cube --subdivide 3 --thermal --properties p.csv --threads 1 -o T{}.csv "
+        "--exchange-factors X{}.csv",
+        {"T{}.csv", "X{}.csv"});
+    check_same_files_on_any_rank_count(
+        "solve cornell --subdivide 2 --method mc-hemisphere --samples 400 --storage sparse "
+        "--solver gauss-seidel --threads 1 -o B{}.csv",
+        {"B{}.csv"});
 }
 
 TEST_CASE(
