@@ -18,6 +18,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <new>
 #include <optional>
 #include <thread>
 
@@ -37,6 +38,9 @@ constexpr int kTagCommand = 1, kTagResult = 2, kTagAssign = 3;
 constexpr std::int64_t kCommandJob = 1, kCommandFinish = 2;
 enum class JobKind : std::uint8_t { dense, sparse };
 enum class Status : std::uint8_t { ready, rows, failed, cancelled };
+constexpr const char* kOutOfMemory =
+    "out of memory: the run needed more memory than this rank's machine could give (use fewer "
+    "patches, or free memory)";
 
 bool g_active = false;  // MPI was initialised by a Session
 bool g_finished = false;
@@ -106,9 +110,9 @@ std::vector<char> job_bytes(const Job& job, const Scene& scene) {
 
 // Rank 0: the job to every other rank (a command each, then one broadcast).
 void broadcast_job(const std::vector<char>& bytes) {
+    std::int64_t size = static_cast<std::int64_t>(message_size(bytes));  // may throw: first
     for (int r = 1; r < g_size; ++r)
         MPI_Send(&kCommandJob, 1, MPI_INT64_T, r, kTagCommand, MPI_COMM_WORLD);
-    std::int64_t size = static_cast<std::int64_t>(message_size(bytes));
     MPI_Bcast(&size, 1, MPI_INT64_T, 0, MPI_COMM_WORLD);
     MPI_Bcast(const_cast<char*>(bytes.data()), static_cast<int>(size), MPI_BYTE, 0, MPI_COMM_WORLD);
 }
@@ -199,7 +203,7 @@ struct Failure {
 // The dispatcher (rank 0): answers every worker until each has been told the job is over.
 // `job_cancel` stops rank 0's own blocks when a worker fails or this process is interrupted.
 void dispatch(Schedule& schedule, BlockSink& sink, Failure& failure, CancellationFlag& job_cancel,
-              std::vector<double>& rows, std::vector<double>& busy) {
+              Progress& progress, std::vector<double>& rows, std::vector<double>& busy) {
     int active = g_size - 1;
     auto pause = std::chrono::microseconds(20);
     std::optional<std::chrono::steady_clock::time_point> interrupted;
@@ -232,6 +236,7 @@ void dispatch(Schedule& schedule, BlockSink& sink, Failure& failure, Cancellatio
             rows[static_cast<std::size_t>(from)] += double(block.size());
             try {
                 sink.remote(block, r);
+                progress.advance(block.size());
             } catch (...) {
                 failure.record_local(std::current_exception());
                 schedule.stop();
@@ -278,12 +283,13 @@ void run_job(const Job& job, const Scene& scene, std::size_t max_rows, BlockSink
         }
     };
     if (g_thread_level >= MPI_THREAD_SERIALIZED) {
-        std::thread dispatcher([&] { dispatch(schedule, sink, failure, job_cancel, rows, busy); });
+        std::thread dispatcher(
+            [&] { dispatch(schedule, sink, failure, job_cancel, progress, rows, busy); });
         compute_local(false);
         dispatcher.join();
     } else {  // MPI calls from one thread only: rank 0 computes its first block, then dispatches
         compute_local(true);
-        dispatch(schedule, sink, failure, job_cancel, rows, busy);
+        dispatch(schedule, sink, failure, job_cancel, progress, rows, busy);
     }
     if (failure.any()) failure.rethrow();
     process_cancellation().throw_if_requested();
@@ -378,6 +384,8 @@ void work_on_job(const std::vector<char>& bytes) {
         message = std::move(w.bytes());
     } catch (const Cancelled& e) {
         message = failed(Status::cancelled, e.what());
+    } catch (const std::bad_alloc&) {
+        message = failed(Status::failed, kOutOfMemory);
     } catch (const std::exception& e) {
         message = failed(Status::failed, e.what());
     }
@@ -403,6 +411,8 @@ void work_on_job(const std::vector<char>& bytes) {
             message = std::move(w.bytes());
         } catch (const Cancelled& e) {
             message = failed(Status::cancelled, e.what());
+        } catch (const std::bad_alloc&) {
+            message = failed(Status::failed, kOutOfMemory);
         } catch (const std::exception& e) {
             message = failed(Status::failed, e.what());
         }

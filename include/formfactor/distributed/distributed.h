@@ -19,7 +19,9 @@
 /// "rank K: message"; no rank writes anything.
 ///
 /// Without MPI at configure time (FF_MPI off), or in a process not started by an MPI launcher,
-/// there is one rank and these calls are the pipeline's own.
+/// there is one rank and these calls are the pipeline's own. A build without MPI that mpirun
+/// starts K times anyway takes its rank from the launcher's environment: rank 0 does all the
+/// work alone and the others return from serve() at once.
 
 #include <string>
 #include <vector>
