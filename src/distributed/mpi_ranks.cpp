@@ -125,8 +125,9 @@ std::vector<char> receive_job() {
     return bytes;
 }
 
-// Blocks of rows for every rank, guided: half the remaining rows spread over the ranks, so
-// blocks shrink as the rows run out and the last ones even out what costly rows unbalanced.
+// Blocks of rows for every rank, guided: a quarter of the remaining rows spread over the ranks,
+// so that blocks shrink as the rows run out and the last ones even out what costly rows (or a
+// slower node) unbalanced. Rank 0 takes the first block.
 class Schedule {
   public:
     Schedule(std::size_t n, int ranks, std::size_t max_rows)
@@ -139,7 +140,7 @@ class Schedule {
         const std::lock_guard lock(mutex_);
         if (stopped_ || next_ >= n_) return std::nullopt;
         const std::size_t rows =
-            std::clamp<std::size_t>((n_ - next_) / (2 * ranks_), min_rows_, max_rows_);
+            std::clamp<std::size_t>((n_ - next_) / (4 * ranks_), min_rows_, max_rows_);
         const RowRange block{next_, std::min(n_, next_ + rows)};
         next_ = block.end;
         ++blocks_;
