@@ -130,11 +130,14 @@ std::vector<char> receive_job() {
 // slower node) unbalanced. Rank 0 takes the first block.
 class Schedule {
   public:
-    Schedule(std::size_t n, int ranks, std::size_t max_rows)
+    /// `coarse`: at most two blocks per rank, for a method whose every call prepares the whole
+    /// scene (the analytic method classifies every pair of the scene's clusters per call).
+    Schedule(std::size_t n, int ranks, std::size_t max_rows, bool coarse)
         : n_(n),
           ranks_(static_cast<std::size_t>(ranks)),
           max_rows_(std::max<std::size_t>(1, max_rows)),
-          min_rows_(std::clamp<std::size_t>(n / (64 * ranks_), 1, max_rows_)) {}
+          min_rows_(std::clamp<std::size_t>(
+              coarse ? (n + 2 * ranks_ - 1) / (2 * ranks_) : n / (64 * ranks_), 1, max_rows_)) {}
 
     std::optional<RowRange> take() {
         const std::lock_guard lock(mutex_);
@@ -263,7 +266,8 @@ void run_job(const Job& job, const Scene& scene, std::size_t max_rows, BlockSink
              CancellationFlag& job_cancel, ProgressSink* progress_sink) {
     broadcast_job(job_bytes(job, scene));
     const std::size_t n = scene.patches.size();
-    Schedule schedule(n, g_size, max_rows);
+    Schedule schedule(n, g_size, max_rows,
+                      job.method == MethodKind::analytic || job.method == MethodKind::mc_target);
     Failure failure;
     std::vector<double> rows(static_cast<std::size_t>(g_size), 0.0), busy = rows;
     Progress progress("rows", n, progress_sink);
