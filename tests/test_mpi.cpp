@@ -29,31 +29,36 @@ struct Run {
     double seconds = 0;
 };
 
-// `formfactor ARGS` in `dir`, under mpirun with `ranks` ranks (0: no mpirun); `env` is a
-// VAR=VALUE exported to every rank, or empty.
-Run run(const TempDir& dir, int ranks, const std::string& args, const std::string& env = "") {
+// The shell command `cmd` in `dir`, its output captured and its wall time measured.
+Run run_shell(const TempDir& dir, const std::string& cmd) {
     TempDir capture;
-    std::string launcher;
-    if (ranks > 0) {
-        launcher = shell_quote(FF_TEST_MPIEXEC) + " -np " + std::to_string(ranks) +
-                   " --oversubscribe --bind-to none";
-        if (::geteuid() == 0) launcher += " --allow-run-as-root";
-        if (!env.empty()) launcher += " -x " + env;
-    } else if (!env.empty()) {
-        launcher = "env " + env;
-    }
     const std::string out = capture.file("stdout.txt"), err = capture.file("stderr.txt");
-    const std::string cmd = "cd " + shell_quote(dir.path().string()) + " && " + launcher + " " +
-                            shell_quote(FF_CLI_PATH) + " " + args + " > " + shell_quote(out) +
-                            " 2> " + shell_quote(err) + " < /dev/null";
+    const std::string line = "cd " + shell_quote(dir.path().string()) + " && (" + cmd + ") > " +
+                             shell_quote(out) + " 2> " + shell_quote(err) + " < /dev/null";
     const auto start = std::chrono::steady_clock::now();
-    const int status = std::system(cmd.c_str());
+    const int status = std::system(line.c_str());
     Run r;
     r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     r.code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
     r.out = read_text(out);
     r.err = read_text(err);
     return r;
+}
+
+// mpirun with `ranks` ranks (oversubscribed, unbound, as root when root); `env` is a VAR=VALUE
+// exported to every rank, or empty.
+std::string mpirun(int ranks, const std::string& env = "") {
+    std::string launcher = shell_quote(FF_TEST_MPIEXEC) + " -np " + std::to_string(ranks) +
+                           " --oversubscribe --bind-to none";
+    if (::geteuid() == 0) launcher += " --allow-run-as-root";
+    if (!env.empty()) launcher += " -x " + env;
+    return launcher;
+}
+
+// `formfactor ARGS` in `dir`, under mpirun with `ranks` ranks (0: no mpirun).
+Run run(const TempDir& dir, int ranks, const std::string& args, const std::string& env = "") {
+    const std::string launcher = ranks > 0 ? mpirun(ranks, env) + " " : std::string();
+    return run_shell(dir, launcher + shell_quote(FF_CLI_PATH) + " " + args);
 }
 
 std::string said(const Run& r) { return "stdout:\n" + r.out + "stderr:\n" + r.err; }
@@ -189,6 +194,20 @@ TEST_CASE("mpi: a failure on rank 1 ends every rank at once with its message and
     const auto first = r.err.find("formfactor:");
     CHECK(r.err.find("formfactor:", first + 1) == std::string::npos);
     CHECK(r.seconds < 6.0);
+    CHECK(dir.entries() == 0);
+}
+
+TEST_CASE("mpi: Ctrl-C on mpirun stops every rank within seconds and writes nothing" *
+          doctest::test_suite("mpi")) {
+    TempDir dir;
+    // The run takes 20 s or more; SIGINT goes to mpirun after 3 s, as Ctrl-C in a terminal.
+    const std::string job = mpirun(2) + " " + shell_quote(FF_CLI_PATH) +
+                            " compute cornell --subdivide 8 --method analytic --threads 1 -o F.npy";
+    const Run r = run_shell(dir, job + " & pid=$!; sleep 3; kill -INT $pid; wait $pid");
+    INFO(said(r));
+    CHECK(r.seconds < 3.0 + 5.0);
+    CHECK(r.code != 0);
+    CHECK(r.err.find("formfactor: interrupted by") != std::string::npos);
     CHECK(dir.entries() == 0);
 }
 
