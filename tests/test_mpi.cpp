@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cstdlib>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "cli_runner.h"
@@ -73,8 +74,10 @@ std::string tagged(std::string text, const std::string& tag) {
 // `formfactor ARGS` on one process and on 2 and 3 ranks ("{}" in ARGS and FILES: 1, 2 or 3):
 // the bytes of each of FILES are the same in the three runs.
 void check_same_files_on_any_rank_count(const std::string& args,
-                                        const std::vector<std::string>& files) {
+                                        const std::vector<std::string>& files,
+                                        const std::string& two_zone_model = "") {
     TempDir dir;
+    if (!two_zone_model.empty()) write_text(dir.file("two.idf"), two_zone_model);
     write_text(dir.file("p.csv"),
                "surface,emissivity,temperature\nx0,1,300\nx1,0.5,300\ny0,1,300\ny1,1,300\n"
                "z0,0.6,1000\nz1,0.8,400\n");
@@ -149,6 +152,23 @@ TEST_CASE("mpi: thermal and radiosity solves write the same solution on 2 and 3 
         "solve cornell --subdivide 2 --method mc-hemisphere --samples 400 --storage sparse "
         "--solver gauss-seidel --threads 1 -o B{}.csv",
         {"B{}.csv"});
+}
+
+TEST_CASE("mpi: every zone of a model, one job per zone, gives the same EnergyPlus file" *
+          doctest::test_suite("mpi")) {
+    // Two zones: the same room under other names (as the EnergyPlus output tests build it).
+    const std::string model =
+        read_text(std::string(FF_TEST_DATA_DIR) + "/energyplus/1ZoneUncontrolled_win_1.idf");
+    std::string second = model.substr(model.find("  Zone,"));
+    second = second.substr(0, second.find("  GlobalGeometryRules,")) +
+             second.substr(second.find("  BuildingSurface:Detailed,"));
+    for (const auto& [from, to] :
+         {std::pair<std::string, std::string>{"ZONE ONE", "ZONE TWO"}, {"Zn001", "Zn002"}})
+        for (std::size_t at = 0; (at = second.find(from, at)) != std::string::npos; at += to.size())
+            second.replace(at, from.size(), to);
+    check_same_files_on_any_rank_count(
+        "compute two.idf --all-zones --subdivide 2 --threads 1 -o vf{}.idf", {"vf{}.idf"},
+        model + second);
 }
 
 TEST_CASE(
