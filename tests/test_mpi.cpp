@@ -154,7 +154,7 @@ TEST_CASE("mpi: thermal and radiosity solves write the same solution on 2 and 3 
         {"B{}.csv"});
 }
 
-TEST_CASE("mpi: every zone of a model, one job per zone, gives the same EnergyPlus file" *
+TEST_CASE("mpi: every zone of a model (one job per zone) gives the same EnergyPlus file" *
           doctest::test_suite("mpi")) {
     // Two zones: the same room under other names (as the EnergyPlus output tests build it).
     const std::string model =
