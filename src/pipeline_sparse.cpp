@@ -15,9 +15,7 @@
 
 namespace formfactor {
 
-namespace {
-
-void merge_report(MethodReport& total, const MethodReport& block, bool first) {
+void merge_block_report(MethodReport& total, const MethodReport& block, bool first) {
     if (first) {
         total = block;
         return;
@@ -43,6 +41,8 @@ void merge_report(MethodReport& total, const MethodReport& block, bool first) {
         total.error_bound_per_entry =
             std::max(*total.error_bound_per_entry, *block.error_bound_per_entry);
 }
+
+namespace {
 
 // Closure is asked for (closure or both); refused for an open scene unless forced.
 bool sparse_closure(const Scene& scene, const RepairOptions& repair) {
@@ -184,7 +184,7 @@ SparseComputeResult compute_sparse_form_factors(const Scene& scene, const Comput
             builder->append(emitted, options.method_options.threads);
         else
             builder->append(block.form_factors, options.method_options.threads);
-        merge_report(result.report, block.report, result.run.blocks == 0);
+        merge_block_report(result.report, block.report, result.run.blocks == 0);
         result.threads = block.threads;
         ++result.run.blocks;
         // The CSR so far, extrapolated to every row: stop now when it will not fit.
