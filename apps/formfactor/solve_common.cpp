@@ -14,6 +14,7 @@
 #include "formfactor/output/solution_io.h"
 #include "formfactor/output/vtu.h"
 #include "formfactor/pipeline.h"
+#include "formfactor/scene/closure.h"
 
 namespace formfactor::cli {
 
@@ -32,7 +33,7 @@ void RepairArgs::add_to(CLI::App* cmd) {
 RepairOptions RepairArgs::options(const Scene& scene) const {
     RepairOptions o;
     o.mode = parse_repair_mode(mode);
-    o.enclosure = scene.enclosure;
+    o.enclosure = known_enclosure(scene);
     o.force_closure = force_closure;
     return o;
 }
@@ -234,6 +235,8 @@ nlohmann::json solve_and_stage(const Matrix& F, const PatchProperties& props, bo
         ThermalOptions to;
         to.solver = options;
         to.ambient_temperature = ambient_temperature;
+        // A closed model loses nothing: a row deficit is the estimate's error, not an opening.
+        to.closed = check_closure(scene).closed;
         const ThermalResult r = solve_thermal(F, props, to);
         times.add("solve", sw.lap());
         print_thermal_summary(r);
