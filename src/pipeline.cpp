@@ -18,6 +18,7 @@
 #include "formfactor/methods/hemicube.h"
 #include "formfactor/methods/hemiplane.h"
 #include "formfactor/methods/point_factors.h"
+#include "formfactor/scene/closure.h"
 #include "formfactor/scene/energyplus.h"
 #include "formfactor/scene/merge_coplanar.h"
 
@@ -154,7 +155,7 @@ ComputeResult compute_form_factors(const Scene& scene, const ComputeOptions& opt
     if (whole && !emit_sparse) result.diagnostics = diagnose(result.form_factors);
     if (options.repair.mode != RepairMode::none) {
         RepairOptions ro = options.repair;
-        ro.enclosure = scene.enclosure;
+        ro.enclosure = known_enclosure(scene);
         result.repair = repair(result.form_factors.F, result.form_factors.areas, ro);
         result.timings.add("repair", sw.lap());
     }
@@ -178,7 +179,7 @@ ComputeResult form_factors_from_matrix(const Scene& scene, DenseMatrix F,
     if (repair_options.mode != RepairMode::none) {
         Stopwatch sw;
         RepairOptions ro = repair_options;
-        ro.enclosure = scene.enclosure;
+        ro.enclosure = known_enclosure(scene);
         result.repair = repair(result.form_factors.F, result.form_factors.areas, ro);
         result.timings.add("repair", sw.lap());
     }

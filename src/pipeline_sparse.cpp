@@ -11,13 +11,12 @@
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
 #include "formfactor/methods/method.h"
+#include "formfactor/scene/closure.h"
 #include "formfactor/visibility/visibility.h"
 
 namespace formfactor {
 
-namespace {
-
-void merge_report(MethodReport& total, const MethodReport& block, bool first) {
+void merge_block_report(MethodReport& total, const MethodReport& block, bool first) {
     if (first) {
         total = block;
         return;
@@ -29,8 +28,9 @@ void merge_report(MethodReport& total, const MethodReport& block, bool first) {
         total.pairs->far_field += block.pairs->far_field;
     }
     if (total.rays_cast && block.rays_cast) *total.rays_cast += *block.rays_cast;
-    // Counts of closed-model rays (mc-hemisphere) add up, and so does their warning.
-    for (const char* key : {"closed_model_escapes", "recast_rays"})
+    // Counts of closed-model rays and segments add up, and so does their warning.
+    for (const char* key :
+         {"closed_model_escapes", "recast_rays", "rechecked_segments", "segments_through_model"})
         if (total.details.contains(key) && block.details.contains(key))
             total.details[key] =
                 total.details.at(key).unsigned_integer() + block.details.at(key).unsigned_integer();
@@ -44,10 +44,12 @@ void merge_report(MethodReport& total, const MethodReport& block, bool first) {
             std::max(*total.error_bound_per_entry, *block.error_bound_per_entry);
 }
 
+namespace {
+
 // Closure is asked for (closure or both); refused for an open scene unless forced.
 bool sparse_closure(const Scene& scene, const RepairOptions& repair) {
     const bool closure = repair.mode == RepairMode::closure || repair.mode == RepairMode::both;
-    if (closure && !scene.enclosure && !repair.force_closure)
+    if (closure && !repair.force_closure && !known_enclosure(scene))
         throw OptionError("repair",
                           "closure needs a closed enclosure (this scene is open: radiation "
                           "escapes); use reciprocity, which never raises a row sum");
@@ -184,7 +186,7 @@ SparseComputeResult compute_sparse_form_factors(const Scene& scene, const Comput
             builder->append(emitted, options.method_options.threads);
         else
             builder->append(block.form_factors, options.method_options.threads);
-        merge_report(result.report, block.report, result.run.blocks == 0);
+        merge_block_report(result.report, block.report, result.run.blocks == 0);
         result.threads = block.threads;
         ++result.run.blocks;
         // The CSR so far, extrapolated to every row: stop now when it will not fit.

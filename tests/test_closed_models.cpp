@@ -10,6 +10,7 @@
 
 #include "formfactor/pipeline.h"
 #include "formfactor/scene/closure.h"
+#include "formfactor/solve/thermal.h"
 #include "formfactor/visibility/visibility.h"
 #include "support/cli_runner.h"
 #include "support/closed_rooms.h"
@@ -295,4 +296,213 @@ TEST_CASE("closed models: info and the JSON report say whether the model is clos
     CHECK(j["details"]["closed_model"] == true);
     CHECK(j["details"]["closed_model_escapes"] == 0);
     CHECK(run.err.find("escaped") == std::string::npos);
+}
+
+namespace {
+
+// Segments of the sphere in a room that pass through the sphere's shared vertices and edges:
+// along the line from the centre through each vertex and each edge midpoint, from 1.2 before
+// the centre to 1.2 after it (free points inside the room), entering and leaving the sphere
+// (radius 0.8) through a vertex or an edge each time. Every one is blocked.
+std::vector<SegmentQuery> segments_through_sphere_vertices_and_edges() {
+    const Vec3 c(1.5, 1.5, 1.5);
+    std::vector<Vec3> aims;
+    for (const Polygon& p : sphere_faces(c, 0.8, 8, 12))
+        for (std::size_t k = 0; k < p.size(); ++k) {
+            aims.push_back(p[k]);
+            aims.push_back(0.5 * (p[k] + p[(k + 1) % p.size()]));
+        }
+    std::vector<SegmentQuery> q;
+    for (const Vec3& a : aims) {
+        const Vec3 u = (a - c).normalized();
+        q.push_back({c - 1.2 * u, c + 1.2 * u, -1, -1});
+    }
+    return q;
+}
+
+// Segments between the two wings of the L room (cells (0, 1) and (1, 0)) that pass outside its
+// re-entrant edge (x = y = 1) by `gap`, at heights through patch corners and between them:
+// each crosses the two walls of the corner within ~gap of their shared edge.
+std::vector<SegmentQuery> segments_past_the_reentrant_edge(double gap) {
+    std::vector<SegmentQuery> q;
+    for (int k = 1; k < 16; ++k) {
+        const double z = k / 16.0;
+        // Through (1 + gap/2, 1 + gap/2, z): outside the room (the solid corner x, y > 1).
+        q.push_back({Vec3(0.5, 1.5 + gap, z), Vec3(1.5 + gap, 0.5, z), -1, -1});
+    }
+    return q;
+}
+
+}  // namespace
+
+TEST_CASE("closed models: segments through a body's shared vertices and edges are blocked") {
+    const Scene s = sphere_in_room(1);
+    const std::vector<SegmentQuery> q = segments_through_sphere_vertices_and_edges();
+    for (bool robust : {false, true})
+        for (const auto batching :
+             {VisibilityOptions::Batching::single, VisibilityOptions::Batching::packet16,
+              VisibilityOptions::Batching::stream}) {
+            CAPTURE(robust);
+            CAPTURE(static_cast<int>(batching));
+            VisibilityOptions vo;
+            vo.robust = robust;
+            vo.batching = batching;
+            const auto vis = make_visibility(s, vo);
+            REQUIRE(vis->closed());
+            std::vector<std::uint8_t> blocked(q.size());
+            vis->occluded(q, blocked);
+            std::size_t clear = 0;
+            for (std::uint8_t b : blocked) clear += b ? 0 : 1;
+            MESSAGE(std::string(robust ? "robust: " : "default: ")
+                    << q.size() << " segments, " << vis->segments_blocked_by_recheck()
+                    << " let through by single precision");
+            CHECK(clear == 0);
+        }
+}
+
+TEST_CASE(
+    "closed models: segments that leave a non-convex room past its re-entrant edge are "
+    "blocked") {
+    for (int n : {1, 2})
+        for (double gap : {1e-12, 1e-9, 1e-7, 1e-4})
+            for (bool robust : {false, true}) {
+                CAPTURE(n);
+                CAPTURE(gap);
+                CAPTURE(robust);
+                const Scene s = scene_of(room_faces(l_room(), 1.0), n, "L");
+                VisibilityOptions vo;
+                vo.robust = robust;
+                const auto vis = make_visibility(s, vo);
+                REQUIRE(vis->closed());
+                const std::vector<SegmentQuery> q = segments_past_the_reentrant_edge(gap);
+                std::vector<std::uint8_t> blocked(q.size());
+                vis->occluded(q, blocked);
+                std::size_t clear = 0;
+                for (std::uint8_t b : blocked) clear += b ? 0 : 1;
+                MESSAGE("n = " << n << ", gap " << gap << std::string(robust ? ", robust: " : ": ")
+                               << vis->segments_blocked_by_recheck() << " of " << q.size()
+                               << " let through by single precision");
+                CHECK(clear == 0);
+            }
+}
+
+TEST_CASE("closed models: segments inside a closed room stay clear after the re-check") {
+    // Between the wings of the L room inside its corner (gap < 0): nothing blocks.
+    const Scene s = scene_of(room_faces(l_room(), 1.0), 2, "L");
+    const auto vis = make_visibility(s);
+    const std::vector<SegmentQuery> q = segments_past_the_reentrant_edge(-1e-3);
+    std::vector<std::uint8_t> blocked(q.size());
+    vis->occluded(q, blocked);
+    for (std::uint8_t b : blocked) CHECK(b == 0);
+    CHECK(vis->segments_blocked_by_recheck() == 0);
+    // Those that pass the edge within epsilon() are checked again, and stay clear too.
+    const std::vector<SegmentQuery> near = segments_past_the_reentrant_edge(-0.5 * vis->epsilon());
+    vis->occluded(near, blocked);
+    for (std::uint8_t b : blocked) CHECK(b == 0);
+    CHECK(vis->rechecked_segments() == near.size());
+    CHECK(vis->segments_blocked_by_recheck() == 0);
+}
+
+TEST_CASE("closed models: mc-area and mc-target report the segments the re-check blocked") {
+    for (const MethodKind m : {MethodKind::mc_area, MethodKind::mc_target})
+        for (const Rooms& room : {Rooms{"L", scene_of(room_faces(l_room(), 1.0), 2, "L")},
+                                  Rooms{"sphere in a room", sphere_in_room(1)}}) {
+            CAPTURE(room.name);
+            CAPTURE(static_cast<int>(m));
+            ComputeOptions o;
+            o.method = m;
+            o.method_options.samples = 64;
+            const ComputeResult r = compute_form_factors(room.scene, o);
+            const Fields& d = r.report.details;
+            REQUIRE(d.contains("closed_model"));
+            CHECK(d.at("closed_model").boolean());
+            CHECK(d.contains("rechecked_segments"));
+            CHECK(d.contains("segments_through_model"));
+            MESSAGE(room.name << ": " << d.at("rechecked_segments").unsigned_integer()
+                              << " clear segments re-checked, "
+                              << d.at("segments_through_model").unsigned_integer()
+                              << " blocked by the re-check");
+        }
+    ComputeOptions o;
+    o.method = MethodKind::mc_area;
+    o.method_options.samples = 16;
+    CHECK_FALSE(
+        compute_form_factors(load_scene("cornell"), o).report.details.contains("closed_model"));
+}
+
+TEST_CASE("closed models: a closed model's thermal solve sends nothing to the environment") {
+    // The cube's exact F with every row short by 1e-3 (as an estimate may be): solved as a
+    // closed model, the deficit is the estimate's error and the power stays inside; as an open
+    // scene, a view of 0 K that takes the power.
+    Scene cube = load_scene("cube");
+    subdivide(cube, SubdivisionOptions{2, 0.0});
+    ComputeOptions co;
+    co.method = MethodKind::analytic;
+    FormFactors ff = compute_form_factors(cube, co).form_factors;
+    ff.F *= 0.999;
+    PatchProperties props = properties_from_scene(cube);
+    for (std::size_t i = 0; i < props.size(); ++i) {
+        props.emissivity[i] = 0.8;
+        props.temperature[i] = i < 4 ? 1000.0 : 300.0;
+        props.net_flux[i] = std::numeric_limits<double>::quiet_NaN();
+    }
+    auto has = [](const ThermalResult& r, const std::string& text) {
+        for (const std::string& w : r.warnings)
+            if (w.find(text) != std::string::npos) return true;
+        return false;
+    };
+    ThermalOptions to;
+    const ThermalResult open = solve_thermal(ff, props, to);
+    CHECK(has(open, "open scene"));
+    CHECK(open.escaped_power > 0);
+    to.closed = true;
+    const ThermalResult closed = solve_thermal(ff, props, to);
+    CHECK(closed.closed);
+    CHECK_FALSE(has(closed, "open scene"));
+    CHECK(has(closed, "closed model with row sums down to 0.999"));
+    CHECK(closed.escaped_power == 0.0);
+    // The missing part sees the patch itself: the power stays in (F reciprocal).
+    CHECK(closed.relative_balance_defect < 1e-12);
+    CHECK(open.relative_balance_defect < 1e-12);
+    CHECK(std::abs(closed.total_net_power) < 1e-9 * std::abs(open.total_net_power));
+    // Every patch with a prescribed flux: singular in a closed model, whatever the row sums.
+    for (std::size_t i = 0; i < props.size(); ++i) {
+        props.net_flux[i] = i < 4 ? 1000.0 : -1000.0 / 5.0;
+        props.temperature[i] = std::numeric_limits<double>::quiet_NaN();
+    }
+    CHECK_THROWS_AS(solve_thermal(ff, props, to), Error);
+}
+
+TEST_CASE("closed models: the CLI solves a closed model's thermal problem as closed") {
+    testing::Cli cli;
+    std::ofstream(cli.file("p.csv"))
+        << "surface,emissivity,temperature\nx0,1,300\nx1,1,300\ny0,1,300\ny1,1,300\n"
+           "z0,0.6,1000\nz1,1,300\n";
+    // mc-area's rows do not sum to 1: before, the solve called the cube open and sent power to
+    // a 0 K environment.
+    const testing::CliResult r = cli.run(
+        "solve cube --subdivide 2 --method mc-area --samples 64 --thermal --properties p.csv "
+        "-o t.csv --report r.json");
+    INFO(r.out << r.err);
+    REQUIRE(r.code == 0);
+    CHECK(r.err.find("open scene") == std::string::npos);
+    std::ifstream in(cli.file("r.json"));
+    const nlohmann::json j = nlohmann::json::parse(in);
+    CHECK(j["solve"]["closed_model"] == true);
+    CHECK(j["solve"]["energy_balance"]["escaped_power_W"].get<double>() == 0.0);
+}
+
+TEST_CASE("closed models: closing the rows of a closed model needs no declared enclosure") {
+    ComputeOptions o;
+    o.method = MethodKind::mc_hemisphere;
+    o.method_options.samples = 500;
+    o.repair.mode = RepairMode::closure;
+    const Scene s = scene_of(room_faces(l_room(), 1.0), 1, "L");
+    REQUIRE_FALSE(s.enclosure);
+    REQUIRE(known_enclosure(s));
+    const ComputeResult r = compute_form_factors(s, o);
+    REQUIRE(r.repair);
+    for (const std::string& w : r.repair->warnings)
+        CHECK(w.find("not declared an enclosure") == std::string::npos);
+    CHECK_FALSE(known_enclosure(load_scene("cornell")));
 }

@@ -351,6 +351,11 @@ TEST_CASE("obstructed: analytic method on plates with obstructions, against exac
     CHECK(ob["max_error_estimate"].get<double>() <= 1e-6);
     CHECK(ob.contains("refinement_levels"));
     CHECK(d["error_bound_per_entry"].get<double>() <= 1e-6);
+    // The pass's cost was estimated from a sample of its pairs before the rest ran (here all
+    // of them: fewer than the sample size).
+    CHECK(ob["sampled_pairs"].get<std::size_t>() ==
+          ob["patch_pairs_partly_hidden"].get<std::size_t>());
+    CHECK(ob["estimated_seconds_partly_hidden"].get<double>() >= 0.0);
 }
 
 TEST_CASE("obstructed: fully hidden and fully visible pairs are settled without integration") {

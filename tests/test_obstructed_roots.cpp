@@ -291,6 +291,45 @@ TEST_CASE("obstructed roots: an open box standing on a floor is culled point by 
     CHECK(inward.piece(0).solid < 0);
 }
 
+TEST_CASE("obstructed roots: an open box hides what every corner-to-vertex segment crosses") {
+    // The box [0,1]³ without its bottom, standing on the floor z = 0.
+    BlockerSet all, bs;
+    int id = 0;
+    add_box(all, Vec3(0, 0, 0), Vec3(1, 1, 1), 1, id);
+    for (int k = 1; k < 6; ++k) {
+        Polygon p;
+        p.vertices.assign(all.vertices(k), all.vertices(k) + all.piece(k).count);
+        bs.add(p, k);
+    }
+    bs.build();
+    bs.mark_closed_solids({}, 1e-9);
+    const int s = bs.piece(0).solid;
+    REQUIRE(s >= 0);
+    // A floor triangle beside the box and a wall strip low on the far side: every segment
+    // between them runs through the box.
+    const Vec3 floor_beside[3] = {Vec3(2, 0.4, 0), Vec3(3, 0.4, 0), Vec3(2.5, 0.6, 0)};
+    const Vec3 low_wall[4] = {Vec3(-1, 0.4, 0.1), Vec3(-1, 0.4, 0.3), Vec3(-1, 0.6, 0.3),
+                              Vec3(-1, 0.6, 0.1)};
+    CHECK(bs.solid_hides(s, floor_beside, 3, low_wall, 4));
+    CHECK(bs.solid_hides(s, low_wall, 4, floor_beside, 3));
+    // Down to the floor on the far side: those segments run along the floor under the box,
+    // through the opening only, and the faces' bottom edges (a set of measure zero).
+    const Vec3 wall_to_floor[4] = {Vec3(-1, 0.4, 0), Vec3(-1, 0.4, 0.3), Vec3(-1, 0.6, 0.3),
+                                   Vec3(-1, 0.6, 0)};
+    CHECK(bs.solid_hides(s, floor_beside, 3, wall_to_floor, 4));
+    // Raised high enough that the segments pass over the box, or wide enough that some pass
+    // beside it: not hidden.
+    const Vec3 high_wall[4] = {Vec3(-1, 0.4, 5), Vec3(-1, 0.4, 6), Vec3(-1, 0.6, 6),
+                               Vec3(-1, 0.6, 5)};
+    CHECK_FALSE(bs.solid_hides(s, floor_beside, 3, high_wall, 4));
+    const Vec3 wide_wall[4] = {Vec3(-1, -2, 0.1), Vec3(-1, -2, 0.3), Vec3(-1, 0.6, 0.3),
+                               Vec3(-1, 0.6, 0.1)};
+    CHECK_FALSE(bs.solid_hides(s, floor_beside, 3, wide_wall, 4));
+    // A polygon that reaches into the box is not outside it.
+    const Vec3 inside[3] = {Vec3(0.5, 0.5, 0.5), Vec3(3, 0.4, 0), Vec3(3, 0.6, 0)};
+    CHECK_FALSE(bs.solid_hides(s, inside, 3, low_wall, 4));
+}
+
 TEST_CASE("obstructed roots: an open box on a floor hides as much as rays find") {
     // A box without its bottom standing on a 4x4 floor under a 2x2 ceiling, off the patch grid
     // so that floor patches lie partly under it: the floor patches' rows against mc-target

@@ -4,6 +4,7 @@
 
 #include <doctest/doctest.h>
 
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <string>
@@ -116,6 +117,39 @@ TEST_CASE("page: rows keep the entries above the threshold, and each row's dropp
     CHECK(m["threshold"].get<double>() < 0.2);
     options.max_entries = 30;
     CHECK(page_data(scene, content, options)["matrix"]["threshold"] == 0.0);
+}
+
+TEST_CASE(
+    "page: the error-bound field is the row's entries times the bound per entry, or "
+    "3 standard errors of the row sum") {
+    const Scene scene = builtin_scene("cube");
+    FormFactors ff = cube_matrix(scene);
+    PageContent content;
+    content.form_factors = &ff;
+    auto field = [&](const std::string& key) {
+        const nlohmann::json data = page_data(scene, content);
+        for (const auto& f : data["fields"])
+            if (f["key"] == key) return f;
+        return nlohmann::json();
+    };
+    CHECK(field("error_bound").is_null());  // no report, no standard errors: no bound to show
+    content.report = {{"details", {{"error_bound_per_entry", 1e-10}}}};
+    nlohmann::json f = field("error_bound");
+    REQUIRE(f.is_object());
+    CHECK(f["unit"] == "dimensionless, as F");
+    CHECK(f["label"].get<std::string>().find("1e-10") != std::string::npos);
+    std::vector<float> v = decode_f32(f["values"]);
+    REQUIRE(v.size() == 6);
+    CHECK(v[0] == doctest::Approx(5e-10));  // 5 nonzero entries in every row
+    // A Monte-Carlo matrix: 3 √(Σ_j se_ij²), here se = 0.01 on the 5 entries of each row.
+    content.report = nullptr;
+    ff.standard_error = DenseMatrix::Constant(6, 6, 0.01);
+    ff.standard_error->diagonal().setZero();
+    f = field("error_bound");
+    REQUIRE(f.is_object());
+    CHECK(f["label"].get<std::string>().find("3 standard errors") != std::string::npos);
+    v = decode_f32(f["values"]);
+    CHECK(v[3] == doctest::Approx(3 * std::sqrt(5 * 1e-4)).epsilon(1e-6));
 }
 
 TEST_CASE("page: content that does not match the scene is refused") {

@@ -15,6 +15,7 @@
 #include "common.h"
 #include "formfactor/core/cancel.h"
 #include "formfactor/core/error.h"
+#include "formfactor/distributed/distributed.h"
 #include "signals.h"
 
 namespace {
@@ -29,9 +30,8 @@ void print_error(const std::string& message) {
     fmt::print(stderr, "formfactor: {}\n", line);
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+// The command on rank 0 (the only rank without MPI).
+int run_command(int argc, char** argv) {
     CLI::App app{"formfactor " FF_VERSION
                  " — radiative form factors (view factors) between the polygons of a 3D scene",
                  "formfactor"};
@@ -86,6 +86,7 @@ int main(int argc, char** argv) {
         }
         print_error(fmt::format("interrupted by {}: stopped, no output written",
                                 formfactor::cli::signal_name(sig)));
+        formfactor::distributed::finish();
         return formfactor::cli::die_of_signal(sig);
     } catch (const formfactor::OptionError& e) {
         // The library names option fields; the user typed flags.
@@ -108,4 +109,30 @@ int main(int argc, char** argv) {
         print_error("internal error: unknown exception");
         return 3;
     }
+}
+
+// Under mpirun (formfactor/distributed/distributed.h): ranks other than 0 compute the rows
+// rank 0 hands them and print nothing; rank 0 runs the command and prints its one error line.
+int run_other_rank() {
+    formfactor::cli::install_signal_handlers();
+    try {
+        return formfactor::distributed::serve();
+    } catch (const formfactor::Cancelled&) {
+        const int sig = formfactor::cli::received_signal();
+        return sig ? formfactor::cli::die_of_signal(sig) : 1;
+    } catch (const std::exception& e) {
+        print_error(
+            fmt::format("rank {}: internal error: {}", formfactor::distributed::rank(), e.what()));
+        return 3;
+    }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    formfactor::distributed::Session mpi(argc, argv);
+    if (mpi.rank() > 0) return run_other_rank();
+    const int code = run_command(argc, argv);
+    formfactor::distributed::finish();
+    return code;
 }

@@ -6,12 +6,15 @@
 #include <cstdio>
 
 #include "formfactor/core/error.h"
+#include "formfactor/core/parallel.h"
 #include "formfactor/core/progress.h"
+#include "formfactor/distributed/distributed.h"
 #include "formfactor/matrix/memory.h"
 #include "formfactor/output/report.h"
 #include "formfactor/output/solution_io.h"
 #include "formfactor/output/vtu.h"
 #include "formfactor/pipeline.h"
+#include "formfactor/scene/closure.h"
 
 namespace formfactor::cli {
 
@@ -30,7 +33,7 @@ void RepairArgs::add_to(CLI::App* cmd) {
 RepairOptions RepairArgs::options(const Scene& scene) const {
     RepairOptions o;
     o.mode = parse_repair_mode(mode);
-    o.enclosure = scene.enclosure;
+    o.enclosure = known_enclosure(scene);
     o.force_closure = force_closure;
     return o;
 }
@@ -66,6 +69,19 @@ ComputedMatrix computed_matrix(ComputeResult&& r, StepTimes& times) {
 
 }  // namespace
 
+void print_rank_shares(int threads) {
+    const distributed::RankShares& shares = distributed::last_rank_shares();
+    if (distributed::size() <= 1 || shares.rows.empty()) return;
+    std::string rows, busy;
+    for (std::size_t r = 0; r < shares.rows.size(); ++r) {
+        rows += fmt::format("{}{:.0f}", r ? " / " : "", shares.rows[r]);
+        busy += fmt::format("{}{:.2f}", r ? " / " : "", shares.busy_seconds[r]);
+    }
+    fmt::print("ranks      {} × {} thread{}: rows {}, busy {} s, imbalance {:.1f} %, {} blocks\n",
+               shares.rows.size(), threads, threads == 1 ? "" : "s", rows, busy,
+               100.0 * shares.imbalance(), shares.blocks);
+}
+
 ComputedMatrix compute_matrix(const Scene& scene, const MethodArgs& method,
                               const RepairArgs& repair, StepTimes& times) {
     ComputeOptions o = method.compute_options();
@@ -73,7 +89,10 @@ ComputedMatrix compute_matrix(const Scene& scene, const MethodArgs& method,
     TerminalProgress bar;
     o.progress = &bar;
     o.cancel = &process_cancellation();
-    return computed_matrix(compute_form_factors(scene, o), times);
+    // Over every MPI rank under mpirun; the pipeline's own on one process.
+    ComputedMatrix computed = computed_matrix(distributed::compute_form_factors(scene, o), times);
+    print_rank_shares(effective_threads(o.method_options.threads));
+    return computed;
 }
 
 ComputedMatrix use_matrix(const Scene& scene, DenseMatrix F, const std::string& source,
@@ -216,6 +235,8 @@ nlohmann::json solve_and_stage(const Matrix& F, const PatchProperties& props, bo
         ThermalOptions to;
         to.solver = options;
         to.ambient_temperature = ambient_temperature;
+        // A closed model loses nothing: a row deficit is the estimate's error, not an opening.
+        to.closed = check_closure(scene).closed;
         const ThermalResult r = solve_thermal(F, props, to);
         times.add("solve", sw.lap());
         print_thermal_summary(r);

@@ -38,8 +38,13 @@ struct ComputedMatrix {
     Diagnostics raw;                       ///< of F as the method made it (before repair)
 };
 
-/// Computes F of `scene` through the pipeline with the method and repair options, progress on
-/// the terminal; prints the repair line; adds the pipeline's steps to `times`.
+/// Under mpirun: prints what each rank computed in the last run (rows, busy seconds,
+/// imbalance); nothing on one process.
+void print_rank_shares(int threads);
+
+/// Computes F of `scene` through the pipeline (over every MPI rank under mpirun) with the method
+/// and repair options, progress on the terminal; prints the repair line; adds the pipeline's
+/// steps to `times`.
 ComputedMatrix compute_matrix(const Scene& scene, const MethodArgs& method,
                               const RepairArgs& repair, StepTimes& times);
 

@@ -3,7 +3,9 @@
 #include <fmt/format.h>
 
 #include "formfactor/core/cancel.h"
+#include "formfactor/core/parallel.h"
 #include "formfactor/core/progress.h"
+#include "formfactor/distributed/distributed.h"
 #include "formfactor/output/report.h"
 
 namespace formfactor::cli {
@@ -21,8 +23,10 @@ SparseComputeResult compute_sparse_matrix(const Scene& scene, const MethodArgs& 
     o.cancel = &process_cancellation();
     SparseOptions so;
     so.threshold = threshold;
-    SparseComputeResult r = compute_sparse_form_factors(scene, o, so);
+    // Over every MPI rank under mpirun; the pipeline's own on one process.
+    SparseComputeResult r = distributed::compute_sparse_form_factors(scene, o, so);
     times.add(r.timings);
+    print_rank_shares(effective_threads(o.method_options.threads));
     print_method_warnings(r.report);
     return r;
 }

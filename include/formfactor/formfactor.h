@@ -13,6 +13,7 @@
 #include "formfactor/core/random.h"
 #include "formfactor/core/timing.h"
 #include "formfactor/core/types.h"
+#include "formfactor/distributed/distributed.h"
 #include "formfactor/geometry/polygon.h"
 #include "formfactor/geometry/sampling.h"
 #include "formfactor/kernels/analytic.h"

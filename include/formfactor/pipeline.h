@@ -79,7 +79,7 @@ struct ComputeOptions {
     /// The rows of F to compute (every row by default).
     RowRange rows;
     /// Repair of F after the method (whole matrices only); RepairMode::none by default. The
-    /// enclosure flag is taken from the scene.
+    /// enclosure flag is known_enclosure(scene): declared, or a closed model.
     RepairOptions repair;
     /// Where progress goes; null (the default): nowhere.
     ProgressSink* progress = nullptr;

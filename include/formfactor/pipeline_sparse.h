@@ -71,6 +71,11 @@ struct SparseComputeResult {
     int threads = 0;
 };
 
+/// Adds the report of a block of rows to the report of the blocks before it (the first block's
+/// report when `first`): pairs, rays and seconds summed, the largest error bound, Monte-Carlo
+/// escape counts summed. For callers that compute a matrix in blocks (the sparse run, MPI).
+void merge_block_report(MethodReport& total, const MethodReport& block, bool first);
+
 /// The form factors of scene.patches in CSR form. `options` as for compute_form_factors(),
 /// except: options.rows must be every row (OptionError("rows") otherwise); options.repair
 /// selects the sparse repair (formfactor/matrix/sparse_repair.h): reciprocity → the open-scene

@@ -14,6 +14,7 @@
 #include "formfactor/methods/point_factors.h"
 #include "formfactor/output/page.h"
 #include "formfactor/output/report.h"
+#include "formfactor/scene/closure.h"
 
 namespace formfactor::python {
 
@@ -64,7 +65,7 @@ ComputeOptions options_of(const Scene& scene, const ComputeArgs& a) {
     }
     if (!a.repair.is_none())
         o.repair.mode = parse_repair_mode(arg<std::string>(a.repair, "repair"));
-    o.repair.enclosure = scene.enclosure;
+    o.repair.enclosure = known_enclosure(scene);
     o.repair.force_closure = a.force_closure;
     set_if(a.ray_offset, o.visibility.relative_epsilon, "ray_offset");
     o.visibility.robust = a.robust_rays;

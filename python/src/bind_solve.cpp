@@ -11,6 +11,7 @@
 #include "formfactor/matrix/repair.h"
 #include "formfactor/matrix/sparse.h"
 #include "formfactor/output/report.h"
+#include "formfactor/scene/closure.h"
 #include "formfactor/solve/properties.h"
 #include "formfactor/solve/radiosity.h"
 #include "formfactor/solve/thermal.h"
@@ -222,6 +223,7 @@ py::dict thermal(const PyScene& s, const py::object& F, const py::object& emissi
     ThermalOptions o;
     o.solver = solver_options(solver, residual, max_iterations, threads);
     o.ambient_temperature = ambient_temperature;
+    o.closed = check_closure(*s.scene).closed;
     if (!(ambient_temperature >= 0.0) || !std::isfinite(ambient_temperature)) {
         throw OptionError(
             "ambient_temperature",

@@ -40,6 +40,13 @@ void TerminalProgress::finish(const std::string&) {
     drawn_ = false;
 }
 
+void TerminalProgress::note(const std::string& text) {
+    if (drawn_) std::fprintf(stderr, "\r\033[K");
+    drawn_ = false;
+    std::fprintf(stderr, "formfactor: %s\n", text.c_str());
+    std::fflush(stderr);
+}
+
 Progress::Progress(std::string label, std::size_t total, ProgressSink* sink)
     : label_(std::move(label)),
       total_(total),

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <optional>
 #include <ostream>
 
 #include "formfactor/core/atomic_file.h"
@@ -130,9 +131,19 @@ double auto_threshold(const Rows& m, std::size_t budget) {
     return 0.0;
 }
 
+// The method's bound on |F_ij − exact| per entry, from the run's report (exact-grade methods).
+std::optional<double> error_bound_per_entry(const nlohmann::json& report) {
+    if (!report.is_object() || !report.contains("details")) return std::nullopt;
+    const nlohmann::json& d = report["details"];
+    if (!d.is_object() || !d.contains("error_bound_per_entry")) return std::nullopt;
+    const nlohmann::json& e = d["error_bound_per_entry"];
+    if (!e.is_number() || !(e.get<double>() >= 0.0)) return std::nullopt;
+    return e.get<double>();
+}
+
 template <class Rows>
 nlohmann::json matrix_json(const Scene& scene, const Rows& m, const PageOptions& options,
-                           nlohmann::json& fields) {
+                           std::optional<double> bound_per_entry, nlohmann::json& fields) {
     const std::size_t n = m.size();
     if (n != scene.patches.size())
         throw Error(fmt::format("the page's matrix is {}×{} but the scene has {} patches", n, n,
@@ -140,15 +151,18 @@ nlohmann::json matrix_json(const Scene& scene, const Rows& m, const PageOptions&
     const double threshold =
         options.threshold >= 0.0 ? options.threshold : auto_threshold(m, options.max_entries);
     std::vector<std::uint32_t> row_ptr{0}, col;
-    std::vector<float> val, se, dropped(n, 0.0f), se_max(n, 0.0f);
+    std::vector<float> val, se, dropped(n, 0.0f), se_max(n, 0.0f), row_error(n, 0.0f);
     std::vector<double> row_sum(n, 0.0);
     std::size_t nonzeros = 0;
     for (std::size_t i = 0; i < n; ++i) {
-        double sum = 0.0, lost = 0.0, worst = 0.0;
+        double sum = 0.0, lost = 0.0, worst = 0.0, variance = 0.0;
+        std::size_t entries = 0;
         m.row(i, [&](std::size_t j, double v, double e) {
             ++nonzeros;
+            ++entries;
             sum += v;
             worst = std::max(worst, e);
+            variance += e * e;
             if (v > threshold || v < 0.0) {
                 col.push_back(static_cast<std::uint32_t>(j));
                 val.push_back(static_cast<float>(v));
@@ -160,6 +174,10 @@ nlohmann::json matrix_json(const Scene& scene, const Rows& m, const PageOptions&
         row_sum[i] = sum;
         dropped[i] = static_cast<float>(lost);
         se_max[i] = static_cast<float>(worst);
+        // The row sum's error: entries × the bound per entry, or 3 standard errors of the sum
+        // (entries treated as independent, as the report's row_sum_standard_error_max).
+        row_error[i] = static_cast<float>(bound_per_entry ? double(entries) * *bound_per_entry
+                                                          : 3.0 * std::sqrt(variance));
         row_ptr.push_back(static_cast<std::uint32_t>(col.size()));
     }
     nlohmann::json j = {{"threshold", threshold},  {"stored_entries", val.size()},
@@ -183,6 +201,19 @@ nlohmann::json matrix_json(const Scene& scene, const Rows& m, const PageOptions&
                           {"label", "standard error, largest of the row"},
                           {"unit", ""},
                           {"values", f32(se_max)}});
+    if (bound_per_entry)
+        fields.push_back({{"key", "error_bound"},
+                          {"label", fmt::format("error bound of the row sum: its nonzero entries "
+                                                "× the method's bound per entry {:.3g}",
+                                                *bound_per_entry)},
+                          {"unit", "dimensionless, as F"},
+                          {"values", f32(row_error)}});
+    else if (m.standard_errors())
+        fields.push_back(
+            {{"key", "error_bound"},
+             {"label", "error bound of the row sum: 3 standard errors, 3 √(Σ_j se_ij²)"},
+             {"unit", "dimensionless, as F"},
+             {"values", f32(row_error)}});
     return j;
 }
 
@@ -323,10 +354,12 @@ nlohmann::json page_data(const Scene& scene, const PageContent& content,
           {"triangles", u32(triangles)},
           {"triangle_patch", u32(triangle_patch)}}},
     };
+    const std::optional<double> bound = error_bound_per_entry(content.report);
     if (content.form_factors)
-        j["matrix"] = matrix_json(scene, DenseSource{*content.form_factors}, options, fields);
+        j["matrix"] =
+            matrix_json(scene, DenseSource{*content.form_factors}, options, bound, fields);
     else if (content.sparse)
-        j["matrix"] = matrix_json(scene, CsrSource{*content.sparse}, options, fields);
+        j["matrix"] = matrix_json(scene, CsrSource{*content.sparse}, options, bound, fields);
     j["fields"] = fields;
     if (!content.report.is_null()) j["report"] = content.report;
     return j;

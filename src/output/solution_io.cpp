@@ -173,6 +173,7 @@ nlohmann::json to_json(const ThermalResult& r) {
             {"patches", r.radiosity.size()},
             {"solver", to_json(r.stats)},
             {"ambient_temperature_K", r.ambient_temperature},
+            {"closed_model", r.closed},
             {"energy_balance",
              {{"total_net_power_W", r.total_net_power},
               {"escaped_power_W", r.escaped_power},

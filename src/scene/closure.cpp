@@ -106,6 +106,10 @@ WeldedPatches weld_patches(const Scene& scene) {
 
 Closure check_closure(const Scene& scene) { return check_closure(scene, weld_patches(scene)); }
 
+bool known_enclosure(const Scene& scene) {
+    return scene.enclosure || (!scene.patches.empty() && check_closure(scene).closed);
+}
+
 Closure check_closure(const Scene& scene, const WeldedPatches& welded) {
     Closure r;
     r.tolerance = welded.tolerance;

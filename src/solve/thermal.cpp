@@ -40,6 +40,7 @@ ThermalResult thermal_on(const ThermalSystem& sys, const PatchProperties& props,
 
     ThermalResult res;
     res.ambient_temperature = options.ambient_temperature;
+    res.closed = options.closed;
     detail::Columns d(n, 1), c(n, 1), x;
     std::vector<double> open(static_cast<std::size_t>(n));
     std::size_t adiabatic = 0, known_t = 0;
@@ -64,18 +65,34 @@ ThermalResult thermal_on(const ThermalSystem& sys, const PatchProperties& props,
             d(i, 0) = 1.0;
             c(i, 0) = q + open[si] * eb_env;
         }
+        if (options.closed) {
+            // The missing part of the row sees the patch's own radiosity (as if F_ii held it):
+            // J_i = c_i + d_i (F J)_i + d_i o_i J_i, solved for J_i.
+            const double keep = 1.0 - d(i, 0) * open[si];
+            if (!(keep > 0.0))
+                throw Error(fmt::format(
+                    "thermal: patch {} of a closed model has a row of F that sums to {}", i, s));
+            c(i, 0) = (c(i, 0) - d(i, 0) * open[si] * eb_env) / keep;
+            d(i, 0) /= keep;
+        }
     }
     if (adiabatic > 0)
         res.warnings.push_back(fmt::format(
             "{} patch(es) have neither a temperature nor a net flux: treated as adiabatic "
             "(re-radiating, net_flux = 0)",
             adiabatic));
-    if (known_t == 0 && n > 0 && min_row_sum > 1.0 - sys.row_sum_tolerance)
+    if (known_t == 0 && n > 0 && (options.closed || min_row_sum > 1.0 - sys.row_sum_tolerance))
         throw Error(
             "thermal: every patch has a prescribed net flux (or none) in a closed enclosure: the "
             "temperatures are then defined only up to a constant; give at least one patch a "
             "temperature");
-    if (min_row_sum < 1.0 - std::max(1e-6, sys.row_sum_tolerance))
+    if (options.closed && min_row_sum < 1.0 - std::max(1e-6, sys.row_sum_tolerance))
+        res.warnings.push_back(fmt::format(
+            "closed model with row sums down to {:.6g}: the missing part is an error of the form "
+            "factors, not an opening; nothing is sent to the environment (--repair closure puts "
+            "it back into the rows)",
+            min_row_sum));
+    else if (min_row_sum < 1.0 - std::max(1e-6, sys.row_sum_tolerance))
         res.warnings.push_back(fmt::format(
             "open scene (row sums down to {:.6g}): the missing part of each row sees the "
             "environment, a black body at {} K",
@@ -98,7 +115,7 @@ ThermalResult thermal_on(const ThermalSystem& sys, const PatchProperties& props,
     for (Eigen::Index i = 0; i < n; ++i) {
         const auto si = static_cast<std::size_t>(i);
         const double J = x(i, 0);
-        const double h = H(i, 0) + open[si] * eb_env;
+        const double h = H(i, 0) + open[si] * (options.closed ? J : eb_env);
         const double eps = props.emissivity[si];
         const double T = props.temperature[si];
         double q;
@@ -123,7 +140,7 @@ ThermalResult thermal_on(const ThermalSystem& sys, const PatchProperties& props,
         res.net_flux[si] = q;
         res.net_power[si] = q * areas[si];
         res.total_net_power += res.net_power[si];
-        res.escaped_power += areas[si] * open[si] * (J - eb_env);
+        if (!options.closed) res.escaped_power += areas[si] * open[si] * (J - eb_env);
         abs_power += std::abs(res.net_power[si]);
     }
     if (negative_t > 0)

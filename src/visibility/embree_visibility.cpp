@@ -211,10 +211,12 @@ class EmbreeVisibility final : public Visibility {
         rtcCommitScene(scene_.get());
         errors_.check("scene build");
         triangles_ = tris.size();
+        if (closed_) build_edge_scene();
     }
 
     ~EmbreeVisibility() override {
-        scene_.reset();  // before its device
+        edge_scene_.reset();  // scenes before their device
+        scene_.reset();
     }
     EmbreeVisibility(const EmbreeVisibility&) = delete;
     EmbreeVisibility& operator=(const EmbreeVisibility&) = delete;
@@ -222,6 +224,12 @@ class EmbreeVisibility final : public Visibility {
     double epsilon() const override { return epsilon_; }
     bool closed() const override { return closed_; }
     std::uint64_t recast_rays() const override { return recast_.load(std::memory_order_relaxed); }
+    std::uint64_t rechecked_segments() const override {
+        return rechecked_.load(std::memory_order_relaxed);
+    }
+    std::uint64_t segments_blocked_by_recheck() const override {
+        return recheck_blocked_.load(std::memory_order_relaxed);
+    }
     std::size_t triangle_count() const override { return triangles_; }
     std::string description() const override {
         return "embree " + std::to_string(RTC_VERSION_MAJOR) + "." +
@@ -278,6 +286,8 @@ class EmbreeVisibility final : public Visibility {
             }
         }
         errors_.check("occlusion query");
+        if (closed_) recheck_segments(queries, blocked);
+        errors_.check("edge query");
     }
 
     void first_hit(std::span<const RayQuery> queries, std::span<RayHit> hits) const override {
@@ -328,6 +338,43 @@ class EmbreeVisibility final : public Visibility {
     }
 
   private:
+    // Capsules of radius epsilon() around every edge of every welded triangle (closed models):
+    // the segments that pass near an edge, which recheck_segments() checks again.
+    void build_edge_scene() {
+        edge_scene_.reset(rtcNewScene(device_.get()));
+        RTCGeometry geom = rtcNewGeometry(device_.get(), RTC_GEOMETRY_TYPE_ROUND_LINEAR_CURVE);
+        errors_.check("edge geometry");
+        const std::size_t edges = 3 * exact_.size();
+        auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(
+            geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, 4 * sizeof(float), 2 * edges));
+        auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
+            geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT, sizeof(unsigned), edges));
+        if (!vb || !ib) {
+            rtcReleaseGeometry(geom);
+            errors_.check("edge buffers");
+            throw Error("ray tracer (Embree): could not allocate edge buffers");
+        }
+        const auto radius = static_cast<float>(epsilon_);
+        std::size_t e = 0;
+        for (const auto& tri : exact_)
+            for (int k = 0; k < 3; ++k, ++e) {
+                for (int end = 0; end < 2; ++end) {
+                    const Vec3 v = tri[static_cast<std::size_t>((k + end) % 3)] - center_;
+                    float* out = vb + 4 * (2 * e + static_cast<std::size_t>(end));
+                    out[0] = static_cast<float>(v.x());
+                    out[1] = static_cast<float>(v.y());
+                    out[2] = static_cast<float>(v.z());
+                    out[3] = radius;
+                }
+                ib[e] = static_cast<unsigned>(2 * e);
+            }
+        rtcCommitGeometry(geom);
+        rtcAttachGeometry(edge_scene_.get(), geom);
+        rtcReleaseGeometry(geom);
+        rtcCommitScene(edge_scene_.get());
+        errors_.check("edge scene build");
+    }
+
     // The ray of q cast again in double precision from q.origin itself (not moved off its
     // patch, but onto its welded triangles) against the welded triangles (closed models): the
     // nearest front face of a patch other than q.from_patch at t ≥ −tolerance_, or an
@@ -360,16 +407,103 @@ class EmbreeVisibility final : public Visibility {
         out.distance = std::max(t, 0.0);
     }
 
+    // The segments of a closed model that the ray tracer found clear, checked again. Single
+    // precision misses a crossing only within its rounding of a triangle's edge; a segment that
+    // passes no edge closer than epsilon() (~100 times that rounding; Embree's capsules of that
+    // radius around every triangle edge, edge_scene_) has had every crossing found. The others
+    // are checked in double precision against the welded triangles with the watertight test of
+    // recast_exact(): a segment between two points of the model that leaves the volume crosses
+    // its surface, and a crossing through a shared edge or vertex is found there. Ends as in
+    // make_segment(): a blocker closer than epsilon() to an end is not seen (nor an edge), and
+    // the end patches never block.
+    void recheck_segments(std::span<const SegmentQuery> queries,
+                          std::span<std::uint8_t> blocked) const {
+        if (exact_tree_.nodes.empty() || !edge_scene_) return;
+        constexpr std::size_t kChunk = 64;
+        RTCIntersectContext ctx;
+        rtcInitIntersectContext(&ctx);
+        ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+        std::array<RTCRay, kChunk> rays;
+        std::array<std::size_t, kChunk> which;
+        std::uint64_t checked = 0, found = 0;
+        for (std::size_t start = 0; start < queries.size();) {
+            // The next clear segments, as rays over [margin, 1 − margin] of the segment.
+            std::size_t m = 0;
+            for (; start < queries.size() && m < kChunk; ++start) {
+                if (blocked[start]) continue;
+                make_segment(queries[start], rays[m]);
+                const double len = std::sqrt(double(rays[m].dir_x) * rays[m].dir_x +
+                                             double(rays[m].dir_y) * rays[m].dir_y +
+                                             double(rays[m].dir_z) * rays[m].dir_z);
+                if (!(len > 2 * epsilon_)) continue;
+                rays[m].tnear = static_cast<float>(epsilon_ / len);
+                rays[m].tfar = static_cast<float>(1.0 - epsilon_ / len);
+                which[m++] = start;
+            }
+            if (m == 0) continue;
+            rtcOccluded1M(edge_scene_.get(), &ctx, rays.data(), static_cast<unsigned>(m),
+                          sizeof(RTCRay));
+            for (std::size_t k = 0; k < m; ++k) {
+                if (!(rays[k].tfar < 0.0f)) continue;  // no edge nearby
+                ++checked;
+                if (exact_segment_blocked(queries[which[k]])) {
+                    blocked[which[k]] = 1;
+                    ++found;
+                }
+            }
+        }
+        if (checked) rechecked_.fetch_add(checked, std::memory_order_relaxed);
+        if (found) recheck_blocked_.fetch_add(found, std::memory_order_relaxed);
+    }
+
+    // Is segment q blocked, in double precision against the welded triangles (see
+    // recheck_segments)?
+    bool exact_segment_blocked(const SegmentQuery& q) const {
+        const Vec3 a = q.from_patch >= 0 ? on_welded(q.from, q.from_patch) : q.from;
+        const Vec3 b = q.to_patch >= 0 ? on_welded(q.to, q.to_patch) : q.to;
+        const Vec3 d = b - a;
+        const double len = d.norm();
+        if (!(len > 2 * epsilon_)) return false;
+        const double margin = epsilon_ / len;  // t of the segment runs over [0, 1]
+        const int from = q.from_patch, to = q.to_patch;
+        double t = 0.0;
+        return exact_traverse(
+                   a, d, margin, 1.0 - margin, true,
+                   [&](int owner, double, double) {
+                       return owner < 0 || (owner != from && owner != to);
+                   },
+                   t) >= 0;
+    }
+
     // The welded triangle the unit ray o + t d meets first (see recast_exact), its t in `hit_t`;
     // −1 for none.
     int exact_first_hit(const Vec3& o, const Vec3& d, int from_patch, double& hit_t) const {
+        return exact_traverse(
+            o, d, -tolerance_, std::numeric_limits<double>::infinity(), false,
+            [&](int owner, double c, double t) {
+                if (owner < 0) return t > 0;  // an obstruction blocks from both sides
+                // Another patch's front (a patch's back cannot be met from inside).
+                return owner != from_patch && c < 0;
+            },
+            hit_t);
+    }
+
+    // The welded triangles that the ray o + t d (d of any length > 0) meets for t in
+    // [t_lo, t_hi] and that accept(owner, normal · d, t) takes: the nearest one (any_hit false)
+    // or the first one found (any_hit true), its t in `hit_t`; −1 for none. The watertight test
+    // of Woop, Benthin & Wald (2013): the ray is sheared so that it runs along +z, and the
+    // signed areas u, w, x of the triangle's edges seen from the ray are computed from the same
+    // two transformed vertices for both triangles of a shared edge.
+    template <class Accept>
+    int exact_traverse(const Vec3& o, const Vec3& d, double t_lo, double t_hi, bool any_hit,
+                       const Accept& accept, double& hit_t) const {
         int kz = 0;
         if (std::abs(d.y()) > std::abs(d[kz])) kz = 1;
         if (std::abs(d.z()) > std::abs(d[kz])) kz = 2;
         int kx = (kz + 1) % 3, ky = (kx + 1) % 3;
         if (d[kz] < 0) std::swap(kx, ky);
         const double sx = d[kx] / d[kz], sy = d[ky] / d[kz], sz = 1.0 / d[kz];
-        double best = std::numeric_limits<double>::infinity();
+        double best = t_hi;
         int best_tri = -1;
         int stack[128];
         int top = 0;
@@ -377,15 +511,11 @@ class EmbreeVisibility final : public Visibility {
         while (top > 0) {
             const detail::BoxTree::Node& node =
                 exact_tree_.nodes[static_cast<std::size_t>(stack[--top])];
-            if (!box_hit(node.box, o, d, best)) continue;
+            if (!box_hit(node.box, o, d, t_lo, best)) continue;
             if (node.left < 0) {
                 for (int k = node.first; k < node.first + node.count; ++k) {
                     const int tri = exact_tree_.order[static_cast<std::size_t>(k)];
                     const auto ti = static_cast<std::size_t>(tri);
-                    const int owner = exact_owner_[ti];
-                    if (owner == from_patch && owner >= 0) continue;
-                    const double c = exact_normal_[ti].dot(d);
-                    if (owner >= 0 && !(c < 0)) continue;  // a patch's back: not from inside
                     const auto& v = exact_[ti];
                     double ex[3], ey[3], ez[3];
                     for (int j = 0; j < 3; ++j) {
@@ -401,10 +531,13 @@ class EmbreeVisibility final : public Visibility {
                     const double det = u + w + x;
                     if (det == 0) continue;
                     const double t = (u * ez[0] + w * ez[1] + x * ez[2]) / det;
-                    const bool ok = owner >= 0 ? t >= -tolerance_ : t > 0;
-                    if (ok && t < best) {
-                        best = t;
-                        best_tri = tri;
+                    if (!(t >= t_lo && t < best)) continue;
+                    if (!accept(exact_owner_[ti], exact_normal_[ti].dot(d), t)) continue;
+                    best = t;
+                    best_tri = tri;
+                    if (any_hit) {
+                        hit_t = best;
+                        return best_tri;
                     }
                 }
             } else {
@@ -443,10 +576,9 @@ class EmbreeVisibility final : public Visibility {
         return at;
     }
 
-    // Does the ray o + t d meet `box` for some t in [−tolerance_, best]? (Boxes are padded by
+    // Does the ray o + t d meet `box` for some t in [t0, t1]? (Boxes are padded by
     // tolerance_, far more than the rounding of these divisions.)
-    bool box_hit(const Bounds3& box, const Vec3& o, const Vec3& d, double best) const {
-        double t0 = -tolerance_, t1 = best;
+    static bool box_hit(const Bounds3& box, const Vec3& o, const Vec3& d, double t0, double t1) {
         for (int a = 0; a < 3; ++a) {
             if (d[a] == 0) {
                 if (o[a] < box.lo[a] || o[a] > box.hi[a]) return false;
@@ -569,6 +701,7 @@ class EmbreeVisibility final : public Visibility {
     VisibilityOptions options_;
     DeviceHandle device_;
     SceneHandle scene_;
+    SceneHandle edge_scene_;  // closed models: capsules around the triangles' edges
     mutable ErrorSink errors_;
     Vec3 center_ = Vec3::Zero();
     double epsilon_ = 0.0;
@@ -586,6 +719,7 @@ class EmbreeVisibility final : public Visibility {
     std::vector<Vec3> exact_normal_;
     detail::BoxTree exact_tree_;
     mutable std::atomic<std::uint64_t> recast_{0};
+    mutable std::atomic<std::uint64_t> rechecked_{0}, recheck_blocked_{0};
 };
 
 }  // namespace

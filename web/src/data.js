@@ -3,11 +3,42 @@
 // page asks of it (a row of F, a column, the largest entries, reciprocity, per-surface sums).
 // Pure functions, no DOM: node's test runner checks them (test/data.test.js).
 
-/// Bytes of a base64 string (RFC 4648, with or without padding).
+// Six bits per base64 character code (RFC 4648; 255: not in the alphabet).
+const kBase64Value = (() => {
+    const table = new Uint8Array(256).fill(255);
+    const alphabet = 'ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/';
+    for (let k = 0; k < alphabet.length; ++k) table[alphabet.charCodeAt(k)] = k;
+    return table;
+})();
+
+/// Bytes of a base64 string (RFC 4648, with or without padding), straight from the string's
+/// character codes into the bytes (no intermediate binary string; the browser's native
+/// Uint8Array.fromBase64 when it has one). Throws on a character outside the alphabet.
 export function base64ToBytes(text) {
-    const bin = atob(text);
-    const out = new Uint8Array(bin.length);
-    for (let k = 0; k < bin.length; ++k) out[k] = bin.charCodeAt(k);
+    if (typeof Uint8Array.fromBase64 === 'function') return Uint8Array.fromBase64(text);
+    let end = text.length;
+    while (end > 0 && text.charCodeAt(end - 1) === 61) --end;  // '=' padding
+    const out = new Uint8Array((end * 3) >>> 2);
+    const v = kBase64Value;
+    let o = 0, k = 0;
+    const whole = end - (end % 4);
+    for (; k < whole; k += 4) {
+        const a = v[text.charCodeAt(k)], b = v[text.charCodeAt(k + 1)];
+        const c = v[text.charCodeAt(k + 2)], d = v[text.charCodeAt(k + 3)];
+        if ((a | b | c | d) > 63) throw new Error('not base64');
+        out[o++] = (a << 2) | (b >> 4);
+        out[o++] = ((b & 15) << 4) | (c >> 2);
+        out[o++] = ((c & 3) << 6) | d;
+    }
+    const rest = end - k;
+    if (rest === 1) throw new Error('not base64 (length)');
+    if (rest >= 2) {
+        const a = v[text.charCodeAt(k)], b = v[text.charCodeAt(k + 1)];
+        const c = rest === 3 ? v[text.charCodeAt(k + 2)] : 0;
+        if ((a | b | c) > 63) throw new Error('not base64');
+        out[o++] = (a << 2) | (b >> 4);
+        if (rest === 3) out[o++] = ((b & 15) << 4) | (c >> 2);
+    }
     return out;
 }
 
@@ -180,4 +211,14 @@ export function patchesOfSurface(model, s) {
     const out = [];
     for (let i = 0; i < model.n; ++i) if (model.surface[i] === s) out.push(i);
     return out;
+}
+
+/// The page's colour modes, in the order of its menu: every field of the data block (its label,
+/// with the unit in parentheses when it has one), then 'surface', then 'row' when the page has a
+/// matrix. [{key, label}].
+export function colourModes(model) {
+    const modes = model.fields.map((f) => ({ key: f.key, label: f.unit ? `${f.label} (${f.unit})` : f.label }));
+    modes.push({ key: 'surface', label: 'surface' });
+    if (model.matrix) modes.push({ key: 'row', label: 'row of F of the clicked patch' });
+    return modes;
 }

@@ -5,7 +5,7 @@
 
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
-import { decodeData, denseRow, denseColumn, topEntries, reciprocity, surfaceRow, surfaceColumn, entry } from './data.js';
+import { decodeData, colourModes, denseRow, denseColumn, topEntries, reciprocity, surfaceRow, surfaceColumn, entry } from './data.js';
 import { inferno, toneMap, makeScale, ticks, formatNumber, valueRange, categorical } from './colour.js';
 
 const kTopEntries = 12;
@@ -24,13 +24,15 @@ function surfaceName(model, s) {
 }
 
 function buildMesh(model) {
-    const tris = model.triangles, count = tris.length / 3;
+    const tris = model.triangles, count = tris.length / 3, verts = model.vertices;
+    // One vertex per triangle corner (flat colours per patch), copied index by index (no views).
     const pos = new Float32Array(count * 9);
-    for (let t = 0; t < count; ++t)
-        for (let c = 0; c < 3; ++c) {
-            const v = tris[3 * t + c];
-            pos.set(model.vertices.subarray(3 * v, 3 * v + 3), 9 * t + 3 * c);
-        }
+    for (let k = 0, o = 0; k < tris.length; ++k, o += 3) {
+        const v = 3 * tris[k];
+        pos[o] = verts[v];
+        pos[o + 1] = verts[v + 1];
+        pos[o + 2] = verts[v + 2];
+    }
     const geometry = new THREE.BufferGeometry();
     geometry.setAttribute('position', new THREE.BufferAttribute(pos, 3));
     const colour = new THREE.BufferAttribute(new Float32Array(count * 9), 3);
@@ -41,20 +43,23 @@ function buildMesh(model) {
     return new THREE.Mesh(geometry, material);
 }
 
+// The patches' outlines as one line-segment geometry (built when first shown).
 function buildEdges(model) {
-    const segs = [];
+    const offset = model.vertexOffset, verts = model.vertices;
+    const segs = new Float32Array(6 * offset[model.n]);
+    let o = 0;
     for (let i = 0; i < model.n; ++i) {
-        const a = model.vertexOffset[i], b = model.vertexOffset[i + 1];
+        const a = offset[i], b = offset[i + 1];
         for (let v = a; v < b; ++v) {
             const w = v + 1 < b ? v + 1 : a;
-            segs.push(...model.vertices.subarray(3 * v, 3 * v + 3), ...model.vertices.subarray(3 * w, 3 * w + 3));
+            for (let c = 0; c < 3; ++c) segs[o + c] = verts[3 * v + c];
+            for (let c = 0; c < 3; ++c) segs[o + 3 + c] = verts[3 * w + c];
+            o += 6;
         }
     }
     const geometry = new THREE.BufferGeometry();
-    geometry.setAttribute('position', new THREE.BufferAttribute(new Float32Array(segs), 3));
-    const lines = new THREE.LineSegments(geometry, new THREE.LineBasicMaterial({ color: 0x202020 }));
-    lines.visible = false;
-    return lines;
+    geometry.setAttribute('position', new THREE.BufferAttribute(segs, 3));
+    return new THREE.LineSegments(geometry, new THREE.LineBasicMaterial({ color: 0x202020 }));
 }
 
 function patchOutline(model, i) {
@@ -77,10 +82,12 @@ class Page {
     constructor(root, model) {
         this.model = model;
         this.state = { mode: null, log: false, column: false, perSurface: false, selected: -1 };
+        this.drawing = false;  // nothing is drawn before the first colours are set
         this.layout(root);
         this.setupThree();
         this.fillControls();
         this.fillReport();
+        this.drawing = true;
         this.setMode(this.defaultMode());
     }
 
@@ -110,8 +117,8 @@ class Page {
         this.renderer = renderer;
         this.scene3 = new THREE.Scene();
         this.mesh = buildMesh(this.model);
-        this.edges = buildEdges(this.model);
-        this.scene3.add(this.mesh, this.edges);
+        this.edges = null;  // built when first shown
+        this.scene3.add(this.mesh);
         const cam = this.model.camera;
         const radius = this.mesh.geometry.boundingSphere.radius || 1;
         this.camera = new THREE.PerspectiveCamera(cam ? cam.fov : 40, 1, radius * 1e-3, radius * 100);
@@ -145,7 +152,7 @@ class Page {
     }
 
     render() {
-        this.renderer.render(this.scene3, this.camera);
+        if (this.drawing) this.renderer.render(this.scene3, this.camera);
     }
 
     /// The patch under client coordinates (x, y), or −1.
@@ -184,9 +191,7 @@ class Page {
             o.value = key;
             this.modeSelect.append(o);
         };
-        for (const f of this.model.fields) add(f.key, f.unit ? `${f.label} (${f.unit})` : f.label);
-        add('surface', 'surface');
-        if (this.model.matrix) add('row', 'row of F of the clicked patch');
+        for (const mode of colourModes(this.model)) add(mode.key, mode.label);
         this.modeSelect.addEventListener('change', () => this.setMode(this.modeSelect.value));
         modeLabel.append(this.modeSelect);
         c.append(modeLabel);
@@ -202,7 +207,7 @@ class Page {
             return box;
         };
         check('ff-log', 'log scale', (v) => ((this.state.log = v), this.recolour()));
-        check('ff-edges', 'patch edges', (v) => ((this.edges.visible = v), this.render()));
+        check('ff-edges', 'patch edges', (v) => this.showEdges(v));
         check('ff-back', 'back faces', (v) => {
             this.mesh.material.side = v ? THREE.DoubleSide : THREE.FrontSide;
             this.mesh.material.needsUpdate = true;
@@ -212,6 +217,15 @@ class Page {
             check('ff-column', 'column: who sees it', (v) => ((this.state.column = v), this.refreshSelection()));
             check('ff-surface', 'per surface', (v) => ((this.state.perSurface = v), this.refreshSelection()));
         }
+    }
+
+    showEdges(visible) {
+        if (visible && !this.edges) {
+            this.edges = buildEdges(this.model);
+            this.scene3.add(this.edges);
+        }
+        if (this.edges) this.edges.visible = visible;
+        this.render();
     }
 
     fillReport() {
@@ -288,10 +302,15 @@ class Page {
             }
         }
         const colour = this.mesh.geometry.getAttribute('color');
-        const tp = m.trianglePatch;
-        for (let t = 0; t < tp.length; ++t) {
-            const p = tp[t];
-            for (let c = 0; c < 3; ++c) colour.array.set(patchColour.subarray(3 * p, 3 * p + 3), 9 * t + 3 * c);
+        const tp = m.trianglePatch, out = colour.array;
+        for (let t = 0, o = 0; t < tp.length; ++t) {
+            const p = 3 * tp[t];
+            const r = patchColour[p], g = patchColour[p + 1], b = patchColour[p + 2];
+            for (let c = 0; c < 3; ++c, o += 3) {
+                out[o] = r;
+                out[o + 1] = g;
+                out[o + 2] = b;
+            }
         }
         colour.needsUpdate = true;
         this.scale = scale;

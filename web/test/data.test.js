@@ -1,7 +1,7 @@
 // Decoding of the page's data block and the questions the page asks of it.
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { base64ToBytes, decodeArray, decodeData, row, denseRow, denseColumn, entry, topEntries, reciprocity, surfaceRow, surfaceColumn } from '../src/data.js';
+import { base64ToBytes, colourModes, decodeArray, decodeData, row, denseRow, denseColumn, entry, topEntries, reciprocity, surfaceRow, surfaceColumn } from '../src/data.js';
 
 const b64 = (typed) => Buffer.from(typed.buffer, typed.byteOffset, typed.byteLength).toString('base64');
 const arr = (dtype, typed) => ({ dtype, count: typed.length, base64: b64(typed) });
@@ -37,6 +37,37 @@ test('base64 decodes to the bytes it encodes, padded or not', () => {
     assert.deepEqual([...base64ToBytes('AAEC/w==')], [0, 1, 2, 255]);
     assert.deepEqual([...base64ToBytes('AAEC/w')], [0, 1, 2, 255]);
     assert.deepEqual([...base64ToBytes('')], []);
+});
+
+test('base64 decodes every length and every byte value as node encodes them', () => {
+    const bytes = new Uint8Array(300);
+    for (let k = 0; k < bytes.length; ++k) bytes[k] = (k * 97 + 13) & 255;
+    for (let len = 0; len <= 70; ++len) {
+        const part = bytes.subarray(0, len);
+        const text = Buffer.from(part).toString('base64');
+        assert.deepEqual([...base64ToBytes(text)], [...part], `length ${len}`);
+        assert.deepEqual([...base64ToBytes(text.replace(/=+$/, ''))], [...part], `length ${len}, unpadded`);
+    }
+    assert.deepEqual([...base64ToBytes(Buffer.from(bytes).toString('base64'))], [...bytes]);
+});
+
+test('a character outside the base64 alphabet is refused', () => {
+    assert.throws(() => base64ToBytes('AA*C'), /not base64/);
+    assert.throws(() => base64ToBytes('AAEC/'), /not base64/);
+});
+
+test('the colour modes list every field with its unit, the error bound among them', () => {
+    const json = sample();
+    json.fields.push({
+        key: 'error_bound', label: 'error bound of the row sum', unit: 'dimensionless, as F',
+        values: arr('f32', new Float32Array([1e-9, 2e-9, 3e-9])),
+    });
+    const modes = colourModes(decodeData(json));
+    assert.deepEqual(modes.map((m) => m.key), ['row_sum', 'error_bound', 'surface', 'row']);
+    assert.equal(modes[1].label, 'error bound of the row sum (dimensionless, as F)');
+    const noMatrix = sample();
+    delete noMatrix.matrix;
+    assert.deepEqual(colourModes(decodeData(noMatrix)).map((m) => m.key), ['row_sum', 'surface']);
 });
 
 test('typed arrays decode little-endian values exactly', () => {

@@ -23,6 +23,9 @@ class ProgressSink {
                         double elapsed_seconds) = 0;
     /// The phase is over: clear what update() drew.
     virtual void finish(const std::string& label) = 0;
+    /// A line for the user before a long phase (what it will cost, what would cost less).
+    /// Ignored by default.
+    virtual void note(const std::string& text) { (void)text; }
 };
 
 /// A bar on stderr, drawn only when stderr is a terminal and the phase has already taken about a
@@ -32,6 +35,8 @@ class TerminalProgress final : public ProgressSink {
     void update(const std::string& label, std::size_t done, std::size_t total,
                 double elapsed_seconds) override;
     void finish(const std::string& label) override;
+    /// Printed on stderr as "formfactor: text" (terminal or not).
+    void note(const std::string& text) override;
 
   private:
     bool drawn_ = false;

@@ -16,7 +16,7 @@
 /// - both: reciprocity then closure. `closure` alone implies the reciprocity step too (a
 ///   symmetric scaling needs a symmetric G).
 ///
-/// Closure is refused for an open scene (Scene::enclosure false and some row sum below
+/// Closure is refused for an open scene (RepairOptions::enclosure false and some row sum below
 /// 1 − kOpenRowSum) unless forced: it would invent energy exchange where radiation escapes.
 
 #include <string>
@@ -48,7 +48,8 @@ inline constexpr double kOpenRowSum = 0.01;
 /// Options of repair().
 struct RepairOptions {
     RepairMode mode = RepairMode::none;
-    /// True when the scene is known to be a closed enclosure (Scene::enclosure).
+    /// True when the scene is known to be a closed enclosure (the pipeline passes
+    /// known_enclosure(): declared, or a closed model).
     bool enclosure = false;
     /// Close the rows even when the matrix looks open.
     bool force_closure = false;

@@ -43,7 +43,10 @@ struct PageContent {
     std::vector<double> temperature;
     std::vector<double> net_flux;
     std::vector<double> thermal_radiosity;
-    /// The run's report (formfactor/output/report.h), shown in a panel; null = none.
+    /// The run's report (formfactor/output/report.h), shown in a panel; null = none. Its
+    /// details.error_bound_per_entry (exact-grade methods) makes the error-bound colour mode the
+    /// row's nonzero entries × that bound; without it, a matrix with standard errors gives 3
+    /// standard errors of the row sum.
     nlohmann::json report;
 };
 

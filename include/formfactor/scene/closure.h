@@ -63,4 +63,8 @@ Closure check_closure(const Scene& scene);
 /// The same from welded patches already made (weld_patches(scene)).
 Closure check_closure(const Scene& scene, const WeldedPatches& welded);
 
+/// True when nothing can leave the scene: it is declared an enclosure (Scene::enclosure) or its
+/// patches form a closed model (check_closure()). Repairs may then close its rows.
+bool known_enclosure(const Scene& scene);
+
 }  // namespace formfactor

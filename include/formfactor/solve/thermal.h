@@ -33,6 +33,14 @@ struct ThermalOptions {
     SolverOptions solver = {SolverKind::direct};
     /// Temperature of the environment that the open part of each row sees, K (≥ 0).
     double ambient_temperature = 0.0;
+    /// The scene is known to be closed (a closed model, formfactor/scene/closure.h, or a
+    /// declared enclosure): no radiation can leave it, so a row that sums to less than 1 is an
+    /// error of the estimate, not a view of the environment. Then the missing part 1 − s_i of
+    /// each row sees the patch's own radiosity J_i instead of σ T_env⁴ (as if F_ii held it):
+    /// nothing is exchanged with the environment (escaped_power is 0) and energy is conserved
+    /// for a reciprocal F; a warning states the lowest row sum instead of calling the scene
+    /// open, and a solve whose patches all have a prescribed flux is refused as singular.
+    bool closed = false;
 };
 
 /// Per-patch results (SI units when the scene is in metres) and the energy balance.
@@ -52,6 +60,8 @@ struct ThermalResult {
     /// |total_net_power − escaped_power| / Σ |net_power| (0 when nothing flows).
     double relative_balance_defect = 0.0;
     double ambient_temperature = 0.0;
+    /// Solved as a closed model (ThermalOptions::closed): nothing exchanged with the environment.
+    bool closed = false;
     SolverStats stats;
     std::vector<std::string> warnings;
 };

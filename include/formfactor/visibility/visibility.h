@@ -32,8 +32,14 @@
 /// inside), is cast again in double precision from the exact origin on its patch (carried
 /// onto the welded surface) against the welded triangles with a watertight test (Woop, Benthin
 /// & Wald 2013): the front of a patch (or an obstruction) it meets first takes the hit. A ray
-/// that this misses too is reported as a miss; the methods count it (it is a bug). Open scenes
-/// are traced as before, bit for bit. Segment queries (occluded()) are not re-checked.
+/// that this misses too is reported as a miss; the methods count it (it is a bug). Segment
+/// queries (occluded()) of a closed model are made as watertight: a segment the ray tracer
+/// finds clear that passes within epsilon() of a triangle's edge (where single precision can
+/// miss a crossing; found with capsules of that radius around the edges) is checked again, with
+/// the same double-precision test from its exact ends, for any surface between them (not
+/// closer than epsilon() to an end, and not the end patches): a segment between two points of
+/// the model that slips out of it through a shared edge or vertex, and back in, is blocked.
+/// Open scenes are traced as before, bit for bit.
 
 #include <cstddef>
 #include <cstdint>
@@ -112,6 +118,12 @@ class Visibility {
     virtual bool closed() const = 0;
     /// First hits this structure has re-cast in double precision so far (closed models only).
     virtual std::uint64_t recast_rays() const = 0;
+    /// Segments found clear by the ray tracer, passing near a triangle's edge, and checked
+    /// again in double precision so far (closed models only).
+    virtual std::uint64_t rechecked_segments() const = 0;
+    /// Of those, the segments the double-precision check found blocked: segments that single
+    /// precision let through the closed model's surface (a shared edge or vertex).
+    virtual std::uint64_t segments_blocked_by_recheck() const = 0;
     /// Number of triangles in the acceleration structure (patches and obstructions).
     virtual std::size_t triangle_count() const = 0;
     /// Short description of the backend ("embree 3.13.5, ...").
@@ -122,8 +134,8 @@ class Visibility {
 /// field `closed_model_warning`).
 inline std::string closed_model_escape_warning(std::uint64_t escapes) {
     return std::to_string(escapes) + (escapes == 1 ? " ray" : " rays") +
-           " escaped a closed model (no front face met, even by the watertight re-cast): their "
-           "rows sum to less than 1; this is a bug, please report the scene";
+           " escaped a closed model (no front face met, even by the watertight re-cast): left "
+           "out of their rows' estimates; this is a bug, please report the scene";
 }
 
 /// Builds the visibility structure of scene.patches and the scene's obstruction-only surfaces.

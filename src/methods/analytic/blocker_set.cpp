@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <functional>
 #include <map>
 #include <numeric>
@@ -248,6 +250,51 @@ bool BlockerSet::culls_all(int solid, const Vec3* v, int n) const {
         if (all) return true;
     }
     return false;
+}
+
+bool BlockerSet::solid_hides(int solid, const Vec3* a, int na, const Vec3* b, int nb) const {
+    const Solid& so = solids_[static_cast<std::size_t>(solid)];
+    // Neither polygon reaches into the solid: all its vertices on or in front of one of the
+    // solid's planes (the opening's included: the ground a building stands on).
+    auto separated = [&](const Vec3* v, int n) {
+        auto in_front = [&](const Plane& f) {
+            for (int k = 0; k < n; ++k)
+                if (f.signed_distance(v[k]) < -so.tol) return false;
+            return true;
+        };
+        if (so.open && in_front(so.opening)) return true;
+        for (const Plane& f : so.faces)
+            if (in_front(f)) return true;
+        return false;
+    };
+    if (!separated(a, na) || !separated(b, nb)) return false;
+    // Cyrus–Beck: whether the segment meets the closed solid (behind or on every plane). A
+    // segment that only touches it there (grazing an edge) is one of a set of measure zero unless
+    // a and b lie in one plane with it, where they do not see each other.
+    auto through = [&](const Vec3& p, const Vec3& q) {
+        double t0 = 0.0, t1 = 1.0;
+        auto plane = [&](const Plane& f) {
+            const double dp = f.signed_distance(p), dq = f.signed_distance(q);
+            if (dp > 0.0 && dq > 0.0) return false;
+            if (dp <= 0.0 && dq <= 0.0) return true;
+            const double t = dp / (dp - dq);
+            if (dp > 0.0)
+                t0 = std::max(t0, t);
+            else
+                t1 = std::min(t1, t);
+            return t0 <= t1;
+        };
+        for (const Plane& f : so.faces)
+            if (!plane(f)) return false;
+        if (so.open && !plane(so.opening)) return false;
+        // More than a point: a segment from a point on a face (a patch of the solid itself)
+        // touches the solid where it starts, whatever it passes later.
+        return t1 - t0 > 1e-12;
+    };
+    for (int i = 0; i < na; ++i)
+        for (int j = 0; j < nb; ++j)
+            if (!through(a[i], b[j])) return false;
+    return true;
 }
 
 std::vector<Vec3> planar_convex_hull(const std::vector<Vec3>& points, const Vec3& n) {

@@ -645,6 +645,28 @@ double point_hidden(const Vec3& x, const Vec3& n, const Polygon& r, const Blocke
     return std::min(res.hidden, unobstructed ? res.unobstructed : res.hidden);
 }
 
+double hidden_estimate(const Polygon& s, const Polygon& r, const BlockerSet& blockers,
+                       const int* cand, int n, double eps, std::size_t& points) {
+    const double area_s = area(s);
+    if (!(area_s > 0.0) || n == 0) return 0.0;
+    const Vec3 ns = normal(s);
+    const Receiver rc(r);
+    // The degree-2 rule of a triangle (points 2/3, 1/6, 1/6 in barycentric coordinates, equal
+    // weights) on each triangle of s's fan.
+    double sum = 0.0;
+    for (std::size_t k = 1; k + 1 < s.size(); ++k) {
+        const Vec3 &a = s[0], &b = s[k], &c = s[k + 1];
+        const double w = 0.5 * (b - a).cross(c - a).norm() / (3.0 * area_s);
+        for (int q = 0; q < 3; ++q) {
+            const Vec3 corner = q == 0 ? a : q == 1 ? b : c;
+            const Vec3 x = (a + b + c + 3.0 * corner) / 6.0;
+            sum += w * evaluate_point(rc, x, ns, blockers, cand, n, eps, false).hidden;
+            ++points;
+        }
+    }
+    return sum;
+}
+
 HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const BlockerSet& blockers,
                                const int* cand, int n, double target, double eps) {
     HiddenIntegral out;
@@ -726,6 +748,15 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
         if (sh.facing_away()) return;
         const ShaftClass cls = classify_shaft(sh, blockers, cand, n, kept, false);
         if (cls == ShaftClass::kVisible) return;
+        // Hidden: the cell's whole unobstructed part, in closed form.
+        if (cls == ShaftClass::kHidden) {
+            Polygon cp;
+            cp.vertices.assign(poly, poly + np);
+            c.value = polygon_to_polygon(cp, r) * area(cp) * inv_area;
+            c.error = 1e-12 * area(cp) * inv_area;
+            ++out.closed_forms;
+            return;
+        }
         // Pieces that face the cell first: the shadows of the others (the back faces of a closed
         // solid) then mostly vanish in the union.
         cell_cand.clear();
@@ -737,12 +768,11 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
         const double du = c.u1 - c.u0, dv = c.v1 - c.v0;
         double q2 = 0.0, q3 = 0.0, u3 = 0.0;
         bool any_hidden = false, any_visible = false;
-        const bool hidden = cls == ShaftClass::kHidden;
         auto f = [&](double u, double v, bool need_unobs) {
             const Vec3 x = m.at(u, v);
             const PointResult pr =
                 evaluate_point(rc, x, ns, blockers, cell_cand.data(),
-                               hidden ? 0 : static_cast<int>(cell_cand.size()), eps, need_unobs);
+                               static_cast<int>(cell_cand.size()), eps, need_unobs);
             ++out.points;
             return pr;
         };
@@ -757,10 +787,10 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
                 for (int j = 0; j < order; ++j) {
                     const double u = c.u0 + du * g.x[static_cast<std::size_t>(i)];
                     const double v = c.v0 + dv * g.x[static_cast<std::size_t>(j)];
-                    const PointResult pr = f(u, v, hidden || order <= kMidOrder);
-                    const double val = hidden ? pr.unobstructed : pr.hidden;
+                    const PointResult pr = f(u, v, order <= kMidOrder);
+                    const double val = pr.hidden;
                     any_hidden = any_hidden || pr.hidden > 0.0;
-                    if (!hidden && order <= kMidOrder)
+                    if (order <= kMidOrder)
                         any_visible = any_visible || pr.hidden < pr.unobstructed * (1.0 - 1e-9);
                     q += g.w[static_cast<std::size_t>(i)] * g.w[static_cast<std::size_t>(j)] *
                          m.jacobian(u, v) * val;
@@ -783,7 +813,7 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
         frac *= scale;
         // Only where the points see both shadow and light: samples that all fall in the umbra
         // (or all in the light) of a partly hidden cell agree whatever lies between them.
-        if (!hidden && any_hidden && any_visible && kAgreement * e23 <= target * frac) {
+        if (any_hidden && any_visible && kAgreement * e23 <= target * frac) {
             c.value = q3 * scale;
             c.error = kAgreement * e23;
         } else if (e23 > target) {
@@ -798,7 +828,7 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
         }
         // Partly hidden by its shaft, yet no sample point sees a shadow: the shadow may fall
         // between the points; what it can hide is at most the cell's unobstructed part.
-        if (!hidden && !any_hidden && c.level < kSuspiciousLevels) {
+        if (!any_hidden && c.level < kSuspiciousLevels) {
             // Unless the exact test finds that no piece meets the cell's shaft after all.
             // What a piece meeting the shaft can hide from a point x: the directions from x
             // to it rise at most h/δ above the sender's plane (h the piece's largest height

@@ -65,6 +65,16 @@ class BlockerSet {
     /// culls_at() when x's signed distance to the plane of one of the solid's faces is known:
     /// in front of it by more than the tolerance decides at once (no loop over the faces).
     bool culls_at(int solid, const Vec3& x, double face_distance) const;
+    /// True when convex solid `solid` hides every segment between the convex polygons a (na
+    /// vertices) and b (nb): neither reaches into it (each on or in front of one of its planes),
+    /// and every segment between a vertex of a and a vertex of b meets it (in more than one
+    /// point: a polygon on one of its faces touches it wherever it looks). The points x whose
+    /// segment to a fixed point y meets a convex solid form a convex set (and so do the points
+    /// y for a fixed x), so the vertex segments decide for all points; a segment between two
+    /// points outside that passes through the interior crosses the boundary twice, at most once
+    /// through a planar opening, so one of the faces blocks it, and those that only graze the
+    /// solid are of measure zero.
+    bool solid_hides(int solid, const Vec3* a, int na, const Vec3* b, int nb) const;
     /// The number of convex solids (the range of Piece::solid).
     int solid_count() const { return static_cast<int>(solids_.size()); }
     /// culls_at() for every point of the convex polygon v[0..n) (checked on its vertices, one
@@ -134,6 +144,11 @@ class Shaft {
     bool piece_hides(const Vec3* p, int count, const Plane& pl) const;
     /// Every vertex of b is behind or on a's plane, or every vertex of a behind b's plane: F = 0.
     bool facing_away() const { return facing_away_; }
+    /// The two polygons of build().
+    const Vec3* a() const { return a_; }
+    const Vec3* b() const { return b_; }
+    int a_count() const { return na_; }
+    int b_count() const { return nb_; }
 
   private:
     const Vec3* a_ = nullptr;
@@ -152,8 +167,9 @@ class Shaft {
 enum class ShaftClass : std::uint8_t { kVisible, kHidden, kPartial };
 
 /// Classifies the pair behind `shaft` against the candidate pieces cand[0..n): kHidden when one
-/// piece hides every segment, kVisible when none can block, else kPartial with `kept` = the
-/// pieces that may block (a subset of cand, in order).
+/// piece, or the convex solid of some of them (BlockerSet::solid_hides()), hides every
+/// segment, kVisible when none can block, else kPartial with `kept` = the pieces that may block
+/// (a subset of cand, in order).
 ShaftClass classify_shaft(const Shaft& shaft, const BlockerSet& blockers, const int* cand, int n,
                           std::vector<int>& kept, bool exact = true);
 
@@ -189,12 +205,13 @@ void convex_hull_2d(std::vector<P>& points, std::vector<P>& hull) {
 
 /// The result of integrating the hidden part of a partly hidden pair over the sender.
 struct HiddenIntegral {
-    double hidden = 0;       ///< 1/A_s ∫_s F(x → hidden part of r) dA_x
-    double error = 0;        ///< estimated absolute error of `hidden`
-    int max_level = 0;       ///< deepest subdivision of the sender (0 = the whole sender)
-    std::size_t cells = 0;   ///< final cells
-    std::size_t points = 0;  ///< point evaluations
-    bool capped = false;     ///< stopped at the cell limit before meeting the target
+    double hidden = 0;             ///< 1/A_s ∫_s F(x → hidden part of r) dA_x
+    double error = 0;              ///< estimated absolute error of `hidden`
+    int max_level = 0;             ///< deepest subdivision of the sender (0 = the whole sender)
+    std::size_t cells = 0;         ///< final cells
+    std::size_t points = 0;        ///< point evaluations
+    std::size_t closed_forms = 0;  ///< cells in an umbra, integrated in closed form
+    bool capped = false;           ///< stopped at the cell limit before meeting the target
 };
 
 /// 1/A_s ∫_s F_{dA_x → (r ∩ shadows of the pieces seen from x)} dA_x: the part of F_sr that the
@@ -203,6 +220,13 @@ struct HiddenIntegral {
 /// s and r: planar convex polygons (counter-clockwise about their normals).
 HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const BlockerSet& blockers,
                                const int* cand, int n, double target, double eps);
+
+/// A low-order estimate of hidden_integral()'s value (three points per triangle of s's fan, a
+/// rule of degree 2), without an error estimate: for a pair whose bracket 0 ≤ hidden ≤ F(s → r)
+/// is already inside its tolerance, to place the value inside the bracket. `points` counts the
+/// point evaluations.
+double hidden_estimate(const Polygon& s, const Polygon& r, const BlockerSet& blockers,
+                       const int* cand, int n, double eps, std::size_t& points);
 
 struct Receiver;  // shadow_clip.h
 

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <vector>
 
 #include "core/fast_atan.h"
@@ -293,7 +294,23 @@ ShaftClass classify_shaft(const Shaft& shaft, const BlockerSet& blockers, const 
         }
         kept.push_back(k);
     }
-    return kept.empty() ? ShaftClass::kVisible : ShaftClass::kPartial;
+    if (kept.empty()) return ShaftClass::kVisible;
+    // One convex solid (a building standing on the ground, a box) that hides the whole shaft
+    // though none of its faces alone does. The last few solids tried are remembered: the
+    // pieces of one solid come in runs.
+    int tried[4] = {-1, -1, -1, -1};
+    for (int k : kept) {
+        const int so = blockers.piece(k).solid;
+        if (so < 0 || std::find(std::begin(tried), std::end(tried), so) != std::end(tried))
+            continue;
+        std::rotate(std::begin(tried), std::begin(tried) + 3, std::end(tried));
+        tried[0] = so;
+        if (blockers.solid_hides(so, shaft.a(), shaft.a_count(), shaft.b(), shaft.b_count())) {
+            kept.clear();
+            return ShaftClass::kHidden;
+        }
+    }
+    return ShaftClass::kPartial;
 }
 
 }  // namespace formfactor::detail

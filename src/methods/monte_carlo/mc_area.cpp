@@ -31,6 +31,7 @@ class McAreaMethod final : public mc::MonteCarloMethod {
 
     MethodResult compute(const MethodContext& ctx) const override {
         const mc::Run run(*this, ctx, 256);
+        const mc::SegmentRecheckCount recheck(*run.vis);
         std::vector<PolygonSampler> samplers;
         samplers.reserve(run.n);
         for (const Patch& p : run.scene.patches) samplers.emplace_back(p.polygon);
@@ -130,6 +131,7 @@ class McAreaMethod final : public mc::MonteCarloMethod {
             out ? mc::summarize(*out, run.n) : mc::summarize(*ff.standard_error);
         mc::report(result.report, se_summary, run.kind, run.N, run.R, rays.load(),
                    mc::seconds_since(run.t0), run.vis->description(), "point pairs per patch pair");
+        recheck.report(result.report.details);
         return result;
     }
 };

@@ -191,6 +191,30 @@ inline void report(MethodReport& rep, const FormFactors& ff, SamplerKind kind,
     report(rep, se, kind, samples, replicates, rays, seconds, visibility, samples_meaning);
 }
 
+/// The segment queries' closed-model counts of a run (Visibility::rechecked_segments(),
+/// segments_blocked_by_recheck()): taken when the run starts, reported when it ends.
+class SegmentRecheckCount {
+  public:
+    explicit SegmentRecheckCount(const Visibility& vis)
+        : vis_(vis),
+          checked_(vis.rechecked_segments()),
+          blocked_(vis.segments_blocked_by_recheck()) {}
+    /// In a closed model: `closed_model`, `rechecked_segments` (clear segments near a triangle's
+    /// edge, checked again in double precision) and `segments_through_model` (those found blocked:
+    /// single precision had let them through a shared edge or vertex of the model; each is
+    /// corrected, not lost).
+    void report(Fields& details) const {
+        if (!vis_.closed()) return;
+        details["closed_model"] = true;
+        details["rechecked_segments"] = vis_.rechecked_segments() - checked_;
+        details["segments_through_model"] = vis_.segments_blocked_by_recheck() - blocked_;
+    }
+
+  private:
+    const Visibility& vis_;
+    std::uint64_t checked_, blocked_;
+};
+
 inline double seconds_since(Clock::time_point t0) {
     return std::chrono::duration<double>(Clock::now() - t0).count();
 }

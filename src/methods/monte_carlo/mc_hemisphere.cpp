@@ -7,7 +7,8 @@
 // Standard error: sqrt(F(1−F)/N) for the random sampler (binomial), else the replicate spread.
 // In a closed model (Visibility::closed()) no ray can leave: a miss or a back hit there is a
 // ray the ray tracer lost, counted as `closed_model_escapes`, with `closed_model_warning` when
-// there is one.
+// there is one. Such a ray is left out of its row's estimate (F_ij = hits_j / (N − lost)), so
+// that the row still sums to 1: a bug to report, not radiation that leaves the model.
 #include <algorithm>
 #include <atomic>
 #include <string>
@@ -87,6 +88,7 @@ class McHemisphereMethod final : public mc::MonteCarloMethod {
                                   buf.u[3].data()};
             const int from = static_cast<int>(i);
             std::uint64_t esc = 0, back = 0, obst = 0;
+            const bool closed = run.vis->closed();
             const double n_bar = double(run.N) / run.R;
             for (std::uint32_t r = 0; r < run.R; ++r) {
                 const std::uint64_t nr = replicate_size(run.N, run.R, r);
@@ -128,12 +130,21 @@ class McHemisphereMethod final : public mc::MonteCarloMethod {
             // Only the entries the row's rays reached (not all N: a 10^5-patch row has a few
             // hundred).
             if (out) std::sort(buf.row_touched.begin(), buf.row_touched.end());
+            // A closed model's lost rays are not part of the estimate (the rays that arrived
+            // stand for the whole row).
+            const std::uint64_t lost = closed ? esc + back : 0;
+            const double kept =
+                lost > 0 && lost < run.N ? double(run.N) / double(run.N - lost) : 1.0;
             for (const std::uint32_t j : buf.row_touched) {
                 mc::ReplicateMean acc{F[j], Q[j]};
                 const double f = F[j] / double(run.N);
                 Q[j] = run.R > 1 ? mc::replicate_standard_error(acc, double(run.N), run.R)
                                  : std::sqrt(f * (1 - f) / double(run.N));
                 F[j] = f;
+                if (lost > 0) {
+                    F[j] *= kept;
+                    Q[j] *= kept;
+                }
             }
             if (out) {
                 std::vector<std::int32_t>& idx = out->indices[row];

@@ -314,6 +314,7 @@ class McTargetMethod final : public mc::MonteCarloMethod {
 
     MethodResult compute(const MethodContext& ctx) const override {
         const mc::Run run(*this, ctx, 64);
+        const mc::SegmentRecheckCount recheck(*run.vis);
         mc::PhaseTimer phase_timer;
         Fields phases;
         std::vector<PolygonSampler> senders;
@@ -383,6 +384,7 @@ class McTargetMethod final : public mc::MonteCarloMethod {
         details["unoccluded_far_field_pairs"] = unocc.far;
         details["unoccluded_contour_pairs"] = unocc.exact;
         details["unblocked_pairs"] = unblocked_pairs.load();
+        recheck.report(result.report.details);
         return result;
     }
 };

@@ -162,13 +162,16 @@ test('per surface, the row is the area-weighted surface factors of the matrix', 
 test('every colour mode draws with a colour bar, and the report panel shows the run', async () => {
     const p = view.page;
     const modes = await p.$$eval('#ff-mode option', (os) => os.map((o) => o.value));
-    for (const m of ['radiosity', 'row_sum', 'sky_factor', 'standard_error', 'surface', 'material'])
+    for (const m of ['radiosity', 'row_sum', 'sky_factor', 'standard_error', 'error_bound', 'surface', 'material'])
         assert.ok(modes.includes(m), `mode ${m} offered`);
     for (const m of modes) {
         await p.selectOption('#ff-mode', m);
         const title = await p.textContent('.ff-bar-title');
         assert.ok(title.length > 0, `bar title of ${m}`);
     }
+    await p.selectOption('#ff-mode', 'error_bound');
+    assert.match(await p.textContent('.ff-bar-title'), /error bound of the row sum.*\[dimensionless, as F\]/);
+    assert.ok((await p.$$('.ff-ticks span')).length > 0, 'the error bound has a scale');
     await p.check('#ff-log');
     await p.selectOption('#ff-mode', 'row_sum');
     assert.match(await p.textContent('.ff-bar-note'), /log scale/);

@@ -1,0 +1,89 @@
+#pragma once
+/// Computing F over several MPI ranks (DESIGN.md, "Scale"; docs/cluster.md). One program runs
+/// on every rank; rank 0 does what a single process does (reads the scene, writes the outputs)
+/// and, where it computes F, hands blocks of rows to the other ranks, which wait in serve():
+///
+///     formfactor::distributed::Session mpi(argc, argv);   // MPI only when mpirun started us
+///     if (mpi.rank() > 0) return formfactor::distributed::serve();
+///     ... load the scene, then on rank 0:
+///     const formfactor::ComputeResult r = formfactor::distributed::compute_form_factors(scene, o);
+///     ... write r; finally
+///     formfactor::distributed::finish();                   // the other ranks return from serve()
+///
+/// The scene (with its patches) is broadcast from rank 0 with the method's options; rows are
+/// handed out dynamically from rank 0 in blocks that shrink as the rows run out (guided
+/// scheduling: a rank that drew costly rows, near obstructions, simply asks less often), and
+/// rank 0 computes blocks too. Every block is the pipeline's row range, bit-identical to the
+/// same rows of the whole matrix, so the result does not depend on the number of ranks or
+/// threads. An error on any rank ends the computation on every rank and is thrown on rank 0 as
+/// "rank K: message"; no rank writes anything.
+///
+/// Without MPI at configure time (FF_MPI off), or in a process not started by an MPI launcher,
+/// there is one rank and these calls are the pipeline's own. A build without MPI that mpirun
+/// starts K times anyway takes its rank from the launcher's environment: rank 0 does all the
+/// work alone and the others return from serve() at once.
+
+#include <string>
+#include <vector>
+
+#include "formfactor/pipeline.h"
+#include "formfactor/pipeline_sparse.h"
+
+namespace formfactor::distributed {
+
+/// True when the library was built with MPI.
+bool built_with_mpi();
+
+/// MPI for the life of a program: initialises MPI (threads: serialized) when the environment
+/// shows an MPI launcher (mpirun, mpiexec, srun with PMI/PMIx), and finalises it at the end.
+/// A process started without one is a single rank and never touches MPI. One per process.
+class Session {
+  public:
+    Session(int& argc, char**& argv);
+    ~Session();
+    Session(const Session&) = delete;
+    Session& operator=(const Session&) = delete;
+
+    int rank() const;
+    int size() const;
+};
+
+/// This process's rank (0 without MPI) and the number of ranks (1 without MPI).
+int rank();
+int size();
+
+/// Ranks other than 0: does rank 0's jobs (compute_form_factors(),
+/// compute_sparse_form_factors()) until rank 0 calls finish(); returns 0. A job that fails
+/// here is reported to rank 0, which throws it; this rank then waits for the next job. Throws
+/// Cancelled when this process is interrupted (SIGINT / SIGTERM) while it waits.
+int serve();
+
+/// Rank 0: the other ranks return from serve(). Call it once, on every way out (after an error
+/// too, after printing it); nothing on a single rank.
+void finish();
+
+/// What the ranks did in the last computation of this process (rank 0): rows and busy seconds
+/// per rank, and the blocks handed out. Empty on a single rank.
+struct RankShares {
+    std::vector<double> rows;
+    std::vector<double> busy_seconds;
+    std::size_t blocks = 0;
+    /// (largest busy time − mean) / mean: 0 when the ranks were equally busy.
+    double imbalance() const;
+};
+const RankShares& last_rank_shares();
+
+/// compute_form_factors() (formfactor/pipeline.h) over every rank, called on rank 0 only
+/// (the others in serve()): the whole matrix, its diagnostics and repair on rank 0, bit-identical
+/// to one process. options.rows must be every row (OptionError("rows") otherwise); the report's
+/// counts are summed over the blocks. On one rank: the pipeline's compute_form_factors().
+ComputeResult compute_form_factors(const Scene& scene, const ComputeOptions& options);
+
+/// compute_sparse_form_factors() (formfactor/pipeline_sparse.h) over every rank, called on rank
+/// 0 only: each rank computes rows into sparse rows (the entries that are not 0), rank 0
+/// thresholds them into CSR in row order, diagnoses and repairs, bit-identical to one process.
+/// sparse.block_rows and sparse.block_memory bound the blocks. On one rank: the pipeline's.
+SparseComputeResult compute_sparse_form_factors(const Scene& scene, const ComputeOptions& options,
+                                                const SparseOptions& sparse);
+
+}  // namespace formfactor::distributed

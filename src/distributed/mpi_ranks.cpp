@@ -1,0 +1,709 @@
+// Several MPI ranks (formfactor/distributed/distributed.h). Rank 0 broadcasts a job (the scene
+// and the method's options), then a dispatcher thread hands out row blocks and receives the
+// rows while rank 0's main thread computes blocks of its own; the other ranks wait in serve().
+// Every message a worker sends (ready, rows, failure) is answered by one assignment: a block,
+// or none (the job is over for it). Waits poll with short sleeps: a blocking MPI receive spins
+// a core that the computation needs.
+
+#include <fmt/format.h>
+#include <mpi.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <exception>
+#include <limits>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <new>
+#include <optional>
+#include <thread>
+
+#include "formfactor/core/cancel.h"
+#include "formfactor/core/parallel.h"
+#include "formfactor/core/progress.h"
+#include "formfactor/core/timing.h"
+#include "formfactor/distributed/distributed.h"
+#include "formfactor/matrix/memory.h"
+#include "wire.h"
+
+namespace formfactor::distributed {
+
+namespace {
+
+constexpr int kTagCommand = 1, kTagResult = 2, kTagAssign = 3;
+constexpr std::int64_t kCommandJob = 1, kCommandFinish = 2;
+enum class JobKind : std::uint8_t { dense, sparse };
+enum class Status : std::uint8_t { ready, rows, failed, cancelled };
+constexpr const char* kOutOfMemory =
+    "out of memory: the run needed more memory than this rank's machine could give (use fewer "
+    "patches, or free memory)";
+
+bool g_active = false;  // MPI was initialised by a Session
+bool g_finished = false;
+int g_rank = 0, g_size = 1, g_thread_level = MPI_THREAD_SINGLE;
+RankShares g_shares;
+
+// The environment of a process that an MPI launcher started: Open MPI's mpirun, PMIx (Open
+// MPI under srun), PMI (MPICH's hydra, srun --mpi=pmi2).
+bool launched_by_mpi() {
+    for (const char* name : {"OMPI_COMM_WORLD_SIZE", "PMIX_RANK", "PMI_RANK", "PMI_SIZE"})
+        if (std::getenv(name)) return true;
+    return false;
+}
+
+// Waits for a message from `source` with `tag` without spinning: probe, then sleep from 20 µs
+// up to 1 ms. Throws Cancelled when `cancel` is requested meanwhile.
+MPI_Status wait_for(int source, int tag, const CancellationFlag* cancel) {
+    auto pause = std::chrono::microseconds(20);
+    for (;;) {
+        int flag = 0;
+        MPI_Status status;
+        MPI_Iprobe(source, tag, MPI_COMM_WORLD, &flag, &status);
+        if (flag) return status;
+        if (cancel) cancel->throw_if_requested();
+        std::this_thread::sleep_for(pause);
+        pause = std::min(pause * 2, std::chrono::microseconds(1000));
+    }
+}
+
+std::vector<char> receive_bytes(const MPI_Status& probed) {
+    int count = 0;
+    MPI_Get_count(&probed, MPI_BYTE, &count);
+    std::vector<char> bytes(static_cast<std::size_t>(count));
+    MPI_Recv(bytes.data(), count, MPI_BYTE, probed.MPI_SOURCE, probed.MPI_TAG, MPI_COMM_WORLD,
+             MPI_STATUS_IGNORE);
+    return bytes;
+}
+
+int message_size(const std::vector<char>& bytes) {
+    if (bytes.size() > static_cast<std::size_t>(std::numeric_limits<int>::max()))
+        throw ResourceError("distributed: a message of " + format_bytes(double(bytes.size())) +
+                            " is more than MPI's 2 GB (use smaller blocks)");
+    return static_cast<int>(bytes.size());
+}
+
+void send_bytes(const std::vector<char>& bytes, int dest, int tag) {
+    MPI_Send(bytes.data(), message_size(bytes), MPI_BYTE, dest, tag, MPI_COMM_WORLD);
+}
+
+// What every rank needs for a job.
+struct Job {
+    JobKind kind = JobKind::dense;
+    MethodKind method = MethodKind::analytic;
+    MethodOptions method_options;
+    VisibilityOptions visibility;
+};
+
+std::vector<char> job_bytes(const Job& job, const Scene& scene) {
+    WireWriter w;
+    w.put(job.kind);
+    w.put(job.method);
+    w.put(job.method_options);
+    w.put(job.visibility);
+    put_scene(w, scene);
+    return std::move(w.bytes());
+}
+
+// Rank 0: the job to every other rank (a command each, then one broadcast).
+void broadcast_job(const std::vector<char>& bytes) {
+    std::int64_t size = static_cast<std::int64_t>(message_size(bytes));  // may throw: first
+    for (int r = 1; r < g_size; ++r)
+        MPI_Send(&kCommandJob, 1, MPI_INT64_T, r, kTagCommand, MPI_COMM_WORLD);
+    MPI_Bcast(&size, 1, MPI_INT64_T, 0, MPI_COMM_WORLD);
+    MPI_Bcast(const_cast<char*>(bytes.data()), static_cast<int>(size), MPI_BYTE, 0, MPI_COMM_WORLD);
+}
+
+std::vector<char> receive_job() {
+    std::int64_t size = 0;
+    MPI_Bcast(&size, 1, MPI_INT64_T, 0, MPI_COMM_WORLD);
+    std::vector<char> bytes(static_cast<std::size_t>(size));
+    MPI_Bcast(bytes.data(), static_cast<int>(size), MPI_BYTE, 0, MPI_COMM_WORLD);
+    return bytes;
+}
+
+// Blocks of rows for every rank, guided: a quarter of the remaining rows spread over the ranks,
+// so that blocks shrink as the rows run out and the last ones even out what costly rows (or a
+// slower node) unbalanced. Rank 0 takes the first block.
+class Schedule {
+  public:
+    /// `coarse`: at most two blocks per rank, for a method whose every call prepares the whole
+    /// scene (the analytic method classifies every pair of the scene's clusters per call).
+    Schedule(std::size_t n, int ranks, std::size_t max_rows, bool coarse)
+        : n_(n),
+          ranks_(static_cast<std::size_t>(ranks)),
+          max_rows_(std::max<std::size_t>(1, max_rows)),
+          min_rows_(std::clamp<std::size_t>(
+              coarse ? (n + 2 * ranks_ - 1) / (2 * ranks_) : n / (64 * ranks_), 1, max_rows_)) {}
+
+    std::optional<RowRange> take() {
+        const std::lock_guard lock(mutex_);
+        if (stopped_ || next_ >= n_) return std::nullopt;
+        const std::size_t rows =
+            std::clamp<std::size_t>((n_ - next_) / (4 * ranks_), min_rows_, max_rows_);
+        const RowRange block{next_, std::min(n_, next_ + rows)};
+        next_ = block.end;
+        ++blocks_;
+        largest_ = std::max(largest_, block.size());
+        return block;
+    }
+    void stop() {
+        const std::lock_guard lock(mutex_);
+        stopped_ = true;
+    }
+    std::size_t blocks() const { return blocks_; }
+    std::size_t largest() const { return largest_; }
+
+  private:
+    std::mutex mutex_;
+    std::size_t n_, ranks_, max_rows_, min_rows_, next_ = 0, blocks_ = 0, largest_ = 0;
+    bool stopped_ = false;
+};
+
+// Where rank 0 puts what the blocks give.
+class BlockSink {
+  public:
+    virtual ~BlockSink() = default;
+    /// Rank 0's own block (main thread).
+    virtual void local(const RowRange& rows) = 0;
+    /// A worker's rows as it sent them (dispatcher thread).
+    virtual void remote(const RowRange& rows, WireReader& r) = 0;
+};
+
+// The first failure of a job, wherever it happened.
+struct Failure {
+    std::mutex mutex;
+    std::exception_ptr local;  // rank 0's own, rethrown as it is
+    int rank = -1;
+    Status status = Status::failed;
+    std::string message;
+
+    bool record_remote(int from, Status s, std::string what) {
+        const std::lock_guard lock(mutex);
+        if (local || rank >= 0) return false;
+        rank = from;
+        status = s;
+        message = std::move(what);
+        return true;
+    }
+    void record_local(std::exception_ptr e) {
+        const std::lock_guard lock(mutex);
+        if (!local && rank < 0) local = e;
+    }
+    bool any() {
+        const std::lock_guard lock(mutex);
+        return local || rank >= 0;
+    }
+    [[noreturn]] void rethrow() {
+        if (local) std::rethrow_exception(local);
+        if (status == Status::cancelled) throw Cancelled(fmt::format("rank {}: {}", rank, message));
+        throw Error(fmt::format("rank {}: {}", rank, message));
+    }
+};
+
+// The dispatcher (rank 0): answers every worker until each has been told the job is over.
+// `job_cancel` stops rank 0's own blocks when a worker fails or this process is interrupted.
+void dispatch(Schedule& schedule, BlockSink& sink, Failure& failure, CancellationFlag& job_cancel,
+              Progress& progress, std::vector<double>& rows, std::vector<double>& busy) {
+    int active = g_size - 1;
+    auto pause = std::chrono::microseconds(20);
+    std::optional<std::chrono::steady_clock::time_point> interrupted;
+    while (active > 0) {
+        if (process_cancellation().requested() && !interrupted) {
+            interrupted = std::chrono::steady_clock::now();
+            schedule.stop();
+            job_cancel.request();
+        }
+        // Interrupted and a worker still computes after 5 s: end the job the hard way.
+        if (interrupted &&
+            std::chrono::steady_clock::now() - *interrupted > std::chrono::seconds(5))
+            MPI_Abort(MPI_COMM_WORLD, 130);
+        int flag = 0;
+        MPI_Status probed;
+        MPI_Iprobe(MPI_ANY_SOURCE, kTagResult, MPI_COMM_WORLD, &flag, &probed);
+        if (!flag) {
+            std::this_thread::sleep_for(pause);
+            pause = std::min(pause * 2, std::chrono::microseconds(1000));
+            continue;
+        }
+        pause = std::chrono::microseconds(20);
+        const int from = probed.MPI_SOURCE;
+        const std::vector<char> bytes = receive_bytes(probed);
+        WireReader r(bytes.data(), bytes.size());
+        const auto status = r.get<Status>();
+        if (status == Status::rows) {
+            const RowRange block{r.get<std::uint64_t>(), r.get<std::uint64_t>()};
+            busy[static_cast<std::size_t>(from)] += r.get<double>();
+            rows[static_cast<std::size_t>(from)] += double(block.size());
+            try {
+                sink.remote(block, r);
+                progress.advance(block.size());
+            } catch (...) {
+                failure.record_local(std::current_exception());
+                schedule.stop();
+                job_cancel.request();
+            }
+        } else if (status == Status::failed || status == Status::cancelled) {
+            if (failure.record_remote(from, status, r.get_string())) {
+                schedule.stop();
+                job_cancel.request();
+            }
+        }
+        const std::optional<RowRange> next = schedule.take();
+        const std::int64_t assign[2] = {next ? std::int64_t(next->begin) : 0,
+                                        next ? std::int64_t(next->end) : 0};
+        MPI_Send(assign, 2, MPI_INT64_T, from, kTagAssign, MPI_COMM_WORLD);
+        if (!next) --active;
+    }
+}
+
+// Rank 0: broadcasts the job, then computes blocks beside the dispatcher until the rows run
+// out; rethrows the first failure of any rank.
+void run_job(const Job& job, const Scene& scene, std::size_t max_rows, BlockSink& sink,
+             CancellationFlag& job_cancel, ProgressSink* progress_sink) {
+    broadcast_job(job_bytes(job, scene));
+    const std::size_t n = scene.patches.size();
+    Schedule schedule(n, g_size, max_rows,
+                      job.method == MethodKind::analytic || job.method == MethodKind::mc_target);
+    Failure failure;
+    std::vector<double> rows(static_cast<std::size_t>(g_size), 0.0), busy = rows;
+    Progress progress("rows", n, progress_sink);
+    // Rank 0's first block before any other: it gives the areas.
+    std::optional<RowRange> block = schedule.take();
+    auto compute_local = [&](bool only_first) {
+        try {
+            for (; block; block = only_first ? std::nullopt : schedule.take()) {
+                Stopwatch sw;
+                sink.local(*block);
+                busy[0] += sw.seconds();
+                rows[0] += double(block->size());
+                progress.advance(block->size());
+            }
+        } catch (...) {
+            failure.record_local(std::current_exception());
+            schedule.stop();
+        }
+    };
+    if (g_thread_level >= MPI_THREAD_SERIALIZED) {
+        std::thread dispatcher(
+            [&] { dispatch(schedule, sink, failure, job_cancel, progress, rows, busy); });
+        compute_local(false);
+        dispatcher.join();
+    } else {  // MPI calls from one thread only: rank 0 computes its first block, then dispatches
+        compute_local(true);
+        dispatch(schedule, sink, failure, job_cancel, progress, rows, busy);
+    }
+    if (failure.any()) failure.rethrow();
+    process_cancellation().throw_if_requested();
+    progress.finish();
+    g_shares.rows = rows;
+    g_shares.busy_seconds = busy;
+    g_shares.blocks = schedule.blocks();
+}
+
+// The ranks' shares in the method's report.
+void add_shares(MethodReport& report) {
+    if (!report.details.is_object()) report.details = Fields::object();
+    Fields& mpi = report.details["mpi"];
+    mpi = Fields::object();
+    mpi["ranks"] = g_size;
+    mpi["blocks"] = g_shares.blocks;
+    mpi["rows_per_rank"] = g_shares.rows;
+    mpi["busy_seconds_per_rank"] = g_shares.busy_seconds;
+    mpi["imbalance"] = g_shares.imbalance();
+}
+
+// The options of one block of a job.
+ComputeOptions block_options(const Job& job, const Visibility* visibility, RowRange rows,
+                             const CancellationFlag* cancel) {
+    ComputeOptions o;
+    o.method = job.method;
+    o.method_options = job.method_options;
+    o.visibility = job.visibility;
+    o.prebuilt_visibility = visibility;
+    o.rows = rows;
+    o.cancel = cancel;
+    return o;
+}
+
+// The rows of one block as a worker sends them (after status, rows and busy seconds).
+void put_block(WireWriter& w, const Job& job, const Scene& scene, const Visibility* visibility,
+               bool emit_sparse, RowRange rows, MethodReport& report) {
+    ComputeOptions o = block_options(job, visibility, rows, &process_cancellation());
+    if (job.kind == JobKind::sparse && emit_sparse) {
+        SparseRows emitted;
+        o.sparse_rows = &emitted;
+        report = formfactor::compute_form_factors(scene, o).report;
+        put_sparse_rows(w, emitted);
+    } else if (job.kind == JobKind::sparse) {
+        const ComputeResult r = formfactor::compute_form_factors(scene, o);
+        report = r.report;
+        put_sparse_rows(w, nonzero_rows(r.form_factors));
+    } else {
+        const ComputeResult r = formfactor::compute_form_factors(scene, o);
+        report = r.report;
+        const FormFactors& ff = r.form_factors;
+        w.put_array(ff.F.data(), static_cast<std::size_t>(ff.F.size()));
+        w.put<std::uint8_t>(ff.standard_error.has_value());
+        if (ff.standard_error)
+            w.put_array(ff.standard_error->data(),
+                        static_cast<std::size_t>(ff.standard_error->size()));
+    }
+}
+
+// A worker's part of one job: ready, then a block per assignment until none is left. A
+// failure is sent in place of the next result, and the job then ends for this rank.
+void work_on_job(const std::vector<char>& bytes) {
+    Job job;
+    Scene scene;
+    std::unique_ptr<Visibility> visibility;
+    bool emit_sparse = false;
+    auto failed = [](Status status, const std::string& message) {
+        WireWriter w;
+        w.put(status);
+        w.put_string(message);
+        return std::move(w.bytes());
+    };
+    std::vector<char> message;
+    try {
+        WireReader r(bytes.data(), bytes.size());
+        job.kind = r.get<JobKind>();
+        job.method = r.get<MethodKind>();
+        job.method_options = r.get<MethodOptions>();
+        job.visibility = r.get<VisibilityOptions>();
+        scene = get_scene(r);
+        // For the tests of one failing rank: FORMFACTOR_TEST_FAIL_RANK=K fails rank K's jobs.
+        if (const char* fail = std::getenv("FORMFACTOR_TEST_FAIL_RANK");
+            fail && std::atoi(fail) == g_rank)
+            throw Error(
+                fmt::format("a failure injected on rank {} (FORMFACTOR_TEST_FAIL_RANK)", g_rank));
+        const auto method = make_method(job.method);
+        emit_sparse = job.kind == JobKind::sparse && method->emits_sparse_rows(scene);
+        if (method->needs_visibility() && !scene.patches.empty())
+            visibility = make_visibility(scene, job.visibility);
+        WireWriter w;
+        w.put(Status::ready);
+        message = std::move(w.bytes());
+    } catch (const Cancelled& e) {
+        message = failed(Status::cancelled, e.what());
+    } catch (const std::bad_alloc&) {
+        message = failed(Status::failed, kOutOfMemory);
+    } catch (const std::exception& e) {
+        message = failed(Status::failed, e.what());
+    }
+    for (;;) {
+        send_bytes(message, 0, kTagResult);
+        wait_for(0, kTagAssign, nullptr);
+        std::int64_t assign[2];
+        MPI_Recv(assign, 2, MPI_INT64_T, 0, kTagAssign, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+        if (assign[1] <= assign[0]) return;
+        const RowRange rows{std::size_t(assign[0]), std::size_t(assign[1])};
+        try {
+            Stopwatch sw;
+            WireWriter body;
+            MethodReport report;
+            put_block(body, job, scene, visibility.get(), emit_sparse, rows, report);
+            WireWriter w;
+            w.put(Status::rows);
+            w.put<std::uint64_t>(rows.begin);
+            w.put<std::uint64_t>(rows.end);
+            w.put(sw.seconds());
+            put_report(w, report);
+            w.bytes().insert(w.bytes().end(), body.bytes().begin(), body.bytes().end());
+            message = std::move(w.bytes());
+        } catch (const Cancelled& e) {
+            message = failed(Status::cancelled, e.what());
+        } catch (const std::bad_alloc&) {
+            message = failed(Status::failed, kOutOfMemory);
+        } catch (const std::exception& e) {
+            message = failed(Status::failed, e.what());
+        }
+    }
+}
+
+// Rows per block so that a block's buffers stay near 64 MB (`per_row` bytes a row).
+std::size_t rows_for_budget(double per_row) {
+    return static_cast<std::size_t>(std::max(1.0, 64e6 / std::max(per_row, 1.0)));
+}
+
+// The report of a job: rank 0's first block's, with every other block's counts added.
+class ReportMerger {
+  public:
+    void add(const MethodReport& block) {
+        const std::lock_guard lock(mutex_);
+        merge_block_report(total_, block, first_);
+        first_ = false;
+    }
+    MethodReport take() { return std::move(total_); }
+
+  private:
+    std::mutex mutex_;
+    MethodReport total_;
+    bool first_ = true;
+};
+
+// Dense jobs: the rows straight into F (blocks are disjoint rows).
+class DenseSink final : public BlockSink {
+  public:
+    DenseSink(const Job& job, const Scene& scene, const Visibility* visibility,
+              const CancellationFlag& cancel, bool standard_errors)
+        : job_(job), scene_(scene), visibility_(visibility), cancel_(cancel) {
+        const auto n = static_cast<Eigen::Index>(scene.patches.size());
+        ff.F = DenseMatrix::Zero(n, n);
+        if (standard_errors) ff.standard_error = DenseMatrix::Zero(n, n);
+    }
+    void local(const RowRange& rows) override {
+        ComputeResult r = formfactor::compute_form_factors(
+            scene_, block_options(job_, visibility_, rows, &cancel_));
+        if (ff.areas.empty()) ff.areas = r.form_factors.areas;
+        place(rows, r.form_factors.F.data(), static_cast<std::size_t>(r.form_factors.F.size()),
+              ff.F);
+        if (ff.standard_error && r.form_factors.standard_error)
+            place(rows, r.form_factors.standard_error->data(),
+                  static_cast<std::size_t>(r.form_factors.standard_error->size()),
+                  *ff.standard_error);
+        report.add(r.report);
+    }
+    void remote(const RowRange& rows, WireReader& r) override {
+        report.add(get_report(r));
+        const char* data = nullptr;
+        std::size_t count = r.get_array<double>(&data);
+        place(rows, data, count, ff.F);
+        if (r.get<std::uint8_t>() != 0) {
+            count = r.get_array<double>(&data);
+            if (ff.standard_error) place(rows, data, count, *ff.standard_error);
+        }
+    }
+
+    FormFactors ff;
+    ReportMerger report;
+
+  private:
+    void place(const RowRange& rows, const void* data, std::size_t count, DenseMatrix& M) const {
+        const std::size_t n = scene_.patches.size();
+        if (count != rows.size() * n) throw Error("distributed: a block of the wrong size");
+        std::memcpy(M.data() + rows.begin * n, data, count * sizeof(double));
+    }
+
+    const Job& job_;
+    const Scene& scene_;
+    const Visibility* visibility_;
+    const CancellationFlag& cancel_;
+};
+
+// Sparse jobs: each block's sparse rows kept until all are in, then thresholded in row order.
+class SparseSink final : public BlockSink {
+  public:
+    SparseSink(const Job& job, const Scene& scene, const Visibility* visibility,
+               const CancellationFlag& cancel, bool emit_sparse)
+        : job_(job),
+          scene_(scene),
+          visibility_(visibility),
+          cancel_(cancel),
+          emit_sparse_(emit_sparse) {}
+    void local(const RowRange& rows) override {
+        ComputeOptions o = block_options(job_, visibility_, rows, &cancel_);
+        SparseRows emitted;
+        if (emit_sparse_) o.sparse_rows = &emitted;
+        ComputeResult r = formfactor::compute_form_factors(scene_, o);
+        if (areas.empty()) areas = r.form_factors.areas;
+        if (!emit_sparse_) emitted = nonzero_rows(r.form_factors);
+        report.add(r.report);
+        const std::lock_guard lock(mutex_);
+        blocks[rows.begin] = std::move(emitted);
+    }
+    void remote(const RowRange& rows, WireReader& r) override {
+        report.add(get_report(r));
+        SparseRows got = get_sparse_rows(r);
+        if (got.first_row != rows.begin || got.size() != rows.size())
+            throw Error("distributed: a block of the wrong rows");
+        const std::lock_guard lock(mutex_);
+        blocks[rows.begin] = std::move(got);
+    }
+
+    std::vector<double> areas;
+    std::map<std::size_t, SparseRows> blocks;
+    ReportMerger report;
+
+  private:
+    const Job& job_;
+    const Scene& scene_;
+    const Visibility* visibility_;
+    const CancellationFlag& cancel_;
+    bool emit_sparse_;
+    std::mutex mutex_;
+};
+
+// Rank 0's ray tracer for its own blocks.
+std::unique_ptr<Visibility> rank0_visibility(const Method& method, const Scene& scene,
+                                             const ComputeOptions& options, StepTimes& timings) {
+    if (options.prebuilt_visibility || !method.needs_visibility() || scene.patches.empty())
+        return nullptr;
+    Stopwatch sw;
+    auto v = make_visibility(scene, options.visibility);
+    timings.add("visibility", sw.lap());
+    return v;
+}
+
+}  // namespace
+
+bool built_with_mpi() { return true; }
+
+Session::Session(int& argc, char**& argv) {
+    if (g_active || !launched_by_mpi()) return;
+    MPI_Init_thread(&argc, &argv, MPI_THREAD_SERIALIZED, &g_thread_level);
+    MPI_Comm_rank(MPI_COMM_WORLD, &g_rank);
+    MPI_Comm_size(MPI_COMM_WORLD, &g_size);
+    g_active = true;
+}
+
+Session::~Session() {
+    if (!g_active) return;
+    finish();
+    MPI_Finalize();
+    g_active = false;
+}
+
+int Session::rank() const { return g_rank; }
+int Session::size() const { return g_size; }
+int rank() { return g_rank; }
+int size() { return g_size; }
+
+int serve() {
+    if (!g_active || g_rank == 0) return 0;
+    for (;;) {
+        wait_for(0, kTagCommand, &process_cancellation());
+        std::int64_t command = 0;
+        MPI_Recv(&command, 1, MPI_INT64_T, 0, kTagCommand, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+        if (command != kCommandJob) return 0;
+        work_on_job(receive_job());
+    }
+}
+
+void finish() {
+    if (!g_active || g_rank != 0 || g_finished) return;
+    g_finished = true;
+    for (int r = 1; r < g_size; ++r)
+        MPI_Send(&kCommandFinish, 1, MPI_INT64_T, r, kTagCommand, MPI_COMM_WORLD);
+}
+
+const RankShares& last_rank_shares() { return g_shares; }
+
+ComputeResult compute_form_factors(const Scene& scene, const ComputeOptions& options) {
+    if (g_size <= 1 || g_rank != 0) return formfactor::compute_form_factors(scene, options);
+    validate(options);
+    const std::size_t n = scene.patches.size();
+    if (options.rows.clamped(n).size() != n || options.sparse_rows)
+        throw OptionError("rows", "a distributed run computes every row, dense");
+    const CancellationScope scope(options.cancel ? *options.cancel : process_cancellation());
+    ComputeResult result;
+    Job job;
+    job.kind = JobKind::dense;
+    job.method = options.method ? *options.method : default_method(scene);
+    job.method_options = options.method_options;
+    job.visibility = options.visibility;
+    result.traits = method_traits(job.method, options.method_options, &scene);
+    const auto method = make_method(job.method);
+    const bool strip = job.method == MethodKind::analytic || job.method == MethodKind::mc_target;
+    const int per_row = (result.traits.standard_errors ? 2 : 1) + (strip ? 1 : 0);
+    DenseRunNeeds needs;
+    needs.patches = n;
+    needs.standard_errors = result.traits.standard_errors;
+    needs.repair = options.repair.mode != RepairMode::none;
+    const std::size_t max_rows = rows_for_budget(double(n) * 8.0 * per_row);
+    needs.output_rows = std::min(max_rows, n) * static_cast<std::size_t>(per_row);
+    check_memory(needs, available_memory(), "use a coarser subdivision, or sparse storage");
+    method->check(scene);
+
+    auto visibility = rank0_visibility(*method, scene, options, result.timings);
+    // Stops rank 0's own blocks when another rank fails or the process is interrupted.
+    CancellationFlag cancel;
+    DenseSink sink(job, scene,
+                   options.prebuilt_visibility ? options.prebuilt_visibility : visibility.get(),
+                   cancel, result.traits.standard_errors);
+    Stopwatch sw;
+    run_job(job, scene, max_rows, sink, cancel, options.progress);
+    result.timings.add("compute", sw.lap());
+    result.form_factors = std::move(sink.ff);
+    result.report = sink.report.take();
+    add_shares(result.report);
+    result.threads = effective_threads(options.method_options.threads);
+    result.diagnostics = diagnose(result.form_factors);
+    if (options.repair.mode != RepairMode::none) {
+        RepairOptions ro = options.repair;
+        ro.enclosure = scene.enclosure;
+        result.repair = repair(result.form_factors.F, result.form_factors.areas, ro);
+        result.timings.add("repair", sw.lap());
+    }
+    return result;
+}
+
+SparseComputeResult compute_sparse_form_factors(const Scene& scene, const ComputeOptions& options,
+                                                const SparseOptions& sparse) {
+    if (g_size <= 1 || g_rank != 0)
+        return formfactor::compute_sparse_form_factors(scene, options, sparse);
+    validate(options);
+    if (!(sparse.threshold >= 0.0) || !std::isfinite(sparse.threshold))
+        throw OptionError("threshold", "must be a finite number ≥ 0");
+    const std::size_t n = scene.patches.size();
+    if (options.rows.clamped(n).size() != n)
+        throw OptionError("rows", "a sparse run computes every row");
+    const bool closure =
+        options.repair.mode == RepairMode::closure || options.repair.mode == RepairMode::both;
+    if (closure && !scene.enclosure && !options.repair.force_closure)
+        throw OptionError("repair",
+                          "closure needs a closed enclosure (this scene is open: radiation "
+                          "escapes); use reciprocity, which never raises a row sum");
+    const CancellationScope scope(options.cancel ? *options.cancel : process_cancellation());
+    Job job;
+    job.kind = JobKind::sparse;
+    job.method = options.method ? *options.method : default_method(scene);
+    job.method_options = options.method_options;
+    job.visibility = options.visibility;
+    const MethodTraits traits = method_traits(job.method, options.method_options, &scene);
+    const auto method = make_method(job.method);
+    method->check(scene);
+    const bool emit_sparse = method->emits_sparse_rows(scene);
+    const bool strip = job.method == MethodKind::analytic || job.method == MethodKind::mc_target;
+    std::size_t max_rows =
+        emit_sparse ? 8192
+                    : rows_for_budget(double(n) * 8.0 *
+                                      ((traits.standard_errors ? 2 : 1) + (strip ? 1 : 0)));
+    if (sparse.block_rows > 0) max_rows = std::min(max_rows, sparse.block_rows);
+
+    StepTimes timings;
+    auto visibility = rank0_visibility(*method, scene, options, timings);
+    CancellationFlag cancel;
+    SparseSink sink(job, scene,
+                    options.prebuilt_visibility ? options.prebuilt_visibility : visibility.get(),
+                    cancel, emit_sparse);
+    Stopwatch sw;
+    run_job(job, scene, max_rows, sink, cancel, options.progress);
+    timings.add("compute", sw.lap());
+    const bool standard_errors =
+        !sink.blocks.empty() && sink.blocks.begin()->second.has_standard_errors();
+    SparseBuilder builder(n, sink.areas.size() == n ? sink.areas : std::vector<double>(n, 0.0),
+                          sparse.threshold, standard_errors);
+    for (auto& [first, rows] : sink.blocks) {
+        builder.append(rows, options.method_options.threads);
+        rows = SparseRows{};
+    }
+    SparseFormFactors F = builder.finish();
+    timings.add("threshold", sw.lap());
+    SparseComputeResult result =
+        sparse_form_factors_from_matrix(scene, std::move(F), options.repair, "distributed");
+    for (const auto& [step, seconds] : result.timings.steps) timings.add(step, seconds);
+    result.timings = timings;
+    result.report = sink.report.take();
+    add_shares(result.report);
+    result.traits = traits;
+    result.run.blocks = g_shares.blocks;
+    result.run.block_rows = max_rows;
+    result.threads = effective_threads(options.method_options.threads);
+    return result;
+}
+
+}  // namespace formfactor::distributed

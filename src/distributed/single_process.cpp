@@ -1,0 +1,51 @@
+// One rank (the library built without MPI): formfactor/distributed/distributed.h's calls are
+// the pipeline's own.
+
+#include <cstdlib>
+
+#include "formfactor/distributed/distributed.h"
+
+namespace formfactor::distributed {
+
+namespace {
+
+// Started by mpirun all the same: the launcher's rank, so that ranks other than 0 leave the
+// work (and the output files) to rank 0 instead of each doing all of it.
+int g_rank = 0;
+
+}  // namespace
+
+bool built_with_mpi() { return false; }
+
+Session::Session(int& argc, char**& argv) {
+    (void)argc;
+    (void)argv;
+    for (const char* name : {"OMPI_COMM_WORLD_RANK", "PMIX_RANK", "PMI_RANK"})
+        if (const char* value = std::getenv(name)) {
+            g_rank = std::atoi(value);
+            break;
+        }
+}
+Session::~Session() = default;
+int Session::rank() const { return g_rank; }
+int Session::size() const { return 1; }
+int rank() { return g_rank; }
+int size() { return 1; }
+int serve() { return 0; }
+void finish() {}
+
+const RankShares& last_rank_shares() {
+    static const RankShares none;
+    return none;
+}
+
+ComputeResult compute_form_factors(const Scene& scene, const ComputeOptions& options) {
+    return formfactor::compute_form_factors(scene, options);
+}
+
+SparseComputeResult compute_sparse_form_factors(const Scene& scene, const ComputeOptions& options,
+                                                const SparseOptions& sparse) {
+    return formfactor::compute_sparse_form_factors(scene, options, sparse);
+}
+
+}  // namespace formfactor::distributed

@@ -1,0 +1,245 @@
+// `mpirun -np K formfactor ...` against one process, end to end (test suite "mpi"; only when the
+// library was built with MPI and CMake found mpiexec, FF_TEST_MPIEXEC).
+
+#include <doctest/doctest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "support/cli_runner.h"
+#include "formfactor/output/sparse_io.h"
+
+#ifdef FF_TEST_MPIEXEC
+
+using namespace formfactor;
+using formfactor::testing::read_text;
+using formfactor::testing::shell_quote;
+using formfactor::testing::TempDir;
+using formfactor::testing::write_text;
+
+namespace {
+
+struct Run {
+    int code = -1;
+    std::string out, err;
+    double seconds = 0;
+};
+
+// The shell command `cmd` in `dir`, its output captured and its wall time measured.
+Run run_shell(const TempDir& dir, const std::string& cmd) {
+    TempDir capture;
+    const std::string out = capture.file("stdout.txt"), err = capture.file("stderr.txt");
+    const std::string line = "cd " + shell_quote(dir.path().string()) + " && (" + cmd + ") > " +
+                             shell_quote(out) + " 2> " + shell_quote(err) + " < /dev/null";
+    const auto start = std::chrono::steady_clock::now();
+    const int status = std::system(line.c_str());
+    Run r;
+    r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    r.out = read_text(out);
+    r.err = read_text(err);
+    return r;
+}
+
+// mpirun with `ranks` ranks (oversubscribed, unbound, as root when root); `env` is a VAR=VALUE
+// exported to every rank, or empty.
+std::string mpirun(int ranks, const std::string& env = "") {
+    std::string launcher = shell_quote(FF_TEST_MPIEXEC) + " -np " + std::to_string(ranks) +
+                           " --oversubscribe --bind-to none";
+    if (::geteuid() == 0) launcher += " --allow-run-as-root";
+    if (!env.empty()) launcher += " -x " + env;
+    return launcher;
+}
+
+// `formfactor ARGS` in `dir`, under mpirun with `ranks` ranks (0: no mpirun).
+Run run(const TempDir& dir, int ranks, const std::string& args, const std::string& env = "") {
+    const std::string launcher = ranks > 0 ? mpirun(ranks, env) + " " : std::string();
+    return run_shell(dir, launcher + shell_quote(FF_CLI_PATH) + " " + args);
+}
+
+std::string said(const Run& r) { return "stdout:\n" + r.out + "stderr:\n" + r.err; }
+
+// Replaces every "{}" of `text` with `tag`.
+std::string tagged(std::string text, const std::string& tag) {
+    for (auto at = text.find("{}"); at != std::string::npos; at = text.find("{}", at))
+        text.replace(at, 2, tag);
+    return text;
+}
+
+// `formfactor ARGS` on one process and on 2 and 3 ranks ("{}" in ARGS and FILES: 1, 2 or 3):
+// the bytes of each of FILES are the same in the three runs.
+void check_same_files_on_any_rank_count(const std::string& args,
+                                        const std::vector<std::string>& files,
+                                        const std::string& two_zone_model = "") {
+    TempDir dir;
+    if (!two_zone_model.empty()) write_text(dir.file("two.idf"), two_zone_model);
+    write_text(dir.file("p.csv"),
+               "surface,emissivity,temperature\nx0,1,300\nx1,0.5,300\ny0,1,300\ny1,1,300\n"
+               "z0,0.6,1000\nz1,0.8,400\n");
+    const Run one = run(dir, 0, tagged(args, "1"));
+    INFO(said(one));
+    REQUIRE(one.code == 0);
+    for (int ranks : {2, 3}) {
+        CAPTURE(ranks);
+        const std::string tag = std::to_string(ranks);
+        const Run r = run(dir, ranks, tagged(args, tag));
+        INFO(said(r));
+        REQUIRE(r.code == 0);
+        CHECK(r.out.find("ranks      " + tag + " × ") != std::string::npos);
+        for (const std::string& file : files) {
+            CAPTURE(file);
+            const std::string expected = read_text(dir.file(tagged(file, "1")));
+            REQUIRE(!expected.empty());
+            CHECK(read_text(dir.file(tagged(file, tag))) == expected);
+        }
+    }
+}
+
+}  // namespace
+
+TEST_CASE(
+    "mpi: analytic F of an obstructed room is bit-identical on 2 and 3 ranks as on one process" *
+    doctest::test_suite("mpi")) {
+    check_same_files_on_any_rank_count(
+        "compute room-4-obstruction --method analytic --threads 1 -o F{}.npy --patches P{}.csv",
+        {"F{}.npy", "P{}.csv"});
+}
+
+TEST_CASE(
+    "mpi: mc-hemisphere F and its standard errors are bit-identical on 2 and 3 ranks as on one "
+    "process" *
+    doctest::test_suite("mpi")) {
+    check_same_files_on_any_rank_count(
+        "compute cornell --subdivide 2 --method mc-hemisphere --samples 2000 --threads 1 -o "
+        "F{}.npy "
+        "--stderr SE{}.npy",
+        {"F{}.npy", "SE{}.npy"});
+}
+
+TEST_CASE("mpi: hemicube F is bit-identical on 2 and 3 ranks as on one process" *
+          doctest::test_suite("mpi")) {
+    check_same_files_on_any_rank_count(
+        "compute cornell --subdivide 3 --method hemicube --resolution 64 --threads 2 -o F{}.npy",
+        {"F{}.npy"});
+}
+
+TEST_CASE("mpi: sparse .mtx is bit-identical on 2 and 3 ranks as on one process" *
+          doctest::test_suite("mpi")) {
+    // Rows the method emits sparse (analytic, obstructed), and dense blocks made sparse on
+    // their rank (hemicube).
+    check_same_files_on_any_rank_count(
+        "compute room-4-obstruction --method analytic --threshold 1e-3 --threads 1 -o F{}.mtx",
+        {"F{}.mtx"});
+    check_same_files_on_any_rank_count(
+        "compute cornell --subdivide 2 --method hemicube --resolution 64 --threshold 1e-4 --repair "
+        "reciprocity --threads 1 -o F{}.mtx",
+        {"F{}.mtx"});
+}
+
+TEST_CASE("mpi: thermal and radiosity solves write the same solution on 2 and 3 ranks" *
+          doctest::test_suite("mpi")) {
+    // F over the ranks, gathered and solved on rank 0.
+    check_same_files_on_any_rank_count(
+        "solve cube --subdivide 3 --thermal --properties p.csv --threads 1 -o T{}.csv "
+        "--exchange-factors X{}.csv",
+        {"T{}.csv", "X{}.csv"});
+    check_same_files_on_any_rank_count(
+        "solve cornell --subdivide 2 --method mc-hemisphere --samples 400 --storage sparse "
+        "--solver gauss-seidel --threads 1 -o B{}.csv",
+        {"B{}.csv"});
+}
+
+TEST_CASE("mpi: every zone of a model (one job per zone) gives the same EnergyPlus file" *
+          doctest::test_suite("mpi")) {
+    // Two zones: the same room under other names (as the EnergyPlus output tests build it).
+    const std::string model =
+        read_text(std::string(FF_TEST_DATA_DIR) + "/energyplus/1ZoneUncontrolled_win_1.idf");
+    std::string second = model.substr(model.find("  Zone,"));
+    second = second.substr(0, second.find("  GlobalGeometryRules,")) +
+             second.substr(second.find("  BuildingSurface:Detailed,"));
+    for (const auto& [from, to] :
+         {std::pair<std::string, std::string>{"ZONE ONE", "ZONE TWO"}, {"Zn001", "Zn002"}})
+        for (std::size_t at = 0; (at = second.find(from, at)) != std::string::npos; at += to.size())
+            second.replace(at, from.size(), to);
+    check_same_files_on_any_rank_count(
+        "compute two.idf --all-zones --subdivide 2 --threads 1 -o vf{}.idf", {"vf{}.idf"},
+        model + second);
+}
+
+TEST_CASE(
+    "mpi: sparse .h5 from mc-hemisphere holds the same CSR on 2 and 3 ranks as on one process" *
+    doctest::test_suite("mpi")) {
+    // HDF5 stamps objects with times: the arrays are compared, not the bytes.
+    TempDir dir;
+    const std::string args =
+        "city-2 --method mc-hemisphere --samples 4000 --threads 1 --repair reciprocity -o ";
+    const Run one = run(dir, 0, "compute " + args + "one.h5");
+    INFO(said(one));
+    REQUIRE(one.code == 0);
+    const SparseFormFactors expected = read_sparse_matrix(dir.file("one.h5"));
+    REQUIRE(expected.nonzeros() > 0);
+    for (int ranks : {2, 3}) {
+        CAPTURE(ranks);
+        const std::string name = std::to_string(ranks) + ".h5";
+        const Run r = run(dir, ranks, "compute " + args + name);
+        INFO(said(r));
+        REQUIRE(r.code == 0);
+        const SparseFormFactors got = read_sparse_matrix(dir.file(name));
+        CHECK(got.indptr == expected.indptr);
+        CHECK(got.indices == expected.indices);
+        CHECK(got.values == expected.values);
+        CHECK(got.areas == expected.areas);
+        CHECK(got.dropped == expected.dropped);
+    }
+}
+
+TEST_CASE("mpi: a failure on rank 1 ends every rank at once with its message and no output" *
+          doctest::test_suite("mpi")) {
+    TempDir dir;
+    // About 20 s on one thread when nothing fails (7 s at --subdivide 6): the failure ends it
+    // well before.
+    const Run r = run(dir, 2,
+                      "compute cornell --subdivide 8 --method analytic --threads 1 -o F.npy "
+                      "--report r.json",
+                      "FORMFACTOR_TEST_FAIL_RANK=1");
+    INFO(said(r));
+    CHECK(r.code != 0);
+    CHECK(r.err.find("formfactor: rank 1: a failure injected on rank 1") != std::string::npos);
+    // One line from formfactor, whatever mpirun adds about the exit code.
+    const auto first = r.err.find("formfactor:");
+    CHECK(r.err.find("formfactor:", first + 1) == std::string::npos);
+    CHECK(r.seconds < 6.0);
+    CHECK(dir.entries() == 0);
+}
+
+TEST_CASE("mpi: Ctrl-C on mpirun stops every rank within seconds and writes nothing" *
+          doctest::test_suite("mpi")) {
+    TempDir dir;
+    // The run takes 20 s or more; SIGINT goes to mpirun after 3 s, as Ctrl-C in a terminal.
+    const std::string job = mpirun(2) + " " + shell_quote(FF_CLI_PATH) +
+                            " compute cornell --subdivide 8 --method analytic --threads 1 -o F.npy";
+    const Run r = run_shell(dir, job + " & pid=$!; sleep 3; kill -INT $pid; wait $pid");
+    INFO(said(r));
+    CHECK(r.seconds < 3.0 + 5.0);
+    CHECK(r.code != 0);
+    CHECK(r.err.find("formfactor: interrupted by") != std::string::npos);
+    CHECK(dir.entries() == 0);
+}
+
+TEST_CASE("mpi: a bad option on rank 0 ends every rank with one message" *
+          doctest::test_suite("mpi")) {
+    TempDir dir;
+    const Run r = run(dir, 3, "compute cornell --method no-such-method -o F.npy");
+    INFO(said(r));
+    CHECK(r.code == 2);
+    CHECK(r.err.rfind("formfactor: --method", 0) == 0);
+    CHECK(r.seconds < 10.0);
+    CHECK(dir.entries() == 0);
+}
+
+#endif
