@@ -11,8 +11,8 @@
 #include <utility>
 #include <vector>
 
-#include "support/cli_runner.h"
 #include "formfactor/output/sparse_io.h"
+#include "support/cli_runner.h"
 
 #ifdef FF_TEST_MPIEXEC
 
