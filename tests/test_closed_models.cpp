@@ -369,7 +369,7 @@ TEST_CASE(
                 CAPTURE(n);
                 CAPTURE(gap);
                 CAPTURE(robust);
-                const Scene s = scene_of(room_faces(l_room(), 1.0), n, "L");
+                const Scene s = scene_of(room_faces(l_room(), 1.0), {}, n);
                 VisibilityOptions vo;
                 vo.robust = robust;
                 const auto vis = make_visibility(s, vo);
@@ -388,7 +388,7 @@ TEST_CASE(
 
 TEST_CASE("closed models: segments inside a closed room stay clear after the re-check") {
     // Between the wings of the L room inside its corner (gap < 0): nothing blocks.
-    const Scene s = scene_of(room_faces(l_room(), 1.0), 2, "L");
+    const Scene s = scene_of(room_faces(l_room(), 1.0), {}, 2);
     const auto vis = make_visibility(s);
     const std::vector<SegmentQuery> q = segments_past_the_reentrant_edge(-1e-3);
     std::vector<std::uint8_t> blocked(q.size());
@@ -405,7 +405,7 @@ TEST_CASE("closed models: segments inside a closed room stay clear after the re-
 
 TEST_CASE("closed models: mc-area and mc-target report the segments the re-check blocked") {
     for (const MethodKind m : {MethodKind::mc_area, MethodKind::mc_target})
-        for (const Rooms& room : {Rooms{"L", scene_of(room_faces(l_room(), 1.0), 2, "L")},
+        for (const Rooms& room : {Rooms{"L", scene_of(room_faces(l_room(), 1.0), {}, 2)},
                                   Rooms{"sphere in a room", sphere_in_room(1)}}) {
             CAPTURE(room.name);
             CAPTURE(static_cast<int>(m));
@@ -497,7 +497,7 @@ TEST_CASE("closed models: closing the rows of a closed model needs no declared e
     o.method = MethodKind::mc_hemisphere;
     o.method_options.samples = 500;
     o.repair.mode = RepairMode::closure;
-    const Scene s = scene_of(room_faces(l_room(), 1.0), 1, "L");
+    const Scene s = scene_of(room_faces(l_room(), 1.0), {}, 1);
     REQUIRE_FALSE(s.enclosure);
     REQUIRE(known_enclosure(s));
     const ComputeResult r = compute_form_factors(s, o);
