@@ -5,6 +5,10 @@
 // or none (the job is over for it). Waits poll with short sleeps: a blocking MPI receive spins
 // a core that the computation needs.
 
+// The C API only: Open MPI's deprecated C++ bindings warn in every build.
+#define OMPI_SKIP_MPICXX 1
+#define MPICH_SKIP_MPICXX 1
+
 #include <fmt/format.h>
 #include <mpi.h>
 

@@ -45,7 +45,7 @@ inline Scene scene_of(const std::vector<Polygon>& surfaces,
     s.materials.push_back(Material{});
     auto add = [&](const Polygon& p, bool obstruction) {
         Surface sf;
-        sf.name = obstruction ? "o" : "s";
+        sf.name.assign(1, obstruction ? 'o' : 's');
         sf.name += std::to_string(s.surfaces.size());
         sf.polygon = p;
         sf.obstruction = obstruction;

@@ -30,9 +30,6 @@ class AnalyticMethod final : public Method {
     }
     bool sparse_rows_at_once() const override { return true; }
 
-    /// formfactor::may_obstruct (scene/obstruction.h), the one the library calls.
-    static bool may_obstruct(const Scene& scene, double relative_tolerance = 1e-9);
-
     /// Largest tolerance of the unobstructed values in an obstructed scene (see compute()).
     static constexpr double kVisibleTolerance = 1e-10;
 
