@@ -365,14 +365,25 @@ void work_on_job(const std::vector<char>& bytes) {
     Scene scene;
     std::unique_ptr<Visibility> visibility;
     bool emit_sparse = false;
-    auto failed = [](Status status, const std::string& message) {
-        WireWriter w;
-        w.put(status);
-        w.put_string(message);
-        return std::move(w.bytes());
+    // The message that answers work(): its own, or the failure it threw.
+    auto answer = [](const auto& work) -> std::vector<char> {
+        auto failed = [](Status status, const std::string& text) {
+            WireWriter w;
+            w.put(status);
+            w.put_string(text);
+            return std::move(w.bytes());
+        };
+        try {
+            return work();
+        } catch (const Cancelled& e) {
+            return failed(Status::cancelled, e.what());
+        } catch (const std::bad_alloc&) {
+            return failed(Status::failed, kOutOfMemory);
+        } catch (const std::exception& e) {
+            return failed(Status::failed, e.what());
+        }
     };
-    std::vector<char> message;
-    try {
+    std::vector<char> message = answer([&] {
         WireReader r(bytes.data(), bytes.size());
         job.kind = r.get<JobKind>();
         job.method = r.get<MethodKind>();
@@ -390,14 +401,8 @@ void work_on_job(const std::vector<char>& bytes) {
             visibility = make_visibility(scene, job.visibility);
         WireWriter w;
         w.put(Status::ready);
-        message = std::move(w.bytes());
-    } catch (const Cancelled& e) {
-        message = failed(Status::cancelled, e.what());
-    } catch (const std::bad_alloc&) {
-        message = failed(Status::failed, kOutOfMemory);
-    } catch (const std::exception& e) {
-        message = failed(Status::failed, e.what());
-    }
+        return std::move(w.bytes());
+    });
     for (;;) {
         send_bytes(message, 0, kTagResult);
         wait_for(0, kTagAssign, nullptr);
@@ -405,7 +410,7 @@ void work_on_job(const std::vector<char>& bytes) {
         MPI_Recv(assign, 2, MPI_INT64_T, 0, kTagAssign, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
         if (assign[1] <= assign[0]) return;
         const RowRange rows{std::size_t(assign[0]), std::size_t(assign[1])};
-        try {
+        message = answer([&] {
             Stopwatch sw;
             WireWriter body;
             MethodReport report;
@@ -417,14 +422,8 @@ void work_on_job(const std::vector<char>& bytes) {
             w.put(sw.seconds());
             put_report(w, report);
             w.bytes().insert(w.bytes().end(), body.bytes().begin(), body.bytes().end());
-            message = std::move(w.bytes());
-        } catch (const Cancelled& e) {
-            message = failed(Status::cancelled, e.what());
-        } catch (const std::bad_alloc&) {
-            message = failed(Status::failed, kOutOfMemory);
-        } catch (const std::exception& e) {
-            message = failed(Status::failed, e.what());
-        }
+            return std::move(w.bytes());
+        });
     }
 }
 
