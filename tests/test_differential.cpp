@@ -24,6 +24,7 @@
 #include "formfactor/core/random.h"
 #include "formfactor/kernels/analytic.h"
 #include "formfactor/methods/method.h"
+#include "formfactor/scene/city.h"
 #include "support/obstructed_checks.h"
 #include "support/random_geometry.h"
 #include "support/student_t.h"
@@ -431,4 +432,65 @@ TEST_CASE("differential: seeds from FF_DIFFERENTIAL_SEEDS (a development aid)" *
                 h.forms.push_back(f);
     }
     run_harness(seed_range(first, last), go, h);
+}
+
+namespace {
+
+// The city of city_scene(n) as tools write it for View3D: every unit square as two triangles,
+// each its own surface.
+Scene triangulated_city(int n) {
+    const Scene city = city_scene(n);
+    std::vector<Polygon> tris;
+    for (const Patch& p : city.patches) {
+        const auto& v = p.polygon.vertices;
+        tris.push_back(Polygon{{v[0], v[1], v[2]}});
+        tris.push_back(Polygon{{v[0], v[2], v[3]}});
+    }
+    Scene s = testing::scene_of(tris);
+    s.name = "city-" + std::to_string(n) + "-triangulated";
+    return s;
+}
+
+// Every entry of a run at `tolerance` against a run at a tighter one: the difference within
+// the two reported bounds, and the reported bound within the tolerance.
+void check_bound_against_tighter(const Scene& s, const std::vector<double>& tolerances,
+                                 double tight) {
+    const AnalyticRun ref = run_analytic(s, 0, tight);
+    REQUIRE(ref.bound <= tight * (1 + 1e-9));
+    const auto n = ref.ff.F.rows();
+    for (double t : tolerances) {
+        CAPTURE(t);
+        const AnalyticRun run = run_analytic(s, 0, t);
+        CHECK(run.bound <= t * (1 + 1e-9));
+        Worst w;
+        double max_diff = 0;
+        for (Eigen::Index i = 0; i < n; ++i)
+            for (Eigen::Index j = 0; j < n; ++j) {
+                const double d = std::abs(run.ff.F(i, j) - ref.ff.F(i, j));
+                max_diff = std::max(max_diff, d);
+                w.add(d, run.bound + ref.bound + 1e-10, static_cast<std::size_t>(i),
+                      static_cast<std::size_t>(j));
+            }
+        MESSAGE(s.name << " (" << n << " patches) at tolerance " << t << ": " << run.seconds
+                       << " s (" << ref.seconds << " s at " << tight << "), bound " << run.bound
+                       << ", largest difference " << max_diff);
+        CHECK_MESSAGE(w.ratio <= 1, "difference to the run at " << tight << ": " << w.str());
+    }
+}
+
+}  // namespace
+
+TEST_CASE("differential: the reported bound covers the error at every tolerance" *
+          doctest::test_suite("obstructed-references")) {
+    // Against a run 10× tighter than the tightest: random scenes (boxes touching, resting on
+    // walls, a tilted box) and an urban array of triangles, where most pairs are partly
+    // hidden by buildings.
+    const std::vector<double> tolerances = {1e-4, 1e-5, 1e-6};
+    for (std::uint64_t seed : {1, 5, 8}) {
+        const testing::Geometry g = testing::random_geometry(seed);
+        Scene s = testing::make_scene(g, true);
+        s.name = g.label;
+        check_bound_against_tighter(s, tolerances, 1e-7);
+    }
+    check_bound_against_tighter(triangulated_city(2), tolerances, 1e-7);
 }

@@ -38,10 +38,12 @@ inline double reported_bound(const nlohmann::json& d, double tolerance) {
     return tolerance;
 }
 
-/// `analytic` with its default tolerances (1e-10 unobstructed, 1e-6 partly hidden).
-inline AnalyticRun run_analytic(const Scene& s, int threads = 0) {
+/// `analytic` with its default tolerances (1e-10 unobstructed, 1e-6 partly hidden), or with
+/// `tolerance` for the partly hidden pairs when it is > 0.
+inline AnalyticRun run_analytic(const Scene& s, int threads = 0, double tolerance = 0) {
     MethodOptions o;
     o.threads = threads;
+    if (tolerance > 0) o.obstructed_tolerance = tolerance;
     AnalyticRun r;
     const auto t0 = std::chrono::steady_clock::now();
     r.ff = run_method(*make_method("analytic"), s, o, r.details);
