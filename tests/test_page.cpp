@@ -34,7 +34,8 @@ std::size_t count(const std::string& text, const std::string& what) {
 constexpr const char* kAlphabet =
     "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
 
-/// The bytes of a page array ({dtype, count, compression, base64}), inflated when deflated.
+/// The bytes of a page array ({dtype, count, compression, base64}), inflated when deflated and
+/// put back in order when stored by byte planes.
 std::string decode_bytes(const nlohmann::json& entry) {
     const std::string b64 = entry["base64"];
     std::string bytes;
@@ -57,7 +58,12 @@ std::string decode_bytes(const nlohmann::json& entry) {
     REQUIRE(uncompress(reinterpret_cast<Bytef*>(out.data()), &size,
                        reinterpret_cast<const Bytef*>(bytes.data()), bytes.size()) == Z_OK);
     REQUIRE(size == out.size());
-    return out;
+    if (!entry.value("byte_planes", false)) return out;
+    const std::size_t n = entry["count"];
+    std::string values(out.size(), '\0');
+    for (std::size_t k = 0; k < n; ++k)
+        for (std::size_t b = 0; b < size_of; ++b) values[k * size_of + b] = out[b * n + k];
+    return values;
 }
 
 /// The values of a page array of type T.

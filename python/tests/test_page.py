@@ -24,6 +24,9 @@ def array(entry):
     raw = base64.b64decode(entry["base64"])
     if entry.get("compression") == "deflate":
         raw = zlib.decompress(raw)
+    if entry.get("byte_planes"):
+        width = np.dtype(dtype).itemsize
+        raw = np.frombuffer(raw, dtype=np.uint8).reshape(width, -1).T.tobytes()
     a = np.frombuffer(raw, dtype=dtype)
     assert a.size == entry["count"]
     return a

@@ -63,14 +63,27 @@ std::string deflate(const void* data, std::size_t bytes) {
 }
 
 // The page's typed arrays: {dtype, count, compression, base64} of little-endian values (x86 and
-// ARM are), deflated: the file is what the browser reads before the page can start.
+// ARM are), deflated: the file is what the browser reads before the page can start. Deflated
+// as they are or by byte planes (every value's first byte, then every second byte, ...), the
+// smaller of the two: planes line up the exponents of floats and the high bytes of indices,
+// and shrink F's values by a seventh (triangle indices 30 times), but not coordinates.
 template <class T>
 nlohmann::json typed(const std::vector<T>& v, const char* dtype) {
-    const std::string packed = deflate(v.data(), v.size() * sizeof(T));
-    return {{"dtype", dtype},
-            {"count", v.size()},
-            {"compression", "deflate"},
-            {"base64", base64(packed.data(), packed.size())}};
+    const std::size_t bytes = v.size() * sizeof(T);
+    std::string packed = deflate(v.data(), bytes);
+    std::string planes(bytes, '\0');
+    const auto* p = reinterpret_cast<const char*>(v.data());
+    for (std::size_t k = 0; k < v.size(); ++k)
+        for (std::size_t b = 0; b < sizeof(T); ++b) planes[b * v.size() + k] = p[k * sizeof(T) + b];
+    std::string by_planes = deflate(planes.data(), bytes);
+    const bool use_planes = by_planes.size() < packed.size();
+    if (use_planes) packed = std::move(by_planes);
+    nlohmann::json j = {{"dtype", dtype},
+                        {"count", v.size()},
+                        {"compression", "deflate"},
+                        {"base64", base64(packed.data(), packed.size())}};
+    if (use_planes) j["byte_planes"] = true;
+    return j;
 }
 nlohmann::json f32(const std::vector<float>& v) { return typed(v, "f32"); }
 nlohmann::json f64(const std::vector<double>& v) { return typed(v, "f64"); }

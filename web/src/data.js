@@ -52,7 +52,8 @@ export async function inflate(bytes) {
 }
 
 /// A typed array from {dtype, count, base64} (little-endian, as the writer stores it), the bytes
-/// deflated when the entry says compression: 'deflate'. Rejects on an unknown dtype or
+/// deflated when the entry says compression: 'deflate', and stored by byte planes (every value's
+/// first byte, then every second byte, ...) when it says byte_planes. Rejects on an unknown dtype or
 /// compression, or a length that does not match count.
 export async function decodeArray(entry) {
     const Type = kArrayTypes[entry.dtype];
@@ -62,6 +63,15 @@ export async function decodeArray(entry) {
     else if (entry.compression !== undefined) throw new Error(`unknown compression '${entry.compression}'`);
     if (bytes.length !== entry.count * Type.BYTES_PER_ELEMENT)
         throw new Error(`array of ${entry.count} ${entry.dtype} has ${bytes.length} bytes`);
+    if (entry.byte_planes) {
+        // Every value's first byte, then every second byte, ...: back to values.
+        const w = Type.BYTES_PER_ELEMENT, n = entry.count, out = new Uint8Array(bytes.length);
+        for (let b = 0; b < w; ++b) {
+            const plane = bytes.subarray(b * n, (b + 1) * n);
+            for (let k = 0, o = b; k < n; ++k, o += w) out[o] = plane[k];
+        }
+        bytes = out;
+    }
     // A view needs an aligned offset; a copy when the bytes do not start on one.
     if (bytes.byteOffset % Type.BYTES_PER_ELEMENT !== 0) bytes = bytes.slice();
     return new Type(bytes.buffer, bytes.byteOffset, entry.count);

@@ -10,6 +10,12 @@ const b64 = (typed) => bytesOf(typed).toString('base64');
 const arr = (dtype, typed) => ({ dtype, count: typed.length, compression: 'deflate', base64: zlib.deflateSync(bytesOf(typed)).toString('base64') });
 // An array stored as it is.
 const raw = (dtype, typed) => ({ dtype, count: typed.length, base64: b64(typed) });
+// Deflated by byte planes: every value's first byte, then every second byte, ...
+const planes = (dtype, typed) => {
+    const bytes = bytesOf(typed), w = typed.BYTES_PER_ELEMENT, n = typed.length, out = Buffer.alloc(bytes.length);
+    for (let k = 0; k < n; ++k) for (let b = 0; b < w; ++b) out[b * n + k] = bytes[k * w + b];
+    return { dtype, count: n, compression: 'deflate', byte_planes: true, base64: zlib.deflateSync(out).toString('base64') };
+};
 
 // Three patches: 0 and 1 on surface 0, 2 on surface 1; F (stored entries only):
 //   row 0: F01 = 0.25, F02 = 0.5    row 1: F10 = 0.5    row 2: F20 = 0.125, F21 = 0.375
@@ -33,7 +39,7 @@ function sample() {
             row_ptr: arr('u32', new Uint32Array([0, 2, 3, 5])),
             col: arr('u16', new Uint16Array([1, 1, 0, 0, 1])),
             col_coding: 'row-delta',
-            val: arr('f32', new Float32Array([0.25, 0.5, 0.5, 0.125, 0.375])),
+            val: planes('f32', new Float32Array([0.25, 0.5, 0.5, 0.125, 0.375])),
             dropped: arr('f32', new Float32Array([0, 0.01, 0])),
             row_sum: arr('f64', new Float64Array([0.75, 0.51, 0.5])),
         },
@@ -84,8 +90,8 @@ test('the colour modes list every field with its unit, the error bound among the
     assert.deepEqual(colourModes(await decodeData(noMatrix)).map((m) => m.key), ['row_sum', 'surface']);
 });
 
-test('typed arrays decode little-endian values exactly, deflated or stored as they are', async () => {
-    for (const pack of [arr, raw]) {
+test('typed arrays decode little-endian values exactly, deflated (by byte planes or not) or stored as they are', async () => {
+    for (const pack of [arr, raw, planes]) {
         const f = new Float64Array([Math.PI, -1e-300, 0.1]);
         assert.deepEqual([...(await decodeArray(pack('f64', f)))], [...f]);
         const u = new Uint32Array([0, 1, 4294967295]);
@@ -97,6 +103,7 @@ test('typed arrays decode little-endian values exactly, deflated or stored as th
     // Long enough to span several of the stream's chunks.
     const big = new Float32Array(200000).map((_, k) => Math.sin(k) / (1 + k));
     assert.deepEqual(await decodeArray(arr('f32', big)), big);
+    assert.deepEqual(await decodeArray(planes('f32', big)), big);
 });
 
 test('a length that does not match its count, an unknown dtype or compression, or a broken stream is refused', async () => {
