@@ -3,11 +3,14 @@
 // The page itself is checked in headless Chromium (web/test/browser/).
 
 #include <doctest/doctest.h>
+#include <zlib.h>
 
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "formfactor/core/error.h"
 #include "formfactor/output/matrix_io.h"
@@ -31,8 +34,9 @@ std::size_t count(const std::string& text, const std::string& what) {
 constexpr const char* kAlphabet =
     "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
 
-/// The float32 values of a page array ({dtype, count, base64}).
-std::vector<float> decode_f32(const nlohmann::json& entry) {
+/// The bytes of a page array ({dtype, count, compression, base64}), inflated when deflated and
+/// put back in order when stored by byte planes.
+std::string decode_bytes(const nlohmann::json& entry) {
     const std::string b64 = entry["base64"];
     std::string bytes;
     int bits = 0;
@@ -47,10 +51,30 @@ std::vector<float> decode_f32(const nlohmann::json& entry) {
             bytes += static_cast<char>((acc >> bits) & 0xff);
         }
     }
-    std::vector<float> out(bytes.size() / 4);
-    std::memcpy(out.data(), bytes.data(), out.size() * 4);
+    if (entry.value("compression", "") != "deflate") return bytes;
+    const std::size_t size_of = entry["dtype"] == "f64" ? 8 : entry["dtype"] == "u16" ? 2 : 4;
+    uLongf size = entry["count"].get<std::size_t>() * size_of;
+    std::string out(size, '\0');
+    REQUIRE(uncompress(reinterpret_cast<Bytef*>(out.data()), &size,
+                       reinterpret_cast<const Bytef*>(bytes.data()), bytes.size()) == Z_OK);
+    REQUIRE(size == out.size());
+    if (!entry.value("byte_planes", false)) return out;
+    const std::size_t n = entry["count"];
+    std::string values(out.size(), '\0');
+    for (std::size_t k = 0; k < n; ++k)
+        for (std::size_t b = 0; b < size_of; ++b) values[k * size_of + b] = out[b * n + k];
+    return values;
+}
+
+/// The values of a page array of type T.
+template <class T>
+std::vector<T> decode(const nlohmann::json& entry) {
+    const std::string bytes = decode_bytes(entry);
+    std::vector<T> out(bytes.size() / sizeof(T));
+    std::memcpy(out.data(), bytes.data(), out.size() * sizeof(T));
     return out;
 }
+std::vector<float> decode_f32(const nlohmann::json& entry) { return decode<float>(entry); }
 
 /// The cube (6 patches) with F_ij = 0.2 for j ≠ i, except row 0: 0.5, 0.3, 0.1, 0.06, 0.04.
 FormFactors cube_matrix(const Scene& scene) {
@@ -107,6 +131,21 @@ TEST_CASE("page: rows keep the entries above the threshold, and each row's dropp
     REQUIRE(dropped.size() == 6);
     CHECK(dropped[0] == doctest::Approx(0.1));
     CHECK(dropped[1] == 0.0f);
+    // Every array is deflated; row 0 keeps 0.5, 0.3, 0.1 (columns 1, 2, 3: steps 1, 1, 1), row 1
+    // keeps columns 0, 2, 3, 4, 5 (steps from 0: 0, 2, 1, 1, 1), exactly as float32.
+    CHECK(m["col"]["compression"] == "deflate");
+    CHECK(m["col_coding"] == "row-delta");
+    const auto ptr = decode<std::uint32_t>(m["row_ptr"]);
+    const auto col = decode<std::uint16_t>(m["col"]);
+    const auto val = decode_f32(m["val"]);
+    REQUIRE(ptr.size() == 7);
+    REQUIRE(col.size() == 28);
+    REQUIRE(val.size() == 28);
+    CHECK(ptr[1] == 3);
+    CHECK(std::vector<std::uint16_t>(col.begin(), col.begin() + 8) ==
+          std::vector<std::uint16_t>{1, 1, 1, 0, 2, 1, 1, 1});
+    CHECK(std::vector<float>(val.begin(), val.begin() + 4) ==
+          std::vector<float>{0.5f, 0.3f, 0.1f, 0.2f});
     // A budget of entries picks the smallest threshold that fits: the 25 entries of 0.2 in
     // rows 1..5 and row 0's 0.5 and 0.3 are the 27 largest.
     options = {};

@@ -5,6 +5,7 @@ import base64
 import html
 import json
 import re
+import zlib
 
 import numpy as np
 import pytest
@@ -20,9 +21,24 @@ def page_data(text):
 
 def array(entry):
     dtype = {"f32": "<f4", "f64": "<f8", "u16": "<u2", "u32": "<u4"}[entry["dtype"]]
-    a = np.frombuffer(base64.b64decode(entry["base64"]), dtype=dtype)
+    raw = base64.b64decode(entry["base64"])
+    if entry.get("compression") == "deflate":
+        raw = zlib.decompress(raw)
+    if entry.get("byte_planes"):
+        width = np.dtype(dtype).itemsize
+        raw = np.frombuffer(raw, dtype=np.uint8).reshape(width, -1).T.tobytes()
+    a = np.frombuffer(raw, dtype=dtype)
     assert a.size == entry["count"]
     return a
+
+
+def columns(m):
+    """The matrix's column indices, each row's steps summed back."""
+    ptr, col = array(m["row_ptr"]), array(m["col"]).astype(np.int64)
+    if m.get("col_coding") == "row-delta":
+        for i in range(ptr.size - 1):
+            col[ptr[i]:ptr[i + 1]] = np.cumsum(col[ptr[i]:ptr[i + 1]])
+    return col
 
 
 def test_to_html_writes_a_self_contained_page_whose_rows_are_the_matrix(tmp_path):
@@ -36,7 +52,7 @@ def test_to_html_writes_a_self_contained_page_whose_rows_are_the_matrix(tmp_path
     d = page_data(text)
     assert d["title"] == "Cornell from Python"
     n = r.matrix.shape[0]
-    ptr, col, val = array(d["matrix"]["row_ptr"]), array(d["matrix"]["col"]), array(d["matrix"]["val"])
+    ptr, col, val = array(d["matrix"]["row_ptr"]), columns(d["matrix"]), array(d["matrix"]["val"])
     assert ptr.size == n + 1 and d["matrix"]["threshold"] == 0
     dense = np.zeros((n, n), dtype=np.float32)
     for i in range(n):

@@ -44,25 +44,52 @@ export function base64ToBytes(text) {
 
 const kArrayTypes = { f32: Float32Array, f64: Float64Array, u16: Uint16Array, u32: Uint32Array, i32: Int32Array };
 
-/// A typed array from {dtype, count, base64} (little-endian, as the writer stores it). Throws
-/// on an unknown dtype or a length that does not match count.
-export function decodeArray(entry) {
+/// The bytes of a zlib stream (RFC 1950), by the browser's (or node's) DecompressionStream: no
+/// library, no request. Rejects on a stream that is not zlib's or is cut short.
+export async function inflate(bytes) {
+    const stream = new Blob([bytes]).stream().pipeThrough(new DecompressionStream('deflate'));
+    return new Uint8Array(await new Response(stream).arrayBuffer());
+}
+
+/// A typed array from {dtype, count, base64} (little-endian, as the writer stores it), the bytes
+/// deflated when the entry says compression: 'deflate', and stored by byte planes (every value's
+/// first byte, then every second byte, ...) when it says byte_planes. Rejects on an unknown dtype or
+/// compression, or a length that does not match count.
+export async function decodeArray(entry) {
     const Type = kArrayTypes[entry.dtype];
     if (!Type) throw new Error(`unknown dtype '${entry.dtype}'`);
-    const bytes = base64ToBytes(entry.base64);
+    let bytes = base64ToBytes(entry.base64);
+    if (entry.compression === 'deflate') bytes = await inflate(bytes);
+    else if (entry.compression !== undefined) throw new Error(`unknown compression '${entry.compression}'`);
     if (bytes.length !== entry.count * Type.BYTES_PER_ELEMENT)
         throw new Error(`array of ${entry.count} ${entry.dtype} has ${bytes.length} bytes`);
+    if (entry.byte_planes) {
+        // Every value's first byte, then every second byte, ...: back to values.
+        const w = Type.BYTES_PER_ELEMENT, n = entry.count, out = new Uint8Array(bytes.length);
+        for (let b = 0; b < w; ++b) {
+            const plane = bytes.subarray(b * n, (b + 1) * n);
+            for (let k = 0, o = b; k < n; ++k, o += w) out[o] = plane[k];
+        }
+        bytes = out;
+    }
+    // A view needs an aligned offset; a copy when the bytes do not start on one.
+    if (bytes.byteOffset % Type.BYTES_PER_ELEMENT !== 0) bytes = bytes.slice();
     return new Type(bytes.buffer, bytes.byteOffset, entry.count);
 }
 
-/// The decoded model: patches (areas, surfaces, polygon vertices, triangles), surfaces,
-/// colour fields and the stored rows of F (CSR), with the threshold below which entries were
-/// left out and each row's dropped mass.
-export function decodeData(json) {
-    if (json.format !== 'formfactor-page' || json.version !== 1)
+/// The decoded model, what drawing the scene needs: patches (areas, surfaces, polygon
+/// vertices, triangles), surfaces and colour fields. The rows of F are decoded apart, when first
+/// asked for (loadMatrix): until then model.matrix is null and model.hasMatrix says whether the
+/// page has them.
+export async function decodeData(json) {
+    if (json.format !== 'formfactor-page' || json.version !== 2)
         throw new Error('not a formfactor page data block (format/version)');
     const n = json.patches.count;
     const p = json.patches;
+    const [area, surface, vertexOffset, vertices, triangles, trianglePatch, ...fieldValues] = await Promise.all([
+        p.area, p.surface, p.vertex_offset, p.vertices, p.triangles, p.triangle_patch,
+        ...(json.fields ?? []).map((f) => f.values),
+    ].map(decodeArray));
     const model = {
         n,
         title: json.title ?? '',
@@ -70,35 +97,45 @@ export function decodeData(json) {
         camera: json.camera ?? null,
         report: json.report ?? null,
         surfaces: json.surfaces ?? [],
-        area: decodeArray(p.area),
-        surface: decodeArray(p.surface),
-        vertexOffset: decodeArray(p.vertex_offset),
-        vertices: decodeArray(p.vertices),
-        triangles: decodeArray(p.triangles),
-        trianglePatch: decodeArray(p.triangle_patch),
-        fields: (json.fields ?? []).map((f) => ({ ...f, values: decodeArray(f.values) })),
+        area, surface, vertexOffset, vertices, triangles, trianglePatch,
+        fields: (json.fields ?? []).map((f, k) => ({ ...f, values: fieldValues[k] })),
+        hasMatrix: Boolean(json.matrix),
         matrix: null,
+        matrixBlock: json.matrix ?? null,
+        matrixLoading: null,
     };
     if (model.area.length !== n || model.surface.length !== n || model.vertexOffset.length !== n + 1)
         throw new Error('patch arrays do not match the patch count');
-    if (json.matrix) {
-        const m = json.matrix;
-        model.matrix = {
-            threshold: m.threshold,
-            storedEntries: m.stored_entries,
-            nonzeros: m.nonzeros,
-            rowPtr: decodeArray(m.row_ptr),
-            col: decodeArray(m.col),
-            val: decodeArray(m.val),
-            se: m.standard_error ? decodeArray(m.standard_error) : null,
-            dropped: decodeArray(m.dropped),
-            rowSum: decodeArray(m.row_sum),
-            columns: null,
-        };
-        if (model.matrix.rowPtr.length !== n + 1 || model.matrix.rowPtr[n] !== model.matrix.col.length)
-            throw new Error('matrix row pointers do not match its entries');
-    }
     return model;
+}
+
+/// The stored rows of F (CSR, columns ascending in each row), with the threshold below which
+/// entries were left out and each row's dropped mass, from the data block's matrix.
+export async function decodeMatrix(m, n) {
+    const [rowPtr, col, val, se, dropped, rowSum] = await Promise.all(
+        [m.row_ptr, m.col, m.val, m.standard_error, m.dropped, m.row_sum].map((a) => (a ? decodeArray(a) : null)));
+    if (rowPtr.length !== n + 1 || rowPtr[n] !== col.length || val.length !== col.length)
+        throw new Error('matrix row pointers do not match its entries');
+    if (m.col_coding === 'row-delta') {
+        // Each column after the first of its row is the step from the one before.
+        for (let i = 0; i < n; ++i)
+            for (let k = rowPtr[i] + 1; k < rowPtr[i + 1]; ++k) col[k] += col[k - 1];
+    } else if (m.col_coding !== undefined) throw new Error(`unknown column coding '${m.col_coding}'`);
+    return {
+        threshold: m.threshold,
+        storedEntries: m.stored_entries,
+        nonzeros: m.nonzeros,
+        rowPtr, col, val, se, dropped, rowSum,
+        columns: null,
+    };
+}
+
+/// The model's rows of F, decoded on the first call (later calls share it); null when the page
+/// has none.
+export function loadMatrix(model) {
+    if (!model.hasMatrix) return Promise.resolve(null);
+    model.matrixLoading ??= decodeMatrix(model.matrixBlock, model.n).then((m) => (model.matrix = m));
+    return model.matrixLoading;
 }
 
 /// Row i of F as stored: {cols, vals, se} (views into the CSR arrays, columns ascending).
@@ -219,6 +256,6 @@ export function patchesOfSurface(model, s) {
 export function colourModes(model) {
     const modes = model.fields.map((f) => ({ key: f.key, label: f.unit ? `${f.label} (${f.unit})` : f.label }));
     modes.push({ key: 'surface', label: 'surface' });
-    if (model.matrix) modes.push({ key: 'row', label: 'row of F of the clicked patch' });
+    if (model.hasMatrix) modes.push({ key: 'row', label: 'row of F of the clicked patch' });
     return modes;
 }

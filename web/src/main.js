@@ -5,7 +5,7 @@
 
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
-import { decodeData, colourModes, denseRow, denseColumn, topEntries, reciprocity, surfaceRow, surfaceColumn, entry } from './data.js';
+import { decodeData, loadMatrix, colourModes, denseRow, denseColumn, topEntries, reciprocity, surfaceRow, surfaceColumn, entry } from './data.js';
 import { inferno, toneMap, makeScale, ticks, formatNumber, valueRange, categorical } from './colour.js';
 
 const kTopEntries = 12;
@@ -81,7 +81,8 @@ function patchCentroid(model, i) {
 class Page {
     constructor(root, model) {
         this.model = model;
-        this.state = { mode: null, log: false, column: false, perSurface: false, selected: -1 };
+        // answered: how many selections have been drawn and listed (a scripted check waits on it).
+        this.state = { mode: null, log: false, column: false, perSurface: false, selected: -1, answered: 0 };
         this.drawing = false;  // nothing is drawn before the first colours are set
         this.layout(root);
         this.setupThree();
@@ -213,7 +214,7 @@ class Page {
             this.mesh.material.needsUpdate = true;
             this.render();
         });
-        if (this.model.matrix) {
+        if (this.model.hasMatrix) {
             check('ff-column', 'column: who sees it', (v) => ((this.state.column = v), this.refreshSelection()));
             check('ff-surface', 'per surface', (v) => ((this.state.perSurface = v), this.refreshSelection()));
         }
@@ -360,16 +361,24 @@ class Page {
         b.append(el('div', `${scale.log ? 'log' : 'linear'} scale, ${formatNumber(scale.min)} … ${formatNumber(scale.max)}`, 'ff-bar-note'));
     }
 
-    select(i) {
+    /// Selects patch i: outlined at once, its row drawn and listed when F's rows are decoded
+    /// (the first click may wait for them).
+    async select(i) {
         const m = this.model;
         if (i < 0 || i >= m.n) return;
         this.state.selected = i;
         if (this.outline) this.scene3.remove(this.outline);
         this.outline = patchOutline(m, i);
         this.scene3.add(this.outline);
-        if (m.matrix) this.state.mode = 'row';
+        if (m.hasMatrix) this.state.mode = 'row';
         this.modeSelect.value = this.state.mode;
+        if (m.hasMatrix && !m.matrix) {
+            this.refreshSelection();
+            await loadMatrix(m);
+            if (this.state.selected !== i) return;  // a later click answers for itself
+        }
         this.refreshSelection();
+        ++this.state.answered;
     }
 
     refreshSelection() {
@@ -385,7 +394,8 @@ class Page {
         box.append(el('h2', `patch ${i}`));
         box.append(el('p', `surface ${surf}: ${surfaceName(m, surf)}`, 'ff-surface-name'));
         box.append(el('p', `area ${formatNumber(m.area[i], 6)}`));
-        if (!m.matrix) return;
+        if (!m.hasMatrix) return;
+        if (!m.matrix) return box.append(el('p', 'reading the rows of F…', 'ff-hint'));
         const mx = m.matrix;
         if (s.perSurface) return this.surfaceSelection(surf);
         const info = el('dl', null, 'ff-rowinfo');
@@ -458,14 +468,14 @@ class Page {
     }
 }
 
-function start() {
+async function start() {
     const root = document.getElementById('ff-app');
     try {
         const t0 = performance.now();
         const block = document.getElementById('ff-data');
         const json = JSON.parse(block.textContent);
         const t1 = performance.now();
-        const model = decodeData(json);
+        const model = await decodeData(json);
         const t2 = performance.now();
         document.title = model.title ? `${model.title} — formfactor` : 'formfactor result';
         const page = new Page(root, model);
@@ -480,16 +490,29 @@ function start() {
             entry: (i, j) => (model.matrix ? entry(model.matrix, i, j) : 0),
             state: () => ({ ...page.state }),
             colourOf: (v) => (page.scale ? inferno(page.scale.map(v)) : null),
-            // Milliseconds: script start (since navigation), JSON parse, decoding, first draw.
-            timings: { start: t0, parse: t1 - t0, decode: t2 - t1, draw: t3 - t2 },
+            // Milliseconds: script start (since navigation), JSON parse, decoding the scene, first
+            // draw; matrix: decoding F's rows, which starts after the first draw.
+            timings: { start: t0, parse: t1 - t0, decode: t2 - t1, draw: t3 - t2, matrix: null },
         };
         document.body.dataset.ready = '1';
+        // F's rows (most of the data) are decoded once the scene is on screen (after the next
+        // frame), not before.
+        if (model.hasMatrix)
+            requestAnimationFrame(() => setTimeout(() => {
+                const t4 = performance.now();
+                loadMatrix(model).then(() => (window.formfactorPage.timings.matrix = performance.now() - t4),
+                    (e) => showError(root, e));
+            }, 0));
     } catch (e) {
-        root.textContent = '';
-        root.append(el('p', `This page could not be shown: ${e.message}`, 'ff-error'));
+        showError(root, e);
         document.body.dataset.ready = 'error';
         throw e;
     }
+}
+
+function showError(root, e) {
+    root.textContent = '';
+    root.append(el('p', `This page could not be shown: ${e.message}`, 'ff-error'));
 }
 
 start();

@@ -1,16 +1,28 @@
 // Decoding of the page's data block and the questions the page asks of it.
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { base64ToBytes, colourModes, decodeArray, decodeData, row, denseRow, denseColumn, entry, topEntries, reciprocity, surfaceRow, surfaceColumn } from '../src/data.js';
+import zlib from 'node:zlib';
+import { base64ToBytes, colourModes, decodeArray, decodeData, loadMatrix, row, denseRow, denseColumn, entry, topEntries, reciprocity, surfaceRow, surfaceColumn } from '../src/data.js';
 
-const b64 = (typed) => Buffer.from(typed.buffer, typed.byteOffset, typed.byteLength).toString('base64');
-const arr = (dtype, typed) => ({ dtype, count: typed.length, base64: b64(typed) });
+const bytesOf = (typed) => Buffer.from(typed.buffer, typed.byteOffset, typed.byteLength);
+const b64 = (typed) => bytesOf(typed).toString('base64');
+// An array as the writer stores it: deflated (zlib's format), then base64.
+const arr = (dtype, typed) => ({ dtype, count: typed.length, compression: 'deflate', base64: zlib.deflateSync(bytesOf(typed)).toString('base64') });
+// An array stored as it is.
+const raw = (dtype, typed) => ({ dtype, count: typed.length, base64: b64(typed) });
+// Deflated by byte planes: every value's first byte, then every second byte, ...
+const planes = (dtype, typed) => {
+    const bytes = bytesOf(typed), w = typed.BYTES_PER_ELEMENT, n = typed.length, out = Buffer.alloc(bytes.length);
+    for (let k = 0; k < n; ++k) for (let b = 0; b < w; ++b) out[b * n + k] = bytes[k * w + b];
+    return { dtype, count: n, compression: 'deflate', byte_planes: true, base64: zlib.deflateSync(out).toString('base64') };
+};
 
 // Three patches: 0 and 1 on surface 0, 2 on surface 1; F (stored entries only):
 //   row 0: F01 = 0.25, F02 = 0.5    row 1: F10 = 0.5    row 2: F20 = 0.125, F21 = 0.375
+// Columns row by row: 1 2 | 0 | 0 1, each after the first of its row as the step: 1 1 | 0 | 0 1.
 function sample() {
     return {
-        format: 'formfactor-page', version: 1, title: 't',
+        format: 'formfactor-page', version: 2, title: 't',
         surfaces: [{ name: 'wall' }, { name: '<img onerror=alert(1)>' }],
         patches: {
             count: 3,
@@ -25,12 +37,20 @@ function sample() {
         matrix: {
             threshold: 0.1, stored_entries: 5, nonzeros: 6,
             row_ptr: arr('u32', new Uint32Array([0, 2, 3, 5])),
-            col: arr('u16', new Uint16Array([1, 2, 0, 0, 1])),
-            val: arr('f32', new Float32Array([0.25, 0.5, 0.5, 0.125, 0.375])),
+            col: arr('u16', new Uint16Array([1, 1, 0, 0, 1])),
+            col_coding: 'row-delta',
+            val: planes('f32', new Float32Array([0.25, 0.5, 0.5, 0.125, 0.375])),
             dropped: arr('f32', new Float32Array([0, 0.01, 0])),
-            row_sum: arr('f32', new Float32Array([0.75, 0.51, 0.5])),
+            row_sum: arr('f64', new Float64Array([0.75, 0.51, 0.5])),
         },
     };
+}
+
+// The model with its rows of F decoded.
+async function decoded(json) {
+    const model = await decodeData(json);
+    await loadMatrix(model);
+    return model;
 }
 
 test('base64 decodes to the bytes it encodes, padded or not', () => {
@@ -56,44 +76,85 @@ test('a character outside the base64 alphabet is refused', () => {
     assert.throws(() => base64ToBytes('AAEC/'), /not base64/);
 });
 
-test('the colour modes list every field with its unit, the error bound among them', () => {
+test('the colour modes list every field with its unit, the error bound among them', async () => {
     const json = sample();
     json.fields.push({
         key: 'error_bound', label: 'error bound of the row sum', unit: 'dimensionless, as F',
         values: arr('f32', new Float32Array([1e-9, 2e-9, 3e-9])),
     });
-    const modes = colourModes(decodeData(json));
+    const modes = colourModes(await decodeData(json));
     assert.deepEqual(modes.map((m) => m.key), ['row_sum', 'error_bound', 'surface', 'row']);
     assert.equal(modes[1].label, 'error bound of the row sum (dimensionless, as F)');
     const noMatrix = sample();
     delete noMatrix.matrix;
-    assert.deepEqual(colourModes(decodeData(noMatrix)).map((m) => m.key), ['row_sum', 'surface']);
+    assert.deepEqual(colourModes(await decodeData(noMatrix)).map((m) => m.key), ['row_sum', 'surface']);
 });
 
-test('typed arrays decode little-endian values exactly', () => {
-    const f = new Float64Array([Math.PI, -1e-300, 0.1]);
-    assert.deepEqual([...decodeArray(arr('f64', f))], [...f]);
-    const u = new Uint32Array([0, 1, 4294967295]);
-    assert.deepEqual([...decodeArray(arr('u32', u))], [...u]);
-    const h = new Uint16Array([0, 7, 65535]);
-    assert.deepEqual([...decodeArray(arr('u16', h))], [...h]);
-    assert.equal(decodeArray({ dtype: 'f32', count: 1, base64: b64(new Float32Array([0.1])) })[0], Math.fround(0.1));
+test('typed arrays decode little-endian values exactly, deflated (by byte planes or not) or stored as they are', async () => {
+    for (const pack of [arr, raw, planes]) {
+        const f = new Float64Array([Math.PI, -1e-300, 0.1]);
+        assert.deepEqual([...(await decodeArray(pack('f64', f)))], [...f]);
+        const u = new Uint32Array([0, 1, 4294967295]);
+        assert.deepEqual([...(await decodeArray(pack('u32', u)))], [...u]);
+        const h = new Uint16Array([0, 7, 65535]);
+        assert.deepEqual([...(await decodeArray(pack('u16', h)))], [...h]);
+        assert.equal((await decodeArray(pack('f32', new Float32Array([0.1]))))[0], Math.fround(0.1));
+    }
+    // Long enough to span several of the stream's chunks.
+    const big = new Float32Array(200000).map((_, k) => Math.sin(k) / (1 + k));
+    assert.deepEqual(await decodeArray(arr('f32', big)), big);
+    assert.deepEqual(await decodeArray(planes('f32', big)), big);
 });
 
-test('a length that does not match its count, or an unknown dtype, is refused', () => {
-    assert.throws(() => decodeArray({ dtype: 'f32', count: 2, base64: b64(new Float32Array([1])) }), /has 4 bytes/);
-    assert.throws(() => decodeArray({ dtype: 'x8', count: 0, base64: '' }), /unknown dtype/);
+test('a length that does not match its count, an unknown dtype or compression, or a broken stream is refused', async () => {
+    await assert.rejects(decodeArray({ ...arr('f32', new Float32Array([1])), count: 2 }), /has 4 bytes/);
+    await assert.rejects(decodeArray({ ...raw('f32', new Float32Array([1])), count: 2 }), /has 4 bytes/);
+    await assert.rejects(decodeArray({ dtype: 'x8', count: 0, base64: '' }), /unknown dtype/);
+    await assert.rejects(decodeArray({ ...raw('f32', new Float32Array([1])), compression: 'gzip' }), /unknown compression/);
+    // A stream cut short, and bytes that are no zlib stream.
+    const whole = zlib.deflateSync(bytesOf(new Float32Array(1000).fill(0.5)));
+    await assert.rejects(decodeArray({ dtype: 'f32', count: 1000, compression: 'deflate', base64: whole.subarray(0, whole.length - 6).toString('base64') }));
+    await assert.rejects(decodeArray({ ...raw('f32', new Float32Array([1, 2, 3])), compression: 'deflate' }));
 });
 
-test('a block of another format is refused', () => {
-    assert.throws(() => decodeData({ format: 'other', version: 1 }), /not a formfactor page/);
+test('a block of another format or version is refused', async () => {
+    await assert.rejects(decodeData({ format: 'other', version: 2 }), /not a formfactor page/);
+    await assert.rejects(decodeData({ ...sample(), version: 1 }), /not a formfactor page/);
     const bad = sample();
     bad.matrix.row_ptr = arr('u32', new Uint32Array([0, 2, 3, 4]));
-    assert.throws(() => decodeData(bad), /row pointers/);
+    await assert.rejects(decoded(bad), /row pointers/);
+    const coding = sample();
+    coding.matrix.col_coding = 'zigzag';
+    await assert.rejects(decoded(coding), /unknown column coding/);
 });
 
-test('rows, columns and entries read the CSR arrays', () => {
-    const m = decodeData(sample());
+test('the rows of F are decoded when first asked for, once', async () => {
+    const m = await decodeData(sample());
+    assert.equal(m.hasMatrix, true);
+    assert.equal(m.matrix, null);
+    const [a, b] = await Promise.all([loadMatrix(m), loadMatrix(m)]);
+    assert.equal(a, b);
+    assert.equal(m.matrix, a);
+    const noMatrix = sample();
+    delete noMatrix.matrix;
+    const n = await decodeData(noMatrix);
+    assert.equal(n.hasMatrix, false);
+    assert.equal(await loadMatrix(n), null);
+});
+
+test('columns stored as they are (no row-delta coding) read the same', async () => {
+    const json = sample();
+    json.matrix.col = arr('u16', new Uint16Array([1, 2, 0, 0, 1]));
+    delete json.matrix.col_coding;
+    assert.deepEqual([...(await decoded(json)).matrix.col], [1, 2, 0, 0, 1]);
+    // u32 columns (N > 65,536) decode the same way.
+    json.matrix.col = arr('u32', new Uint32Array([1, 1, 0, 0, 1]));
+    json.matrix.col_coding = 'row-delta';
+    assert.deepEqual([...(await decoded(json)).matrix.col], [1, 2, 0, 0, 1]);
+});
+
+test('rows, columns and entries read the CSR arrays', async () => {
+    const m = await decoded(sample());
     assert.equal(m.n, 3);
     assert.deepEqual([...row(m.matrix, 2).cols], [0, 1]);
     assert.deepEqual([...denseRow(m.matrix, 3, 0)], [0, 0.25, 0.5]);
@@ -105,14 +166,14 @@ test('rows, columns and entries read the CSR arrays', () => {
     assert.equal(m.surfaces[1].name, '<img onerror=alert(1)>');
 });
 
-test('top entries come largest first, ties by the lower patch', () => {
-    const m = decodeData(sample());
+test('top entries come largest first, ties by the lower patch', async () => {
+    const m = await decoded(sample());
     assert.deepEqual(topEntries(m.matrix, 0, 5).map((t) => [t.j, t.value]), [[2, 0.5], [1, 0.25]]);
     assert.deepEqual(topEntries(m.matrix, 2, 1).map((t) => t.j), [1]);
 });
 
-test('reciprocity compares A_i F_ij with A_j F_ji', () => {
-    const m = decodeData(sample());
+test('reciprocity compares A_i F_ij with A_j F_ji', async () => {
+    const m = await decoded(sample());
     const r = reciprocity(m, 0, 1); // 1 × 0.25 against 0.5 × 0.5
     assert.equal(r.forward, 0.25);
     assert.equal(r.backward, 0.25);
@@ -122,8 +183,8 @@ test('reciprocity compares A_i F_ij with A_j F_ji', () => {
     assert.equal(reciprocity(m, 1, 2).defect, 1); // F12 was not stored, F21 was
 });
 
-test('per-surface form factors are area-weighted sums of the rows', () => {
-    const m = decodeData(sample());
+test('per-surface form factors are area-weighted sums of the rows', async () => {
+    const m = await decoded(sample());
     // surface 0 = patches 0 (A 1) and 1 (A 0.5): to surface 1: (1 × 0.5) / 1.5; to itself (1 × 0.25 + 0.5 × 0.5) / 1.5
     const r = surfaceRow(m, 0);
     assert.ok(Math.abs(r[1] - 0.5 / 1.5) < 1e-7);

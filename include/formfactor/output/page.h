@@ -6,12 +6,16 @@
 /// travel as JSON inside <script type="application/json"> with `<`, `>` and `&` written as
 /// \u003c, \u003e, \u0026, and the page shows them with textContent.
 ///
-/// Data layout (the JSON's "patches", "fields" and "matrix" arrays are little-endian binary,
-/// base64-encoded): patch areas (f64), surfaces (u32), polygon vertices (f32) and their
-/// triangulation; colour fields per patch (f32); F as CSR rows (u16 columns when N ≤ 65,536,
-/// else u32; f32 values, f32
-/// standard errors when the method has them) keeping F_ij > threshold, with each row's
-/// dropped mass (f32) and its exact row sum (f64, over every entry).
+/// Data layout (format "formfactor-page", version 2). The JSON's "patches", "fields" and
+/// "matrix" arrays are {dtype, count, compression: "deflate", base64}: little-endian values,
+/// deflated in zlib's format (RFC 1950), then base64; with "byte_planes": true the deflated
+/// bytes are the values' byte planes (every value's first byte, then every second byte, ...). Patch
+/// areas (f64), surfaces (u32), polygon vertices (f32) and their triangulation; colour fields per
+/// patch (f32); F as CSR rows keeping F_ij > threshold: row pointers (u32), columns (u16 when N ≤
+/// 65,536, else u32; "col_coding": "row-delta": the first column of a row as it is, each next one
+/// as the step from the one before), f32 values, f32 standard errors when the method has them, each
+/// row's dropped mass (f32) and its exact row sum (f64, over every entry). Values are stored
+/// exactly as float32.
 
 #include <cstddef>
 #include <nlohmann/json.hpp>

@@ -5,7 +5,7 @@
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import path from 'node:path';
-import { scratch, runCli, openPage, pageData, readNpy, decodePng, meanColour, dataArray } from './support.mjs';
+import { scratch, runCli, openPage, pageData, readNpy, decodePng, meanColour, dataArray, clickAndWait } from './support.mjs';
 
 let tmp, view, F, data;
 
@@ -69,7 +69,7 @@ test('a click on a floor patch lists the entries of its row of the matrix', asyn
         }
     }
     assert.ok(target >= 0, 'some floor patch is visible');
-    await p.mouse.click(at.x, at.y);
+    await clickAndWait(p, at.x, at.y);
     const state = await p.evaluate(() => window.formfactorPage.state());
     assert.equal(state.selected, target);
     assert.equal(state.mode, 'row');

@@ -138,10 +138,26 @@ export function meanColour(png, x0, y0, x1, y1) {
     return sum.map((s) => s / n);
 }
 
-/// A typed array of the page's data ({dtype, count, base64}), copied out of Node's buffer pool.
+/// A typed array of the page's data ({dtype, count, compression, base64}; deflated when
+/// compression is 'deflate', by byte planes when byte_planes), copied out of Node's buffer pool.
 export function dataArray(entry) {
-    const Type = { f32: Float32Array, f64: Float64Array, u32: Uint32Array }[entry.dtype];
-    const a = new Type(new Uint8Array(Buffer.from(entry.base64, 'base64')).buffer);
+    const Type = { f32: Float32Array, f64: Float64Array, u16: Uint16Array, u32: Uint32Array }[entry.dtype];
+    let bytes = Buffer.from(entry.base64, 'base64');
+    if (entry.compression === 'deflate') bytes = zlib.inflateSync(bytes);
+    if (entry.byte_planes) {
+        const w = Type.BYTES_PER_ELEMENT, n = entry.count, planes = bytes;
+        bytes = Buffer.alloc(planes.length);
+        for (let k = 0; k < n; ++k) for (let b = 0; b < w; ++b) bytes[k * w + b] = planes[b * n + k];
+    }
+    const a = new Type(new Uint8Array(bytes).buffer);
     if (a.length !== entry.count) throw new Error('array length');
     return a;
+}
+
+/// Clicks at (x, y) and waits until the page has answered one more selection (its row drawn
+/// and listed).
+export async function clickAndWait(page, x, y) {
+    const before = await page.evaluate(() => window.formfactorPage.state().answered);
+    await page.mouse.click(x, y);
+    await page.waitForFunction((k) => window.formfactorPage.state().answered > k, before, { timeout: 60000 });
 }
