@@ -47,9 +47,6 @@ __all__ = [
     "TextProgress", "__version__",
 ]
 
-_METHODS = ("analytic", "hemicube", "hemiplane", "mc-area", "mc-hemisphere", "mc-target")
-
-
 def _progress(progress):
     if progress is None or progress is False:
         return None
@@ -71,7 +68,7 @@ def load(path, subdivide=None, max_edge=None, merge_coplanar=False):
     into polygons first, as ``--merge-coplanar`` does. Raises InputError (with ``.file`` and
     ``.line``) for a bad file, OptionError for bad options.
     """
-    return _core.load(_os.fspath(path), subdivide, max_edge, bool(merge_coplanar))
+    return _core.load(_os.fspath(path), subdivide, max_edge, merge_coplanar)
 
 
 def builtin_scenes():
@@ -81,7 +78,7 @@ def builtin_scenes():
 
 def methods():
     """Names of the methods that ``Scene.form_factors(method=...)`` accepts."""
-    return list(_METHODS)
+    return list(_core.method_names())
 
 
 def _form_factors(self, method=None, *, tolerance=None, obstructed_tolerance=None,
@@ -118,9 +115,9 @@ def _form_factors(self, method=None, *, tolerance=None, obstructed_tolerance=Non
     a.points = points
     a.rows = tuple(rows) if isinstance(rows, (list, tuple)) else rows
     a.repair = repair
-    a.force_closure = bool(force_closure)
+    a.force_closure = force_closure
     a.ray_offset = ray_offset
-    a.robust_rays = bool(robust_rays)
+    a.robust_rays = robust_rays
     return _core.compute(self, a, _progress(progress))
 
 
@@ -134,8 +131,7 @@ def _hierarchical(self, tolerance=1e-6, *, eta=1.5, leaf_size=32, threads=0, pro
     formed (docs/hierarchical.md). Pass it as F to :func:`solve_radiosity` and
     :func:`solve_thermal` (GMRES by default), apply it with ``op @ x``, or use
     ``op.as_linear_operator()`` with SciPy. Raises Error for a scene with obstructions."""
-    return _core.hierarchical(self, float(tolerance), float(eta), int(leaf_size), int(threads),
-                              _progress(progress))
+    return _core.hierarchical(self, tolerance, eta, leaf_size, threads, _progress(progress))
 
 
 Scene.hierarchical = _hierarchical
@@ -224,7 +220,7 @@ def point_factors(scene, points, normals, *, threads=0, progress=None):
     (3,) normal for every point. Exact with obstructions: each entry is the factor to the part
     of patch j the point sees past every other surface.
     """
-    return _core.point_factors(scene, points, normals, int(threads), _progress(progress))
+    return _core.point_factors(scene, points, normals, threads, _progress(progress))
 
 
 @_dataclass
@@ -267,8 +263,8 @@ def solve_radiosity(scene, F, reflectance=None, emission=None, *, solver=None,
     takes gmres or jacobi). Returns a :class:`RadiosityResult`.
     """
     solver = _default_solver(F, "gauss-seidel") if solver is None else solver
-    d = _core.radiosity(scene, _core_matrix(F), reflectance, emission, solver, float(residual),
-                        int(max_iterations), int(threads), _progress(progress))
+    d = _core.radiosity(scene, _core_matrix(F), reflectance, emission, solver, residual,
+                        max_iterations, threads, _progress(progress))
     return RadiosityResult(**d)
 
 
@@ -287,8 +283,7 @@ def solve_thermal(scene, F, emissivity=None, temperature=None, net_flux=None, *,
     """
     solver = _default_solver(F, "direct") if solver is None else solver
     d = _core.thermal(scene, _core_matrix(F), emissivity, temperature, net_flux,
-                      float(ambient_temperature),
-                      solver, float(residual), int(max_iterations), int(threads),
+                      ambient_temperature, solver, residual, max_iterations, threads,
                       _progress(progress))
     return ThermalResult(**d)
 
@@ -298,7 +293,7 @@ def repair(F, areas, mode="both", *, enclosure=False, force_closure=False):
     (scales rows to sum to 1, keeping reciprocity; closed scenes: enclosure=True, or
     force_closure) or ``both``. F is not changed: returns (repaired copy, report dict).
     """
-    F2, text = _core.repair(F, areas, mode, bool(enclosure), bool(force_closure))
+    F2, text = _core.repair(F, areas, mode, enclosure, force_closure)
     return F2, _json.loads(text)
 
 
@@ -325,7 +320,5 @@ def render(scene, values=None, *, width=640, height=640, path=None, flat=False, 
     the values' range). camera: {"eye": (x, y, z), "target": ..., "up": ..., "fov": degrees};
     default: the scene's camera or one that sees everything.
     """
-    return _core.render(scene, values, int(width), int(height),
-                        "" if path is None else _os.fspath(path), bool(flat), float(exposure),
-                        str(label), str(unit), vmin, vmax, camera, int(supersample),
-                        bool(back_faces))
+    return _core.render(scene, values, width, height, "" if path is None else _os.fspath(path),
+                        flat, exposure, label, unit, vmin, vmax, camera, supersample, back_faces)

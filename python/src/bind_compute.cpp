@@ -11,7 +11,6 @@
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
 #include "formfactor/matrix/aggregate.h"
-#include "formfactor/methods/point_factors.h"
 #include "formfactor/output/page.h"
 #include "formfactor/output/report.h"
 #include "formfactor/scene/closure.h"
@@ -24,8 +23,8 @@ namespace {
 struct ComputeArgs {
     py::object method, tolerance, obstructed_tolerance, samples, seed, threads, sampler, resolution,
         points, rows, repair, ray_offset;
-    bool force_closure = false;
-    bool robust_rays = false;
+    py::object force_closure = py::bool_(false);
+    py::object robust_rays = py::bool_(false);
 };
 
 template <class T>
@@ -66,9 +65,9 @@ ComputeOptions options_of(const Scene& scene, const ComputeArgs& a) {
     if (!a.repair.is_none())
         o.repair.mode = parse_repair_mode(arg<std::string>(a.repair, "repair"));
     o.repair.enclosure = known_enclosure(scene);
-    o.repair.force_closure = a.force_closure;
+    o.repair.force_closure = arg<bool>(a.force_closure, "force_closure");
     set_if(a.ray_offset, o.visibility.relative_epsilon, "ray_offset");
-    o.visibility.robust = a.robust_rays;
+    o.visibility.robust = arg<bool>(a.robust_rays, "robust_rays");
     return o;
 }
 
@@ -378,12 +377,15 @@ For a row block (``rows=(b, e)``) it holds rows b..e-1 and every column.
         .def_readwrite("force_closure", &ComputeArgs::force_closure)
         .def_readwrite("robust_rays", &ComputeArgs::robust_rays);
 
+    m.def("method_names", &method_names,
+          "The names of the methods Scene.form_factors(method=...) accepts, as the library lists "
+          "them.");
     m.def("compute", &compute, py::arg("scene"), py::arg("args"), py::arg("progress") = py::none());
 
     m.def(
         "point_factors",
-        [](const PyScene& s, const py::object& points, const py::object& normals, int threads,
-           const py::object& progress) {
+        [](const PyScene& s, const py::object& points, const py::object& normals,
+           const py::object& threads, const py::object& progress) {
             const std::vector<Vec3> p = as_vec3s(points, "points");
             const std::vector<Vec3> n = as_vec3s(normals, "normals", p.size());
             if (n.size() != p.size()) {
@@ -394,12 +396,19 @@ For a row block (``rows=(b, e)``) it holds rows b..e-1 and every column.
             for (std::size_t k = 0; k < n.size(); ++k)
                 if (n[k].norm() == 0.0)
                     throw OptionError("normals", fmt::format("row {} is zero", k));
-            DenseMatrix M = run_released(
-                [&](CancellationFlag&, ProgressSink*) {
-                    return point_form_factors(*s.scene, p, n, threads);
+            PointOptions o;
+            o.positions = p;
+            o.normals = n;
+            o.threads = arg<int>(threads, "threads");
+            PointResult r = run_released(
+                [&](CancellationFlag& flag, ProgressSink* sink) {
+                    PointOptions run = o;
+                    run.cancel = &flag;
+                    run.progress = sink;
+                    return compute_point_form_factors(*s.scene, run);
                 },
                 progress);
-            return adopt(std::move(M));
+            return adopt(std::move(r.F));
         },
         py::arg("scene"), py::arg("points"), py::arg("normals"), py::arg("threads") = 0,
         py::arg("progress") = py::none());

@@ -3,6 +3,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <optional>
 
@@ -91,8 +92,12 @@ py::array_t<double> array_of(const std::vector<Rgb>& v) {
     return out;
 }
 
-SolverOptions solver_options(const std::string& solver, double residual, long long max_iterations,
-                             int threads) {
+SolverOptions solver_options(const py::object& solver_arg, const py::object& residual_arg,
+                             const py::object& max_iterations_arg, const py::object& threads_arg) {
+    const std::string solver = arg<std::string>(solver_arg, "solver");
+    const double residual = arg<double>(residual_arg, "residual");
+    const long long max_iterations = arg<long long>(max_iterations_arg, "max_iterations");
+    const int threads = arg<int>(threads_arg, "threads");
     SolverOptions o;
     o.solver = parse_solver(solver);
     o.residual = residual;
@@ -160,8 +165,9 @@ const HierarchicalFormFactors* operator_of(const PyScene& s, const py::object& F
 }
 
 py::dict radiosity(const PyScene& s, const py::object& F, const py::object& reflectance,
-                   const py::object& emission, const std::string& solver, double residual,
-                   long long max_iterations, int threads, const py::object& progress) {
+                   const py::object& emission, const py::object& solver, const py::object& residual,
+                   const py::object& max_iterations, const py::object& threads,
+                   const py::object& progress) {
     const HierarchicalFormFactors* op = operator_of(s, F);
     const std::optional<SparseFormFactors> sp = op ? std::nullopt : sparse_of(s, F);
     const FormFactors ff = op || sp ? FormFactors{} : form_factors_of(s, F);
@@ -172,10 +178,12 @@ py::dict radiosity(const PyScene& s, const py::object& F, const py::object& refl
     validate_properties(props);
     const SolverOptions o = solver_options(solver, residual, max_iterations, threads);
     const RadiosityResult r = run_released(
-        [&](CancellationFlag&, ProgressSink*) {
-            return op   ? solve_radiosity(*op, props, o)
-                   : sp ? solve_radiosity(*sp, props, o)
-                        : solve_radiosity(ff, props, o);
+        [&](CancellationFlag&, ProgressSink* sink) {
+            SolverOptions run = o;
+            run.progress = sink;
+            return op   ? solve_radiosity(*op, props, run)
+                   : sp ? solve_radiosity(*sp, props, run)
+                        : solve_radiosity(ff, props, run);
         },
         progress);
     py::dict d;
@@ -192,8 +200,10 @@ py::dict radiosity(const PyScene& s, const py::object& F, const py::object& refl
 
 py::dict thermal(const PyScene& s, const py::object& F, const py::object& emissivity,
                  const py::object& temperature, const py::object& net_flux,
-                 double ambient_temperature, const std::string& solver, double residual,
-                 long long max_iterations, int threads, const py::object& progress) {
+                 const py::object& ambient, const py::object& solver, const py::object& residual,
+                 const py::object& max_iterations, const py::object& threads,
+                 const py::object& progress) {
+    const double ambient_temperature = arg<double>(ambient, "ambient_temperature");
     const HierarchicalFormFactors* op = operator_of(s, F);
     const std::optional<SparseFormFactors> sp = op ? std::nullopt : sparse_of(s, F);
     const FormFactors ff = op || sp ? FormFactors{} : form_factors_of(s, F);
@@ -230,10 +240,12 @@ py::dict thermal(const PyScene& s, const py::object& F, const py::object& emissi
             fmt::format("must be a finite number ≥ 0 (K), got {}", ambient_temperature));
     }
     const ThermalResult r = run_released(
-        [&](CancellationFlag&, ProgressSink*) {
-            return op   ? solve_thermal(*op, props, o)
-                   : sp ? solve_thermal(*sp, props, o)
-                        : solve_thermal(ff, props, o);
+        [&](CancellationFlag&, ProgressSink* sink) {
+            ThermalOptions run = o;
+            run.solver.progress = sink;
+            return op   ? solve_thermal(*op, props, run)
+                   : sp ? solve_thermal(*sp, props, run)
+                        : solve_thermal(ff, props, run);
         },
         progress);
     py::dict d;
@@ -366,13 +378,15 @@ vectors without forming it (docs/hierarchical.md). ``op @ x`` or ``op.matvec(x)`
             py::arg("threads") = 0, "The operator as an (N, N) array (N² doubles: small scenes)");
     m.def(
         "hierarchical",
-        [](const PyScene& s, double tolerance, double eta, std::size_t leaf_size, int threads,
-           const py::object& progress) {
+        [](const PyScene& s, const py::object& tolerance, const py::object& eta,
+           const py::object& leaf_size, const py::object& threads, const py::object& progress) {
             HierarchicalOptions o;
-            o.tolerance = tolerance;
-            o.eta = eta;
-            o.leaf_size = leaf_size;
-            o.threads = threads;
+            o.tolerance = arg<double>(tolerance, "tolerance");
+            o.eta = arg<double>(eta, "eta");
+            // A negative size as 0, which build_hierarchical() refuses with the valid range.
+            o.leaf_size =
+                static_cast<std::size_t>(std::max(0LL, arg<long long>(leaf_size, "leaf_size")));
+            o.threads = arg<int>(threads, "threads");
             auto op = run_released(
                 [&](CancellationFlag&, ProgressSink* sink) {
                     HierarchicalOptions oo = o;
@@ -398,8 +412,8 @@ void bind_solve(py::module_& m) {
           py::arg("progress"));
     m.def(
         "repair",
-        [](const py::object& F, const py::object& areas, const std::string& mode, bool enclosure,
-           bool force_closure) {
+        [](const py::object& F, const py::object& areas, const py::object& mode,
+           const py::object& enclosure, const py::object& force_closure) {
             const auto a = as_doubles(F, "F", 2);
             const auto n = static_cast<std::size_t>(a.shape(0));
             if (static_cast<std::size_t>(a.shape(1)) != n) throw OptionError("F", "must be square");
@@ -410,9 +424,9 @@ void bind_solve(py::module_& m) {
                 a.data(), static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n)));
             py::capsule owner(held, [](void* p) { delete static_cast<DenseMatrix*>(p); });
             RepairOptions o;
-            o.mode = parse_repair_mode(mode);
-            o.enclosure = enclosure;
-            o.force_closure = force_closure;
+            o.mode = parse_repair_mode(arg<std::string>(mode, "mode"));
+            o.enclosure = arg<bool>(enclosure, "enclosure");
+            o.force_closure = arg<bool>(force_closure, "force_closure");
             const std::vector<double> av(ar.data(), ar.data() + n);
             RepairReport report;
             {

@@ -52,19 +52,32 @@ struct PyHierarchical {
 };
 
 /// `value` as a T, or an OptionError naming the keyword (a string for samples=, say, must not
-/// surface as pybind11's "Unable to cast").
+/// surface as pybind11's "Unable to cast"). Every keyword of the module is checked here, so that
+/// a wrong type is one error type whichever function it is given to.
 template <class T>
 T arg(const py::object& value, const char* name) {
     // An int is accepted for a float; a float is not taken for an int, nor a bool for a number.
-    if constexpr (std::is_same_v<T, double>) {
-        if ((py::isinstance<py::float_>(value) || py::isinstance<py::int_>(value)) &&
+    // NumPy's scalars are numbers too (numbers.Integral, numbers.Real).
+    const auto is = [&](const char* abc) {
+        return py::isinstance(value, py::module_::import("numbers").attr(abc));
+    };
+    if constexpr (std::is_same_v<T, bool>) {
+        // NumPy's bool too (a flag read from an array); an int is not taken for a flag.
+        if (py::isinstance<py::bool_>(value) ||
+            py::str(py::type::of(value).attr("__name__")).cast<std::string>() == "bool_")
+            return value.cast<bool>();
+        throw OptionError(name,
+                          "must be True or False, got " + py::repr(value).cast<std::string>());
+    } else if constexpr (std::is_same_v<T, double>) {
+        if ((py::isinstance<py::float_>(value) || py::isinstance<py::int_>(value) || is("Real")) &&
             !py::isinstance<py::bool_>(value))
-            return value.cast<double>();
+            return py::float_(value).cast<double>();
         throw OptionError(name, "must be a number, got " + py::repr(value).cast<std::string>());
     } else if constexpr (std::is_integral_v<T>) {
-        if (py::isinstance<py::int_>(value) && !py::isinstance<py::bool_>(value)) {
+        if ((py::isinstance<py::int_>(value) || is("Integral")) &&
+            !py::isinstance<py::bool_>(value)) {
             try {
-                return value.cast<T>();
+                return py::int_(value).cast<T>();
             } catch (const py::cast_error&) {
                 throw OptionError(name, "is out of range: " + py::repr(value).cast<std::string>());
             }
