@@ -132,19 +132,24 @@ class CallbackProgress final : public ProgressSink {
     std::vector<Update> pending_;
 };
 
+/// What a progress= argument asks for: None (None or False), a bar on stderr (True: a
+/// formfactor.TextProgress), or the callable itself; anything else is an OptionError.
+py::object progress_callback(const py::object& progress);
+
 /// Runs `work(flag)` on a worker thread with the GIL released; the calling thread waits,
 /// taking the GIL every 20 ms to check for signals (Ctrl-C: the flag is requested, the worker
 /// stops at its next poll, and KeyboardInterrupt is raised) and to deliver progress to
-/// `callback` (None: no progress). Errors of `work` propagate (translated to Python by the
-/// module's exception translator).
+/// `callback` (a progress= argument, see progress_callback()). Errors of `work` propagate
+/// (translated to Python by the module's exception translator).
 template <class Work>
 auto run_released(Work&& work, const py::object& callback = py::none())
     -> decltype(work(std::declval<CancellationFlag&>(), static_cast<ProgressSink*>(nullptr))) {
     using R =
         decltype(work(std::declval<CancellationFlag&>(), static_cast<ProgressSink*>(nullptr)));
+    const py::object deliver_to = progress_callback(callback);
     CancellationFlag flag;
     CallbackProgress progress;
-    ProgressSink* sink = callback.is_none() ? nullptr : &progress;
+    ProgressSink* sink = deliver_to.is_none() ? nullptr : &progress;
     std::packaged_task<R()> task([&]() -> R {
         CancellationScope scope(flag);
         return work(flag, sink);
@@ -164,7 +169,7 @@ auto run_released(Work&& work, const py::object& callback = py::none())
             }
             if (sink) {
                 try {
-                    progress.deliver(callback);
+                    progress.deliver(deliver_to);
                 } catch (py::error_already_set& e) {
                     // The callback raised: stop the computation and raise that.
                     e.restore();
@@ -177,7 +182,7 @@ auto run_released(Work&& work, const py::object& callback = py::none())
         worker.join();
     }
     if (interrupted) throw py::error_already_set();
-    if (sink) progress.deliver(callback);
+    if (sink) progress.deliver(deliver_to);
     return done.get();
 }
 
@@ -186,5 +191,6 @@ void bind_scene(py::module_& m);
 void bind_compute(py::module_& m);
 void bind_solve(py::module_& m);
 void bind_render(py::module_& m);
+void bind_signatures(py::module_& m);
 
 }  // namespace formfactor::python
