@@ -19,7 +19,7 @@ DEB_PACKAGES := cmake g++ make pkg-config \
 	libembree-dev libtbb-dev libeigen3-dev libcli11-dev nlohmann-json3-dev libfmt-dev \
 	libtinyobjloader-dev libstb-dev libhdf5-dev zlib1g-dev doctest-dev libbenchmark-dev pybind11-dev \
 	python3-dev python3-numpy python3-scipy python3-pytest python3-matplotlib python3-h5py \
-	python3-setuptools python3-wheel python3-pip python3-venv \
+	python3-setuptools python3-wheel python3-pip python3-venv mypy \
 	clang libclang-rt-14-dev clang-format chromium \
 	gmsh libassimp-dev \
 	openmpi-bin libopenmpi-dev python3-mpi4py

@@ -203,7 +203,8 @@ PointResult compute_point_form_factors(const Scene& scene, const PointOptions& o
     check_memory(needs, available_memory(), "use fewer points or a coarser subdivision");
     PointResult result;
     Stopwatch sw;
-    result.F = point_form_factors(scene, options.positions, options.normals, options.threads);
+    result.F = point_form_factors(scene, options.positions, options.normals, options.threads,
+                                  options.progress);
     result.timings.add("compute", sw.lap());
     result.threads = effective_threads(options.threads);
     return result;

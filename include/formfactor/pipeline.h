@@ -133,6 +133,8 @@ struct PointOptions {
     int threads = 0;
     /// Polled by the computation; null: the process-wide flag.
     const CancellationFlag* cancel = nullptr;
+    /// Where progress goes; null (the default): nowhere.
+    ProgressSink* progress = nullptr;
 };
 
 /// What compute_point_form_factors() returns.

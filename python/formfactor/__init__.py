@@ -25,7 +25,6 @@ See docs/python.md for a worked example.
 import json as _json
 import os as _os
 from dataclasses import dataclass as _dataclass
-from typing import Optional as _Optional
 
 import numpy as _np
 
@@ -38,7 +37,6 @@ __version__ = _core.__version__
 Scene = _core.Scene
 Result = _core.Result
 HierarchicalOperator = _core.HierarchicalOperator
-Scene.__module__ = Result.__module__ = HierarchicalOperator.__module__ = "formfactor"
 
 __all__ = [
     "Scene", "Result", "HierarchicalOperator", "load", "builtin_scenes", "methods", "point_factors", "solve_radiosity",
@@ -46,19 +44,6 @@ __all__ = [
     "Error", "InputError", "OptionError", "GeometryError", "ResourceError", "Cancelled",
     "TextProgress", "__version__",
 ]
-
-_METHODS = ("analytic", "hemicube", "hemiplane", "mc-area", "mc-hemisphere", "mc-target")
-
-
-def _progress(progress):
-    if progress is None or progress is False:
-        return None
-    if progress is True:
-        return TextProgress()
-    if not callable(progress):
-        raise OptionError("progress: must be None, True or a callable "
-                          "progress(phase, done, total, elapsed_seconds)", "progress")
-    return progress
 
 
 def load(path, subdivide=None, max_edge=None, merge_coplanar=False):
@@ -71,7 +56,7 @@ def load(path, subdivide=None, max_edge=None, merge_coplanar=False):
     into polygons first, as ``--merge-coplanar`` does. Raises InputError (with ``.file`` and
     ``.line``) for a bad file, OptionError for bad options.
     """
-    return _core.load(_os.fspath(path), subdivide, max_edge, bool(merge_coplanar))
+    return _core.load(_os.fspath(path), subdivide, max_edge, merge_coplanar)
 
 
 def builtin_scenes():
@@ -81,89 +66,7 @@ def builtin_scenes():
 
 def methods():
     """Names of the methods that ``Scene.form_factors(method=...)`` accepts."""
-    return list(_METHODS)
-
-
-def _form_factors(self, method=None, *, tolerance=None, obstructed_tolerance=None,
-                  samples=None, seed=None, threads=None, sampler=None, resolution=None,
-                  points=None, rows=None, repair=None, force_closure=False, ray_offset=None,
-                  robust_rays=False, progress=None):
-    """Computes the form factors of this scene's patches: returns a :class:`Result` whose
-    ``matrix[i, j]`` is F_ij, from patch i (row) to patch j (column).
-
-    method: ``analytic`` (exact contour integrals, shadows clipped out; the default for every
-    scene), ``hemicube``, ``hemiplane``, ``mc-area``, ``mc-hemisphere`` or ``mc-target``
-    (Monte Carlo, with per-entry standard errors). tolerance: absolute error target per entry
-    (analytic; default 1e-10, and 1e-6 for partly hidden pairs of an obstructed scene, which a
-    given tolerance also sets; obstructed_tolerance sets that one alone). samples, seed,
-    sampler (``sobol``, ``halton``, ``stratified``, ``random``): Monte Carlo. resolution,
-    points: hemicube / hemiplane. threads: worker threads (0 or None: all cores).
-    rows=(begin, end): compute only those rows (bit-identical to the same rows of the whole
-    matrix; end None = N). repair: ``reciprocity``, ``closure`` or ``both`` (closure only for
-    closed scenes unless force_closure). ray_offset, robust_rays: the ray tracer's end offset
-    (relative to the scene's size) and Embree's robust mode. progress: None, True (a bar on
-    stderr) or callable(phase, done, total, elapsed_seconds).
-
-    The GIL is released while it computes; Ctrl-C raises KeyboardInterrupt promptly.
-    """
-    a = _core._ComputeArgs()
-    a.method = method
-    a.tolerance = tolerance
-    a.obstructed_tolerance = obstructed_tolerance
-    a.samples = samples
-    a.seed = seed
-    a.threads = threads
-    a.sampler = sampler
-    a.resolution = resolution
-    a.points = points
-    a.rows = tuple(rows) if isinstance(rows, (list, tuple)) else rows
-    a.repair = repair
-    a.force_closure = bool(force_closure)
-    a.ray_offset = ray_offset
-    a.robust_rays = bool(robust_rays)
-    return _core.compute(self, a, _progress(progress))
-
-
-Scene.form_factors = _form_factors
-
-
-def _hierarchical(self, tolerance=1e-6, *, eta=1.5, leaf_size=32, threads=0, progress=None):
-    """The hierarchical (H-matrix) operator of this scene's form factors, for scenes without
-    obstructions (closed rooms, furnaces, convex cavities): far cluster pairs as low-rank blocks
-    (adaptive cross approximation to the relative error ``tolerance``), near ones exact, F never
-    formed (docs/hierarchical.md). Pass it as F to :func:`solve_radiosity` and
-    :func:`solve_thermal` (GMRES by default), apply it with ``op @ x``, or use
-    ``op.as_linear_operator()`` with SciPy. Raises Error for a scene with obstructions."""
-    return _core.hierarchical(self, float(tolerance), float(eta), int(leaf_size), int(threads),
-                              _progress(progress))
-
-
-Scene.hierarchical = _hierarchical
-
-
-def _operator_matmul(self, x):
-    return self.matvec(_np.asarray(x, dtype=float))
-
-
-def _as_linear_operator(self):
-    """A scipy.sparse.linalg.LinearOperator of F: matvec F x, rmatvec Fᵀ y = A ∘ F (y / A)
-    (reciprocity, which the operator satisfies by construction)."""
-    from scipy.sparse.linalg import LinearOperator
-
-    areas = self.areas
-
-    def rmatvec(y):
-        y = _np.asarray(y, dtype=float)
-        if y.ndim == 1:
-            return areas * self.matvec(y / areas)
-        return areas[:, None] * self.matvec(y / areas[:, None])
-
-    return LinearOperator(self.shape, matvec=self.matvec, rmatvec=rmatvec,
-                          matmat=self.matvec, dtype=float)
-
-
-HierarchicalOperator.__matmul__ = _operator_matmul
-HierarchicalOperator.as_linear_operator = _as_linear_operator
+    return list(_core.method_names())
 
 
 def _is_scipy_sparse(F):
@@ -195,27 +98,6 @@ def _default_solver(F, dense_default):
     return dense_default
 
 
-def _report(self):
-    """The run report as a dict: the same keys as the CLI's ``compute --report`` JSON
-    (scene, N, method, options, threads, timings, diagnostics with row sums and reciprocity,
-    details of the method, repair)."""
-    return _json.loads(self._report_json)
-
-
-Result.report = property(_report)
-
-
-def _repr_result(self):
-    b, e = self.rows
-    return "<formfactor.Result %s: rows %d..%d of %d, %s>" % (
-        self.method, b, e, len(self.areas),
-        "error bound %.2g" % self.error_bound if self.error_bound is not None else
-        ("standard errors" if self.standard_error is not None else "approximate"))
-
-
-Result.__repr__ = _repr_result
-
-
 def point_factors(scene, points, normals, *, threads=0, progress=None):
     """Form factors from M differential elements (sensors, radiometers, the points of a
     mean-radiant-temperature map) to every patch: an (M, N) array whose row m is point m.
@@ -224,7 +106,7 @@ def point_factors(scene, points, normals, *, threads=0, progress=None):
     (3,) normal for every point. Exact with obstructions: each entry is the factor to the part
     of patch j the point sees past every other surface.
     """
-    return _core.point_factors(scene, points, normals, int(threads), _progress(progress))
+    return _core.point_factors(scene, points, normals, threads, progress)
 
 
 @_dataclass
@@ -267,8 +149,8 @@ def solve_radiosity(scene, F, reflectance=None, emission=None, *, solver=None,
     takes gmres or jacobi). Returns a :class:`RadiosityResult`.
     """
     solver = _default_solver(F, "gauss-seidel") if solver is None else solver
-    d = _core.radiosity(scene, _core_matrix(F), reflectance, emission, solver, float(residual),
-                        int(max_iterations), int(threads), _progress(progress))
+    d = _core.radiosity(scene, _core_matrix(F), reflectance, emission, solver, residual,
+                        max_iterations, threads, progress)
     return RadiosityResult(**d)
 
 
@@ -287,9 +169,8 @@ def solve_thermal(scene, F, emissivity=None, temperature=None, net_flux=None, *,
     """
     solver = _default_solver(F, "direct") if solver is None else solver
     d = _core.thermal(scene, _core_matrix(F), emissivity, temperature, net_flux,
-                      float(ambient_temperature),
-                      solver, float(residual), int(max_iterations), int(threads),
-                      _progress(progress))
+                      ambient_temperature, solver, residual, max_iterations, threads,
+                      progress)
     return ThermalResult(**d)
 
 
@@ -298,7 +179,7 @@ def repair(F, areas, mode="both", *, enclosure=False, force_closure=False):
     (scales rows to sum to 1, keeping reciprocity; closed scenes: enclosure=True, or
     force_closure) or ``both``. F is not changed: returns (repaired copy, report dict).
     """
-    F2, text = _core.repair(F, areas, mode, bool(enclosure), bool(force_closure))
+    F2, text = _core.repair(F, areas, mode, enclosure, force_closure)
     return F2, _json.loads(text)
 
 
@@ -325,7 +206,5 @@ def render(scene, values=None, *, width=640, height=640, path=None, flat=False, 
     the values' range). camera: {"eye": (x, y, z), "target": ..., "up": ..., "fov": degrees};
     default: the scene's camera or one that sees everything.
     """
-    return _core.render(scene, values, int(width), int(height),
-                        "" if path is None else _os.fspath(path), bool(flat), float(exposure),
-                        str(label), str(unit), vmin, vmax, camera, int(supersample),
-                        bool(back_faces))
+    return _core.render(scene, values, width, height, "" if path is None else _os.fspath(path),
+                        flat, exposure, label, unit, vmin, vmax, camera, supersample, back_faces)

@@ -11,27 +11,14 @@
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
 #include "formfactor/matrix/aggregate.h"
-#include "formfactor/methods/point_factors.h"
 #include "formfactor/output/page.h"
 #include "formfactor/output/report.h"
 #include "formfactor/scene/closure.h"
+#include "keywords.h"
 
 namespace formfactor::python {
 
 namespace {
-
-/// The keyword arguments of form_factors(), None where not given.
-struct ComputeArgs {
-    py::object method, tolerance, obstructed_tolerance, samples, seed, threads, sampler, resolution,
-        points, rows, repair, ray_offset;
-    bool force_closure = false;
-    bool robust_rays = false;
-};
-
-template <class T>
-void set_if(const py::object& value, T& target, const char* name) {
-    if (!value.is_none()) target = arg<T>(value, name);
-}
 
 /// A non-negative integer keyword: a negative Python int is an OptionError naming it.
 std::uint64_t unsigned_arg(const py::object& value, const char* name) {
@@ -40,37 +27,93 @@ std::uint64_t unsigned_arg(const py::object& value, const char* name) {
     return static_cast<std::uint64_t>(v);
 }
 
-ComputeOptions options_of(const Scene& scene, const ComputeArgs& a) {
-    ComputeOptions o;
-    if (!a.method.is_none()) o.method = parse_method(arg<std::string>(a.method, "method"));
-    MethodOptions& m = o.method_options;
-    set_if(a.threads, m.threads, "threads");
-    if (!a.tolerance.is_none()) {
-        // As the CLI's --tolerance: a given tolerance sets the obstructed pairs' target too.
-        m.tolerance = arg<double>(a.tolerance, "tolerance");
-        m.obstructed_tolerance = m.tolerance;
-    }
-    set_if(a.obstructed_tolerance, m.obstructed_tolerance, "obstructed_tolerance");
-    if (!a.samples.is_none()) m.samples = unsigned_arg(a.samples, "samples");
-    if (!a.seed.is_none()) m.seed = unsigned_arg(a.seed, "seed");
-    if (!a.sampler.is_none()) m.sampler = parse_sampler(arg<std::string>(a.sampler, "sampler"));
-    set_if(a.resolution, m.resolution, "resolution");
-    set_if(a.points, m.points, "points");
-    if (!a.rows.is_none()) {
-        if (!py::isinstance<py::tuple>(a.rows) || py::len(a.rows) != 2)
-            throw OptionError("rows", "must be a pair (begin, end)");
-        const auto t = a.rows.cast<py::tuple>();
-        o.rows.begin = unsigned_arg(t[0], "rows");
-        o.rows.end = t[1].is_none() ? RowRange::kEnd : unsigned_arg(t[1], "rows");
-    }
-    if (!a.repair.is_none())
-        o.repair.mode = parse_repair_mode(arg<std::string>(a.repair, "repair"));
-    o.repair.enclosure = known_enclosure(scene);
-    o.repair.force_closure = a.force_closure;
-    set_if(a.ray_offset, o.visibility.relative_epsilon, "ray_offset");
-    o.visibility.robust = a.robust_rays;
-    return o;
-}
+/// The keywords of Scene.form_factors(), in the order they are applied (tolerance before
+/// obstructed_tolerance, which it also sets).
+const Keyword<ComputeOptions> kComputeKeywords[] = {
+    {"method", "Optional[str]", "None",
+     "analytic (exact contour integrals, shadows clipped out; the default for every scene), "
+     "hemicube, hemiplane, mc-area, mc-hemisphere or mc-target (Monte Carlo, with per-entry "
+     "standard errors); methods() lists them.",
+     [](const py::object& v, ComputeOptions& o) {
+         o.method = parse_method(arg<std::string>(v, "method"));
+     },
+     true},
+    {"tolerance", "Optional[float]", "None",
+     "absolute error target per entry (analytic; default 1e-10, and 1e-6 for the partly hidden "
+     "pairs of an obstructed scene, which a given tolerance also sets).",
+     [](const py::object& v, ComputeOptions& o) {
+         // As the CLI's --tolerance: a given tolerance sets the obstructed pairs' target too.
+         o.method_options.tolerance = arg<double>(v, "tolerance");
+         o.method_options.obstructed_tolerance = o.method_options.tolerance;
+     }},
+    {"obstructed_tolerance", "Optional[float]", "None",
+     "the target of the partly hidden pairs alone (analytic, obstructed scenes).",
+     [](const py::object& v, ComputeOptions& o) {
+         o.method_options.obstructed_tolerance = arg<double>(v, "obstructed_tolerance");
+     }},
+    {"samples", "Optional[int]", "None", "samples (Monte Carlo).",
+     [](const py::object& v, ComputeOptions& o) {
+         o.method_options.samples = unsigned_arg(v, "samples");
+     }},
+    {"seed", "Optional[int]", "None",
+     "the random seed (Monte Carlo; results do not depend on the thread count).",
+     [](const py::object& v, ComputeOptions& o) {
+         o.method_options.seed = unsigned_arg(v, "seed");
+     }},
+    {"threads", "Optional[int]", "None", "worker threads (0 or None: all cores).",
+     [](const py::object& v, ComputeOptions& o) {
+         o.method_options.threads = arg<int>(v, "threads");
+     }},
+    {"sampler", "Optional[str]", "None", "sobol, halton, stratified or random (Monte Carlo).",
+     [](const py::object& v, ComputeOptions& o) {
+         o.method_options.sampler = parse_sampler(arg<std::string>(v, "sampler"));
+     }},
+    {"resolution", "Optional[int]", "None", "cells per side (hemicube, hemiplane).",
+     [](const py::object& v, ComputeOptions& o) {
+         o.method_options.resolution = arg<int>(v, "resolution");
+     }},
+    {"points", "Optional[int]", "None", "points per patch (hemicube, hemiplane).",
+     [](const py::object& v, ComputeOptions& o) {
+         o.method_options.points = arg<int>(v, "points");
+     }},
+    {"rows", "Optional[Tuple[int, Optional[int]]]", "None",
+     "(begin, end): compute only those rows, bit-identical to the same rows of the whole "
+     "matrix (end None: N).",
+     [](const py::object& v, ComputeOptions& o) {
+         if (!(py::isinstance<py::tuple>(v) || py::isinstance<py::list>(v)) || py::len(v) != 2)
+             throw OptionError("rows", "must be a pair (begin, end)");
+         const auto t = py::tuple(v);
+         o.rows.begin = unsigned_arg(t[0], "rows");
+         o.rows.end = t[1].is_none() ? RowRange::kEnd : unsigned_arg(t[1], "rows");
+     }},
+    {"repair", "Optional[str]", "None",
+     "reciprocity, closure or both (closure only for closed scenes unless force_closure).",
+     [](const py::object& v, ComputeOptions& o) {
+         o.repair.mode = parse_repair_mode(arg<std::string>(v, "repair"));
+     }},
+    {"force_closure", "bool", "False", "close the rows of a scene not known to be closed.",
+     [](const py::object& v, ComputeOptions& o) {
+         o.repair.force_closure = arg<bool>(v, "force_closure");
+     }},
+    {"ray_offset", "Optional[float]", "None",
+     "the ray tracer's end offset, relative to the scene's size.",
+     [](const py::object& v, ComputeOptions& o) {
+         o.visibility.relative_epsilon = arg<double>(v, "ray_offset");
+     }},
+    {"robust_rays", "bool", "False", "Embree's robust mode.",
+     [](const py::object& v, ComputeOptions& o) {
+         o.visibility.robust = arg<bool>(v, "robust_rays");
+     }},
+    {"progress", "_Progress", "None",
+     "None, True (a bar on stderr) or callable(phase, done, total, elapsed_seconds).", nullptr},
+};
+
+const Signature<ComputeOptions> kFormFactors{
+    "form_factors", "Result",
+    "Computes the form factors of this scene's patches: returns a Result whose ``matrix[i, j]`` "
+    "is F_ij, from patch i (row) to patch j (column).\n\nThe GIL is released while it computes; "
+    "Ctrl-C raises KeyboardInterrupt promptly.",
+    kComputeKeywords};
 
 /// The run report, with the keys of the CLI's `compute --report` (output/report.h).
 std::string report_of(const Scene& scene, const ComputeOptions& o, const ComputeResult& r,
@@ -126,8 +169,8 @@ std::string report_of(const Scene& scene, const ComputeOptions& o, const Compute
     return json_text(report);
 }
 
-PyResult compute(const PyScene& s, const ComputeArgs& args, const py::object& progress) {
-    ComputeOptions o = options_of(*s.scene, args);
+PyResult compute(const PyScene& s, ComputeOptions o, const py::object& progress) {
+    o.repair.enclosure = known_enclosure(*s.scene);
     if (!o.method) o.method = default_method(*s.scene);
     validate(o);
     PyResult out;
@@ -311,13 +354,27 @@ For a row block (``rows=(b, e)``) it holds rows b..e-1 and every column.
         .def_property_readonly("method",
                                [](const PyResult& r) { return to_string(r.result.report.method); })
         .def_property_readonly("threads", [](const PyResult& r) { return r.result.threads; })
-        .def_property_readonly("_report_json",
-                               [](const PyResult& r) {
-                                   if (!r.report_json)
-                                       r.report_json = report_of(*r.scene, r.options, r.result,
-                                                                 r.total_seconds);
-                                   return *r.report_json;
-                               })
+        .def_property_readonly(
+            "report",
+            [](const PyResult& r) {
+                if (!r.report_json)
+                    r.report_json = report_of(*r.scene, r.options, r.result, r.total_seconds);
+                return py::module_::import("json").attr("loads")(*r.report_json);
+            },
+            "The run report as a dict: the same keys as the CLI's ``compute --report`` JSON "
+            "(scene, N, method, options, threads, timings, diagnostics with row sums and "
+            "reciprocity, details of the method, repair).")
+        .def("__repr__",
+             [](const PyResult& r) {
+                 const FormFactors& ff = r.result.form_factors;
+                 const auto& bound = r.result.report.error_bound_per_entry;
+                 return fmt::format("<formfactor.Result {}: rows {}..{} of {}, {}>",
+                                    to_string(r.result.report.method), ff.first_row,
+                                    ff.first_row + ff.size(), ff.areas.size(),
+                                    bound               ? fmt::format("error bound {:.2g}", *bound)
+                                    : ff.standard_error ? std::string("standard errors")
+                                                        : std::string("approximate"));
+             })
         .def(
             "sparse",
             [](const PyResult& r, double threshold) {
@@ -361,29 +418,22 @@ For a row block (``rows=(b, e)``) it holds rows b..e-1 and every column.
             },
             "The result page in a sandboxed iframe, for Jupyter (at most 200,000 entries of F).");
 
-    py::class_<ComputeArgs>(m, "_ComputeArgs")
-        .def(py::init<>())
-        .def_readwrite("method", &ComputeArgs::method)
-        .def_readwrite("tolerance", &ComputeArgs::tolerance)
-        .def_readwrite("obstructed_tolerance", &ComputeArgs::obstructed_tolerance)
-        .def_readwrite("samples", &ComputeArgs::samples)
-        .def_readwrite("seed", &ComputeArgs::seed)
-        .def_readwrite("threads", &ComputeArgs::threads)
-        .def_readwrite("sampler", &ComputeArgs::sampler)
-        .def_readwrite("resolution", &ComputeArgs::resolution)
-        .def_readwrite("points", &ComputeArgs::points)
-        .def_readwrite("rows", &ComputeArgs::rows)
-        .def_readwrite("repair", &ComputeArgs::repair)
-        .def_readwrite("ray_offset", &ComputeArgs::ray_offset)
-        .def_readwrite("force_closure", &ComputeArgs::force_closure)
-        .def_readwrite("robust_rays", &ComputeArgs::robust_rays);
+    auto scene = py::reinterpret_borrow<py::class_<PyScene>>(m.attr("Scene"));
+    bind_with_keywords(
+        scene, kFormFactors,
+        [](const py::object& self, ComputeOptions& o, const std::vector<py::object>& values) {
+            return compute(self.cast<const PyScene&>(), o,
+                           value_of(kFormFactors, values, "progress"));
+        });
 
-    m.def("compute", &compute, py::arg("scene"), py::arg("args"), py::arg("progress") = py::none());
+    m.def("method_names", &method_names,
+          "The names of the methods Scene.form_factors(method=...) accepts, as the library lists "
+          "them.");
 
     m.def(
         "point_factors",
-        [](const PyScene& s, const py::object& points, const py::object& normals, int threads,
-           const py::object& progress) {
+        [](const PyScene& s, const py::object& points, const py::object& normals,
+           const py::object& threads, const py::object& progress) {
             const std::vector<Vec3> p = as_vec3s(points, "points");
             const std::vector<Vec3> n = as_vec3s(normals, "normals", p.size());
             if (n.size() != p.size()) {
@@ -394,12 +444,19 @@ For a row block (``rows=(b, e)``) it holds rows b..e-1 and every column.
             for (std::size_t k = 0; k < n.size(); ++k)
                 if (n[k].norm() == 0.0)
                     throw OptionError("normals", fmt::format("row {} is zero", k));
-            DenseMatrix M = run_released(
-                [&](CancellationFlag&, ProgressSink*) {
-                    return point_form_factors(*s.scene, p, n, threads);
+            PointOptions o;
+            o.positions = p;
+            o.normals = n;
+            o.threads = arg<int>(threads, "threads");
+            PointResult r = run_released(
+                [&](CancellationFlag& flag, ProgressSink* sink) {
+                    PointOptions run = o;
+                    run.cancel = &flag;
+                    run.progress = sink;
+                    return compute_point_form_factors(*s.scene, run);
                 },
                 progress);
-            return adopt(std::move(M));
+            return adopt(std::move(r.F));
         },
         py::arg("scene"), py::arg("points"), py::arg("normals"), py::arg("threads") = 0,
         py::arg("progress") = py::none());

@@ -21,7 +21,7 @@ Camera camera_of(const py::dict& d) {
     vec("eye", c.eye);
     vec("target", c.target);
     vec("up", c.up);
-    if (d.contains("fov")) c.fov_degrees = d["fov"].cast<double>();
+    if (d.contains("fov")) c.fov_degrees = arg<double>(d["fov"], "camera");
     for (const auto& item : d) {
         const std::string k = py::str(item.first).cast<std::string>();
         if (k != "eye" && k != "target" && k != "up" && k != "fov")
@@ -30,21 +30,30 @@ Camera camera_of(const py::dict& d) {
     return c;
 }
 
-py::array_t<std::uint8_t> render(const PyScene& s, const py::object& values, int width, int height,
-                                 const std::string& path, bool flat, double exposure,
-                                 const std::string& label, const std::string& unit,
-                                 const py::object& vmin, const py::object& vmax,
-                                 const py::object& camera, int supersample, bool back_faces) {
+py::array_t<std::uint8_t> render(const PyScene& s, const py::object& values,
+                                 const py::object& width, const py::object& height,
+                                 const std::string& path, const py::object& flat,
+                                 const py::object& exposure, const py::object& label_arg,
+                                 const py::object& unit_arg, const py::object& vmin,
+                                 const py::object& vmax, const py::object& camera,
+                                 const py::object& supersample, const py::object& back_faces) {
     const Scene& scene = *s.scene;
     const std::size_t n = scene.patches.size();
+    const std::string label = arg<std::string>(label_arg, "label");
+    const std::string unit = arg<std::string>(unit_arg, "unit");
     RenderOptions o;
-    o.width = width;
-    o.height = height;
-    o.flat = flat;
-    o.exposure = exposure;
-    o.supersample = supersample;
-    o.back_faces = back_faces;
-    if (!camera.is_none()) o.camera = camera_of(camera.cast<py::dict>());
+    o.width = arg<int>(width, "width");
+    o.height = arg<int>(height, "height");
+    o.flat = arg<bool>(flat, "flat");
+    o.exposure = arg<double>(exposure, "exposure");
+    o.supersample = arg<int>(supersample, "supersample");
+    o.back_faces = arg<bool>(back_faces, "back_faces");
+    if (!camera.is_none()) {
+        if (!py::isinstance<py::dict>(camera))
+            throw OptionError("camera", "must be a dict (eye, target, up, fov), got " +
+                                            py::repr(camera).cast<std::string>());
+        o.camera = camera_of(camera.cast<py::dict>());
+    }
     const PatchProperties props = properties_from_scene(scene);
     o.emitters.resize(n);
     for (std::size_t i = 0; i < n; ++i) o.emitters[i] = props.emission[i].maxCoeff() > 0.0;
@@ -72,8 +81,8 @@ py::array_t<std::uint8_t> render(const PyScene& s, const py::object& values, int
             f.values.assign(a.data(), a.data() + n);
             f.label = label;
             f.unit = unit;
-            if (!vmin.is_none()) f.min = vmin.cast<double>();
-            if (!vmax.is_none()) f.max = vmax.cast<double>();
+            if (!vmin.is_none()) f.min = arg<double>(vmin, "vmin");
+            if (!vmax.is_none()) f.max = arg<double>(vmax, "vmax");
             py::gil_scoped_release nogil;
             image = render_false_colour(scene, f, o);
         } else {

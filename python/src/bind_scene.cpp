@@ -345,7 +345,9 @@ valid planar polygon.
 
     m.def(
         "load",
-        [](const std::string& path, const py::object& n, const py::object& max_edge, bool merge) {
+        [](const std::string& path, const py::object& n, const py::object& max_edge,
+           const py::object& merge_arg) {
+            const bool merge = arg<bool>(merge_arg, "merge_coplanar");
             Scene scene;
             {
                 py::gil_scoped_release nogil;

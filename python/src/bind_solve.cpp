@@ -3,6 +3,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <optional>
 
@@ -15,6 +16,7 @@
 #include "formfactor/solve/properties.h"
 #include "formfactor/solve/radiosity.h"
 #include "formfactor/solve/thermal.h"
+#include "keywords.h"
 
 namespace formfactor::python {
 
@@ -91,8 +93,12 @@ py::array_t<double> array_of(const std::vector<Rgb>& v) {
     return out;
 }
 
-SolverOptions solver_options(const std::string& solver, double residual, long long max_iterations,
-                             int threads) {
+SolverOptions solver_options(const py::object& solver_arg, const py::object& residual_arg,
+                             const py::object& max_iterations_arg, const py::object& threads_arg) {
+    const std::string solver = arg<std::string>(solver_arg, "solver");
+    const double residual = arg<double>(residual_arg, "residual");
+    const long long max_iterations = arg<long long>(max_iterations_arg, "max_iterations");
+    const int threads = arg<int>(threads_arg, "threads");
     SolverOptions o;
     o.solver = parse_solver(solver);
     o.residual = residual;
@@ -160,8 +166,9 @@ const HierarchicalFormFactors* operator_of(const PyScene& s, const py::object& F
 }
 
 py::dict radiosity(const PyScene& s, const py::object& F, const py::object& reflectance,
-                   const py::object& emission, const std::string& solver, double residual,
-                   long long max_iterations, int threads, const py::object& progress) {
+                   const py::object& emission, const py::object& solver, const py::object& residual,
+                   const py::object& max_iterations, const py::object& threads,
+                   const py::object& progress) {
     const HierarchicalFormFactors* op = operator_of(s, F);
     const std::optional<SparseFormFactors> sp = op ? std::nullopt : sparse_of(s, F);
     const FormFactors ff = op || sp ? FormFactors{} : form_factors_of(s, F);
@@ -172,10 +179,12 @@ py::dict radiosity(const PyScene& s, const py::object& F, const py::object& refl
     validate_properties(props);
     const SolverOptions o = solver_options(solver, residual, max_iterations, threads);
     const RadiosityResult r = run_released(
-        [&](CancellationFlag&, ProgressSink*) {
-            return op   ? solve_radiosity(*op, props, o)
-                   : sp ? solve_radiosity(*sp, props, o)
-                        : solve_radiosity(ff, props, o);
+        [&](CancellationFlag&, ProgressSink* sink) {
+            SolverOptions run = o;
+            run.progress = sink;
+            return op   ? solve_radiosity(*op, props, run)
+                   : sp ? solve_radiosity(*sp, props, run)
+                        : solve_radiosity(ff, props, run);
         },
         progress);
     py::dict d;
@@ -192,8 +201,10 @@ py::dict radiosity(const PyScene& s, const py::object& F, const py::object& refl
 
 py::dict thermal(const PyScene& s, const py::object& F, const py::object& emissivity,
                  const py::object& temperature, const py::object& net_flux,
-                 double ambient_temperature, const std::string& solver, double residual,
-                 long long max_iterations, int threads, const py::object& progress) {
+                 const py::object& ambient, const py::object& solver, const py::object& residual,
+                 const py::object& max_iterations, const py::object& threads,
+                 const py::object& progress) {
+    const double ambient_temperature = arg<double>(ambient, "ambient_temperature");
     const HierarchicalFormFactors* op = operator_of(s, F);
     const std::optional<SparseFormFactors> sp = op ? std::nullopt : sparse_of(s, F);
     const FormFactors ff = op || sp ? FormFactors{} : form_factors_of(s, F);
@@ -230,10 +241,12 @@ py::dict thermal(const PyScene& s, const py::object& F, const py::object& emissi
             fmt::format("must be a finite number ≥ 0 (K), got {}", ambient_temperature));
     }
     const ThermalResult r = run_released(
-        [&](CancellationFlag&, ProgressSink*) {
-            return op   ? solve_thermal(*op, props, o)
-                   : sp ? solve_thermal(*sp, props, o)
-                        : solve_thermal(ff, props, o);
+        [&](CancellationFlag&, ProgressSink* sink) {
+            ThermalOptions run = o;
+            run.solver.progress = sink;
+            return op   ? solve_thermal(*op, props, run)
+                   : sp ? solve_thermal(*sp, props, run)
+                        : solve_thermal(ff, props, run);
         },
         progress);
     py::dict d;
@@ -257,6 +270,62 @@ py::dict thermal(const PyScene& s, const py::object& F, const py::object& emissi
 }
 
 }  // namespace
+
+/// F x for x of shape (N,) or (N, k); `adjoint`: Fᵀ x, which reciprocity makes A ∘ F (x / A).
+py::array_t<double> product(const PyHierarchical& h, const py::object& x, int threads,
+                            bool adjoint) {
+    const auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(x);
+    const auto n = static_cast<py::ssize_t>(h.op->size());
+    if (!a || (a.ndim() != 1 && a.ndim() != 2) || a.shape(0) != n)
+        throw OptionError("x", fmt::format("must have shape ({0},) or ({0}, k)", n));
+    const Eigen::Index k = a.ndim() == 1 ? 1 : a.shape(1);
+    const std::vector<double>& areas = h.op->areas();
+    Eigen::MatrixXd X(n, k), Y;
+    for (Eigen::Index i = 0; i < n; ++i)
+        for (Eigen::Index c = 0; c < k; ++c)
+            X(i, c) = adjoint ? a.data()[i * k + c] / areas[static_cast<std::size_t>(i)]
+                              : a.data()[i * k + c];
+    if (!X.allFinite()) throw OptionError("x", "has values that are not finite");
+    {
+        py::gil_scoped_release nogil;
+        h.op->multiply(X, Y, threads);
+    }
+    py::array_t<double> out = a.ndim() == 1 ? py::array_t<double>(n)
+                                            : py::array_t<double>({n, static_cast<py::ssize_t>(k)});
+    double* o = out.mutable_data();
+    for (Eigen::Index i = 0; i < n; ++i)
+        for (Eigen::Index c = 0; c < k; ++c)
+            o[i * k + c] = adjoint ? areas[static_cast<std::size_t>(i)] * Y(i, c) : Y(i, c);
+    return out;
+}
+
+/// The keywords of Scene.hierarchical().
+const Keyword<HierarchicalOptions> kHierarchicalKeywords[] = {
+    {"tolerance", "float", "1e-06",
+     "the relative error of each low-rank block (adaptive cross approximation).",
+     [](const py::object& v, HierarchicalOptions& o) { o.tolerance = arg<double>(v, "tolerance"); },
+     true},
+    {"eta", "float", "1.5", "admissibility: how far apart two clusters must be to be compressed.",
+     [](const py::object& v, HierarchicalOptions& o) { o.eta = arg<double>(v, "eta"); }},
+    {"leaf_size", "int", "32", "patches per leaf cluster at most.",
+     [](const py::object& v, HierarchicalOptions& o) {
+         // A negative size as 0, which build_hierarchical() refuses with the valid range.
+         o.leaf_size = static_cast<std::size_t>(std::max(0LL, arg<long long>(v, "leaf_size")));
+     }},
+    {"threads", "int", "0", "worker threads (0: all cores).",
+     [](const py::object& v, HierarchicalOptions& o) { o.threads = arg<int>(v, "threads"); }},
+    {"progress", "_Progress", "None",
+     "None, True (a bar on stderr) or callable(phase, done, total, elapsed_seconds).", nullptr},
+};
+
+const Signature<HierarchicalOptions> kHierarchical{
+    "hierarchical", "HierarchicalOperator",
+    "The hierarchical (H-matrix) operator of this scene's form factors, for scenes without "
+    "obstructions (closed rooms, furnaces, convex cavities): far cluster pairs as low-rank blocks, "
+    "near ones exact, F never formed (docs/hierarchical.md). Pass it as F to solve_radiosity and "
+    "solve_thermal (GMRES by default), apply it with ``op @ x``, or use "
+    "``op.as_linear_operator()`` with SciPy. Raises Error for a scene with obstructions.",
+    kHierarchicalKeywords};
 
 py::dict hierarchical_stats(const HierarchicalStats& st) {
     py::dict d;
@@ -299,29 +368,30 @@ vectors without forming it (docs/hierarchical.md). ``op @ x`` or ``op.matvec(x)`
         .def(
             "matvec",
             [](const PyHierarchical& h, const py::object& x, int threads) {
-                const auto a =
-                    py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(x);
-                const auto n = static_cast<py::ssize_t>(h.op->size());
-                if (!a || (a.ndim() != 1 && a.ndim() != 2) || a.shape(0) != n)
-                    throw OptionError("x", fmt::format("must have shape ({0},) or ({0}, k)", n));
-                const Eigen::Index k = a.ndim() == 1 ? 1 : a.shape(1);
-                Eigen::MatrixXd X(n, k), Y;
-                for (Eigen::Index i = 0; i < n; ++i)
-                    for (Eigen::Index c = 0; c < k; ++c) X(i, c) = a.data()[i * k + c];
-                if (!X.allFinite()) throw OptionError("x", "has values that are not finite");
-                {
-                    py::gil_scoped_release nogil;
-                    h.op->multiply(X, Y, threads);
-                }
-                py::array_t<double> out =
-                    a.ndim() == 1 ? py::array_t<double>(n)
-                                  : py::array_t<double>({n, static_cast<py::ssize_t>(k)});
-                double* o = out.mutable_data();
-                for (Eigen::Index i = 0; i < n; ++i)
-                    for (Eigen::Index c = 0; c < k; ++c) o[i * k + c] = Y(i, c);
-                return out;
+                return product(h, x, threads, false);
             },
             py::arg("x"), py::arg("threads") = 0, "F x for x of shape (N,) or (N, k)")
+        .def(
+            "__matmul__",
+            [](const PyHierarchical& h, const py::object& x) { return product(h, x, 0, false); },
+            "F @ x: F x for x of shape (N,) or (N, k)")
+        .def(
+            "as_linear_operator",
+            [](const PyHierarchical& h) {
+                const py::object linear_operator =
+                    py::module_::import("scipy.sparse.linalg").attr("LinearOperator");
+                const py::cpp_function matvec(
+                    [h](const py::object& x) { return product(h, x, 0, false); });
+                const py::cpp_function rmatvec(
+                    [h](const py::object& y) { return product(h, y, 0, true); });
+                const auto n = h.op->size();
+                return linear_operator(
+                    py::make_tuple(n, n), py::arg("matvec") = matvec, py::arg("rmatvec") = rmatvec,
+                    py::arg("matmat") = matvec,
+                    py::arg("dtype") = py::module_::import("builtins").attr("float"));
+            },
+            "A scipy.sparse.linalg.LinearOperator of F: matvec F x, rmatvec Fᵀ y = A ∘ F (y / A) "
+            "(reciprocity, which the operator satisfies by construction).")
         .def(
             "row_sums",
             [](const PyHierarchical& h, int threads) {
@@ -364,27 +434,21 @@ vectors without forming it (docs/hierarchical.md). ``op @ x`` or ``op.matvec(x)`
                 return out;
             },
             py::arg("threads") = 0, "The operator as an (N, N) array (N² doubles: small scenes)");
-    m.def(
-        "hierarchical",
-        [](const PyScene& s, double tolerance, double eta, std::size_t leaf_size, int threads,
-           const py::object& progress) {
-            HierarchicalOptions o;
-            o.tolerance = tolerance;
-            o.eta = eta;
-            o.leaf_size = leaf_size;
-            o.threads = threads;
+    auto scene = py::reinterpret_borrow<py::class_<PyScene>>(m.attr("Scene"));
+    bind_with_keywords(
+        scene, kHierarchical,
+        [](const py::object& self, HierarchicalOptions& o, const std::vector<py::object>& values) {
+            const PyScene& s = self.cast<const PyScene&>();
             auto op = run_released(
                 [&](CancellationFlag&, ProgressSink* sink) {
-                    HierarchicalOptions oo = o;
-                    oo.progress = sink;
+                    HierarchicalOptions run = o;
+                    run.progress = sink;
                     return std::make_shared<const HierarchicalFormFactors>(
-                        build_hierarchical(*s.scene, oo));
+                        build_hierarchical(*s.scene, run));
                 },
-                progress);
+                value_of(kHierarchical, values, "progress"));
             return PyHierarchical{s.scene, std::move(op)};
-        },
-        py::arg("scene"), py::arg("tolerance"), py::arg("eta"), py::arg("leaf_size"),
-        py::arg("threads"), py::arg("progress"));
+        });
 }
 
 void bind_solve(py::module_& m) {
@@ -398,8 +462,8 @@ void bind_solve(py::module_& m) {
           py::arg("progress"));
     m.def(
         "repair",
-        [](const py::object& F, const py::object& areas, const std::string& mode, bool enclosure,
-           bool force_closure) {
+        [](const py::object& F, const py::object& areas, const py::object& mode,
+           const py::object& enclosure, const py::object& force_closure) {
             const auto a = as_doubles(F, "F", 2);
             const auto n = static_cast<std::size_t>(a.shape(0));
             if (static_cast<std::size_t>(a.shape(1)) != n) throw OptionError("F", "must be square");
@@ -410,9 +474,9 @@ void bind_solve(py::module_& m) {
                 a.data(), static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n)));
             py::capsule owner(held, [](void* p) { delete static_cast<DenseMatrix*>(p); });
             RepairOptions o;
-            o.mode = parse_repair_mode(mode);
-            o.enclosure = enclosure;
-            o.force_closure = force_closure;
+            o.mode = parse_repair_mode(arg<std::string>(mode, "mode"));
+            o.enclosure = arg<bool>(enclosure, "enclosure");
+            o.force_closure = arg<bool>(force_closure, "force_closure");
             const std::vector<double> av(ar.data(), ar.data() + n);
             RepairReport report;
             {

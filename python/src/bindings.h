@@ -52,19 +52,32 @@ struct PyHierarchical {
 };
 
 /// `value` as a T, or an OptionError naming the keyword (a string for samples=, say, must not
-/// surface as pybind11's "Unable to cast").
+/// surface as pybind11's "Unable to cast"). Every keyword of the module is checked here, so that
+/// a wrong type is one error type whichever function it is given to.
 template <class T>
 T arg(const py::object& value, const char* name) {
     // An int is accepted for a float; a float is not taken for an int, nor a bool for a number.
-    if constexpr (std::is_same_v<T, double>) {
-        if ((py::isinstance<py::float_>(value) || py::isinstance<py::int_>(value)) &&
+    // NumPy's scalars are numbers too (numbers.Integral, numbers.Real).
+    const auto is = [&](const char* abc) {
+        return py::isinstance(value, py::module_::import("numbers").attr(abc));
+    };
+    if constexpr (std::is_same_v<T, bool>) {
+        // NumPy's bool too (a flag read from an array); an int is not taken for a flag.
+        if (py::isinstance<py::bool_>(value) ||
+            py::str(py::type::of(value).attr("__name__")).cast<std::string>() == "bool_")
+            return value.cast<bool>();
+        throw OptionError(name,
+                          "must be True or False, got " + py::repr(value).cast<std::string>());
+    } else if constexpr (std::is_same_v<T, double>) {
+        if ((py::isinstance<py::float_>(value) || py::isinstance<py::int_>(value) || is("Real")) &&
             !py::isinstance<py::bool_>(value))
-            return value.cast<double>();
+            return py::float_(value).cast<double>();
         throw OptionError(name, "must be a number, got " + py::repr(value).cast<std::string>());
     } else if constexpr (std::is_integral_v<T>) {
-        if (py::isinstance<py::int_>(value) && !py::isinstance<py::bool_>(value)) {
+        if ((py::isinstance<py::int_>(value) || is("Integral")) &&
+            !py::isinstance<py::bool_>(value)) {
             try {
-                return value.cast<T>();
+                return py::int_(value).cast<T>();
             } catch (const py::cast_error&) {
                 throw OptionError(name, "is out of range: " + py::repr(value).cast<std::string>());
             }
@@ -119,19 +132,24 @@ class CallbackProgress final : public ProgressSink {
     std::vector<Update> pending_;
 };
 
+/// What a progress= argument asks for: None (None or False), a bar on stderr (True: a
+/// formfactor.TextProgress), or the callable itself; anything else is an OptionError.
+py::object progress_callback(const py::object& progress);
+
 /// Runs `work(flag)` on a worker thread with the GIL released; the calling thread waits,
 /// taking the GIL every 20 ms to check for signals (Ctrl-C: the flag is requested, the worker
 /// stops at its next poll, and KeyboardInterrupt is raised) and to deliver progress to
-/// `callback` (None: no progress). Errors of `work` propagate (translated to Python by the
-/// module's exception translator).
+/// `callback` (a progress= argument, see progress_callback()). Errors of `work` propagate
+/// (translated to Python by the module's exception translator).
 template <class Work>
 auto run_released(Work&& work, const py::object& callback = py::none())
     -> decltype(work(std::declval<CancellationFlag&>(), static_cast<ProgressSink*>(nullptr))) {
     using R =
         decltype(work(std::declval<CancellationFlag&>(), static_cast<ProgressSink*>(nullptr)));
+    const py::object deliver_to = progress_callback(callback);
     CancellationFlag flag;
     CallbackProgress progress;
-    ProgressSink* sink = callback.is_none() ? nullptr : &progress;
+    ProgressSink* sink = deliver_to.is_none() ? nullptr : &progress;
     std::packaged_task<R()> task([&]() -> R {
         CancellationScope scope(flag);
         return work(flag, sink);
@@ -151,7 +169,7 @@ auto run_released(Work&& work, const py::object& callback = py::none())
             }
             if (sink) {
                 try {
-                    progress.deliver(callback);
+                    progress.deliver(deliver_to);
                 } catch (py::error_already_set& e) {
                     // The callback raised: stop the computation and raise that.
                     e.restore();
@@ -164,7 +182,7 @@ auto run_released(Work&& work, const py::object& callback = py::none())
         worker.join();
     }
     if (interrupted) throw py::error_already_set();
-    if (sink) progress.deliver(callback);
+    if (sink) progress.deliver(deliver_to);
     return done.get();
 }
 
@@ -173,5 +191,6 @@ void bind_scene(py::module_& m);
 void bind_compute(py::module_& m);
 void bind_solve(py::module_& m);
 void bind_render(py::module_& m);
+void bind_signatures(py::module_& m);
 
 }  // namespace formfactor::python

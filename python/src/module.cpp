@@ -88,6 +88,20 @@ std::vector<Vec3> as_vec3s(py::handle obj, const char* name, std::size_t n) {
     return out;
 }
 
+py::object progress_callback(const py::object& progress) {
+    if (progress.is_none()) return py::none();
+    if (py::isinstance<py::bool_>(progress)) {
+        if (!progress.cast<bool>()) return py::none();
+        return py::module_::import("formfactor._progress").attr("TextProgress")();
+    }
+    if (!PyCallable_Check(progress.ptr())) {
+        throw OptionError("progress",
+                          "must be None, True or a callable progress(phase, done, total, "
+                          "elapsed_seconds)");
+    }
+    return progress;
+}
+
 void CallbackProgress::update(const std::string& label, std::size_t done, std::size_t total,
                               double elapsed_seconds) {
     std::lock_guard lock(mutex_);
@@ -149,4 +163,8 @@ PYBIND11_MODULE(_core, m) {
     ffp::bind_compute(m);
     ffp::bind_solve(m);
     ffp::bind_render(m);
+    ffp::bind_signatures(m);
+    // The classes are formfactor's (their repr, pickling and the stub say formfactor.Scene).
+    for (const char* name : {"Scene", "Result", "HierarchicalOperator"})
+        m.attr(name).attr("__module__") = "formfactor";
 }

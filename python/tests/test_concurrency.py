@@ -103,3 +103,56 @@ def test_progress_callback_and_its_exceptions():
 
     with pytest.raises(Stop):
         ff.load("cornell", subdivide=3).form_factors(threads=1, progress=stop)
+
+
+def _last_phase(calls):
+    assert calls and all(len(c) == 4 for c in calls)
+    phase, done, total, elapsed = calls[-1]
+    assert done == total and elapsed >= 0
+    return phase
+
+
+@pytest.mark.parametrize("solver", ["gauss-seidel", "jacobi", "shooting", "direct", "gmres"])
+def test_solvers_report_progress_to_the_callback(solver):
+    scene = ff.load("cornell", subdivide=2)
+    r = scene.form_factors()
+    calls = []
+    ff.solve_radiosity(scene, r, solver=solver, progress=lambda *a: calls.append(a))
+    assert _last_phase(calls).startswith("solve (")
+    calls.clear()
+    ff.solve_thermal(scene, r, emissivity=0.5, temperature=300.0, solver=solver,
+                     progress=lambda *a: calls.append(a))
+    assert _last_phase(calls).startswith("solve")
+
+
+def test_solvers_on_an_operator_or_a_sparse_matrix_report_progress():
+    scene = ff.load("cube", subdivide=3)
+    for F in (scene.hierarchical(1e-6), scene.form_factors().sparse()):
+        calls = []
+        ff.solve_radiosity(scene, F, reflectance=0.5, emission=1.0,
+                           progress=lambda *a: calls.append(a))
+        assert _last_phase(calls).startswith("solve")
+
+
+def test_point_factors_report_progress_to_the_callback():
+    scene = ff.load("cornell", subdivide=2)
+    calls = []
+    pts = np.array([[0.5, 0.5, 0.01], [0.2, 0.3, 0.01]]) * np.ptp(scene.centroids, axis=0).max()
+    ff.point_factors(scene, pts, [0, 0, 1.0], progress=lambda *a: calls.append(a))
+    assert _last_phase(calls) == "point factors"
+    _, _, total, _ = calls[-1]
+    assert total == 2 * len(scene)
+
+
+def test_an_exception_in_a_solve_progress_callback_reaches_the_caller():
+    scene = ff.load("cornell", subdivide=2)
+    r = scene.form_factors()
+
+    class Stop(Exception):
+        pass
+
+    def stop(*a):
+        raise Stop()
+
+    with pytest.raises(Stop):
+        ff.solve_radiosity(scene, r, solver="shooting", residual=1e-14, progress=stop)

@@ -125,3 +125,62 @@ def test_arguments_of_the_wrong_type_name_the_keyword():
         with pytest.raises(ff.OptionError) as e:
             s.form_factors(**kwargs)
         assert e.value.option == option, kwargs
+
+
+def test_methods_lists_what_form_factors_accepts():
+    names = ff.methods()
+    assert names[0] == "analytic" and "mc-target" in names
+    s = ff.load("plates")
+    for name in names:
+        kwargs = {"samples": 64} if name.startswith("mc-") else {}
+        assert s.form_factors(name, **kwargs).method == name
+
+
+def test_every_function_rejects_a_bool_for_a_number_with_an_option_error():
+    s = ff.load("plates")
+    r = s.form_factors()
+    pts, up = [[0.0, 0.0, 0.5]], [0.0, 0.0, 1.0]
+    calls = [
+        ("threads", lambda: ff.solve_radiosity(s, r, threads=True)),
+        ("max_iterations", lambda: ff.solve_radiosity(s, r, max_iterations=False)),
+        ("residual", lambda: ff.solve_radiosity(s, r, residual=True)),
+        ("threads", lambda: ff.solve_thermal(s, r, temperature=300.0, threads=True)),
+        ("ambient_temperature",
+         lambda: ff.solve_thermal(s, r, temperature=300.0, ambient_temperature=True)),
+        ("threads", lambda: ff.point_factors(s, pts, up, threads=True)),
+        ("leaf_size", lambda: ff.load("cube", subdivide=2).hierarchical(leaf_size=True)),
+        ("width", lambda: ff.render(s, width=True)),
+        ("threads", lambda: s.form_factors(threads=True)),
+    ]
+    for option, call in calls:
+        with pytest.raises(ff.OptionError) as e:
+            call()
+        assert e.value.option == option
+        assert str(e.value).startswith(option + ":")
+
+
+def test_arguments_of_the_wrong_type_are_option_errors_everywhere():
+    s = ff.load("plates")
+    r = s.form_factors()
+    calls = [
+        ("residual", lambda: ff.solve_radiosity(s, r, residual="small")),
+        ("threads", lambda: ff.solve_radiosity(s, r, threads=1.5)),
+        ("solver", lambda: ff.solve_thermal(s, r, temperature=300.0, solver=3)),
+        ("merge_coplanar", lambda: ff.load("plates", merge_coplanar="yes")),
+        ("force_closure", lambda: s.form_factors(force_closure=1)),
+        ("enclosure", lambda: ff.repair(r.matrix, r.areas, enclosure=None)),
+        ("label", lambda: ff.render(s, np.ones(len(s)), label=3)),
+        ("camera", lambda: ff.render(s, camera=[0, 0, 1])),
+    ]
+    for option, call in calls:
+        with pytest.raises(ff.OptionError) as e:
+            call()
+        assert e.value.option == option
+
+
+def test_numpy_scalars_are_numbers():
+    s = ff.load("plates")
+    r = s.form_factors(threads=np.int64(1), tolerance=np.float32(1e-6))
+    out = ff.solve_radiosity(s, r, threads=np.int32(1), residual=np.float64(1e-9),
+                             reflectance=0.5, emission=1.0)
+    assert out.stats["converged"]

@@ -9,6 +9,7 @@
 
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
+#include "formfactor/core/progress.h"
 
 namespace formfactor {
 
@@ -75,12 +76,13 @@ namespace {
 // relative residual (from `exact_residual()`) is below o.residual, or max_it sweeps; returns
 // the sweep count.
 template <class Sweep, class Residual>
-long long iterate(const SolverOptions& o, long long max_it, Columns& x, double& residual,
-                  Sweep&& sweep, Residual&& exact_residual) {
+long long iterate(const SolverOptions& o, long long max_it, Progress& progress, Columns& x,
+                  double& residual, Sweep&& sweep, Residual&& exact_residual) {
     long long it = 0;
     while (it < max_it) {
         const double change = sweep();
         ++it;
+        progress.advance();
         const double xm = max_abs(x);
         if (change <= o.residual * xm || xm == 0.0) {
             residual = exact_residual();
@@ -95,9 +97,10 @@ long long iterate(const SolverOptions& o, long long max_it, Columns& x, double& 
 // `apply(x, y)` is y = F x (a dense product or an operator's).
 template <class Apply>
 long long run_jacobi(const Apply& apply, const Columns& d, const Columns& c, const SolverOptions& o,
-                     long long max_it, Columns& x, Columns& y, double& residual) {
+                     long long max_it, Progress& progress, Columns& x, Columns& y,
+                     double& residual) {
     return iterate(
-        o, max_it, x, residual,
+        o, max_it, progress, x, residual,
         [&] {
             apply(x, y);
             double change = 0.0;
@@ -118,11 +121,11 @@ long long run_jacobi(const Apply& apply, const Columns& d, const Columns& c, con
 // In-place sweeps. In the ∞-norm the residual after a sweep is at most the largest update
 // (row sums of D F ≤ 1), so a small update triggers the exact residual check.
 long long run_gauss_seidel(const DenseMatrix& F, const Columns& d, const Columns& c,
-                           const SolverOptions& o, long long max_it, Columns& x, Columns& y,
-                           double& residual) {
+                           const SolverOptions& o, long long max_it, Progress& progress, Columns& x,
+                           Columns& y, double& residual) {
     const Eigen::Index n = F.rows();
     return iterate(
-        o, max_it, x, residual,
+        o, max_it, progress, x, residual,
         [&] {
             double change = 0.0;
             for (Eigen::Index i = 0; i < n; ++i) {
@@ -145,8 +148,8 @@ long long run_gauss_seidel(const DenseMatrix& F, const Columns& d, const Columns
 // through reciprocity (F_ij A_i / A_j), so the fixed point is exactly that of the other solvers
 // even for a matrix that breaks reciprocity.
 long long run_shooting(const DenseMatrix& F, const std::vector<double>& areas, const Columns& d,
-                       const Columns& c, const SolverOptions& o, long long max_it, Columns& x,
-                       Columns& r, Columns& y, double& residual) {
+                       const Columns& c, const SolverOptions& o, long long max_it,
+                       Progress& progress, Columns& x, Columns& r, Columns& y, double& residual) {
     const Eigen::Index n = F.rows();
     const Eigen::Index kc = x.cols();
     x.setZero();
@@ -204,6 +207,7 @@ long long run_shooting(const DenseMatrix& F, const std::vector<double>& areas, c
             }
         }
         ++it;
+        progress.advance();
     }
     residual = relative_residual(F, d, c, x, y, o.threads);
     return it;
@@ -276,7 +280,7 @@ double operator_residual(const ApplyF& apply, const Columns& d, const Columns& c
 // bounds its ∞-norm) is below tol·‖x‖_∞, confirmed by a residual from scratch at each restart;
 // returns the products with F used.
 long long gmres_column(const ApplyF& apply, const Columns& dk, const Columns& ck, double tol,
-                       long long max_products, Columns& x) {
+                       long long max_products, Progress& progress, Columns& x) {
     const Eigen::Index n = ck.rows();
     const int m = kGmresRestart;
     Columns V(n, m + 1), w(n, 1), Fx(n, 1);
@@ -285,6 +289,7 @@ long long gmres_column(const ApplyF& apply, const Columns& dk, const Columns& ck
     auto apply_a = [&](const Columns& v, Columns& out) {  // out = v − d ∘ (F v)
         apply(v, Fx);
         out = v - (dk.array() * Fx.array()).matrix();
+        progress.advance();
     };
     long long products = 0;
     while (true) {
@@ -339,6 +344,13 @@ SolverStats initial_stats(const SolverOptions& options) {
     return st;
 }
 
+// The phase a solve reports to options.progress: its units are sweeps, shots or products up
+// to the limit, and it ends at done = total however early it converges (the count a solve
+// will need is not known in advance).
+std::string progress_label(const SolverOptions& options) {
+    return "solve (" + to_string(options.solver) + ")";
+}
+
 // options.max_iterations, or the solver's default when it is 0.
 long long max_iterations(const SolverOptions& options, long long fallback) {
     return options.max_iterations > 0 ? options.max_iterations : fallback;
@@ -361,9 +373,15 @@ SolverStats solve_linear_operator(const ApplyF& apply, Eigen::Index n, const Col
     double residual = 0.0;
     if (options.solver == SolverKind::jacobi) {
         const long long max_it = max_iterations(options, 10000);
-        st.iterations = run_jacobi(apply, d, c, options, max_it, x, y, residual);
+        Progress progress(progress_label(options), static_cast<std::size_t>(max_it),
+                          options.progress);
+        st.iterations = run_jacobi(apply, d, c, options, max_it, progress, x, y, residual);
+        progress.finish();
     } else {
         const long long max_it = max_iterations(options, 1000);
+        Progress progress(progress_label(options),
+                          static_cast<std::size_t>(max_it) * static_cast<std::size_t>(c.cols()),
+                          options.progress);
         for (Eigen::Index k = 0; k < c.cols(); ++k) {
             // Channels with the same system and right-hand side share the solution.
             Eigen::Index same = -1;
@@ -376,9 +394,11 @@ SolverStats solve_linear_operator(const ApplyF& apply, Eigen::Index n, const Col
             Columns xk = x.col(k);
             // The tolerance of one channel relative to the largest solution of all of them
             // would need that solution first: each channel to its own ∞-norm is stricter.
-            st.iterations += gmres_column(apply, d.col(k), c.col(k), options.residual, max_it, xk);
+            st.iterations +=
+                gmres_column(apply, d.col(k), c.col(k), options.residual, max_it, progress, xk);
             x.col(k) = xk;
         }
+        progress.finish();
         residual = operator_residual(apply, d, c, x, y);
     }
     finish_iterative(st, residual, options, start,
@@ -406,12 +426,15 @@ SolverStats solve_linear(const DenseMatrix& F, const std::vector<double>& areas,
         case SolverKind::jacobi:
         case SolverKind::gauss_seidel: {
             const long long max_it = max_iterations(options, 10000);
+            Progress progress(progress_label(options), static_cast<std::size_t>(max_it),
+                              options.progress);
             st.iterations =
                 options.solver == SolverKind::jacobi
                     ? run_jacobi([&](const Columns& v,
                                      Columns& out) { multiply(F, v, out, options.threads); },
-                                 d, c, options, max_it, x, y, residual)
-                    : run_gauss_seidel(F, d, c, options, max_it, x, y, residual);
+                                 d, c, options, max_it, progress, x, y, residual)
+                    : run_gauss_seidel(F, d, c, options, max_it, progress, x, y, residual);
+            progress.finish();
             break;
         }
         case SolverKind::shooting: {
@@ -419,7 +442,11 @@ SolverStats solve_linear(const DenseMatrix& F, const std::vector<double>& areas,
                                          ? options.max_iterations
                                          : 10000LL * std::max<long long>(1, n);
             Columns r(n, c.cols());
-            st.iterations = run_shooting(F, areas, d, c, options, max_it, x, r, y, residual);
+            Progress progress(progress_label(options), static_cast<std::size_t>(max_it),
+                              options.progress);
+            st.iterations =
+                run_shooting(F, areas, d, c, options, max_it, progress, x, r, y, residual);
+            progress.finish();
             // Ambient term (Cohen et al. 1988, eq. 5): the unshot power spread evenly, times
             // the interreflection factor 1 / (1 − ρ_avg).
             double total_area = 0.0;
@@ -445,11 +472,14 @@ SolverStats solve_linear(const DenseMatrix& F, const std::vector<double>& areas,
         }
         case SolverKind::gmres:  // above
             break;
-        case SolverKind::direct:
+        case SolverKind::direct: {
+            Progress progress(progress_label(options), 1, options.progress);
             run_direct(F, d, c, x);
+            progress.finish();
             st.iterations = 1;
             residual = relative_residual(F, d, c, x, y, options.threads);
             break;
+        }
     }
     st.residual = residual;
     st.converged = residual <= options.residual;
@@ -519,11 +549,11 @@ namespace {
 // Gauss–Seidel sweeps over the stored entries of row i, the diagonal (F_ii, stored when
 // non-zero) solved for as in the dense sweep.
 long long run_gauss_seidel(const SparseFormFactors& F, const Columns& d, const Columns& c,
-                           const SolverOptions& o, long long max_it, Columns& x, Columns& y,
-                           double& residual) {
+                           const SolverOptions& o, long long max_it, Progress& progress, Columns& x,
+                           Columns& y, double& residual) {
     const auto n = static_cast<Eigen::Index>(F.n);
     return iterate(
-        o, max_it, x, residual,
+        o, max_it, progress, x, residual,
         [&] {
             double change = 0.0;
             for (Eigen::Index i = 0; i < n; ++i) {
@@ -580,7 +610,9 @@ SolverStats solve_linear(const SparseFormFactors& F, const Columns& d, const Col
     Columns y(n, c.cols());
     double residual = 0.0;
     const long long max_it = max_iterations(options, 10000);
-    st.iterations = run_gauss_seidel(F, d, c, options, max_it, x, y, residual);
+    Progress progress(progress_label(options), static_cast<std::size_t>(max_it), options.progress);
+    st.iterations = run_gauss_seidel(F, d, c, options, max_it, progress, x, y, residual);
+    progress.finish();
     finish_iterative(st, residual, options, start, "sweeps");
     return st;
 }

@@ -4,6 +4,7 @@
 
 #include <vector>
 
+#include "formfactor/core/progress.h"
 #include "formfactor/core/types.h"
 #include "formfactor/matrix/form_factors.h"
 #include "formfactor/scene/scene.h"
@@ -21,8 +22,10 @@ namespace formfactor {
 /// with the blockers that can matter. Exact up to rounding (~1e-15 per entry unobstructed, the
 /// clipping's rounding otherwise). Entries are computed in parallel (parallel_for over points and
 /// patches, `threads` as in parallel_for); the result does not depend on the thread count.
+/// Progress (one unit per entry) goes to `progress` when given.
 /// Throws Error when the sizes differ or a position or normal is not finite or a normal is zero.
 DenseMatrix point_form_factors(const Scene& scene, const std::vector<Vec3>& positions,
-                               const std::vector<Vec3>& normals, int threads = 0);
+                               const std::vector<Vec3>& normals, int threads = 0,
+                               ProgressSink* progress = nullptr);
 
 }  // namespace formfactor

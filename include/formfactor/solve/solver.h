@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "formfactor/core/enum_names.h"
+#include "formfactor/core/progress.h"
 
 namespace formfactor {
 
@@ -63,6 +64,9 @@ struct SolverOptions {
     /// Shooting only: add the ambient term ρ_i·ambient of Cohen et al. 1988 to the returned
     /// estimate (a preview of the still-unshot light). Off for exact answers.
     bool add_ambient = false;
+    /// Where the solve reports its progress (sweeps, shots or products done of the limit);
+    /// null (the default): nowhere.
+    ProgressSink* progress = nullptr;
 };
 
 /// The N × N double matrices a solve with `kind` allocates besides F, named (for the memory

@@ -126,7 +126,8 @@ bool all_outside(const Blocker& b, const Vec3& n, const Vec3& o, double limit) {
 }  // namespace
 
 DenseMatrix point_form_factors(const Scene& scene, const std::vector<Vec3>& positions,
-                               const std::vector<Vec3>& normals, int threads) {
+                               const std::vector<Vec3>& normals, int threads,
+                               ProgressSink* progress_sink) {
     if (positions.size() != normals.size())
         throw Error(fmt::format("point_form_factors: {} positions and {} normals", positions.size(),
                                 normals.size()));
@@ -158,6 +159,7 @@ DenseMatrix point_form_factors(const Scene& scene, const std::vector<Vec3>& posi
         r.source = receiver_source(scene, j);
     }
 
+    Progress progress("point factors", M * N, progress_sink);
     parallel_for(M * N, threads, [&](std::size_t e) {
         const std::size_t m = e / N, j = e % N;
         const Vec3& x = positions[m];
@@ -191,7 +193,9 @@ DenseMatrix point_form_factors(const Scene& scene, const std::vector<Vec3>& posi
                              : point_to_polygon_obstructed(x, n, target, cand);
         }
         F(static_cast<Eigen::Index>(m), static_cast<Eigen::Index>(j)) = f;
+        progress.advance();
     });
+    progress.finish();
     return F;
 }
 
