@@ -129,10 +129,14 @@ TEST_CASE("mesh: bad meshes are input errors naming the file, mesh and face") {
               load_scene(dir.file("nan.stl"));
           }).find("has a coordinate that is not finite") != std::string::npos);
     // Not a mesh at all, and a missing file.
-    write_text(dir.file("junk.ply"), "ply\nformat nonsense\n");
+    write_text(dir.file("junk.gltf"), "{\"asset\": nonsense}\n");
     CHECK(input_error([&] {
-              load_scene(dir.file("junk.ply"));
-          }).rfind(dir.file("junk.ply") + ": cannot read the mesh (Open Asset Import: ", 0) == 0);
+              load_scene(dir.file("junk.gltf"));
+          }).rfind(dir.file("junk.gltf") + ": cannot read the mesh (Open Asset Import: ", 0) == 0);
+    write_text(dir.file("junk.ply"), "ply\nformat nonsense\n");
+    CHECK(input_error([&] { load_scene(dir.file("junk.ply")); }) ==
+          dir.file("junk.ply") +
+              ":2: expected 'format ascii 1.0' (or binary_little_endian, binary_big_endian)");
     CHECK(input_error([&] { load_scene(dir.file("missing.glb")); }) ==
           dir.file("missing.glb") + ": cannot open file");
     // A face that indexes past the vertices.

@@ -1,7 +1,8 @@
 // STL (ASCII and binary), PLY, glTF 2.0 (.gltf / .glb) and OFF through Open Asset Import
 // (Debian's libassimp-dev): assimp parses, this file checks what it returns against our error
 // contract (finite coordinates, indices in range, no degenerate or non-planar face) and makes
-// the surfaces. Only this file includes assimp.
+// the surfaces. PLY files are checked by our own reading of the format first (ply_check.h):
+// assimp's PLY reader loops forever on some damaged headers. Only this file includes assimp.
 
 #include <assimp/material.h>
 #include <assimp/postprocess.h>
@@ -21,6 +22,7 @@
 
 #include "formfactor/core/error.h"
 #include "formfactor/scene/mesh_io.h"
+#include "scene/ply_check.h"
 #include "scene/text.h"
 
 namespace formfactor {
@@ -76,6 +78,7 @@ class AssimpReader {
             throw InputError(path_, 0, "cannot open file");
         const std::string ext = lower(std::filesystem::path(path_).extension().string());
         gltf_ = ext == ".gltf" || ext == ".glb";
+        if (ext == ".ply") detail::check_ply(path_);
         std::lock_guard<std::mutex> lock(import_mutex());
         std::string logged;
         Assimp::DefaultLogger::create("", Assimp::Logger::NORMAL, 0);
