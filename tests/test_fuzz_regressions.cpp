@@ -149,14 +149,15 @@ TEST_CASE(
     "refused") {
     // A header cut short or with `end_header` misspelled (an endless loop in Open Asset Import
     // 5.2.5), an ASCII word that is not a number (a leak), a binary header with a damaged
-    // `end_header` (a crash), binary data cut short (read as if it were there).
+    // `end_header` (a crash), binary data cut short (read as if it were there); a damaged PLY
+    // named .gltf or .glb (which assimp handed to its PLY reader when its glTF readers did not
+    // recognise it: the same endless loop).
     const fs::path dir = fs::path(FF_TEST_DATA_DIR) / "fuzz_regressions" / "mesh";
     int files = 0;
     for (const auto& e : fs::directory_iterator(dir)) {
-        if (e.path().filename().string().rfind("ply-", 0) != 0) continue;
         INFO(e.path().filename().string());
         CHECK_FALSE(run_bytes(fuzz::Target::mesh, read_bytes(e.path())));
         ++files;
     }
-    CHECK(files == 5);
+    CHECK(files == 7);
 }

@@ -2,8 +2,10 @@
 // (Debian's libassimp-dev): assimp parses, this file checks what it returns against our error
 // contract (finite coordinates, indices in range, no degenerate or non-planar face) and makes
 // the surfaces. PLY files are checked by our own reading of the format first (ply_check.h):
-// assimp's PLY reader loops forever on some damaged headers. Only this file includes assimp.
+// assimp's PLY reader loops forever on some damaged headers, and no file reaches it under
+// another extension. Only this file includes assimp.
 
+#include <assimp/BaseImporter.h>
 #include <assimp/material.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
@@ -17,6 +19,7 @@
 #include <filesystem>
 #include <map>
 #include <mutex>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -87,6 +90,7 @@ class AssimpReader {
             ~KillLogger() { Assimp::DefaultLogger::kill(); }
         } kill_logger;
         Assimp::Importer importer;
+        require_a_reader_by_content(importer, ext);
         const aiScene* sc = nullptr;
         try {
             // No post-processing that changes the geometry: faces as the file has them (PLY and
@@ -112,6 +116,27 @@ class AssimpReader {
 
   private:
     [[noreturn]] void fail(const std::string& msg) const { throw InputError(path_, 0, msg); }
+
+    // Where several of assimp's readers claim the extension (.gltf and .glb: glTF 1 and 2), it
+    // asks each whether it recognises the content, and when none does it tries every reader it
+    // has; its PLY reader, given a damaged PLY named .gltf, then loops forever. Refused here
+    // instead, as assimp's own test of the content decides.
+    void require_a_reader_by_content(Assimp::Importer& importer, const std::string& ext) const {
+        int claimants = 0;
+        bool recognised = false;
+        for (std::size_t k = 0; k < importer.GetImporterCount(); ++k) {
+            Assimp::BaseImporter* reader = importer.GetImporter(k);
+            std::set<std::string> extensions;
+            reader->GetExtensionList(extensions);
+            if (ext.size() < 2 || extensions.count(ext.substr(1)) == 0) continue;
+            ++claimants;
+            recognised = recognised || reader->CanRead(path_, importer.GetIOHandler(), true);
+        }
+        if (claimants > 1 && !recognised)
+            fail("not a " + ext +
+                 " file that Open Asset Import recognises (damaged, or another format under "
+                 "this extension?)");
+    }
 
     // Node transformations are composed in double (assimp stores them in float).
     void walk(const aiScene& sc, const aiNode& node, const Eigen::Matrix4d& parent, int depth) {
