@@ -98,6 +98,7 @@ sanitize-configure: deps
 test-sanitize: sanitize-configure
 	cmake --build $(SANITIZE_DIR) -j$(JOBS)
 	ASAN_OPTIONS=detect_leaks=1:strict_string_checks=1:detect_stack_use_after_return=1 \
+	LSAN_OPTIONS=suppressions=$(CURDIR)/tests/lsan.supp \
 	UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
 		ctest --test-dir $(SANITIZE_DIR) --output-on-failure -j$(JOBS) -LE '$(SANITIZE_SKIP_LABELS)' \
 			-E '$(SANITIZE_SKIP_TESTS)'

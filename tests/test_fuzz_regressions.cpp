@@ -143,3 +143,21 @@ TEST_CASE("fuzz regressions: a View3D text matrix with NaN or +-1 is refused") {
     CHECK_THROWS_WITH_AS(read_view3d_text(in2, "sign.txt"), doctest::Contains("malformed"),
                          InputError);
 }
+
+TEST_CASE(
+    "fuzz regressions: damaged PLY files Open Asset Import looped, leaked or crashed on are "
+    "refused") {
+    // A header cut short or with `end_header` misspelled (an endless loop in Open Asset Import
+    // 5.2.5), an ASCII word that is not a number (a leak), a binary header with a damaged
+    // `end_header` (a crash), binary data cut short (read as if it were there); a damaged PLY
+    // named .gltf or .glb (which assimp handed to its PLY reader when its glTF readers did not
+    // recognise it: the same endless loop).
+    const fs::path dir = fs::path(FF_TEST_DATA_DIR) / "fuzz_regressions" / "mesh";
+    int files = 0;
+    for (const auto& e : fs::directory_iterator(dir)) {
+        INFO(e.path().filename().string());
+        CHECK_FALSE(run_bytes(fuzz::Target::mesh, read_bytes(e.path())));
+        ++files;
+    }
+    CHECK(files == 7);
+}

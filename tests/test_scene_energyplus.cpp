@@ -4,10 +4,12 @@
 
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "formfactor/matrix/aggregate.h"
 #include "formfactor/methods/method.h"
@@ -239,4 +241,56 @@ TEST_CASE("energyplus: bad models name the file and line, or the epJSON object")
               .rfind("m.epJSON: not valid "
                      "JSON",
                      0) == 0);
+}
+
+TEST_CASE("energyplus: NREL's 5ZoneAirCooled: six closed zones, rows sum to 1, reciprocity") {
+    // Relative coordinates, windows and glass doors, interzone walls, a return plenum over the
+    // five rooms, and overhangs (Shading:Zone:Detailed), which are outside every enclosure.
+    const std::string path = data("energyplus/5ZoneAirCooled.idf");
+    const std::vector<std::string> zones = energyplus_zones(path);
+    REQUIRE(zones == std::vector<std::string>{"PLENUM-1", "SPACE1-1", "SPACE2-1", "SPACE3-1",
+                                              "SPACE4-1", "SPACE5-1"});
+    const std::size_t surfaces[] = {10, 8, 7, 8, 7, 6};
+    for (std::size_t z = 0; z < zones.size(); ++z) {
+        INFO(zones[z]);
+        const Scene s = load_energyplus(path, zones[z]);
+        CHECK(s.title == zones[z]);
+        CHECK(s.enclosure);
+        CHECK(s.surfaces.size() == surfaces[z]);
+        for (const Surface& f : s.surfaces) CHECK(f.name.find("Overhang") == std::string::npos);
+        const FormFactors f = analytic(s);
+        for (Eigen::Index i = 0; i < f.F.rows(); ++i) {
+            CHECK(std::abs(f.F.row(i).sum() - 1.0) < 1e-9);
+            for (Eigen::Index j = 0; j < i; ++j) {
+                const double ai = f.areas[static_cast<std::size_t>(i)];
+                const double aj = f.areas[static_cast<std::size_t>(j)];
+                CHECK(std::abs(ai * f.F(i, j) - aj * f.F(j, i)) <= 1e-10 * std::max(ai, aj));
+            }
+        }
+    }
+    // The south room: its window and glass door are holes of FRONT-1, which keeps what is left
+    // of 30.5 × 2.4.
+    const Scene south = load_energyplus(path, "space1-1");
+    REQUIRE(south.surfaces.size() == 8);
+    CHECK(south.surfaces[0].name == "FRONT-1");
+    CHECK(south.surfaces[1].name == "WF-1");
+    CHECK(south.surfaces[2].name == "DF-1");
+    CHECK(south.surfaces[0].holes.size() == 2);
+    CHECK(std::abs(surface_area(south.surfaces[0]) - (30.5 * 2.4 - 13.8 * 1.2 - 2.5 * 2.1)) < 1e-9);
+}
+
+TEST_CASE("energyplus: NREL's 5ZoneAirCooled as IDF and epJSON gives the same matrices") {
+    const std::string idf = data("energyplus/5ZoneAirCooled.idf");
+    const std::string json = data("energyplus/5ZoneAirCooled.epJSON");
+    REQUIRE(energyplus_zones(json) == energyplus_zones(idf));
+    for (const std::string& zone : energyplus_zones(idf)) {
+        INFO(zone);
+        const Scene a = load_energyplus(idf, zone);
+        const Scene b = load_energyplus(json, zone);
+        REQUIRE(a.surfaces.size() == b.surfaces.size());
+        for (std::size_t k = 0; k < a.surfaces.size(); ++k)
+            CHECK(a.surfaces[k].name == b.surfaces[k].name);
+        const FormFactors fa = analytic(a), fb = analytic(b);
+        CHECK((fa.F - fb.F).cwiseAbs().maxCoeff() <= 1e-12);
+    }
 }

@@ -129,10 +129,21 @@ TEST_CASE("mesh: bad meshes are input errors naming the file, mesh and face") {
               load_scene(dir.file("nan.stl"));
           }).find("has a coordinate that is not finite") != std::string::npos);
     // Not a mesh at all, and a missing file.
-    write_text(dir.file("junk.ply"), "ply\nformat nonsense\n");
+    write_text(dir.file("junk.stl"), "solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0\n");
     CHECK(input_error([&] {
-              load_scene(dir.file("junk.ply"));
-          }).rfind(dir.file("junk.ply") + ": cannot read the mesh (Open Asset Import: ", 0) == 0);
+              load_scene(dir.file("junk.stl"));
+          }).rfind(dir.file("junk.stl") + ": cannot read the mesh (Open Asset Import: ", 0) == 0);
+    // Under an extension two of its readers claim, content neither recognises (here a PLY
+    // header without end_header, which its PLY reader, tried next, would loop on forever).
+    write_text(dir.file("junk.gltf"), "ply\nformat ascii 1.0\nelement vertex 8\n");
+    CHECK(input_error([&] { load_scene(dir.file("junk.gltf")); }) ==
+          dir.file("junk.gltf") +
+              ": not a .gltf file that Open Asset Import recognises (damaged, or another format "
+              "under this extension?)");
+    write_text(dir.file("junk.ply"), "ply\nformat nonsense\n");
+    CHECK(input_error([&] { load_scene(dir.file("junk.ply")); }) ==
+          dir.file("junk.ply") +
+              ":2: expected 'format ascii 1.0' (or binary_little_endian, binary_big_endian)");
     CHECK(input_error([&] { load_scene(dir.file("missing.glb")); }) ==
           dir.file("missing.glb") + ": cannot open file");
     // A face that indexes past the vertices.

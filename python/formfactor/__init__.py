@@ -39,24 +39,35 @@ Result = _core.Result
 HierarchicalOperator = _core.HierarchicalOperator
 
 __all__ = [
-    "Scene", "Result", "HierarchicalOperator", "load", "builtin_scenes", "methods", "point_factors", "solve_radiosity",
+    "Scene", "Result", "HierarchicalOperator", "load", "energyplus_zones", "builtin_scenes", "methods", "point_factors", "solve_radiosity",
     "solve_thermal", "RadiosityResult", "ThermalResult", "repair", "exchange_factors", "render",
     "Error", "InputError", "OptionError", "GeometryError", "ResourceError", "Cancelled",
     "TextProgress", "__version__",
 ]
 
 
-def load(path, subdivide=None, max_edge=None, merge_coplanar=False):
+def load(path, subdivide=None, max_edge=None, merge_coplanar=False, zone=None):
     """Loads a scene: a built-in name (see builtin_scenes(): ``cornell``, ``cube``,
-    ``room-8``, ...) or a file (``.obj`` with its MTL, ``.vs3`` View3D input).
+    ``room-8``, ...) or a file (``.obj`` with its MTL, ``.vs3`` View3D input, an EnergyPlus
+    ``.idf`` / ``.epJSON`` model, a Gmsh ``.msh``, or ``.stl``, ``.ply``, ``.gltf``, ``.glb``,
+    ``.off``).
 
     subdivide=n splits each quad into n×n patches (triangles into n²); max_edge=L splits until
     every patch edge is at most L (give one of them). merge_coplanar=True merges the coplanar,
     edge-connected triangles of each surface (an STL or glTF mesh, a Gmsh physical group) back
-    into polygons first, as ``--merge-coplanar`` does. Raises InputError (with ``.file`` and
-    ``.line``) for a bad file, OptionError for bad options.
+    into polygons first, as ``--merge-coplanar`` does. zone=NAME picks the zone of an
+    EnergyPlus model whose enclosure is loaded, as ``--zone`` does (matched without regard to
+    case; needed when the model has several: energyplus_zones() lists them). Raises InputError
+    (with ``.file`` and ``.line``) for a bad file or an unknown zone, OptionError for bad
+    options (a zone for a file that is not an EnergyPlus model).
     """
-    return _core.load(_os.fspath(path), subdivide, max_edge, merge_coplanar)
+    return _core.load(_os.fspath(path), subdivide, max_edge, merge_coplanar, zone)
+
+
+def energyplus_zones(path):
+    """The zone names of an EnergyPlus model (``.idf`` or ``.epJSON``), in file order: the
+    names load(path, zone=NAME) takes. Raises InputError for a bad file."""
+    return list(_core.energyplus_zones(_os.fspath(path)))
 
 
 def builtin_scenes():

@@ -4,6 +4,7 @@
 
 #include "bindings.h"
 #include "formfactor/core/error.h"
+#include "formfactor/scene/energyplus.h"
 #include "formfactor/scene/merge_coplanar.h"
 #include "formfactor/solve/properties.h"
 
@@ -346,18 +347,29 @@ valid planar polygon.
     m.def(
         "load",
         [](const std::string& path, const py::object& n, const py::object& max_edge,
-           const py::object& merge_arg) {
+           const py::object& merge_arg, const py::object& zone_arg) {
             const bool merge = arg<bool>(merge_arg, "merge_coplanar");
+            const std::string zone = zone_arg.is_none() ? "" : arg<std::string>(zone_arg, "zone");
             Scene scene;
             {
                 py::gil_scoped_release nogil;
-                scene = load_scene(path);
+                SceneOptions options;
+                options.source = path;
+                options.zone = zone;
+                scene = load_scene(options);
                 if (merge) merge_coplanar(scene);
             }
             return finish(std::move(scene), n, max_edge);
         },
         py::arg("path"), py::arg("subdivide") = py::none(), py::arg("max_edge") = py::none(),
-        py::arg("merge_coplanar") = false, "(see formfactor.load)");
+        py::arg("merge_coplanar") = false, py::arg("zone") = py::none(), "(see formfactor.load)");
+    m.def(
+        "energyplus_zones",
+        [](const std::string& path) {
+            py::gil_scoped_release nogil;
+            return energyplus_zones(path);
+        },
+        py::arg("path"), "(see formfactor.energyplus_zones)");
     m.def("builtin_scenes", &builtin_scene_names, "Names of the built-in scenes.");
 }
 

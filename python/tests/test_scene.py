@@ -191,3 +191,43 @@ def test_merge_coplanar_turns_an_stl_box_back_into_the_obj_box(tmp_path):
     F = merged.form_factors().matrix
     assert np.abs(F - box.form_factors().matrix).max() <= 1e-12
     assert np.allclose(F.sum(axis=1), 1.0, atol=1e-9)
+
+
+def two_zone_idf(tmp_path):
+    """EnergyPlus's one-zone example plus a copy of its zone under other names."""
+    text = (DATA_DIR / "energyplus" / "1ZoneUncontrolled_win_1.idf").read_text()
+    second = text[text.index("  Zone,"):]
+    second = second.replace("ZONE ONE", "Zone Two").replace("Zn001", "Zn002")
+    rules = second.index("  GlobalGeometryRules,")
+    second = second[:rules] + second[second.index("  BuildingSurface:Detailed,", rules):]
+    path = tmp_path / "two.idf"
+    path.write_text(text + second)
+    return path
+
+
+def test_zone_picks_one_enclosure_of_an_energyplus_model(tmp_path):
+    path = two_zone_idf(tmp_path)
+    assert ff.energyplus_zones(path) == ["ZONE ONE", "Zone Two"]
+    one = ff.load(DATA_DIR / "energyplus" / "1ZoneUncontrolled_win_1.idf")
+    two = ff.load(path, zone="zone two")     # EnergyPlus names match without regard to case
+    assert two.surface_names == [n.replace("Zn001", "Zn002") for n in one.surface_names]
+    assert np.abs(two.form_factors("analytic").matrix
+                  - one.form_factors("analytic").matrix).max() <= 1e-12
+    assert ff.load(path, zone="ZONE ONE", subdivide=2).surface_names == one.surface_names
+
+
+def test_zone_errors_name_the_zones_or_the_keyword(tmp_path):
+    path = two_zone_idf(tmp_path)
+    with pytest.raises(ff.InputError, match="2 zones; choose one .*: ZONE ONE, Zone Two") as e:
+        ff.load(path)
+    assert e.value.file == str(path)
+    with pytest.raises(ff.InputError, match=r"zone 'Attic' is not in the model \(zones: ZONE ONE"):
+        ff.load(path, zone="Attic")
+    with pytest.raises(ff.OptionError) as e:
+        ff.load("cube", zone="ZONE ONE")
+    assert e.value.option == "zone"
+    with pytest.raises(ff.OptionError) as e:
+        ff.load(path, zone=2)
+    assert e.value.option == "zone"
+    with pytest.raises(ff.InputError):
+        ff.energyplus_zones(tmp_path / "missing.idf")

@@ -1,8 +1,11 @@
 // STL (ASCII and binary), PLY, glTF 2.0 (.gltf / .glb) and OFF through Open Asset Import
 // (Debian's libassimp-dev): assimp parses, this file checks what it returns against our error
 // contract (finite coordinates, indices in range, no degenerate or non-planar face) and makes
-// the surfaces. Only this file includes assimp.
+// the surfaces. PLY files are checked by our own reading of the format first (ply_check.h):
+// assimp's PLY reader loops forever on some damaged headers, and no file reaches it under
+// another extension. Only this file includes assimp.
 
+#include <assimp/BaseImporter.h>
 #include <assimp/material.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
@@ -16,11 +19,13 @@
 #include <filesystem>
 #include <map>
 #include <mutex>
+#include <set>
 #include <string>
 #include <vector>
 
 #include "formfactor/core/error.h"
 #include "formfactor/scene/mesh_io.h"
+#include "scene/ply_check.h"
 #include "scene/text.h"
 
 namespace formfactor {
@@ -76,6 +81,7 @@ class AssimpReader {
             throw InputError(path_, 0, "cannot open file");
         const std::string ext = lower(std::filesystem::path(path_).extension().string());
         gltf_ = ext == ".gltf" || ext == ".glb";
+        if (ext == ".ply") detail::check_ply(path_);
         std::lock_guard<std::mutex> lock(import_mutex());
         std::string logged;
         Assimp::DefaultLogger::create("", Assimp::Logger::NORMAL, 0);
@@ -84,6 +90,7 @@ class AssimpReader {
             ~KillLogger() { Assimp::DefaultLogger::kill(); }
         } kill_logger;
         Assimp::Importer importer;
+        require_a_reader_by_content(importer, ext);
         const aiScene* sc = nullptr;
         try {
             // No post-processing that changes the geometry: faces as the file has them (PLY and
@@ -109,6 +116,27 @@ class AssimpReader {
 
   private:
     [[noreturn]] void fail(const std::string& msg) const { throw InputError(path_, 0, msg); }
+
+    // Where several of assimp's readers claim the extension (.gltf and .glb: glTF 1 and 2), it
+    // asks each whether it recognises the content, and when none does it tries every reader it
+    // has; its PLY reader, given a damaged PLY named .gltf, then loops forever. Refused here
+    // instead, as assimp's own test of the content decides.
+    void require_a_reader_by_content(Assimp::Importer& importer, const std::string& ext) const {
+        int claimants = 0;
+        bool recognised = false;
+        for (std::size_t k = 0; k < importer.GetImporterCount(); ++k) {
+            Assimp::BaseImporter* reader = importer.GetImporter(k);
+            std::set<std::string> extensions;
+            reader->GetExtensionList(extensions);
+            if (ext.size() < 2 || extensions.count(ext.substr(1)) == 0) continue;
+            ++claimants;
+            recognised = recognised || reader->CanRead(path_, importer.GetIOHandler(), true);
+        }
+        if (claimants > 1 && !recognised)
+            fail("not a " + ext +
+                 " file that Open Asset Import recognises (damaged, or another format under "
+                 "this extension?)");
+    }
 
     // Node transformations are composed in double (assimp stores them in float).
     void walk(const aiScene& sc, const aiNode& node, const Eigen::Matrix4d& parent, int depth) {

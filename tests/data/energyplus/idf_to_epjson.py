@@ -1,0 +1,76 @@
+#!/usr/bin/env python3
+"""Converts the geometry objects of an EnergyPlus IDF file to epJSON (EnergyPlus's schema
+names): how the .epJSON files of this folder were made from their .idf files, independently of
+formfactor's readers. Usage: idf_to_epjson.py IN.idf OUT.epJSON"""
+
+import json
+import re
+import sys
+
+FIELDS = {
+    "Version": ["version_identifier"],
+    "Building": ["north_axis", "terrain", "loads_convergence_tolerance_value",
+                 "temperature_convergence_tolerance_value", "solar_distribution",
+                 "maximum_number_of_warmup_days", "minimum_number_of_warmup_days"],
+    "GlobalGeometryRules": ["starting_vertex_position", "vertex_entry_direction",
+                            "coordinate_system"],
+    "Zone": ["direction_of_relative_north", "x_origin", "y_origin", "z_origin", "type",
+             "multiplier", "ceiling_height", "volume"],
+    "BuildingSurface:Detailed": ["surface_type", "construction_name", "zone_name",
+                                 "outside_boundary_condition",
+                                 "outside_boundary_condition_object", "sun_exposure",
+                                 "wind_exposure", "view_factor_to_ground", "number_of_vertices"],
+    "FenestrationSurface:Detailed": ["surface_type", "construction_name", "building_surface_name",
+                                     "outside_boundary_condition_object", "view_factor_to_ground",
+                                     "frame_and_divider_name", "multiplier", "number_of_vertices"],
+    "Shading:Zone:Detailed": ["base_surface_name", "transmittance_schedule_name",
+                              "number_of_vertices"],
+}
+UNNAMED = {"Version", "GlobalGeometryRules"}   # objects without a Name field
+
+
+def value(text):
+    try:
+        return int(text) if re.fullmatch(r"[-+]?\d+", text) else float(text)
+    except ValueError:
+        return text
+
+
+def convert(idf_text):
+    text = "\n".join(line.split("!")[0] for line in idf_text.splitlines())
+    model = {}
+    for obj in text.split(";"):
+        fields = [f.strip() for f in obj.split(",")]
+        if not fields[0]:
+            continue
+        cls, fields = fields[0], fields[1:]
+        if cls not in FIELDS:
+            continue
+        names = FIELDS[cls]
+        if cls in UNNAMED:
+            name = "%s 1" % cls
+        else:
+            name, fields = fields[0], fields[1:]
+        out = {}
+        for k, f in enumerate(fields[:len(names)]):
+            if f:
+                out[names[k]] = value(f) if names[k] != "version_identifier" else f
+        coords = [float(c) for c in fields[len(names):]]
+        points = [coords[k:k + 3] for k in range(0, len(coords), 3)]
+        if cls == "FenestrationSurface:Detailed":
+            for k, p in enumerate(points):
+                for axis, c in zip("xyz", p):
+                    out["vertex_%d_%s_coordinate" % (k + 1, axis)] = c
+        elif points:
+            out["vertices"] = [{"vertex_%s_coordinate" % a: c for a, c in zip("xyz", p)}
+                               for p in points]
+        model.setdefault(cls, {})[name] = out
+    return model
+
+
+if __name__ == "__main__":
+    with open(sys.argv[1]) as f:
+        model = convert(f.read())
+    with open(sys.argv[2], "w") as f:
+        json.dump(model, f, indent=2)
+        f.write("\n")
