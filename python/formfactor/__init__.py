@@ -87,7 +87,7 @@ def methods():
 def _form_factors(self, method=None, *, tolerance=None, obstructed_tolerance=None,
                   samples=None, seed=None, threads=None, sampler=None, resolution=None,
                   points=None, rows=None, repair=None, force_closure=False, ray_offset=None,
-                  robust_rays=False, progress=None):
+                  robust_rays=False, progress=None, comm=None):
     """Computes the form factors of this scene's patches: returns a :class:`Result` whose
     ``matrix[i, j]`` is F_ij, from patch i (row) to patch j (column).
 
@@ -105,6 +105,11 @@ def _form_factors(self, method=None, *, tolerance=None, obstructed_tolerance=Non
     stderr) or callable(phase, done, total, elapsed_seconds).
 
     The GIL is released while it computes; Ctrl-C raises KeyboardInterrupt promptly.
+
+    comm: an mpi4py communicator (``MPI.COMM_WORLD``) to compute over its ranks under
+    ``mpirun``: every rank calls with the same arguments; rank 0 returns the Result, bit for bit
+    the one process's, and the other ranks, which compute rows for it, return None
+    (docs/cluster.md). Not with rows=.
     """
     a = _core._ComputeArgs()
     a.method = method
@@ -121,6 +126,7 @@ def _form_factors(self, method=None, *, tolerance=None, obstructed_tolerance=Non
     a.force_closure = bool(force_closure)
     a.ray_offset = ray_offset
     a.robust_rays = bool(robust_rays)
+    a.comm = None if comm is None else comm.py2f()
     return _core.compute(self, a, _progress(progress))
 
 

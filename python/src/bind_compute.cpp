@@ -10,6 +10,7 @@
 #include "formfactor/core/atomic_file.h"
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
+#include "formfactor/distributed/distributed.h"
 #include "formfactor/matrix/aggregate.h"
 #include "formfactor/methods/point_factors.h"
 #include "formfactor/output/page.h"
@@ -23,7 +24,7 @@ namespace {
 /// The keyword arguments of form_factors(), None where not given.
 struct ComputeArgs {
     py::object method, tolerance, obstructed_tolerance, samples, seed, threads, sampler, resolution,
-        points, rows, repair, ray_offset;
+        points, rows, repair, ray_offset, comm;
     bool force_closure = false;
     bool robust_rays = false;
 };
@@ -126,10 +127,24 @@ std::string report_of(const Scene& scene, const ComputeOptions& o, const Compute
     return json_text(report);
 }
 
-PyResult compute(const PyScene& s, const ComputeArgs& args, const py::object& progress) {
+// Under a communicator (comm= the Fortran handle of an mpi4py communicator): every rank calls
+// together; rank 0 computes over all of them and gets the result, the others serve it and get
+// None. Without one, one process as always.
+py::object compute(const PyScene& s, const ComputeArgs& args, const py::object& progress) {
     ComputeOptions o = options_of(*s.scene, args);
     if (!o.method) o.method = default_method(*s.scene);
     validate(o);
+    std::optional<distributed::Communicator> comm;
+    if (!args.comm.is_none()) {
+        if (!args.rows.is_none())
+            throw OptionError("rows", "a run over a communicator computes every row");
+        comm.emplace(arg<std::int64_t>(args.comm, "comm"));
+        if (distributed::rank() != 0) {
+            run_released([](CancellationFlag&, ProgressSink*) { return distributed::serve(); },
+                         py::none());
+            return py::none();
+        }
+    }
     PyResult out;
     out.scene = s.scene;
     const auto start = std::chrono::steady_clock::now();
@@ -138,13 +153,15 @@ PyResult compute(const PyScene& s, const ComputeArgs& args, const py::object& pr
             ComputeOptions run = o;
             run.cancel = &flag;
             run.progress = sink;
-            return compute_form_factors(*s.scene, run);
+            // Over the communicator's ranks when there is one (the pipeline's call otherwise).
+            return comm ? distributed::compute_form_factors(*s.scene, run)
+                        : compute_form_factors(*s.scene, run);
         },
         progress);
     out.total_seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     out.options = o;
-    return out;
+    return py::cast(std::move(out));
 }
 
 /// A NumPy array that takes over `M` (no copy): the matrix lives in a capsule the array owns.
@@ -376,9 +393,12 @@ For a row block (``rows=(b, e)``) it holds rows b..e-1 and every column.
         .def_readwrite("repair", &ComputeArgs::repair)
         .def_readwrite("ray_offset", &ComputeArgs::ray_offset)
         .def_readwrite("force_closure", &ComputeArgs::force_closure)
-        .def_readwrite("robust_rays", &ComputeArgs::robust_rays);
+        .def_readwrite("robust_rays", &ComputeArgs::robust_rays)
+        .def_readwrite("comm", &ComputeArgs::comm);
 
     m.def("compute", &compute, py::arg("scene"), py::arg("args"), py::arg("progress") = py::none());
+    // Whether comm= can work: the library was built with MPI.
+    m.attr("built_with_mpi") = distributed::built_with_mpi();
 
     m.def(
         "point_factors",
