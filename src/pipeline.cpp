@@ -14,6 +14,7 @@
 
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
+#include "formfactor/core/phase.h"
 #include "formfactor/matrix/memory.h"
 #include "formfactor/methods/hemicube.h"
 #include "formfactor/methods/hemiplane.h"
@@ -139,6 +140,7 @@ ComputeResult compute_form_factors(const Scene& scene, const ComputeOptions& opt
     std::unique_ptr<Visibility> visibility;
     const Visibility* vis = options.prebuilt_visibility;
     if (method->needs_visibility() && n > 0 && !vis) {
+        announce_phase("visibility");
         visibility = make_visibility(scene, options.visibility);
         vis = visibility.get();
         result.timings.add("visibility", sw.lap());
@@ -146,14 +148,19 @@ ComputeResult compute_form_factors(const Scene& scene, const ComputeOptions& opt
     MethodContext ctx{scene, options.method_options,
                       vis,   options.progress,
                       rows,  emit_sparse ? options.sparse_rows : nullptr};
+    announce_phase("rows");
     MethodResult computed = method->compute(ctx);
     result.timings.add("compute", sw.lap());
     result.form_factors = std::move(computed.form_factors);
     result.report = std::move(computed.report);
     result.threads = effective_threads(options.method_options.threads);
 
-    if (whole && !emit_sparse) result.diagnostics = diagnose(result.form_factors);
+    if (whole && !emit_sparse) {
+        announce_phase("diagnose");
+        result.diagnostics = diagnose(result.form_factors);
+    }
     if (options.repair.mode != RepairMode::none) {
+        announce_phase("repair");
         RepairOptions ro = options.repair;
         ro.enclosure = known_enclosure(scene);
         result.repair = repair(result.form_factors.F, result.form_factors.areas, ro);
@@ -175,8 +182,10 @@ ComputeResult form_factors_from_matrix(const Scene& scene, DenseMatrix F,
     result.form_factors.F = std::move(F);
     result.form_factors.areas.reserve(n);
     for (const Patch& p : scene.patches) result.form_factors.areas.push_back(p.area);
+    announce_phase("diagnose");
     result.diagnostics = diagnose(result.form_factors);
     if (repair_options.mode != RepairMode::none) {
+        announce_phase("repair");
         Stopwatch sw;
         RepairOptions ro = repair_options;
         ro.enclosure = known_enclosure(scene);

@@ -10,6 +10,7 @@
 
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
+#include "formfactor/core/phase.h"
 #include "formfactor/methods/method.h"
 #include "formfactor/scene/closure.h"
 #include "formfactor/visibility/visibility.h"
@@ -59,9 +60,11 @@ bool sparse_closure(const Scene& scene, const RepairOptions& repair) {
 // The diagnosis and the repair of result.form_factors, timed.
 void diagnose_and_repair(SparseComputeResult& result, const RepairOptions& repair, bool closure,
                          Stopwatch& sw) {
+    announce_phase("diagnose");
     result.diagnostics = diagnose(result.form_factors);
     result.timings.add("diagnose", sw.lap());
     if (repair.mode != RepairMode::none) {
+        announce_phase("repair");
         SparseRepairOptions ro;
         ro.closure = closure;
         ro.closure_tolerance = repair.closure_tolerance;
@@ -117,6 +120,9 @@ SparseComputeResult sparse_form_factors_from_matrix(const Scene& scene, SparseFo
 SparseComputeResult compute_sparse_form_factors(const Scene& scene, const ComputeOptions& options,
                                                 const SparseOptions& sparse) {
     validate(options);
+    const CancellationFlag& cancel = options.cancel ? *options.cancel : process_cancellation();
+    cancel.throw_if_requested();
+    const CancellationScope scope(cancel);
     if (!(sparse.threshold >= 0.0) || !std::isfinite(sparse.threshold))
         throw OptionError("threshold", "must be a finite number ≥ 0");
     if (!(sparse.block_memory >= 0.0) || !std::isfinite(sparse.block_memory))
@@ -161,8 +167,10 @@ SparseComputeResult compute_sparse_form_factors(const Scene& scene, const Comput
     // One ray tracer for every block (a BVH of the whole scene per block was most of a
     // 10^5-patch Monte-Carlo run).
     std::unique_ptr<Visibility> visibility;
-    if (!options.prebuilt_visibility && method->needs_visibility() && n > 0)
+    if (!options.prebuilt_visibility && method->needs_visibility() && n > 0) {
+        announce_phase("visibility");
         visibility = make_visibility(scene, options.visibility);
+    }
     const Visibility* vis =
         options.prebuilt_visibility ? options.prebuilt_visibility : visibility.get();
     SparseRows emitted;
@@ -178,6 +186,7 @@ SparseComputeResult compute_sparse_form_factors(const Scene& scene, const Comput
         bo.sparse_rows = emit_sparse ? &emitted : nullptr;
         ComputeResult block = compute_form_factors(scene, bo);
         compute_s += sw.lap();
+        announce_phase("threshold");
         if (!builder)
             builder.emplace(n, block.form_factors.areas, sparse.threshold,
                             emit_sparse ? emitted.has_standard_errors()

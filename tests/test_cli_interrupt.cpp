@@ -6,8 +6,10 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <csignal>
+#include <cstdio>
 #include <filesystem>
 #include <sstream>
 #include <string>
@@ -67,6 +69,89 @@ Interrupted interrupt(const TempDir& work, const TempDir& capture,
     REQUIRE(::waitpid(pid, &status, WNOHANG) == 0);
     const auto sent = std::chrono::steady_clock::now();
     REQUIRE(::kill(pid, sig) == 0);
+    REQUIRE(::waitpid(pid, &status, 0) == pid);
+    r.seconds_after =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - sent).count();
+    r.status = status;
+    r.err = read_text(err);
+    for (const auto& entry : std::filesystem::directory_iterator(work.path()))
+        r.left.push_back(entry.path().filename().string());
+    return r;
+}
+
+// The phase a run announced last on stderr (FORMFACTOR_TEST_PHASES), "" before the first.
+std::string current_phase(const std::string& err) {
+    const std::string marker = "formfactor: phase ";
+    const std::size_t at = err.rfind(marker);
+    if (at == std::string::npos) return "";
+    const std::size_t end = err.find('\n', at);
+    if (end == std::string::npos) return "";  // the line is still being written
+    return err.substr(at + marker.size(), end - at - marker.size());
+}
+
+struct PhaseInterrupted : Interrupted {
+    std::string phase_at_signal;  ///< the phase announced last when the signal went
+};
+
+// Runs `formfactor args...` in `work` with FORMFACTOR_TEST_PHASES set, waits until it announces
+// `phase`, lets the phase run for `into` and sends SIGTERM; waits for the end.
+PhaseInterrupted interrupt_in_phase(const TempDir& work, const TempDir& capture,
+                                    const std::vector<std::string>& args, const std::string& phase,
+                                    std::chrono::milliseconds into) {
+    const std::string out = capture.file("stdout.txt"), err = capture.file("stderr.txt");
+    std::vector<std::string> argv_s = {FF_CLI_PATH};
+    argv_s.insert(argv_s.end(), args.begin(), args.end());
+    std::vector<char*> argv;
+    for (std::string& a : argv_s) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    std::vector<std::string> env_s;
+    for (char** e = environ; *e; ++e) env_s.emplace_back(*e);
+    env_s.emplace_back("FORMFACTOR_TEST_PHASES=1");
+    std::vector<char*> envp;
+    for (std::string& e : env_s) envp.push_back(e.data());
+    envp.push_back(nullptr);
+    const std::string dir = work.path().string();
+
+    const pid_t pid = ::fork();
+    REQUIRE(pid >= 0);
+    if (pid == 0) {
+        const int o = ::open(out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        const int e = ::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        const int in = ::open("/dev/null", O_RDONLY);
+        if (o < 0 || e < 0 || in < 0 || ::chdir(dir.c_str()) != 0) ::_exit(126);
+        ::dup2(o, 1);
+        ::dup2(e, 2);
+        ::dup2(in, 0);
+        ::signal(SIGINT, SIG_DFL);
+        ::signal(SIGTERM, SIG_DFL);
+        ::execve(argv[0], argv.data(), envp.data());
+        ::_exit(127);
+    }
+    PhaseInterrupted r;
+    int status = 0;
+    // Generous: the phases before it may take long on a loaded machine.
+    const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(300);
+    bool reached = false;
+    while (std::chrono::steady_clock::now() < give_up) {
+        const std::string text = read_text(err);
+        if (text.find("formfactor: phase " + phase + "\n") != std::string::npos) {
+            reached = true;
+            break;
+        }
+        if (::waitpid(pid, &status, WNOHANG) == pid) break;
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    if (!reached) {
+        ::kill(pid, SIGKILL);
+        ::waitpid(pid, &status, 0);
+        FAIL("phase '" << phase << "' never announced; stderr: " << read_text(err));
+    }
+    std::this_thread::sleep_for(into);
+    // The process must still be in the phase when the signal comes, else the test proves nothing.
+    REQUIRE(::waitpid(pid, &status, WNOHANG) == 0);
+    const auto sent = std::chrono::steady_clock::now();
+    REQUIRE(::kill(pid, SIGTERM) == 0);
+    r.phase_at_signal = current_phase(read_text(err));
     REQUIRE(::waitpid(pid, &status, 0) == pid);
     r.seconds_after =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - sent).count();
@@ -145,4 +230,102 @@ TEST_CASE("cancellation: a request before the rename leaves neither file nor tem
     flag.reset();
     write_file_atomically(path, [](std::ostream& out) { out << "0,1\n"; });
     CHECK(dir.entries() == 1);
+}
+
+namespace {
+
+// What every interrupted phase must show: the phase was running when the signal came, the run
+// ended within a second (three on a loaded machine), died of the signal with its one line, and
+// left nothing in the working directory.
+void check_prompt_stop(const PhaseInterrupted& r, const std::string& phase) {
+    INFO("stderr: " << r.err);
+    MESSAGE("phase '" << phase << "': ended " << r.seconds_after << " s after SIGTERM");
+    CHECK(r.phase_at_signal == phase);
+    CHECK(WIFSIGNALED(r.status));
+    if (WIFSIGNALED(r.status)) CHECK(WTERMSIG(r.status) == SIGTERM);
+    CHECK(r.err.ends_with("formfactor: interrupted by SIGTERM: stopped, no output written\n"));
+    INFO("left: " << listing(r.left));
+    CHECK(r.left.empty());
+    CHECK(r.seconds_after < 3.0);
+}
+
+// A dense 4,320-patch matrix: the rows take ~1 s, the diagnosis ~1 s, the text ~3 s.
+const std::vector<std::string> kDenseText = {"compute",   "room-24", "--method",  "mc-hemisphere",
+                                             "--samples", "100",     "--threads", "2",
+                                             "-o",        "F.csv"};
+
+}  // namespace
+
+TEST_CASE("cli interrupt: the iterative solvers stop within a second of SIGTERM" *
+          doctest::test_suite("slow")) {
+    // Reflectance 0.999 in a closed room and a tight residual: thousands of sweeps, seconds.
+    for (const std::string solver : {"jacobi", "gauss-seidel"}) {
+        CAPTURE(solver);
+        TempDir work, capture;
+        std::string properties =
+            "patch,reflectance_r,reflectance_g,reflectance_b,emission_r,"
+            "emission_g,emission_b\n";
+        for (int i = 0; i < 1536; ++i)
+            properties += std::to_string(i) + ",0.999,0.999,0.999,1,1,1\n";
+        formfactor::testing::write_text(capture.file("P.csv"), properties);
+        const PhaseInterrupted r = interrupt_in_phase(
+            work, capture,
+            {"solve", "room-16", "--method", "mc-hemisphere", "--samples", "100", "--threads", "2",
+             "--solver", solver, "--properties", capture.file("P.csv"), "--residual", "1e-15",
+             "--max-iterations", "2000000000", "--allow-unconverged", "-o", "B.csv"},
+            "solve", std::chrono::milliseconds(300));
+        check_prompt_stop(r, "solve");
+    }
+}
+
+TEST_CASE("cli interrupt: the dense diagnosis stops within a second of SIGTERM" *
+          doctest::test_suite("slow")) {
+    TempDir work, capture;
+    check_prompt_stop(
+        interrupt_in_phase(work, capture, kDenseText, "diagnose", std::chrono::milliseconds(100)),
+        "diagnose");
+}
+
+TEST_CASE("cli interrupt: writing a large text matrix stops within a second of SIGTERM" *
+          doctest::test_suite("slow")) {
+    TempDir work, capture;
+    check_prompt_stop(
+        interrupt_in_phase(work, capture, kDenseText, "write", std::chrono::milliseconds(300)),
+        "write");
+}
+
+TEST_CASE("cli interrupt: the direct (LU) solve stops within a second of SIGTERM" *
+          doctest::test_suite("slow")) {
+    // LU of 3,000 × 3,000 per colour: ten seconds and more.
+    TempDir work, capture;
+    check_prompt_stop(
+        interrupt_in_phase(work, capture,
+                           {"solve", "room-20", "--method", "mc-hemisphere", "--samples", "100",
+                            "--threads", "2", "--solver", "direct", "-o", "B.csv"},
+                           "solve", std::chrono::milliseconds(300)),
+        "solve");
+}
+
+TEST_CASE("cli interrupt: the sparse diagnosis stops within a second of SIGTERM" *
+          doctest::test_suite("slow")) {
+    // 4,320 patches, ~4,000 entries a row: the diagnosis's reciprocity lookups take seconds.
+    TempDir work, capture;
+    check_prompt_stop(
+        interrupt_in_phase(work, capture,
+                           {"solve", "room-24", "--method", "hemicube", "--resolution", "64",
+                            "--threads", "2", "--storage", "sparse", "-o", "B.csv"},
+                           "diagnose", std::chrono::milliseconds(100)),
+        "diagnose");
+}
+
+TEST_CASE("cli interrupt: the analytic classification stops within a second of SIGTERM" *
+          doctest::test_suite("slow")) {
+    // A 4,249-patch city: its largest pairs of surfaces are seconds of shaft tests each.
+    TempDir work, capture;
+    check_prompt_stop(
+        interrupt_in_phase(
+            work, capture,
+            {"compute", "city-12", "--method", "analytic", "--threads", "2", "-o", "F.mtx"},
+            "analytic classification", std::chrono::milliseconds(3000)),
+        "analytic classification");
 }

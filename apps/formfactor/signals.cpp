@@ -1,8 +1,13 @@
 #include "signals.h"
 
+#include <unistd.h>
+
 #include <csignal>
+#include <cstdlib>
+#include <cstring>
 
 #include "formfactor/core/cancel.h"
+#include "formfactor/core/phase.h"
 
 namespace formfactor::cli {
 
@@ -26,11 +31,20 @@ void install(int sig) {
     ::sigaction(sig, &sa, nullptr);
 }
 
+// One unbuffered write, so that a test reading stderr sees the line before the phase's work.
+void print_phase(const char* name) {
+    char line[128] = "formfactor: phase ";
+    std::strncat(line, name, sizeof line - std::strlen(line) - 2);
+    std::strcat(line, "\n");
+    [[maybe_unused]] const ssize_t written = ::write(2, line, std::strlen(line));
+}
+
 }  // namespace
 
 void install_signal_handlers() {
     install(SIGINT);
     install(SIGTERM);
+    if (std::getenv("FORMFACTOR_TEST_PHASES")) set_phase_observer(print_phase);
 }
 
 int received_signal() { return g_signal; }

@@ -8,6 +8,8 @@
 namespace formfactor::cli {
 
 /// Installs the handlers (a signal that was ignored when the program started stays ignored).
+/// With FORMFACTOR_TEST_PHASES set, each long phase prints "formfactor: phase NAME" on stderr as
+/// it starts, for the tests that interrupt every phase.
 void install_signal_handlers();
 /// The signal that asked the process to stop, 0 when none did.
 int received_signal();

@@ -9,6 +9,7 @@
 #include "formfactor/core/error.h"
 #include "formfactor/core/fields.h"
 #include "formfactor/core/parallel.h"
+#include "formfactor/core/phase.h"
 #include "formfactor/core/progress.h"
 #include "formfactor/core/random.h"
 #include "formfactor/core/timing.h"

@@ -10,6 +10,7 @@
 #include "formfactor/core/atomic_file.h"
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
+#include "formfactor/distributed/distributed.h"
 #include "formfactor/matrix/aggregate.h"
 #include "formfactor/output/page.h"
 #include "formfactor/output/report.h"
@@ -106,6 +107,11 @@ const Keyword<ComputeOptions> kComputeKeywords[] = {
      }},
     {"progress", "_Progress", "None",
      "None, True (a bar on stderr) or callable(phase, done, total, elapsed_seconds).", nullptr},
+    {"comm", "Optional[Any]", "None",
+     "an mpi4py communicator (MPI.COMM_WORLD) to compute over its ranks under mpirun: every "
+     "rank calls with the same arguments; rank 0 gets the Result, bit for bit the one process's, "
+     "the others compute rows for it and get None (docs/cluster.md). Not with rows=.",
+     nullptr},
 };
 
 const Signature<ComputeOptions> kFormFactors{
@@ -169,10 +175,27 @@ std::string report_of(const Scene& scene, const ComputeOptions& o, const Compute
     return json_text(report);
 }
 
-PyResult compute(const PyScene& s, ComputeOptions o, const py::object& progress) {
+// Under a communicator (comm= an mpi4py communicator): every rank calls together; rank 0
+// computes over all of them and gets the result, the others serve it and get None. Without
+// one, one process as always.
+py::object compute(const PyScene& s, ComputeOptions o, const py::object& progress,
+                   const py::object& comm_arg, bool rows_given) {
     o.repair.enclosure = known_enclosure(*s.scene);
     if (!o.method) o.method = default_method(*s.scene);
     validate(o);
+    std::optional<distributed::Communicator> comm;
+    if (!comm_arg.is_none()) {
+        if (rows_given) throw OptionError("rows", "a run over a communicator computes every row");
+        if (!py::hasattr(comm_arg, "py2f"))
+            throw OptionError("comm", "must be an mpi4py communicator, got " +
+                                          py::repr(comm_arg).cast<std::string>());
+        comm.emplace(arg<std::int64_t>(comm_arg.attr("py2f")(), "comm"));
+        if (distributed::rank() != 0) {
+            run_released([](CancellationFlag&, ProgressSink*) { return distributed::serve(); },
+                         py::none());
+            return py::none();
+        }
+    }
     PyResult out;
     out.scene = s.scene;
     const auto start = std::chrono::steady_clock::now();
@@ -181,13 +204,15 @@ PyResult compute(const PyScene& s, ComputeOptions o, const py::object& progress)
             ComputeOptions run = o;
             run.cancel = &flag;
             run.progress = sink;
-            return compute_form_factors(*s.scene, run);
+            // Over the communicator's ranks when there is one (the pipeline's call otherwise).
+            return comm ? distributed::compute_form_factors(*s.scene, run)
+                        : compute_form_factors(*s.scene, run);
         },
         progress);
     out.total_seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     out.options = o;
-    return out;
+    return py::cast(std::move(out));
 }
 
 /// A NumPy array that takes over `M` (no copy): the matrix lives in a capsule the array owns.
@@ -423,40 +448,42 @@ For a row block (``rows=(b, e)``) it holds rows b..e-1 and every column.
         scene, kFormFactors,
         [](const py::object& self, ComputeOptions& o, const std::vector<py::object>& values) {
             return compute(self.cast<const PyScene&>(), o,
-                           value_of(kFormFactors, values, "progress"));
+                           value_of(kFormFactors, values, "progress"),
+                           value_of(kFormFactors, values, "comm"),
+                           !value_of(kFormFactors, values, "rows").is_none());
         });
 
     m.def("method_names", &method_names,
           "The names of the methods Scene.form_factors(method=...) accepts, as the library lists "
           "them.");
+    // Whether comm= can work: the library was built with MPI.
+    m.attr("built_with_mpi") = distributed::built_with_mpi();
 
     m.def(
         "point_factors",
         [](const PyScene& s, const py::object& points, const py::object& normals,
            const py::object& threads, const py::object& progress) {
-            const std::vector<Vec3> p = as_vec3s(points, "points");
-            const std::vector<Vec3> n = as_vec3s(normals, "normals", p.size());
-            if (n.size() != p.size()) {
-                throw OptionError(
-                    "normals",
-                    fmt::format("must have {} rows (one per point), got {}", p.size(), n.size()));
-            }
-            for (std::size_t k = 0; k < n.size(); ++k)
-                if (n[k].norm() == 0.0)
-                    throw OptionError("normals", fmt::format("row {} is zero", k));
-            PointOptions o;
-            o.positions = p;
-            o.normals = n;
-            o.threads = arg<int>(threads, "threads");
-            PointResult r = run_released(
-                [&](CancellationFlag& flag, ProgressSink* sink) {
-                    PointOptions run = o;
-                    run.cancel = &flag;
-                    run.progress = sink;
-                    return compute_point_form_factors(*s.scene, run);
-                },
-                progress);
-            return adopt(std::move(r.F));
+        const std::vector<Vec3> p = as_vec3s(points, "points");
+        const std::vector<Vec3> n = as_vec3s(normals, "normals", p.size());
+        if (n.size() != p.size()) {
+            throw OptionError("normals", fmt::format("must have {} rows (one per point), got {}",
+                                                     p.size(), n.size()));
+        }
+        for (std::size_t k = 0; k < n.size(); ++k)
+            if (n[k].norm() == 0.0) throw OptionError("normals", fmt::format("row {} is zero", k));
+        PointOptions o;
+        o.positions = p;
+        o.normals = n;
+        o.threads = arg<int>(threads, "threads");
+        PointResult r = run_released(
+            [&](CancellationFlag& flag, ProgressSink* sink) {
+                PointOptions run = o;
+                run.cancel = &flag;
+                run.progress = sink;
+                return compute_point_form_factors(*s.scene, run);
+            },
+            progress);
+        return adopt(std::move(r.F));
         },
         py::arg("scene"), py::arg("points"), py::arg("normals"), py::arg("threads") = 0,
         py::arg("progress") = py::none());

@@ -7,10 +7,13 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <memory>
+#include <streambuf>
 #include <system_error>
 
 #include "formfactor/core/cancel.h"
 #include "formfactor/core/error.h"
+#include "formfactor/core/phase.h"
 
 namespace formfactor {
 
@@ -41,11 +44,45 @@ void remove_quietly(const std::string& path) noexcept {
     fs::remove(path, ec);
 }
 
+// Passes what a writer puts to `sink` in 64 KiB pieces and polls process_cancellation() between
+// them: a dense matrix of 10^4 patches is 10^8 numbers of text, and a signal must not wait for
+// the last. Once a stop is asked for, every further put fails, so the writer's remaining puts
+// cost nothing and it returns soon; write_temporary() then throws Cancelled.
+class CancellableBuffer final : public std::streambuf {
+  public:
+    explicit CancellableBuffer(std::streambuf* sink) : sink_(sink) { setp(buf_, buf_ + kSize); }
+    CancellableBuffer(const CancellableBuffer&) = delete;
+    CancellableBuffer& operator=(const CancellableBuffer&) = delete;
+
+  protected:
+    int_type overflow(int_type c) override {
+        if (!drain()) return traits_type::eof();
+        if (traits_type::eq_int_type(c, traits_type::eof())) return traits_type::not_eof(c);
+        *pptr() = traits_type::to_char_type(c);
+        pbump(1);
+        return c;
+    }
+    int sync() override { return drain() && sink_->pubsync() == 0 ? 0 : -1; }
+
+  private:
+    static constexpr std::ptrdiff_t kSize = 1 << 16;
+    bool drain() {
+        if (process_cancellation().requested()) return false;
+        const std::ptrdiff_t n = pptr() - pbase();
+        if (n > 0 && sink_->sputn(pbase(), n) != n) return false;
+        setp(buf_, buf_ + kSize);
+        return true;
+    }
+    std::streambuf* sink_;
+    char buf_[kSize];
+};
+
 /// Writes `write`'s output to `temporary`; on any failure, or when the process was asked to
 /// stop meanwhile (process_cancellation()), removes it and throws.
 void write_temporary(const std::string& target, const std::string& temporary,
                      const std::function<void(std::ostream&)>& write) {
     process_cancellation().throw_if_requested();
+    announce_phase("write");
     if (fs::is_directory(target)) throw InputError(target, 0, "is a directory");
     std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
     if (!out) {
@@ -54,7 +91,14 @@ void write_temporary(const std::string& target, const std::string& temporary,
         throw InputError(target, 0, "cannot write: " + reason);
     }
     try {
-        write(out);
+        {
+            const auto buffer = std::make_unique<CancellableBuffer>(out.rdbuf());
+            std::ostream polled(buffer.get());
+            write(polled);
+            polled.flush();
+            process_cancellation().throw_if_requested();
+            if (!polled) out.setstate(std::ios::badbit);
+        }
         out.flush();
         if (!out) throw InputError(target, 0, "write failed (disk full?)");
         out.close();
@@ -63,6 +107,9 @@ void write_temporary(const std::string& target, const std::string& temporary,
     } catch (...) {
         out.close();
         remove_quietly(temporary);
+        // A writer that saw its stream fail once the stop was asked for reports a failed write:
+        // the cause is the stop.
+        if (process_cancellation().requested()) throw Cancelled();
         throw;
     }
 }

@@ -46,9 +46,10 @@ constexpr const char* kOutOfMemory =
     "out of memory: the run needed more memory than this rank's machine could give (use fewer "
     "patches, or free memory)";
 
-bool g_active = false;  // MPI was initialised by a Session
+bool g_active = false;  // MPI was initialised by a Session, or a Communicator is in scope
 bool g_finished = false;
 int g_rank = 0, g_size = 1, g_thread_level = MPI_THREAD_SINGLE;
+MPI_Comm g_comm = MPI_COMM_WORLD;
 RankShares g_shares;
 
 // The environment of a process that an MPI launcher started: Open MPI's mpirun, PMIx (Open
@@ -66,7 +67,7 @@ MPI_Status wait_for(int source, int tag, const CancellationFlag* cancel) {
     for (;;) {
         int flag = 0;
         MPI_Status status;
-        MPI_Iprobe(source, tag, MPI_COMM_WORLD, &flag, &status);
+        MPI_Iprobe(source, tag, g_comm, &flag, &status);
         if (flag) return status;
         if (cancel) cancel->throw_if_requested();
         std::this_thread::sleep_for(pause);
@@ -78,7 +79,7 @@ std::vector<char> receive_bytes(const MPI_Status& probed) {
     int count = 0;
     MPI_Get_count(&probed, MPI_BYTE, &count);
     std::vector<char> bytes(static_cast<std::size_t>(count));
-    MPI_Recv(bytes.data(), count, MPI_BYTE, probed.MPI_SOURCE, probed.MPI_TAG, MPI_COMM_WORLD,
+    MPI_Recv(bytes.data(), count, MPI_BYTE, probed.MPI_SOURCE, probed.MPI_TAG, g_comm,
              MPI_STATUS_IGNORE);
     return bytes;
 }
@@ -91,7 +92,7 @@ int message_size(const std::vector<char>& bytes) {
 }
 
 void send_bytes(const std::vector<char>& bytes, int dest, int tag) {
-    MPI_Send(bytes.data(), message_size(bytes), MPI_BYTE, dest, tag, MPI_COMM_WORLD);
+    MPI_Send(bytes.data(), message_size(bytes), MPI_BYTE, dest, tag, g_comm);
 }
 
 // What every rank needs for a job.
@@ -115,17 +116,16 @@ std::vector<char> job_bytes(const Job& job, const Scene& scene) {
 // Rank 0: the job to every other rank (a command each, then one broadcast).
 void broadcast_job(const std::vector<char>& bytes) {
     std::int64_t size = static_cast<std::int64_t>(message_size(bytes));  // may throw: first
-    for (int r = 1; r < g_size; ++r)
-        MPI_Send(&kCommandJob, 1, MPI_INT64_T, r, kTagCommand, MPI_COMM_WORLD);
-    MPI_Bcast(&size, 1, MPI_INT64_T, 0, MPI_COMM_WORLD);
-    MPI_Bcast(const_cast<char*>(bytes.data()), static_cast<int>(size), MPI_BYTE, 0, MPI_COMM_WORLD);
+    for (int r = 1; r < g_size; ++r) MPI_Send(&kCommandJob, 1, MPI_INT64_T, r, kTagCommand, g_comm);
+    MPI_Bcast(&size, 1, MPI_INT64_T, 0, g_comm);
+    MPI_Bcast(const_cast<char*>(bytes.data()), static_cast<int>(size), MPI_BYTE, 0, g_comm);
 }
 
 std::vector<char> receive_job() {
     std::int64_t size = 0;
-    MPI_Bcast(&size, 1, MPI_INT64_T, 0, MPI_COMM_WORLD);
+    MPI_Bcast(&size, 1, MPI_INT64_T, 0, g_comm);
     std::vector<char> bytes(static_cast<std::size_t>(size));
-    MPI_Bcast(bytes.data(), static_cast<int>(size), MPI_BYTE, 0, MPI_COMM_WORLD);
+    MPI_Bcast(bytes.data(), static_cast<int>(size), MPI_BYTE, 0, g_comm);
     return bytes;
 }
 
@@ -224,10 +224,10 @@ void dispatch(Schedule& schedule, BlockSink& sink, Failure& failure, Cancellatio
         // Interrupted and a worker still computes after 5 s: end the job the hard way.
         if (interrupted &&
             std::chrono::steady_clock::now() - *interrupted > std::chrono::seconds(5))
-            MPI_Abort(MPI_COMM_WORLD, 130);
+            MPI_Abort(g_comm, 130);
         int flag = 0;
         MPI_Status probed;
-        MPI_Iprobe(MPI_ANY_SOURCE, kTagResult, MPI_COMM_WORLD, &flag, &probed);
+        MPI_Iprobe(MPI_ANY_SOURCE, kTagResult, g_comm, &flag, &probed);
         if (!flag) {
             std::this_thread::sleep_for(pause);
             pause = std::min(pause * 2, std::chrono::microseconds(1000));
@@ -259,7 +259,7 @@ void dispatch(Schedule& schedule, BlockSink& sink, Failure& failure, Cancellatio
         const std::optional<RowRange> next = schedule.take();
         const std::int64_t assign[2] = {next ? std::int64_t(next->begin) : 0,
                                         next ? std::int64_t(next->end) : 0};
-        MPI_Send(assign, 2, MPI_INT64_T, from, kTagAssign, MPI_COMM_WORLD);
+        MPI_Send(assign, 2, MPI_INT64_T, from, kTagAssign, g_comm);
         if (!next) --active;
     }
 }
@@ -407,7 +407,7 @@ void work_on_job(const std::vector<char>& bytes) {
         send_bytes(message, 0, kTagResult);
         wait_for(0, kTagAssign, nullptr);
         std::int64_t assign[2];
-        MPI_Recv(assign, 2, MPI_INT64_T, 0, kTagAssign, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+        MPI_Recv(assign, 2, MPI_INT64_T, 0, kTagAssign, g_comm, MPI_STATUS_IGNORE);
         if (assign[1] <= assign[0]) return;
         const RowRange rows{std::size_t(assign[0]), std::size_t(assign[1])};
         message = answer([&] {
@@ -558,8 +558,9 @@ bool built_with_mpi() { return true; }
 Session::Session(int& argc, char**& argv) {
     if (g_active || !launched_by_mpi()) return;
     MPI_Init_thread(&argc, &argv, MPI_THREAD_SERIALIZED, &g_thread_level);
-    MPI_Comm_rank(MPI_COMM_WORLD, &g_rank);
-    MPI_Comm_size(MPI_COMM_WORLD, &g_size);
+    g_comm = MPI_COMM_WORLD;
+    MPI_Comm_rank(g_comm, &g_rank);
+    MPI_Comm_size(g_comm, &g_size);
     g_active = true;
 }
 
@@ -570,6 +571,40 @@ Session::~Session() {
     g_active = false;
 }
 
+struct Communicator::Saved {
+    bool active, finished;
+    int rank, size, thread_level;
+    MPI_Comm comm;
+};
+
+Communicator::Communicator(std::int64_t fortran_handle) {
+    int initialised = 0, finalised = 0;
+    MPI_Initialized(&initialised);
+    MPI_Finalized(&finalised);
+    if (!initialised || finalised)
+        throw Error("comm: MPI is not initialised in this process (import mpi4py.MPI first)");
+    const MPI_Comm comm = MPI_Comm_f2c(static_cast<MPI_Fint>(fortran_handle));
+    if (comm == MPI_COMM_NULL) throw OptionError("comm", "is MPI.COMM_NULL");
+    saved_ = std::make_unique<Saved>(
+        Saved{g_active, g_finished, g_rank, g_size, g_thread_level, g_comm});
+    g_comm = comm;
+    MPI_Comm_rank(g_comm, &g_rank);
+    MPI_Comm_size(g_comm, &g_size);
+    MPI_Query_thread(&g_thread_level);
+    g_active = true;
+    g_finished = false;
+}
+
+Communicator::~Communicator() {
+    finish();
+    g_active = saved_->active;
+    g_finished = saved_->finished;
+    g_rank = saved_->rank;
+    g_size = saved_->size;
+    g_thread_level = saved_->thread_level;
+    g_comm = saved_->comm;
+}
+
 int Session::rank() const { return g_rank; }
 int Session::size() const { return g_size; }
 int rank() { return g_rank; }
@@ -578,9 +613,9 @@ int size() { return g_size; }
 int serve() {
     if (!g_active || g_rank == 0) return 0;
     for (;;) {
-        wait_for(0, kTagCommand, &process_cancellation());
+        wait_for(0, kTagCommand, &current_cancellation());
         std::int64_t command = 0;
-        MPI_Recv(&command, 1, MPI_INT64_T, 0, kTagCommand, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+        MPI_Recv(&command, 1, MPI_INT64_T, 0, kTagCommand, g_comm, MPI_STATUS_IGNORE);
         if (command != kCommandJob) return 0;
         work_on_job(receive_job());
     }
@@ -590,7 +625,7 @@ void finish() {
     if (!g_active || g_rank != 0 || g_finished) return;
     g_finished = true;
     for (int r = 1; r < g_size; ++r)
-        MPI_Send(&kCommandFinish, 1, MPI_INT64_T, r, kTagCommand, MPI_COMM_WORLD);
+        MPI_Send(&kCommandFinish, 1, MPI_INT64_T, r, kTagCommand, g_comm);
 }
 
 const RankShares& last_rank_shares() { return g_shares; }

@@ -3,6 +3,7 @@
 
 #include <cstdlib>
 
+#include "formfactor/core/error.h"
 #include "formfactor/distributed/distributed.h"
 
 namespace formfactor::distributed {
@@ -27,6 +28,13 @@ Session::Session(int& argc, char**& argv) {
         }
 }
 Session::~Session() = default;
+
+struct Communicator::Saved {};
+Communicator::Communicator(std::int64_t fortran_handle) {
+    (void)fortran_handle;
+    throw Error("comm: this build of formfactor has no MPI (configured with FF_MPI off)");
+}
+Communicator::~Communicator() = default;
 int Session::rank() const { return g_rank; }
 int Session::size() const { return 1; }
 int rank() { return g_rank; }

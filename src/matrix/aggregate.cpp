@@ -5,7 +5,9 @@
 #include <cstdint>
 #include <string>
 
+#include "formfactor/core/cancel.h"
 #include "formfactor/core/error.h"
+#include "formfactor/core/phase.h"
 
 namespace formfactor {
 
@@ -102,7 +104,11 @@ FormFactors aggregate(const FormFactors& f, const PatchGroups& groups) {
         DenseMatrix::Zero(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(m));
     DenseMatrix var;
     if (se) var = DenseMatrix::Zero(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(m));
+    announce_phase("aggregate");
+    // O(N²) on one thread: a signal must not wait for the end.
+    const CancellationFlag& cancel = current_cancellation();
     for (std::size_t i = 0; i < n; ++i) {
+        cancel.throw_if_requested();
         const auto ii = static_cast<Eigen::Index>(i);
         for (std::size_t j = 0; j < n; ++j) {
             const auto jj = static_cast<Eigen::Index>(j);
@@ -159,9 +165,12 @@ SparseFormFactors aggregate(const SparseFormFactors& f, const PatchGroups& group
     out.computed_row_sums.assign(m, 0.0);
     out.dropped.assign(m, 0.0);
     std::vector<double> errors;
+    announce_phase("aggregate");
+    const CancellationFlag& cancel = current_cancellation();
     for (std::size_t g = 0; g < m; ++g) {
         touched.clear();
         for (const std::size_t i : members[g]) {
+            cancel.throw_if_requested();
             const double a = f.areas[i];
             out.computed_row_sums[g] += a * f.computed_row_sums[i];
             out.dropped[g] += a * f.dropped[i];

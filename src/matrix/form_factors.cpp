@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include "formfactor/core/cancel.h"
+
 namespace formfactor {
 
 Diagnostics diagnose(const DenseMatrix& F, const std::vector<double>& areas,
@@ -25,9 +27,12 @@ Diagnostics diagnose(const DenseMatrix& F, const std::vector<double>& areas,
     std::vector<double> row_defect(n, 0.0), row_mass(n, 0.0), col_mass(n, 0.0);
     // Effective sample count per row (see Diagnostics::z_zero_entries).
     std::vector<double> samples(d.has_z ? n : 0, 0.0);
+    // O(N²) on one thread: a signal must not wait for the end.
+    const CancellationFlag& cancel = current_cancellation();
     if (d.has_z) {
         std::vector<double> r;
         for (std::size_t i = 0; i < n; ++i) {
+            cancel.throw_if_requested();
             r.clear();
             for (std::size_t j = 0; j < n; ++j) {
                 const auto ii = static_cast<Eigen::Index>(i), jj = static_cast<Eigen::Index>(j);
@@ -43,6 +48,7 @@ Diagnostics diagnose(const DenseMatrix& F, const std::vector<double>& areas,
     }
     double defect_sum = 0.0, exchange_sum = 0.0, z2_sum = 0.0;
     for (std::size_t i = 0; i < n; ++i) {
+        cancel.throw_if_requested();
         double s = 0.0;
         const auto ii = static_cast<Eigen::Index>(i);
         for (std::size_t j = 0; j < n; ++j) {

@@ -21,7 +21,10 @@ namespace {
 // G = A F → ½(G + Gᵀ), negatives and the diagonal cleared.
 void symmetrise(DenseMatrix& F, const std::vector<double>& A, RepairReport& rep) {
     const Eigen::Index n = F.rows();
+    // O(N²) on one thread, a column walk: a signal must not wait for the end.
+    const CancellationFlag& cancel = current_cancellation();
     for (Eigen::Index i = 0; i < n; ++i) {
+        cancel.throw_if_requested();
         if (F(i, i) != 0.0) rep.diagonal_cleared = true;
         F(i, i) = 0.0;
         const double ai = A[static_cast<std::size_t>(i)];
@@ -69,6 +72,7 @@ void close_rows(DenseMatrix& F, const RepairOptions& o, RepairReport& rep) {
     int it = 0;
     double defect = 0.0;
     for (;; ++it) {
+        current_cancellation().throw_if_requested();
         multiply(F, d, y);
         defect = 0.0;
         for (Eigen::Index i = 0; i < n; ++i)
@@ -85,8 +89,11 @@ void close_rows(DenseMatrix& F, const RepairOptions& o, RepairReport& rep) {
         for (Eigen::Index i = 0; i < n; ++i)
             if (active[static_cast<std::size_t>(i)] && y(i) > 0.0) d(i) = std::sqrt(d(i) / y(i));
     }
-    for (Eigen::Index i = 0; i < n; ++i)
+    const CancellationFlag& cancel = current_cancellation();
+    for (Eigen::Index i = 0; i < n; ++i) {
+        cancel.throw_if_requested();
         for (Eigen::Index j = 0; j < n; ++j) F(i, j) *= d(i) * d(j);
+    }
     rep.closure_iterations = it;
     // Row sums of the scaled matrix, as stored.
     double final_defect = 0.0;

@@ -213,7 +213,10 @@ SparseDiagnostics diagnose(const SparseFormFactors& F) {
     d.row_sum_min = std::numeric_limits<double>::infinity();
     d.row_sum_max = -d.row_sum_min;
     double total_area = 0.0, dropped_area = 0.0;
+    // Seconds for 10^5 rows: a signal must not wait for the end.
+    const CancellationFlag& cancel = current_cancellation();
     for (std::size_t i = 0; i < F.n; ++i) {
+        cancel.throw_if_requested();
         const double s = F.row_sum(i);
         d.row_sum_min = std::min(d.row_sum_min, s);
         d.row_sum_max = std::max(d.row_sum_max, s);

@@ -6,9 +6,12 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <future>
+#include <thread>
 
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
+#include "formfactor/core/phase.h"
 #include "formfactor/core/progress.h"
 
 namespace formfactor {
@@ -79,7 +82,9 @@ template <class Sweep, class Residual>
 long long iterate(const SolverOptions& o, long long max_it, Progress& progress, Columns& x,
                   double& residual, Sweep&& sweep, Residual&& exact_residual) {
     long long it = 0;
+    const CancellationFlag& cancel = current_cancellation();
     while (it < max_it) {
+        cancel.throw_if_requested();
         const double change = sweep();
         ++it;
         progress.advance();
@@ -164,7 +169,9 @@ long long run_shooting(const DenseMatrix& F, const std::vector<double>& areas, c
         multiply(F, x, y, o.threads);
         r = c + (d.array() * y.array()).matrix() - x;
     };
+    const CancellationFlag& cancel = current_cancellation();
     while (true) {
+        cancel.throw_if_requested();
         // One scan: the shooter, ‖r‖_∞ and ‖x‖_∞.
         Eigen::Index best = -1;
         double best_power = -1.0, rmax = 0.0, xmax = 0.0;
@@ -213,6 +220,22 @@ long long run_shooting(const DenseMatrix& F, const std::vector<double>& areas, c
     return it;
 }
 
+}  // namespace
+
+std::shared_ptr<const Eigen::PartialPivLU<DenseMatrix>> interruptible_lu(DenseMatrix M) {
+    using LU = Eigen::PartialPivLU<DenseMatrix>;
+    auto task = std::make_shared<std::packaged_task<std::shared_ptr<const LU>()>>(
+        [M = std::move(M)] { return std::make_shared<const LU>(M); });
+    std::future<std::shared_ptr<const LU>> done = task->get_future();
+    std::thread([task] { (*task)(); }).detach();
+    const CancellationFlag& cancel = current_cancellation();
+    while (done.wait_for(std::chrono::milliseconds(20)) != std::future_status::ready)
+        cancel.throw_if_requested();
+    return done.get();
+}
+
+namespace {
+
 void run_direct(const DenseMatrix& F, const Columns& d, const Columns& c, Columns& x) {
     const Eigen::Index n = F.rows();
     for (Eigen::Index k = 0; k < c.cols(); ++k) {
@@ -226,7 +249,8 @@ void run_direct(const DenseMatrix& F, const Columns& d, const Columns& c, Column
         if (same >= 0) continue;
         DenseMatrix M = -(d.col(k).asDiagonal() * F);
         M.diagonal().array() += 1.0;
-        Eigen::PartialPivLU<DenseMatrix> lu(M);
+        const auto factors = interruptible_lu(std::move(M));
+        const Eigen::PartialPivLU<DenseMatrix>& lu = *factors;
         const double rcond = lu.rcond();
         if (!(rcond > 1e-14))
             throw Error(fmt::format(
@@ -292,7 +316,9 @@ long long gmres_column(const ApplyF& apply, const Columns& dk, const Columns& ck
         progress.advance();
     };
     long long products = 0;
+    const CancellationFlag& cancel = current_cancellation();
     while (true) {
+        cancel.throw_if_requested();
         apply_a(x, w);
         ++products;
         const Columns r = ck - w;
@@ -306,6 +332,7 @@ long long gmres_column(const ApplyF& apply, const Columns& dk, const Columns& ck
         H.setZero();
         int used = 0;
         for (int j = 0; j < m && products < max_products; ++j) {
+            cancel.throw_if_requested();
             apply_a(V.col(j), w);
             ++products;
             for (int i = 0; i <= j; ++i) {
@@ -361,6 +388,7 @@ long long max_iterations(const SolverOptions& options, long long fallback) {
 SolverStats solve_linear_operator(const ApplyF& apply, Eigen::Index n, const Columns& d,
                                   const Columns& c, const SolverOptions& options, Columns& x) {
     const auto start = std::chrono::steady_clock::now();
+    announce_phase("solve");
     FF_ASSERT(d.rows() == n && c.rows() == n && d.cols() == c.cols());
     check_options(options);
     if (options.solver != SolverKind::jacobi && options.solver != SolverKind::gmres)
@@ -409,6 +437,7 @@ SolverStats solve_linear_operator(const ApplyF& apply, Eigen::Index n, const Col
 SolverStats solve_linear(const DenseMatrix& F, const std::vector<double>& areas, const Columns& d,
                          const Columns& c, const SolverOptions& options, Columns& x) {
     const auto start = std::chrono::steady_clock::now();
+    announce_phase("solve");
     const Eigen::Index n = F.rows();
     FF_ASSERT(F.cols() == n && d.rows() == n && c.rows() == n && d.cols() == c.cols());
     FF_ASSERT(static_cast<Eigen::Index>(areas.size()) == n);
@@ -597,6 +626,7 @@ void check_sparse_solver(SolverKind kind) {
 SolverStats solve_linear(const SparseFormFactors& F, const Columns& d, const Columns& c,
                          const SolverOptions& options, Columns& x) {
     const auto start = std::chrono::steady_clock::now();
+    announce_phase("solve");
     const auto n = static_cast<Eigen::Index>(F.n);
     FF_ASSERT(d.rows() == n && c.rows() == n && d.cols() == c.cols());
     check_options(options);

@@ -2,7 +2,9 @@
 // The engine behind solve_radiosity and solve_thermal: x = c + diag(d_k) F x per column k.
 
 #include <Eigen/Core>
+#include <Eigen/LU>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -34,6 +36,11 @@ void multiply(const DenseMatrix& F, const Columns& x, Columns& y, int threads);
 /// ‖c + D F x − x‖_∞ / ‖x‖_∞ (0 when x = 0); `work` is scratch of x's shape.
 double relative_residual(const DenseMatrix& F, const Columns& d, const Columns& c, const Columns& x,
                          Columns& work, int threads);
+
+/// Eigen's LU of M, which cannot be stopped part-way (a minute at N = 10⁴): it runs on a thread of
+/// its own while the caller polls current_cancellation(). When a stop is asked, Cancelled is
+/// thrown at once and the abandoned thread finishes on data only it holds, then ends.
+std::shared_ptr<const Eigen::PartialPivLU<DenseMatrix>> interruptible_lu(DenseMatrix M);
 
 /// Throws Error unless F is n×n with n areas and n patch properties.
 void check_sizes(const FormFactors& ff, std::size_t properties);

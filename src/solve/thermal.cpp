@@ -231,8 +231,8 @@ DenseMatrix total_exchange_factors(const DenseMatrix& F, const std::vector<doubl
     // F (I − R F)⁻¹ = (I − F R)⁻¹ F with R = diag(1 − ε): one LU, N right-hand sides.
     DenseMatrix M = -(F * (Eigen::VectorXd::Ones(n) - eps).asDiagonal());
     M.diagonal().array() += 1.0;
-    Eigen::PartialPivLU<DenseMatrix> lu(M);
-    DenseMatrix G = lu.solve(F);
+    const auto lu = detail::interruptible_lu(std::move(M));
+    DenseMatrix G = lu->solve(F);
     if (!G.allFinite()) throw Error("exchange factors: I - F diag(1 - eps) is singular");
     return eps.asDiagonal() * G * eps.asDiagonal();
 }

@@ -23,6 +23,8 @@
 /// starts K times anyway takes its rank from the launcher's environment: rank 0 does all the
 /// work alone and the others return from serve() at once.
 
+#include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -46,6 +48,24 @@ class Session {
 
     int rank() const;
     int size() const;
+};
+
+/// For a program that owns MPI (Python with mpi4py): the calls below run over the ranks of the
+/// communicator whose Fortran handle is `fortran_handle` (mpi4py: `comm.py2f()`) until the
+/// scope ends, then over what they ran on before. Every rank of the communicator opens one;
+/// rank 0 makes the calls, the others serve(); the end of rank 0's scope releases them (as
+/// finish()). MPI must be initialised and not finalised (Error otherwise; Error also when the
+/// library was built without MPI).
+class Communicator {
+  public:
+    explicit Communicator(std::int64_t fortran_handle);
+    ~Communicator();
+    Communicator(const Communicator&) = delete;
+    Communicator& operator=(const Communicator&) = delete;
+
+  private:
+    struct Saved;
+    std::unique_ptr<Saved> saved_;
 };
 
 /// This process's rank (0 without MPI) and the number of ranks (1 without MPI).

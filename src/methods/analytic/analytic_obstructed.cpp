@@ -17,6 +17,7 @@
 
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
+#include "formfactor/core/phase.h"
 #include "formfactor/core/progress.h"
 #include "formfactor/matrix/memory.h"
 #include "methods/analytic/analytic_method.h"
@@ -164,8 +165,12 @@ struct PairOutput {
 class Classifier {
   public:
     Classifier(const std::vector<ClusterTree>& trees, const BlockerSet& blockers, double eps,
-               bool record_visible = false)
-        : trees_(trees), blockers_(blockers), eps_(eps), record_visible_(record_visible) {}
+               const CancellationFlag& cancel, bool record_visible = false)
+        : trees_(trees),
+          blockers_(blockers),
+          eps_(eps),
+          cancel_(cancel),
+          record_visible_(record_visible) {}
 
     void surface_pair(int ta, int tb, PairOutput& out) {
         pool_.clear();
@@ -186,6 +191,7 @@ class Classifier {
     const std::vector<ClusterTree>& trees_;
     const BlockerSet& blockers_;
     double eps_;
+    const CancellationFlag& cancel_;
     bool record_visible_ = false;
     std::vector<int> pool_, kept_;
 
@@ -195,6 +201,8 @@ class Classifier {
         const ClusterTree& TB = trees_[static_cast<std::size_t>(tb)];
         const auto& A = TA.nodes[static_cast<std::size_t>(a)];
         const auto& B = TB.nodes[static_cast<std::size_t>(b)];
+        // One pair of large surfaces (a city's ground and a facade) is seconds of node pairs.
+        cancel_.throw_if_requested();
         ++out.node_pairs;
         Shaft sh;
         sh.build(A.hull.data(), static_cast<int>(A.hull.size()), TA.normal, B.hull.data(),
@@ -270,6 +278,7 @@ void prepare_obstructions(const MethodContext& ctx, bool record_visible, Obstruc
     const Scene& scene = ctx.scene;
     const MethodOptions& options = ctx.options;
     const auto t_start = Clock::now();
+    announce_phase("analytic setup");
     const std::size_t n = scene.patches.size();
     Bounds3 box = scene.bounds();
     for (const Patch& p : scene.patches)
@@ -367,8 +376,10 @@ void prepare_obstructions(const MethodContext& ctx, bool record_visible, Obstruc
             spairs.push_back({static_cast<int>(a), static_cast<int>(b)});
     std::vector<PairOutput>& outputs = S.outputs;
     outputs.resize(spairs.size());
+    announce_phase("analytic classification");
+    const CancellationFlag& cancel = current_cancellation();
     parallel_for(spairs.size(), options.threads, [&](std::size_t k) {
-        Classifier c(trees, blockers, eps, record_visible);
+        Classifier c(trees, blockers, eps, cancel, record_visible);
         c.surface_pair(spairs[k][0], spairs[k][1], outputs[k]);
     });
 
@@ -562,6 +573,7 @@ void partly_hidden_pass(std::size_t count, const MethodContext& ctx, double tol,
     for (std::size_t r = 0; r < stride; ++r)
         for (std::size_t k = r; k < count; k += stride) order.push_back(k);
     const std::size_t sampled = (count + stride - 1) / stride;
+    announce_phase("analytic partly hidden pairs");
     Progress progress("analytic (obstructed)", count, ctx.progress);
     const auto t0 = Clock::now();
     parallel_for(sampled, options.threads, [&](std::size_t j) {
@@ -721,7 +733,11 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
                 pairs, partial_pairs, format_bytes(need), format_bytes(available)));
     }
     std::vector<std::vector<std::int32_t>> cols(n);
+    // One thread over every visible pair of a city (10⁸ of them): a signal must not wait.
+    const CancellationFlag& cancel = current_cancellation();
+    announce_phase("analytic pair lists");
     for (const PairOutput& o : S.outputs) {
+        cancel.throw_if_requested();
         for (const NodePair& np : o.visible)
             for_each_patch_pair(trees, np, [&](std::size_t i, std::size_t j) {
                 const std::size_t a = std::min(i, j), c = std::max(i, j);
@@ -745,6 +761,7 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
     std::vector<const Polygon*> polys(n);
     for (std::size_t p = 0; p < n; ++p) polys[p] = &scene.patches[p].polygon;
     std::vector<std::vector<double>> upper;
+    announce_phase("analytic visible pairs");
     Progress unobs_progress("analytic (visible pairs)", n, ctx.progress);
     const detail::UnobstructedStats ust = detail::unobstructed_pairs(
         polys, visible_tolerance, options.threads, &unobs_progress, cols, upper, ff.areas);
@@ -791,7 +808,9 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
     const auto t_done = Clock::now();
     // The rows: entries F_ic (c > i) from row i's pairs, F_ia (a < i) from the pairs (a, i),
     // columns ascending, zeros left out.
-    for (std::size_t a = 0; a < n; ++a)
+    announce_phase("analytic rows");
+    for (std::size_t a = 0; a < n; ++a) {
+        cancel.throw_if_requested();
         for (std::size_t k = 0; k < cols[a].size(); ++k) {
             const auto c = static_cast<std::size_t>(cols[a][k]);
             if (!rows.contains(c) || !(lower[a][k] > 0.0)) continue;
@@ -799,6 +818,7 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
             out.indices[row].push_back(static_cast<std::int32_t>(a));
             out.values[row].push_back(lower[a][k]);
         }
+    }
     parallel_for(rows.size(), options.threads, [&](std::size_t row) {
         const std::size_t i = rows.begin + row;
         for (std::size_t k = 0; k < cols[i].size(); ++k) {

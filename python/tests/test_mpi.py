@@ -1,0 +1,44 @@
+"""formfactor under mpirun with mpi4py (comm=): the same F on 1, 2 and 3 ranks."""
+import os
+import shutil
+import subprocess
+import sys
+
+import pytest
+
+import formfactor
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+
+def _mpirun():
+    launcher = shutil.which("mpirun")
+    if launcher is None:
+        pytest.skip("no mpirun")
+    try:
+        import mpi4py  # noqa: F401
+    except ImportError:
+        pytest.skip("no mpi4py")
+    if not formfactor._core.built_with_mpi:
+        pytest.skip("formfactor built without MPI")
+    command = [launcher, "--oversubscribe", "--bind-to", "none"]
+    if os.geteuid() == 0:
+        command.append("--allow-run-as-root")
+    return command
+
+
+@pytest.mark.parametrize("ranks", [2, 3])
+def test_form_factors_over_a_communicator_equal_one_process(ranks):
+    done = subprocess.run(_mpirun() + ["-np", str(ranks), sys.executable,
+                                        os.path.join(HERE, "mpi_compute.py")],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert f"same on {ranks} ranks" in done.stdout
+
+
+def test_comm_with_rows_is_refused():
+    pytest.importorskip("mpi4py")
+    from mpi4py import MPI
+    scene = formfactor.load("room-2")
+    with pytest.raises(formfactor.OptionError, match="rows"):
+        scene.form_factors("hemicube", rows=(0, 2), comm=MPI.COMM_SELF)
