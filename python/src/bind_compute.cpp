@@ -463,27 +463,29 @@ For a row block (``rows=(b, e)``) it holds rows b..e-1 and every column.
         "point_factors",
         [](const PyScene& s, const py::object& points, const py::object& normals,
            const py::object& threads, const py::object& progress) {
-        const std::vector<Vec3> p = as_vec3s(points, "points");
-        const std::vector<Vec3> n = as_vec3s(normals, "normals", p.size());
-        if (n.size() != p.size()) {
-            throw OptionError("normals", fmt::format("must have {} rows (one per point), got {}",
-                                                     p.size(), n.size()));
-        }
-        for (std::size_t k = 0; k < n.size(); ++k)
-            if (n[k].norm() == 0.0) throw OptionError("normals", fmt::format("row {} is zero", k));
-        PointOptions o;
-        o.positions = p;
-        o.normals = n;
-        o.threads = arg<int>(threads, "threads");
-        PointResult r = run_released(
-            [&](CancellationFlag& flag, ProgressSink* sink) {
-                PointOptions run = o;
-                run.cancel = &flag;
-                run.progress = sink;
-                return compute_point_form_factors(*s.scene, run);
-            },
-            progress);
-        return adopt(std::move(r.F));
+            const std::vector<Vec3> p = as_vec3s(points, "points");
+            const std::vector<Vec3> n = as_vec3s(normals, "normals", p.size());
+            if (n.size() != p.size()) {
+                throw OptionError(
+                    "normals",
+                    fmt::format("must have {} rows (one per point), got {}", p.size(), n.size()));
+            }
+            for (std::size_t k = 0; k < n.size(); ++k)
+                if (n[k].norm() == 0.0)
+                    throw OptionError("normals", fmt::format("row {} is zero", k));
+            PointOptions o;
+            o.positions = p;
+            o.normals = n;
+            o.threads = arg<int>(threads, "threads");
+            PointResult r = run_released(
+                [&](CancellationFlag& flag, ProgressSink* sink) {
+                    PointOptions run = o;
+                    run.cancel = &flag;
+                    run.progress = sink;
+                    return compute_point_form_factors(*s.scene, run);
+                },
+                progress);
+            return adopt(std::move(r.F));
         },
         py::arg("scene"), py::arg("points"), py::arg("normals"), py::arg("threads") = 0,
         py::arg("progress") = py::none());
