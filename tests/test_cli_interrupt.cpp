@@ -33,17 +33,22 @@ struct Interrupted {
     std::vector<std::string> left;  ///< what the working directory holds afterwards
 };
 
-// Runs `formfactor args...` in `work` (stdout and stderr captured in `capture`), sends `sig`
-// after `delay`, and waits for it to end.
-Interrupted interrupt(const TempDir& work, const TempDir& capture,
-                      const std::vector<std::string>& args, int sig,
-                      std::chrono::milliseconds delay) {
+// Starts `formfactor args...` in `work`, its stdout and stderr in `capture`'s stdout.txt and
+// stderr.txt, with `extra_env` added to this process's environment.
+pid_t start(const TempDir& work, const TempDir& capture, const std::vector<std::string>& args,
+            const std::vector<std::string>& extra_env = {}) {
     const std::string out = capture.file("stdout.txt"), err = capture.file("stderr.txt");
     std::vector<std::string> argv_s = {FF_CLI_PATH};
     argv_s.insert(argv_s.end(), args.begin(), args.end());
     std::vector<char*> argv;
     for (std::string& a : argv_s) argv.push_back(a.data());
     argv.push_back(nullptr);
+    std::vector<std::string> env_s;
+    for (char** e = environ; *e; ++e) env_s.emplace_back(*e);
+    env_s.insert(env_s.end(), extra_env.begin(), extra_env.end());
+    std::vector<char*> envp;
+    for (std::string& e : env_s) envp.push_back(e.data());
+    envp.push_back(nullptr);
     const std::string dir = work.path().string();
 
     const pid_t pid = ::fork();
@@ -59,24 +64,43 @@ Interrupted interrupt(const TempDir& work, const TempDir& capture,
         ::dup2(in, 0);
         ::signal(SIGINT, SIG_DFL);
         ::signal(SIGTERM, SIG_DFL);
-        ::execv(argv[0], argv.data());
+        ::execve(argv[0], argv.data(), envp.data());
         ::_exit(127);
     }
-    std::this_thread::sleep_for(delay);
-    Interrupted r;
+    return pid;
+}
+
+// Sends `sig` to the running process `pid` (started in `work`, stderr in `capture`), calls
+// at_signal() right after, and waits for its end: its status, the time it took to end, its
+// stderr and what `work` holds afterwards.
+template <class AtSignal>
+Interrupted signal_and_wait(pid_t pid, int sig, const TempDir& work, const TempDir& capture,
+                            AtSignal&& at_signal) {
     int status = 0;
-    // The process must still be computing when the signal comes, else the test proves nothing.
+    // The process must still be running when the signal comes, else the test proves nothing.
     REQUIRE(::waitpid(pid, &status, WNOHANG) == 0);
     const auto sent = std::chrono::steady_clock::now();
     REQUIRE(::kill(pid, sig) == 0);
+    at_signal();
     REQUIRE(::waitpid(pid, &status, 0) == pid);
+    Interrupted r;
     r.seconds_after =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - sent).count();
     r.status = status;
-    r.err = read_text(err);
+    r.err = read_text(capture.file("stderr.txt"));
     for (const auto& entry : std::filesystem::directory_iterator(work.path()))
         r.left.push_back(entry.path().filename().string());
     return r;
+}
+
+// Runs `formfactor args...` in `work` (stdout and stderr captured in `capture`), sends `sig`
+// after `delay`, and waits for it to end.
+Interrupted interrupt(const TempDir& work, const TempDir& capture,
+                      const std::vector<std::string>& args, int sig,
+                      std::chrono::milliseconds delay) {
+    const pid_t pid = start(work, capture, args);
+    std::this_thread::sleep_for(delay);
+    return signal_and_wait(pid, sig, work, capture, [] {});
 }
 
 // The phase a run announced last on stderr (FORMFACTOR_TEST_PHASES), "" before the first.
@@ -98,36 +122,8 @@ struct PhaseInterrupted : Interrupted {
 PhaseInterrupted interrupt_in_phase(const TempDir& work, const TempDir& capture,
                                     const std::vector<std::string>& args, const std::string& phase,
                                     std::chrono::milliseconds into) {
-    const std::string out = capture.file("stdout.txt"), err = capture.file("stderr.txt");
-    std::vector<std::string> argv_s = {FF_CLI_PATH};
-    argv_s.insert(argv_s.end(), args.begin(), args.end());
-    std::vector<char*> argv;
-    for (std::string& a : argv_s) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    std::vector<std::string> env_s;
-    for (char** e = environ; *e; ++e) env_s.emplace_back(*e);
-    env_s.emplace_back("FORMFACTOR_TEST_PHASES=1");
-    std::vector<char*> envp;
-    for (std::string& e : env_s) envp.push_back(e.data());
-    envp.push_back(nullptr);
-    const std::string dir = work.path().string();
-
-    const pid_t pid = ::fork();
-    REQUIRE(pid >= 0);
-    if (pid == 0) {
-        const int o = ::open(out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        const int e = ::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        const int in = ::open("/dev/null", O_RDONLY);
-        if (o < 0 || e < 0 || in < 0 || ::chdir(dir.c_str()) != 0) ::_exit(126);
-        ::dup2(o, 1);
-        ::dup2(e, 2);
-        ::dup2(in, 0);
-        ::signal(SIGINT, SIG_DFL);
-        ::signal(SIGTERM, SIG_DFL);
-        ::execve(argv[0], argv.data(), envp.data());
-        ::_exit(127);
-    }
-    PhaseInterrupted r;
+    const std::string err = capture.file("stderr.txt");
+    const pid_t pid = start(work, capture, args, {"FORMFACTOR_TEST_PHASES=1"});
     int status = 0;
     // Generous: the phases before it may take long on a loaded machine.
     const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(300);
@@ -147,18 +143,11 @@ PhaseInterrupted interrupt_in_phase(const TempDir& work, const TempDir& capture,
         FAIL("phase '" << phase << "' never announced; stderr: " << read_text(err));
     }
     std::this_thread::sleep_for(into);
-    // The process must still be in the phase when the signal comes, else the test proves nothing.
-    REQUIRE(::waitpid(pid, &status, WNOHANG) == 0);
-    const auto sent = std::chrono::steady_clock::now();
-    REQUIRE(::kill(pid, SIGTERM) == 0);
-    r.phase_at_signal = current_phase(read_text(err));
-    REQUIRE(::waitpid(pid, &status, 0) == pid);
-    r.seconds_after =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - sent).count();
-    r.status = status;
-    r.err = read_text(err);
-    for (const auto& entry : std::filesystem::directory_iterator(work.path()))
-        r.left.push_back(entry.path().filename().string());
+    std::string at_signal;
+    PhaseInterrupted r;
+    static_cast<Interrupted&>(r) = signal_and_wait(
+        pid, SIGTERM, work, capture, [&] { at_signal = current_phase(read_text(err)); });
+    r.phase_at_signal = at_signal;
     return r;
 }
 

@@ -53,6 +53,18 @@ FormFactors analytic(const Scene& s) {
     return run_method(*m, s, o);
 }
 
+// A zone is an enclosure: every row sums to 1 and A_i F_ij = A_j F_ji.
+void check_enclosure_rows(const FormFactors& f) {
+    for (Eigen::Index i = 0; i < f.F.rows(); ++i) {
+        CHECK(std::abs(f.F.row(i).sum() - 1.0) < 1e-9);
+        for (Eigen::Index j = 0; j < i; ++j) {
+            const double ai = f.areas[static_cast<std::size_t>(i)];
+            const double aj = f.areas[static_cast<std::size_t>(j)];
+            CHECK(std::abs(ai * f.F(i, j) - aj * f.F(j, i)) <= 1e-10 * std::max(ai, aj));
+        }
+    }
+}
+
 }  // namespace
 
 TEST_CASE("energyplus: EnergyPlus's one-zone example reads as 7 surfaces, the window a hole") {
@@ -78,14 +90,7 @@ TEST_CASE("energyplus: the zone's rows sum to 1 and reciprocity holds, per patch
     Scene s = load_scene(data(kIdf));
     subdivide(s, SubdivisionOptions{2, 0.0});
     const FormFactors f = analytic(s);
-    for (Eigen::Index i = 0; i < f.F.rows(); ++i) {
-        CHECK(std::abs(f.F.row(i).sum() - 1.0) < 1e-9);
-        for (Eigen::Index j = 0; j < i; ++j) {
-            const double ai = f.areas[static_cast<std::size_t>(i)];
-            const double aj = f.areas[static_cast<std::size_t>(j)];
-            CHECK(std::abs(ai * f.F(i, j) - aj * f.F(j, i)) <= 1e-10 * std::max(ai, aj));
-        }
-    }
+    check_enclosure_rows(f);
     const FormFactors g = aggregate_per_surface(s, f);
     REQUIRE(g.size() == 7);
     for (Eigen::Index i = 0; i < 7; ++i) CHECK(std::abs(g.F.row(i).sum() - 1.0) < 1e-9);
@@ -259,14 +264,7 @@ TEST_CASE("energyplus: NREL's 5ZoneAirCooled: six closed zones, rows sum to 1, r
         CHECK(s.surfaces.size() == surfaces[z]);
         for (const Surface& f : s.surfaces) CHECK(f.name.find("Overhang") == std::string::npos);
         const FormFactors f = analytic(s);
-        for (Eigen::Index i = 0; i < f.F.rows(); ++i) {
-            CHECK(std::abs(f.F.row(i).sum() - 1.0) < 1e-9);
-            for (Eigen::Index j = 0; j < i; ++j) {
-                const double ai = f.areas[static_cast<std::size_t>(i)];
-                const double aj = f.areas[static_cast<std::size_t>(j)];
-                CHECK(std::abs(ai * f.F(i, j) - aj * f.F(j, i)) <= 1e-10 * std::max(ai, aj));
-            }
-        }
+        check_enclosure_rows(f);
     }
     // The south room: its window and glass door are holes of FRONT-1, which keeps what is left
     // of 30.5 × 2.4.

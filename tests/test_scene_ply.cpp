@@ -41,6 +41,22 @@ std::string error_of(const TempDir& dir, const std::string& name, const std::str
     return input_error([&] { load_scene(dir.file(name)); });
 }
 
+/// Edits of a file's text ({from, to}, its first `from` replaced by `to`) and the message each
+/// must give after the file's path.
+using Edits = std::vector<std::pair<std::pair<std::string, std::string>, std::string>>;
+
+// Every edit of `text`, written as `name` in `dir`, fails to load with its message.
+void check_edits(const TempDir& dir, const std::string& name, const std::string& text,
+                 const Edits& edits) {
+    for (const auto& e : edits) {
+        // Not a structured binding: INFO captures it in a lambda, which clang 14 refuses.
+        const auto& change = e.first;
+        INFO(change.first << " -> " << change.second);
+        CHECK(error_of(dir, name, replaced(text, change.first, change.second)) ==
+              dir.file(name) + e.second);
+    }
+}
+
 }  // namespace
 
 TEST_CASE("ply: a header without end_header is an input error, not an endless read") {
@@ -67,9 +83,8 @@ TEST_CASE("ply: a header without end_header is an input error, not an endless re
 
 TEST_CASE("ply: every line of the header is checked against the grammar") {
     const TempDir dir;
-    const std::string file = dir.file("h.ply");
     const std::string box = ascii_box();
-    const std::vector<std::pair<std::pair<std::string, std::string>, std::string>> cases = {
+    const Edits cases = {
         {{"ply\n", "plx\n"}, ":1: not a PLY file: the first line is not 'ply'"},
         {{"format ascii 1.0", "format ascii"},
          ":2: expected 'format ascii 1.0' (or binary_little_endian, binary_big_endian)"},
@@ -100,21 +115,14 @@ TEST_CASE("ply: every line of the header is checked against the grammar") {
          ":4: a property before any element"},
         {{"end_header", "\nend_header"}, ":10: empty line in the header"},
     };
-    for (const auto& c : cases) {
-        // Not a structured binding: INFO captures it in a lambda, which clang 14 refuses.
-        const auto& change = c.first;
-        const auto& message = c.second;
-        INFO(change.first << " -> " << change.second);
-        CHECK(error_of(dir, "h.ply", replaced(box, change.first, change.second)) == file + message);
-    }
+    check_edits(dir, "h.ply", box, cases);
 }
 
 TEST_CASE("ply: ASCII data must hold what the header declares, one instance per line") {
     const TempDir dir;
-    const std::string file = dir.file("d.ply");
     const std::string box = ascii_box();
     // Lines 11-18 are the vertices, 19-24 the faces.
-    const std::vector<std::pair<std::pair<std::string, std::string>, std::string>> cases = {
+    const Edits cases = {
         {{"\n1 1 0\n", "\n1 1\n"},
          ":13: vertex 3 of 8: 2 words, too few for its properties "
          "(missing 'z')"},
@@ -135,13 +143,7 @@ TEST_CASE("ply: ASCII data must hold what the header declares, one instance per 
         {{"element face 6", "element face 7"},
          ": the data ends before face 7 of 7 (the header declares 8 vertex, 7 face)"},
     };
-    for (const auto& c : cases) {
-        // Not a structured binding: INFO captures it in a lambda, which clang 14 refuses.
-        const auto& change = c.first;
-        const auto& message = c.second;
-        INFO(change.first << " -> " << change.second);
-        CHECK(error_of(dir, "d.ply", replaced(box, change.first, change.second)) == file + message);
-    }
+    check_edits(dir, "d.ply", box, cases);
 }
 
 TEST_CASE("ply: binary data must be as long as the header declares") {
