@@ -766,6 +766,17 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
         if (sh.facing_away()) return;
         const ShaftClass cls = classify_shaft(sh, blockers, cand, n, kept, false);
         if (cls == ShaftClass::kVisible) return;
+        const double du = c.u1 - c.u0, dv = c.v1 - c.v0;
+        const double scale = du * dv * inv_area;
+        // The cell's share of the target: its part of the sender's area (the 2 × 2 rule
+        // integrates the bilinear and the collapsed map's Jacobians exactly), so that the cells
+        // that end by agreement of orders 2 and 3 never add up to more than the target.
+        double frac = 0.0;
+        for (std::size_t i = 0; i < kLowOrder; ++i)
+            for (std::size_t j = 0; j < kLowOrder; ++j)
+                frac += rules.g2.w[i] * rules.g2.w[j] *
+                        m.jacobian(c.u0 + du * rules.g2.x[i], c.v0 + dv * rules.g2.x[j]);
+        frac *= scale;
         // Hidden: the cell's whole unobstructed part. F(x → r) is smooth on the cell: orders 2
         // and 3 of it agreeing kAgreement times better than the cell's share of the target (as
         // for a partly hidden cell below) give its integral for 13 evaluations of Lambert's
@@ -773,9 +784,7 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
         // more.
         if (cls == ShaftClass::kHidden) {
             ++out.closed_forms;
-            const double du = c.u1 - c.u0, dv = c.v1 - c.v0;
-            const double scale = du * dv * inv_area;
-            double q2 = 0.0, q3 = 0.0, frac = 0.0;
+            double q2 = 0.0, q3 = 0.0;
             auto unobstructed_rule = [&](const GaussRule& g, int order, double& q) {
                 for (int i = 0; i < order; ++i)
                     for (int j = 0; j < order; ++j) {
@@ -783,7 +792,6 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
                         const double v = c.v0 + dv * g.x[static_cast<std::size_t>(j)];
                         const double w = g.w[static_cast<std::size_t>(i)] *
                                          g.w[static_cast<std::size_t>(j)] * m.jacobian(u, v);
-                        if (order == kLowOrder) frac += w;
                         q += w * evaluate_point(rc, m.at(u, v), ns, blockers, nullptr, 0, eps, true)
                                      .unobstructed;
                         ++out.points;
@@ -792,7 +800,7 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
             unobstructed_rule(rules.g2, kLowOrder, q2);
             unobstructed_rule(rules.g3, kMidOrder, q3);
             const double e23 = std::abs(q3 - q2) * scale;
-            if (kAgreement * e23 <= target * frac * scale) {
+            if (kAgreement * e23 <= target * frac) {
                 c.value = q3 * scale;
                 c.error = kAgreement * e23;
                 return;
@@ -811,7 +819,6 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
             for (int k : kept)
                 if ((blockers.piece(k).plane.signed_distance(mid) > 0.0) == (pass == 0))
                     cell_cand.push_back(k);
-        const double du = c.u1 - c.u0, dv = c.v1 - c.v0;
         double q2 = 0.0, q3 = 0.0, u3 = 0.0;
         bool any_hidden = false, any_visible = false;
         auto f = [&](double u, double v, bool need_unobs) {
@@ -826,7 +833,6 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
         // the two differences its error estimate. Two low orders alone can agree by chance while
         // both are off (seen: orders 2 and 3 within 4e-8 of each other and 1.75e-6 from the
         // integral, which order 4 gets to 1.2e-7); three rules must all agree.
-        const double scale = du * dv * inv_area;
         double q4 = 0.0;
         auto rule = [&](const GaussRule& g, int order, double& q) {
             for (int i = 0; i < order; ++i)
@@ -848,15 +854,6 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
         // order 3 is taken with kAgreement × their difference as its error, without order 4's
         // 16 points. Where the target is loose (--tolerance 1e-4) most smooth pieces end here.
         const double e23 = std::abs(q3 - q2) * scale;
-        // The cell's share of the target: its part of the sender's area (the 2 × 2 rule
-        // integrates the bilinear and the collapsed map's Jacobians exactly), so that the cells
-        // that end here never add up to more than the target.
-        double frac = 0.0;
-        for (std::size_t i = 0; i < kLowOrder; ++i)
-            for (std::size_t j = 0; j < kLowOrder; ++j)
-                frac += rules.g2.w[i] * rules.g2.w[j] *
-                        m.jacobian(c.u0 + du * rules.g2.x[i], c.v0 + dv * rules.g2.x[j]);
-        frac *= scale;
         // Only where the points see both shadow and light: samples that all fall in the umbra
         // (or all in the light) of a partly hidden cell agree whatever lies between them.
         if (any_hidden && any_visible && kAgreement * e23 <= target * frac) {
