@@ -235,6 +235,9 @@ TEST_CASE("energyplus: bad models name the file and line, or the epJSON object")
           }) ==
           "m.idf:40: GlobalGeometryRules: Vertex Entry Direction 'Sideways' is not one of "
           "Counterclockwise, Clockwise");
+    CHECK(input_error([&] { load_energyplus_text("Version, 99000000.5;\n" + text, "m.idf"); }) ==
+          "m.idf:1: Version: version '99000000.5' is not an EnergyPlus version number "
+          "(major.minor, e.g. 9.6 or 23.2)");
     const std::string json = read_text(data(kEpJson));
     CHECK(input_error([&] {
               load_energyplus_text(replaced(json, "\"vertex_y_coordinate\": 0.0", "\"q\": 0.0"),

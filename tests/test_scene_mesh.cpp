@@ -151,6 +151,19 @@ TEST_CASE("mesh: bad meshes are input errors naming the file, mesh and face") {
     CHECK(input_error([&] { load_scene(dir.file("index.off")); }) ==
           dir.file("index.off") +
               ": bad mesh (Open Asset Import: OFF: Vertex index is out of range)");
+    // Counts that the file cannot hold are refused before anything is allocated for them.
+    write_text(dir.file("counts.off"), "OFF\n# a comment\n3 155555555558\n0 0 0\n1 0 0\n");
+    CHECK(input_error([&] { load_scene(dir.file("counts.off")); }) ==
+          dir.file("counts.off") +
+              ":3: the count of faces '155555555558' is not a whole number below 2^31");
+    write_text(dir.file("short.off"), "OFF\n3 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+    CHECK(input_error([&] { load_scene(dir.file("short.off")); }) ==
+          dir.file("short.off") +
+              ":2: the header declares 3 vertices and 2 faces, but only 4 lines of data follow");
+    write_text(dir.file("nocounts.off"), "OFF\n");
+    CHECK(input_error([&] { load_scene(dir.file("nocounts.off")); }) ==
+          dir.file("nocounts.off") +
+              ": not an OFF file: no counts of vertices and faces in its header");
 }
 
 TEST_CASE("mesh: the CLI computes on an STL and refuses a broken one with one message") {

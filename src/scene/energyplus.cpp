@@ -377,13 +377,19 @@ class ModelBuilder {
 
     void read_version(const EnergyPlusObject& o) {
         const std::string v = text_field(o, 0, "version_identifier");
-        int major = 0, minor = 0;
+        long major = 0, minor = 0;
         char dot = 0;
         std::istringstream in(v);
         if (in >> major) {
             if (in >> dot >> minor) {
             }
-            version_ = major * 100 + minor;
+            // EnergyPlus numbers its versions 1.0 … 25.x; anything else is not a version.
+            if (major < 1 || major > 999 || minor < 0 || minor > 99)
+                throw InputError(path_, line_of(o, 0),
+                                 fmt::format("{}: version '{}' is not an EnergyPlus version "
+                                             "number (major.minor, e.g. 9.6 or 23.2)",
+                                             o.type_as_written, v));
+            version_ = static_cast<int>(major * 100 + minor);
         }
     }
 
