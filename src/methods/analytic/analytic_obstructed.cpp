@@ -404,7 +404,7 @@ void for_each_patch_pair(const std::vector<ClusterTree>& trees, const NodePair& 
 // What the integration of one partly hidden pair did (small: room n = 32 has 800k such pairs).
 struct PairStats {
     double error = 0;
-    std::size_t points = 0, cells = 0, closed_forms = 0;
+    std::size_t points = 0, cells = 0, closed_forms = 0, proven_hidden = 0;
     int level = 0, capped = 0;
     bool integrated = false, changed = false, bracketed = false;
 };
@@ -415,11 +415,13 @@ constexpr int kLevels = 16;
 struct PartialStats {
     std::array<std::size_t, kLevels + 1> levels{};
     double max_error = 0;
-    std::size_t points = 0, cells = 0, closed_forms = 0, capped = 0, changed = 0, bracketed = 0;
+    std::size_t points = 0, cells = 0, closed_forms = 0, proven_hidden = 0, capped = 0, changed = 0,
+                bracketed = 0;
     void add(const PairStats& p) {
         points += p.points;
         cells += p.cells;
         closed_forms += p.closed_forms;
+        proven_hidden += p.proven_hidden;
         capped += static_cast<std::size_t>(p.capped);
         bracketed += p.bracketed ? 1 : 0;
         if (!p.integrated) return;
@@ -433,6 +435,7 @@ struct PartialStats {
         points += o.points;
         cells += o.cells;
         closed_forms += o.closed_forms;
+        proven_hidden += o.proven_hidden;
         capped += o.capped;
         changed += o.changed;
         bracketed += o.bracketed;
@@ -509,6 +512,7 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
         st.points += h.points;
         st.cells += h.cells;
         st.closed_forms += h.closed_forms;
+        st.proven_hidden += h.proven_hidden;
         if (h.capped) ++st.capped;
     }
     v.f = std::clamp(unobs - hidden_sum, 0.0, unobs);
@@ -540,6 +544,7 @@ void report_obstructions(const Obstructions& S, const PartialStats& total, std::
     o["cells"] = total.cells;
     o["point_evaluations"] = total.points;
     o["umbra_cells"] = total.closed_forms;
+    o["umbra_cells_proven_by_corners"] = total.proven_hidden;
     o["capped_pairs"] = total.capped;
     o["partly_hidden_pairs_bracketed"] = total.bracketed;
     o["tolerance"] = tol;

@@ -238,50 +238,14 @@ void merge_solid_shadows(std::vector<Poly2>& shadows, std::vector<int>& solid_of
     solid_of.swap(out_solid);
 }
 
-// F(x → part of the receiver hidden by the candidate pieces); see point_hidden().
-PointResult evaluate_point(const Receiver& rc, const Vec3& x, const Vec3& nx,
-                           const BlockerSet& blockers, const int* cand, int count, double eps,
-                           bool want_unobstructed) {
-    PointResult res;
-    const double h = rc.n.dot(x) - rc.d;
-    if (!(h > 0.0)) return res;
-    Poly3 rp;
-    clip3(rc.poly, nx, nx.dot(x), rp);
-    if (rp.n < 3) return res;
-    const Vec3 xr = x - rc.o;
-    const Vec3 xl(rc.u.dot(xr), rc.v.dot(xr), h);
-    const Vec3 nl(nx.dot(rc.u), nx.dot(rc.v), nx.dot(rc.n));
-    // The part of r in front of x, in r's plane coordinates.
-    Poly2 whole;
-    whole.n = rp.n;
-    for (int k = 0; k < rp.n; ++k) {
-        const Vec3 w = rp.v[static_cast<std::size_t>(k)] - rc.o;
-        whole.x[static_cast<std::size_t>(k)] = rc.u.dot(w);
-        whole.y[static_cast<std::size_t>(k)] = rc.v.dot(w);
-    }
-    if (want_unobstructed) {
-        res.unobstructed = lambert2(whole, xl, nl);
-    }
-    if (count == 0) return res;
-    // A convex solid that hides every segment from x to the receiver's part in front of x (the
-    // segments to its vertices decide, BlockerSet::solid_hides()): all of it is hidden, and no
-    // piece need be projected. Most points of a cell between buildings see nothing of the
-    // receiver, each from behind some building, though no one building hides the whole cell.
-    {
-        int tried[4] = {-1, -1, -1, -1};
-        for (int c = 0; c < count; ++c) {
-            const int so = blockers.piece(cand[c]).solid;
-            if (so < 0 || std::find(std::begin(tried), std::end(tried), so) != std::end(tried))
-                continue;
-            std::rotate(std::begin(tried), std::begin(tried) + 3, std::end(tried));
-            tried[0] = so;
-            if (blockers.solid_hides(so, &x, 1, rp.v.data(), rp.n)) {
-                res.hidden = want_unobstructed ? res.unobstructed : lambert2(whole, xl, nl);
-                res.all_hidden = true;
-                return res;
-            }
-        }
-    }
+// The shadows that the candidate pieces cast from x (at height h above the receiver's plane) on
+// rp, the receiver's part in front of x (`whole` in the receiver's plane coordinates): convex
+// polygons in those coordinates, each a convex solid's whole shadow when x culls its back faces
+// (merge_solid_shadows()), else one piece's. solid_of[k]: the solid of shadows[k], or −2 − the
+// piece's index for a piece's own.
+void cast_shadows(const Receiver& rc, const Vec3& x, double h, const Poly3& rp, const Poly2& whole,
+                  const BlockerSet& blockers, const int* cand, int count, double eps,
+                  std::vector<Poly2>& shadows, std::vector<int>& solid_of) {
     // Inward side planes of the pyramid from x over the visible receiver.
     std::array<Vec3, kCap> side;
     std::array<double, kCap> side_off;
@@ -296,11 +260,6 @@ PointResult evaluate_point(const Receiver& rc, const Vec3& x, const Vec3& nx,
         side_off[static_cast<std::size_t>(sides)] = side[static_cast<std::size_t>(sides)].dot(x);
         ++sides;
     }
-    thread_local std::vector<Poly2> shadows, frags, next;
-    // Per shadow: the convex solid whose front face cast it, when x culls that solid's back
-    // faces (−1 otherwise). The front faces of a convex solid seen from outside do not overlap,
-    // so shadows of one such solid need not be subtracted from each other.
-    thread_local std::vector<int> solid_of;
     thread_local std::vector<SolidPoint> raw;
     // The front faces projected unclipped, and per piece the evaluation that marked it so.
     thread_local std::vector<int> raw_faces;
@@ -377,7 +336,7 @@ PointResult evaluate_point(const Receiver& rc, const Vec3& x, const Vec3& nx,
         const Poly3& b = *bp;
         if (b.n < 3) continue;
         shadows.emplace_back();
-        solid_of.push_back(culled_solid ? pc.solid : -1);
+        solid_of.push_back(culled_solid ? pc.solid : -2 - pk);
         Poly2& q = shadows.back();
         q.n = b.n;
         for (int k = 0; k < b.n; ++k) {
@@ -425,6 +384,66 @@ PointResult evaluate_point(const Receiver& rc, const Vec3& x, const Vec3& nx,
         }
     }
     merge_solid_shadows(shadows, solid_of, raw, whole);
+}
+
+// x's height h above the receiver's plane, the receiver's part rp in front of x's plane (normal
+// nx) and that part in the receiver's plane coordinates; false when x sees none of it.
+bool receiver_in_front(const Receiver& rc, const Vec3& x, const Vec3& nx, double& h, Poly3& rp,
+                       Poly2& whole) {
+    h = rc.n.dot(x) - rc.d;
+    if (!(h > 0.0)) return false;
+    clip3(rc.poly, nx, nx.dot(x), rp);
+    if (rp.n < 3) return false;
+    whole.n = rp.n;
+    for (int k = 0; k < rp.n; ++k) {
+        const Vec3 w = rp.v[static_cast<std::size_t>(k)] - rc.o;
+        whole.x[static_cast<std::size_t>(k)] = rc.u.dot(w);
+        whole.y[static_cast<std::size_t>(k)] = rc.v.dot(w);
+    }
+    return true;
+}
+
+// F(x → part of the receiver hidden by the candidate pieces); see point_hidden().
+PointResult evaluate_point(const Receiver& rc, const Vec3& x, const Vec3& nx,
+                           const BlockerSet& blockers, const int* cand, int count, double eps,
+                           bool want_unobstructed) {
+    PointResult res;
+    double h = 0.0;
+    Poly3 rp;
+    Poly2 whole;
+    if (!receiver_in_front(rc, x, nx, h, rp, whole)) return res;
+    const Vec3 xr = x - rc.o;
+    const Vec3 xl(rc.u.dot(xr), rc.v.dot(xr), h);
+    const Vec3 nl(nx.dot(rc.u), nx.dot(rc.v), nx.dot(rc.n));
+    if (want_unobstructed) {
+        res.unobstructed = lambert2(whole, xl, nl);
+    }
+    if (count == 0) return res;
+    // A convex solid that hides every segment from x to the receiver's part in front of x (the
+    // segments to its vertices decide, BlockerSet::solid_hides()): all of it is hidden, and no
+    // piece need be projected. Most points of a cell between buildings see nothing of the
+    // receiver, each from behind some building, though no one building hides the whole cell.
+    {
+        int tried[4] = {-1, -1, -1, -1};
+        for (int c = 0; c < count; ++c) {
+            const int so = blockers.piece(cand[c]).solid;
+            if (so < 0 || std::find(std::begin(tried), std::end(tried), so) != std::end(tried))
+                continue;
+            std::rotate(std::begin(tried), std::begin(tried) + 3, std::end(tried));
+            tried[0] = so;
+            if (blockers.solid_hides(so, &x, 1, rp.v.data(), rp.n)) {
+                res.hidden = want_unobstructed ? res.unobstructed : lambert2(whole, xl, nl);
+                res.all_hidden = true;
+                return res;
+            }
+        }
+    }
+    thread_local std::vector<Poly2> shadows, frags, next;
+    // Per shadow: the convex solid whose front faces cast it, when x culls that solid's back
+    // faces (else −2 − the piece). The front faces of a convex solid seen from outside do not
+    // overlap, so shadows of one such solid need not be subtracted from each other.
+    thread_local std::vector<int> solid_of;
+    cast_shadows(rc, x, h, rp, whole, blockers, cand, count, eps, shadows, solid_of);
     if (shadows.empty()) return res;
     // Fragments below 1e-14 of the receiver's size² are rounding slivers of the subtraction.
     const double tiny_area = 1e-14 * (rp.v[0] - rp.v[2]).squaredNorm();
@@ -530,6 +549,101 @@ PointResult evaluate_point(const Receiver& rc, const Vec3& x, const Vec3& nx,
     for (const Poly2& f : frags) seen += lambert2(f, xl, nl);
     res.hidden = std::max(0.0, seen_all - seen);
     return res;
+}
+
+// True when no point of the convex cell poly[0, np) (in the sender's plane, normal nx) sees any
+// of the receiver: every point of the receiver's part in front lies in the umbra of one
+// occluder, a convex solid or a piece alone. An occluder's umbra, the points y hidden by it from
+// every point of the cell, is the intersection of its shadows from the cell's corners: the
+// points x whose segment to a fixed y meets a convex set form a convex set (see the solid test
+// of classify_shaft()), so y hidden from every corner is hidden from the whole cell. The umbrae
+// of different occluders cover the receiver together where the shadows of one sample point do
+// not prove it for the next: a gap of light between two shadows opens across the cell (an
+// edge-edge-edge event) only where the umbrae leave one. Occluders whose shadow is not one
+// polygon at every corner (a solid that a corner does not cull, a silhouette fanned into
+// several polygons) are left out, which only makes the test fail more often.
+bool cell_hidden(const Receiver& rc, const Vec3* poly, int np, const Vec3& nx,
+                 const BlockerSet& blockers, const int* cand, int count, double eps) {
+    if (count == 0 || np < 3 || np > 4) return false;
+    thread_local std::array<std::vector<Poly2>, 4> shadows;
+    thread_local std::array<std::vector<int>, 4> ids;
+    Poly2 whole;
+    for (int c = 0; c < np; ++c) {
+        double h = 0.0;
+        Poly3 rp;
+        Poly2 w;
+        if (!receiver_in_front(rc, poly[c], nx, h, rp, w)) return false;
+        if (c == 0) whole = w;
+        cast_shadows(rc, poly[c], h, rp, w, blockers, cand, count, eps,
+                     shadows[static_cast<std::size_t>(c)], ids[static_cast<std::size_t>(c)]);
+        if (shadows[static_cast<std::size_t>(c)].empty()) return false;
+    }
+    // The index of the one shadow of occluder `id` at corner c, or −1 (none, or several).
+    auto only = [&](int c, int id) {
+        const std::vector<int>& v = ids[static_cast<std::size_t>(c)];
+        int at = -1;
+        for (std::size_t k = 0; k < v.size(); ++k)
+            if (v[k] == id) {
+                if (at >= 0) return -1;
+                at = static_cast<int>(k);
+            }
+        return at;
+    };
+    thread_local std::vector<Poly2> umbrae, frags, next;
+    umbrae.clear();
+    Poly2 buf[2];
+    for (std::size_t k = 0; k < shadows[0].size(); ++k) {
+        const int id = ids[0][k];
+        if (only(0, id) != static_cast<int>(k)) continue;
+        Poly2* cur = &buf[0];
+        Poly2* tmp = &buf[1];
+        copy2(shadows[0][k], *cur);
+        for (int c = 1; c < np && cur->n >= 3; ++c) {
+            const int at = only(c, id);
+            if (at < 0) {
+                cur->n = 0;
+                break;
+            }
+            const Poly2& q = shadows[static_cast<std::size_t>(c)][static_cast<std::size_t>(at)];
+            const double sign = area2(q) > 0.0 ? 1.0 : -1.0;
+            for (int e = 0; e < q.n && cur->n >= 3; ++e) {
+                const auto a = static_cast<std::size_t>(e);
+                const auto b = static_cast<std::size_t>(e + 1 == q.n ? 0 : e + 1);
+                const double ex = q.x[b] - q.x[a], ey = q.y[b] - q.y[a];
+                if (ex == 0.0 && ey == 0.0) continue;
+                clip2(*cur, q.x[a], q.y[a], ex, ey, sign, *tmp);
+                std::swap(cur, tmp);
+            }
+        }
+        if (cur->n < 3) continue;
+        if (area2(*cur) < 0.0) {
+            std::reverse(cur->x.begin(), cur->x.begin() + cur->n);
+            std::reverse(cur->y.begin(), cur->y.begin() + cur->n);
+        }
+        umbrae.emplace_back();
+        copy2(*cur, umbrae.back());
+    }
+    if (umbrae.empty()) return false;
+    // The receiver less every umbra, the largest first; what remains below 1e-12 of the
+    // receiver's area is rounding along the seams.
+    std::sort(umbrae.begin(), umbrae.end(),
+              [](const Poly2& a, const Poly2& b) { return area2(a) > area2(b); });
+    const double left_over = 1e-12 * std::abs(area2(whole));
+    frags.clear();
+    frags.push_back(whole);
+    if (area2(frags[0]) < 0.0) {
+        std::reverse(frags[0].x.begin(), frags[0].x.begin() + frags[0].n);
+        std::reverse(frags[0].y.begin(), frags[0].y.begin() + frags[0].n);
+    }
+    for (const Poly2& u : umbrae) {
+        next.clear();
+        for (const Poly2& f : frags) subtract(f, u, next);
+        frags.clear();
+        for (const Poly2& f : next)
+            if (std::abs(area2(f)) > left_over) frags.push_back(f);
+        if (frags.empty()) return true;
+    }
+    return false;
 }
 
 // Cells where the shaft test finds a blocker but no sample point sees a shadow get their whole
@@ -792,7 +906,9 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
         // for a partly hidden cell below) give its integral for 13 evaluations of Lambert's
         // formula; else the closed form, whose edge integrals resolved to 1e-16 cost many times
         // more.
-        if (cls == ShaftClass::kHidden) {
+        // A cell that sees nothing of the receiver: its whole unobstructed part.
+        // known_q2: order 2 of it when the caller has it already (< 0: not).
+        auto whole_cell = [&](double known_q2) {
             ++out.closed_forms;
             double q2 = 0.0, q3 = 0.0;
             auto unobstructed_rule = [&](const GaussRule& g, int order, double& q) {
@@ -807,7 +923,10 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
                         ++out.points;
                     }
             };
-            unobstructed_rule(rules.g2, kLowOrder, q2);
+            if (known_q2 >= 0.0)
+                q2 = known_q2;
+            else
+                unobstructed_rule(rules.g2, kLowOrder, q2);
             unobstructed_rule(rules.g3, kMidOrder, q3);
             const double e23 = std::abs(q3 - q2) * scale;
             if (kAgreement * e23 <= target * frac) {
@@ -819,6 +938,9 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
             cp.vertices.assign(poly, poly + np);
             c.value = polygon_to_polygon(cp, r) * area(cp) * inv_area;
             c.error = 1e-12 * area(cp) * inv_area;
+        };
+        if (cls == ShaftClass::kHidden) {
+            whole_cell(-1.0);
             return;
         }
         // Pieces that face the cell first: the shadows of the others (the back faces of a closed
@@ -855,6 +977,15 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
                 }
         };
         rule(rules.g2, kLowOrder, q2);
+        if (any_hidden && !any_visible &&
+            cell_hidden(rc, poly, np, ns, blockers, cell_cand.data(),
+                        static_cast<int>(cell_cand.size()), eps)) {
+            // The umbrae of the candidates cover the receiver from the whole cell (no gap of
+            // light between their shadows anywhere in it): a hidden cell after all.
+            ++out.proven_hidden;
+            whole_cell(q2);  // order 2 saw nothing: its hidden part was the whole
+            return;
+        }
         if (any_hidden && !any_visible) {
             // Orders 2 and 4 first where order 2's points see nothing of the receiver (in the
             // shadow of several buildings together: most cells of a partly hidden pair in an

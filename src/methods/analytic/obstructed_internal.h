@@ -205,13 +205,14 @@ void convex_hull_2d(std::vector<P>& points, std::vector<P>& hull) {
 
 /// The result of integrating the hidden part of a partly hidden pair over the sender.
 struct HiddenIntegral {
-    double hidden = 0;             ///< 1/A_s ∫_s F(x → hidden part of r) dA_x
-    double error = 0;              ///< estimated absolute error of `hidden`
-    int max_level = 0;             ///< deepest subdivision of the sender (0 = the whole sender)
-    std::size_t cells = 0;         ///< final cells
-    std::size_t points = 0;        ///< point evaluations
-    std::size_t closed_forms = 0;  ///< cells in an umbra, integrated in closed form
-    bool capped = false;           ///< stopped at the cell limit before meeting the target
+    double hidden = 0;              ///< 1/A_s ∫_s F(x → hidden part of r) dA_x
+    double error = 0;               ///< estimated absolute error of `hidden`
+    int max_level = 0;              ///< deepest subdivision of the sender (0 = the whole sender)
+    std::size_t cells = 0;          ///< final cells
+    std::size_t points = 0;         ///< point evaluations
+    std::size_t closed_forms = 0;   ///< cells in an umbra, integrated in closed form
+    std::size_t proven_hidden = 0;  ///< of those, cells found hidden by their corners' umbrae
+    bool capped = false;            ///< stopped at the cell limit before meeting the target
 };
 
 /// 1/A_s ∫_s F_{dA_x → (r ∩ shadows of the pieces seen from x)} dA_x: the part of F_sr that the
