@@ -13,6 +13,8 @@
 
 #include "formfactor/core/error.h"
 #include "formfactor/output/energyplus_view_factors.h"
+#include "formfactor/output/matrix_io.h"
+#include "formfactor/output/sparse_io.h"
 #include "formfactor/scene/scene.h"
 #include "scene/energyplus_objects.h"
 #include "support/cli_runner.h"
@@ -139,24 +141,28 @@ TEST_CASE("energyplus output: names IDF cannot carry and per-patch rows are refu
     CHECK(cli.dir().entries() == 0);
 }
 
-TEST_CASE("energyplus output: --all-zones writes one object per zone, each closed") {
+// EnergyPlus's example zone twice: the second the same room under other names (`second_zone`,
+// surfaces Zn002:...), at the same place (each zone is its own enclosure).
+std::string two_zone_model(const std::string& second_zone = "ZONE TWO") {
     const std::string model =
         read_text(std::string(FF_TEST_DATA_DIR) + "/energyplus/1ZoneUncontrolled_win_1.idf");
-    // A second zone: the same room under other names, at the same place (each zone is its own
-    // enclosure).
     std::string second = model.substr(model.find("  Zone,"));
     second = second.substr(0, second.find("  GlobalGeometryRules,")) +
              second.substr(second.find("  BuildingSurface:Detailed,"));
     for (const auto& [from, to] :
-         {std::pair<std::string, std::string>{"ZONE ONE", "ZONE TWO"}, {"Zn001", "Zn002"}})
+         {std::pair<std::string, std::string>{"ZONE ONE", second_zone}, {"Zn001", "Zn002"}})
         for (std::size_t at = 0; (at = second.find(from, at)) != std::string::npos; at += to.size())
             second.replace(at, from.size(), to);
+    return model + second;
+}
+
+TEST_CASE("energyplus output: --all-zones writes one object per zone, each closed") {
     Cli cli;
-    cli.write("two.idf", model + second);
+    cli.write("two.idf", two_zone_model());
     CliResult r = cli.run("compute two.idf -o vf.idf");
     CHECK(r.err ==
-          "formfactor: two.idf: the model has 2 zones; choose one with --zone NAME: ZONE ONE, "
-          "ZONE TWO\n");
+          "formfactor: --zone: two.idf has 2 zones (ZONE ONE, ZONE TWO): choose one with --zone "
+          "NAME, or compute each with --all-zones\n");
     r = cli.run("compute two.idf --all-zones --subdivide 2 -o vf.idf");
     INFO(r.err);
     REQUIRE(r.code == 0);
@@ -185,7 +191,81 @@ TEST_CASE("energyplus output: --all-zones writes one object per zone, each close
         CHECK(j.at("zone_or_zonelist_or_space_or_spacelist_name") == zone);
         CHECK(j.at("view_factors").size() == 49);
     }
-    r = cli.run("compute two.idf --all-zones -o vf.csv");
+    r = cli.run("compute two.idf --all-zones -o " + shell_quote("vf_{zone}.idf"));
     CHECK(r.err ==
-          "formfactor: --all-zones: writes EnergyPlus view factors (-o X.idf or X.epJSON)\n");
+          "formfactor: -o: an EnergyPlus file holds every zone (one object per zone): its name "
+          "takes no {zone}\n");
+    r = cli.run("compute two.idf --all-zones -o vf.idf --patches p.csv");
+    CHECK(r.err ==
+          "formfactor: --all-zones: with -o .idf or .epJSON writes one file; --report, "
+          "--patches, --pairs and --stderr go with a matrix file per zone (-o F.npy) or one zone "
+          "(--zone NAME)\n");
+}
+
+TEST_CASE(
+    "energyplus output: --all-zones with a matrix -o writes a file per zone, as --zone does") {
+    Cli cli;
+    cli.write("two.idf", two_zone_model());
+    CliResult r = cli.run(
+        "compute two.idf --all-zones --subdivide 2 -o F.npy --patches P.csv --report R.json "
+        "--pairs pairs.csv");
+    INFO(r.out, r.err);
+    REQUIRE(r.code == 0);
+    CHECK(r.out.find("zone       ZONE ONE\n") != std::string::npos);
+    CHECK(r.out.find("wrote      8 files for 2 zones\n") != std::string::npos);
+    CHECK(cli.dir().entries() == 1 + 8);
+    for (const std::string zone : {"ZONE ONE", "ZONE TWO"}) {
+        CAPTURE(zone);
+        const std::string part = zone == "ZONE ONE" ? "ZONE_ONE" : "ZONE_TWO";
+        // Each zone's file is what --zone writes for it.
+        r = cli.run("compute two.idf --zone " + shell_quote(zone) +
+                    " --subdivide 2 -o one.npy --patches one.csv --pairs one_pairs.csv");
+        REQUIRE(r.code == 0);
+        CHECK(read_text(cli.file("F_" + part + ".npy")) == read_text(cli.file("one.npy")));
+        CHECK(read_text(cli.file("P_" + part + ".csv")) == read_text(cli.file("one.csv")));
+        CHECK(read_text(cli.file("pairs_" + part + ".csv")) ==
+              read_text(cli.file("one_pairs.csv")));
+        const auto report = nlohmann::json::parse(read_text(cli.file("R_" + part + ".json")));
+        CHECK(report.at("scene").dump().find(zone) != std::string::npos);
+        const DenseMatrix F = read_matrix(cli.file("F_" + part + ".npy"));
+        REQUIRE(F.rows() > 7);  // patches: each surface split 2 x 2
+        for (Eigen::Index i = 0; i < F.rows(); ++i) CHECK(std::abs(F.row(i).sum() - 1.0) < 1e-9);
+    }
+
+    // {zone} in a name: the zone's name goes there; sparse and ParaView outputs too.
+    r = cli.run("compute two.idf --all-zones -o " + shell_quote("{zone}-F.mtx"));
+    REQUIRE(r.code == 0);
+    CHECK(read_sparse_matrix(cli.file("ZONE_TWO-F.mtx")).n == 10);  // the holed wall: 4 patches
+    r = cli.run("compute two.idf --all-zones --subdivide 2 -o room.vtu");
+    REQUIRE(r.code == 0);
+    CHECK(read_text(cli.file("room_ZONE_ONE.vtu")).find("NumberOfCells=\"") != std::string::npos);
+}
+
+TEST_CASE("energyplus output: --all-zones writes no file when a zone fails or two share a name") {
+    Cli cli;
+    // The second zone holds a simplified wall, which its build refuses: after the first zone
+    // was computed.
+    std::string model = two_zone_model();
+    model += "  Wall:Exterior, Extra wall, EXTWALL80, ZONE TWO, 0, 90, 0, 0, 0, 3, 2;\n";
+    cli.write("two.idf", model);
+    CliResult r = cli.run("compute two.idf --all-zones -o F.csv --report R.json");
+    CHECK(r.code == 1);
+    CHECK(r.one_error_line());
+    CHECK(r.err.find("Wall:Exterior") != std::string::npos);
+    CHECK(r.out.find("zone       ZONE ONE\n") != std::string::npos);  // computed, not written
+    CHECK(cli.dir().entries() == 1);
+
+    // "ZONE ONE" and "ZONE/ONE" give one file name.
+    cli.write("clash.idf", two_zone_model("ZONE/ONE"));
+    r = cli.run("compute clash.idf --all-zones -o F.csv");
+    CHECK(r.err ==
+          "formfactor: --all-zones: zones 'ZONE ONE' and 'ZONE/ONE' would both write "
+          "'F_ZONE_ONE.csv'; put {zone} where the name goes or compute them one by one with "
+          "--zone\n");
+    CHECK(cli.dir().entries() == 2);
+
+    r = cli.run("compute cornell --all-zones -o F.csv");
+    CHECK(r.err ==
+          "formfactor: --all-zones: computes the zones of an EnergyPlus model (.idf or .epJSON); "
+          "'cornell' is not one\n");
 }

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <random>
 #include <sstream>
@@ -123,6 +124,45 @@ TEST_CASE("output: a transaction writes all files or none") {
     CHECK(read_text(dir.file("a.csv")) == "a");
     CHECK(read_text(dir.file("b.json")) == "{}");
     CHECK(dir.entries() == 2);
+}
+
+TEST_CASE("output: files staged by name and adopted from another transaction commit together") {
+    TempDir dir;
+    {
+        OutputTransaction outer;
+        OutputTransaction one;
+        // A writer that opens the file itself sees a name with the target's extension.
+        one.stage_file(dir.file("F.h5"), [](const std::string& staged) {
+            CHECK(std::filesystem::path(staged).extension() == ".h5");
+            std::ofstream(staged) << "h5";
+        });
+        one.stage(dir.file("a.csv"), [](std::ostream& out) { out << "a"; });
+        outer.adopt(one);
+        CHECK(one.paths().empty());
+        CHECK(outer.paths().size() == 2);
+        OutputTransaction two;
+        CHECK_THROWS_AS(two.stage_file(dir.file("G.h5"),
+                                       [](const std::string& staged) {
+                                           std::ofstream(staged) << "partial";
+                                           throw InputError("G.h5", 0, "simulated failure");
+                                       }),
+                        InputError);
+        // F.h5 staged again, by stream (a temporary of another name): two's file is dropped.
+        two.stage(dir.file("F.h5"), [](std::ostream& out) { out << "again"; });
+        CHECK_THROWS_AS(outer.adopt(two), Error);
+        CHECK(two.paths().empty());
+        CHECK(dir.entries() == 2);  // outer's two temporaries
+    }                               // outer not committed: nothing is left
+    CHECK(dir.entries() == 0);
+
+    OutputTransaction outer;
+    OutputTransaction one;
+    one.stage_file(dir.file("F.h5"),
+                   [](const std::string& staged) { std::ofstream(staged) << "h5"; });
+    outer.adopt(one);
+    outer.commit();
+    CHECK(read_text(dir.file("F.h5")) == "h5");
+    CHECK(dir.entries() == 1);
 }
 
 // ---- extensions -------------------------------------------------------------------------------

@@ -295,3 +295,90 @@ TEST_CASE("energyplus: NREL's 5ZoneAirCooled as IDF and epJSON gives the same ma
         CHECK((fa.F - fb.F).cwiseAbs().maxCoeff() <= 1e-12);
     }
 }
+
+TEST_CASE("energyplus: NREL's small office: six closed zones, a hip-roofed attic, areas as drawn") {
+    // DOE's reference small office: four trapezoidal perimeter zones around a core, 20 windows
+    // and a glass door, an attic whose hip roof has triangular ends and whose eaves close it
+    // with soffits; world-aligned zones in relative coordinates, upper-left starting corners.
+    const std::string path = data("energyplus/RefBldgSmallOfficeNew2004_Chicago.idf");
+    const std::vector<std::string> zones = energyplus_zones(path);
+    REQUIRE(zones == std::vector<std::string>{"Attic", "Core_ZN", "Perimeter_ZN_1",
+                                              "Perimeter_ZN_2", "Perimeter_ZN_3",
+                                              "Perimeter_ZN_4"});
+    const std::size_t surfaces[] = {13, 6, 13, 10, 12, 10};  // windows and doors are surfaces
+    double floors = 0.0;
+    for (std::size_t z = 0; z < zones.size(); ++z) {
+        INFO(zones[z]);
+        const Scene s = load_energyplus(path, zones[z]);
+        CHECK(s.enclosure);
+        CHECK(s.surfaces.size() == surfaces[z]);
+        for (const Surface& f : s.surfaces)
+            if (z > 0 && f.name.size() > 6 && f.name.substr(f.name.size() - 6) == "_floor")
+                floors += surface_area(f);
+        check_enclosure_rows(analytic(s));
+    }
+    // The five rooms' floors tile the 27.69 m × 18.46 m footprint.
+    CHECK(std::abs(floors - 27.69 * 18.46) < 1e-9);
+
+    // The attic's floor: the rooms' ceilings and the 0.6 m eaves' soffits, 28.89 m × 19.66 m.
+    const Scene attic = load_energyplus(path, "attic");
+    double horizontal = 0.0;
+    for (const Surface& f : attic.surfaces)
+        if (f.name.find("_floor_") != std::string::npos ||
+            f.name.find("_soffit_") != std::string::npos)
+            horizontal += surface_area(f);
+    CHECK(std::abs(horizontal - 28.89 * 19.66) < 1e-9);
+
+    // The south room: six 1.83 m × 1.524 m windows and a 1.83 m × 2.134 m glass door cut out of
+    // its 27.69 m × 3.05 m wall.
+    const Scene south = load_energyplus(path, "Perimeter_ZN_1");
+    const auto wall =
+        std::find_if(south.surfaces.begin(), south.surfaces.end(),
+                     [](const Surface& f) { return f.name == "Perimeter_ZN_1_wall_south"; });
+    REQUIRE(wall != south.surfaces.end());
+    CHECK(wall->holes.size() == 7);
+    CHECK(std::abs(surface_area(*wall) - (27.69 * 3.05 - 6 * 1.83 * 1.524 - 1.83 * 2.134)) < 1e-9);
+}
+
+TEST_CASE("energyplus: NREL's three-surface zone reads in world coordinates and is left open") {
+    // EnergyPlus's test of a zone that does not close (a 60.96 m wall, a 15.24 m square floor and
+    // roof): read as drawn, its rows sum to less than 1 (energy leaves through the missing
+    // walls), and reciprocity still holds.
+    const Scene s = load_energyplus(data("energyplus/1ZoneUncontrolled3SurfaceZone.idf"));
+    REQUIRE(s.surfaces.size() == 3);
+    CHECK(std::abs(surface_area(s.surfaces[0]) - 60.96 * 4.572) < 1e-9);
+    const FormFactors f = analytic(s);
+    for (Eigen::Index i = 0; i < f.F.rows(); ++i) {
+        CHECK(f.F.row(i).sum() < 0.9);
+        CHECK(f.F.row(i).sum() > 0.1);
+        for (Eigen::Index j = 0; j < i; ++j)
+            CHECK(std::abs(f.areas[std::size_t(i)] * f.F(i, j) -
+                           f.areas[std::size_t(j)] * f.F(j, i)) <= 1e-10 * f.areas[0]);
+    }
+    // Floor and roof: parallel 15.24 m squares 4.572 m apart (Howell's C-11, X = Y = 10/3).
+    const double X = 15.24 / 4.572, x = std::sqrt(1 + X * X);
+    const double parallel = 1.0 / (M_PI * X * X) *
+                            (std::log(x * x * x * x / (1 + 2 * X * X)) +
+                             4 * X * x * std::atan(X / x) - 4 * X * std::atan(X));
+    CHECK(std::abs(f.F(1, 2) - parallel) < 1e-9);
+}
+
+TEST_CASE("energyplus: NREL's small office (Version 8.3 windows) as IDF and epJSON agrees") {
+    // Its windows have the Shading Control Name field of EnergyPlus before 9.0, which the epJSON
+    // twin (9.0 and later) does not: both give the same surfaces and matrices.
+    const std::string idf = data("energyplus/RefBldgSmallOfficeNew2004_Chicago.idf");
+    const std::string json = data("energyplus/RefBldgSmallOfficeNew2004_Chicago.epJSON");
+    REQUIRE(energyplus_zones(json) == energyplus_zones(idf));
+    for (const std::string& zone : energyplus_zones(idf)) {
+        INFO(zone);
+        const Scene a = load_energyplus(idf, zone);
+        const Scene b = load_energyplus(json, zone);
+        REQUIRE(a.surfaces.size() == b.surfaces.size());
+        for (std::size_t k = 0; k < a.surfaces.size(); ++k) {
+            CHECK(a.surfaces[k].name == b.surfaces[k].name);
+            CHECK(std::abs(surface_area(a.surfaces[k]) - surface_area(b.surfaces[k])) < 1e-12);
+        }
+        const FormFactors fa = analytic(a), fb = analytic(b);
+        CHECK((fa.F - fb.F).cwiseAbs().maxCoeff() <= 1e-12);
+    }
+}

@@ -2,10 +2,12 @@
 //  [--stderr SE] [--per-surface | --per-patch] [--storage auto|dense|sparse] [--threshold T]`
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <optional>
 
@@ -67,9 +69,23 @@ bool rows_per_surface(const ComputeArgs& args) {
     return ext == ".vs3";
 }
 
+// Every output of one run is staged in `tx`; it is committed here, or handed to `outer` when
+// the run is one zone of --all-zones (the zones' files are then written together or not at all).
+void finish(OutputTransaction& tx, OutputTransaction* outer) {
+    if (outer)
+        outer->adopt(tx);
+    else
+        tx.commit();
+}
+
+// The last line of a run: what it wrote, or (one zone of --all-zones) what it will write.
+void print_wrote(const std::string& files, const OutputTransaction* outer) {
+    fmt::print("{:<10} {}\n", outer ? "output" : "wrote", files);
+}
+
 // Hierarchical storage (formfactor/matrix/hierarchical.h): the per-surface matrix from the
 // operator's products (one per surface), F never formed.
-void run_compute_hierarchical(const ComputeArgs& args) {
+void run_compute_hierarchical(const ComputeArgs& args, OutputTransaction* outer) {
     Stopwatch total;
     if (!rows_per_surface(args))
         throw OptionError("--storage",
@@ -133,19 +149,19 @@ void run_compute_hierarchical(const ComputeArgs& args) {
         };
         stage_report(tx, args.report, report);
     }
-    tx.commit();
+    finish(tx, outer);
     fmt::print("scene      {}: N = {} patches, {} surfaces; rows sum to {:.9f} .. {:.9f}\n",
                scene.name, scene.patches.size(), written.size(), d.row_sum_min, d.row_sum_max);
     fmt::print("time       {}\n", format_timings(times, total.seconds()));
     std::string wrote = args.output;
     if (!args.patches.empty()) wrote += ", " + args.patches;
     if (!args.report.empty()) wrote += ", " + args.report;
-    fmt::print("wrote      {}\n", wrote);
+    print_wrote(wrote, outer);
 }
 
 // Sparse storage (formfactor/pipeline_sparse.h): rows in blocks into CSR, written as .mtx or
 // .h5; `why` says why it was picked.
-void run_compute_sparse(const ComputeArgs& args, const std::string& why) {
+void run_compute_sparse(const ComputeArgs& args, const std::string& why, OutputTransaction* outer) {
     Stopwatch total;
     StepTimes times;
     Scene scene = prepare_scene(args.scene, times);
@@ -192,9 +208,7 @@ void run_compute_sparse(const ComputeArgs& args, const std::string& why) {
     info.repair = args.repair.mode;
     info.patches = per_surface ? nullptr : &scene.patches;
     // --stderr: the standard error of each stored entry, in F's pattern (a matrix of its own,
-    // .mtx or .h5), written beside its final name first and renamed after F, so that a failure
-    // leaves neither.
-    std::string se_staged;
+    // .mtx or .h5).
     if (!args.standard_error.empty()) {
         if (!F.standard_error)
             throw Error("compute: the sparse run kept no standard errors");  // cannot happen
@@ -210,24 +224,14 @@ void run_compute_sparse(const ComputeArgs& args, const std::string& why) {
             for (auto k = F.indptr[i]; k < F.indptr[i + 1]; ++k)
                 E.computed_row_sums[i] += E.values[static_cast<std::size_t>(k)];
         E.dropped.assign(F.n, 0.0);
-        const std::filesystem::path target(args.standard_error);
-        se_staged =
-            (target.parent_path() / (".formfactor-staged-" + target.filename().string())).string();
         SparseFileInfo se_info = info;
         se_info.method += " (standard errors of the entries)";
-        write_sparse_matrix(se_staged, E, se_info);
+        tx.stage_file(args.standard_error,
+                      [&](const std::string& staged) { write_sparse_matrix(staged, E, se_info); });
     }
-    try {
-        write_sparse_matrix(args.output, F, info);
-        if (!se_staged.empty()) std::filesystem::rename(se_staged, args.standard_error);
-    } catch (...) {
-        if (!se_staged.empty()) {
-            std::error_code ec;
-            std::filesystem::remove(se_staged, ec);
-        }
-        throw;
-    }
-    tx.commit();
+    tx.stage_file(args.output,
+                  [&](const std::string& staged) { write_sparse_matrix(staged, F, info); });
+    finish(tx, outer);
     times.add("write", sw.lap());
 
     const int threads = effective_threads(args.method.options.threads);
@@ -243,30 +247,58 @@ void run_compute_sparse(const ComputeArgs& args, const std::string& why) {
         args.per_surface ? " per surface" : "", format_count(double(F.nonzeros())));
     if (!args.patches.empty()) wrote += ", " + args.patches;
     if (!args.report.empty()) wrote += ", " + args.report;
-    fmt::print("wrote      {}\n", wrote);
+    print_wrote(wrote, outer);
 }
 
-// --all-zones: every zone of an EnergyPlus model, each its own enclosure and matrix, into one
-// .idf or .epJSON file (one ZoneProperty:UserViewFactors:BySurfaceName object per zone).
-void run_compute_all_zones(const ComputeArgs& args) {
+// A zone's name as part of a file name: letters, digits, '-' and '_' kept (and bytes of UTF-8
+// letters), anything else ('/', ':', spaces, '.') an '_', so that no name reaches another folder.
+std::string file_name_part(const std::string& zone) {
+    std::string part = zone;
+    for (char& c : part) {
+        const auto u = static_cast<unsigned char>(c);
+        if (!(std::isalnum(u) || c == '-' || c == '_' || u >= 0x80)) c = '_';
+    }
+    return part;
+}
+
+// One zone's file for an output of --all-zones: `{zone}` in `path` replaced by the zone's name,
+// else the name inserted before the extension (F.npy -> F_SPACE1-1.npy).
+std::string zone_file(const std::string& path, const std::string& zone) {
+    const std::string part = file_name_part(zone);
+    static const std::string kPlaceholder = "{zone}";
+    if (path.find(kPlaceholder) != std::string::npos) {
+        std::string out = path;
+        for (std::size_t at = 0; (at = out.find(kPlaceholder, at)) != std::string::npos;
+             at += part.size())
+            out.replace(at, kPlaceholder.size(), part);
+        return out;
+    }
+    const std::filesystem::path p(path);
+    return (p.parent_path() / (p.stem().string() + "_" + part + p.extension().string())).string();
+}
+
+// --all-zones into one EnergyPlus file (.idf or .epJSON): one
+// ZoneProperty:UserViewFactors:BySurfaceName object per zone.
+void run_compute_all_zones_energyplus(const ComputeArgs& args, EnergyPlusSyntax syntax,
+                                      const std::vector<std::string>& zone_names) {
     Stopwatch total;
-    EnergyPlusSyntax syntax = EnergyPlusSyntax::Idf;
-    if (!energyplus_syntax_for(args.output, syntax))
-        throw OptionError("--all-zones", "writes EnergyPlus view factors (-o X.idf or X.epJSON)");
-    if (!args.scene.zone.empty())
-        throw OptionError("--all-zones", "computes every zone: leave out --zone");
     if (!args.report.empty() || !args.patches.empty() || !args.pairs.empty() ||
         !args.standard_error.empty())
         throw OptionError("--all-zones",
-                          "writes one file (-o); --report, --patches, --pairs and --stderr "
-                          "describe one zone (use --zone NAME)");
+                          "with -o .idf or .epJSON writes one file; --report, --patches, --pairs "
+                          "and --stderr go with a matrix file per zone (-o F.npy) or one zone "
+                          "(--zone NAME)");
+    if (args.output.find("{zone}") != std::string::npos)
+        throw OptionError("-o",
+                          "an EnergyPlus file holds every zone (one object per zone): "
+                          "its name takes no {zone}");
     if (args.per_patch) throw OptionError("--per-patch", "EnergyPlus view factors are per surface");
     if (args.storage != "auto" && args.storage != "dense")
         throw OptionError("--storage", "EnergyPlus view factors are written from the dense F");
     check_output_directory(args.output);
     StepTimes times;
     std::vector<ZoneViewFactors> zones;
-    for (const std::string& zone : energyplus_zones(args.scene.scene)) {
+    for (const std::string& zone : zone_names) {
         SceneArgs one = args.scene;
         one.zone = zone;
         const Scene scene = prepare_scene(one, times);
@@ -286,7 +318,71 @@ void run_compute_all_zones(const ComputeArgs& args) {
     fmt::print("wrote      {} ({} zones)\n", args.output, zones.size());
 }
 
-void run_compute(const ComputeArgs& args) {
+void run_compute(const ComputeArgs& args, OutputTransaction* outer);
+
+// --all-zones: every zone of an EnergyPlus model, each its own enclosure and matrix. EnergyPlus
+// outputs hold every zone in one file; any other -o (and --report, --patches, --pairs,
+// --stderr) is one file per zone, named by zone_file(). The zones' files are written together
+// after the last zone, or not at all.
+void run_compute_all_zones(const ComputeArgs& args) {
+    EnergyPlusSyntax input_syntax = EnergyPlusSyntax::Idf;
+    if (!energyplus_syntax_for(args.scene.scene, input_syntax))
+        throw OptionError("--all-zones",
+                          "computes the zones of an EnergyPlus model (.idf or "
+                          ".epJSON); '" +
+                              args.scene.scene + "' is not one");
+    if (!args.scene.zone.empty())
+        throw OptionError("--all-zones", "computes every zone: leave out --zone");
+    if (args.output.empty())
+        throw OptionError("-o",
+                          "an output file is required (.idf or .epJSON for all zones in "
+                          "one file; .csv, .npy, .txt, .dat, .vtu, .mtx or .h5 for a file "
+                          "per zone)");
+    const std::vector<std::string> zones = energyplus_zones(args.scene.scene);
+    if (zones.empty())
+        throw InputError(args.scene.scene, 0, "no Zone objects (nothing to enclose)");
+    EnergyPlusSyntax syntax = EnergyPlusSyntax::Idf;
+    if (energyplus_syntax_for(args.output, syntax)) {
+        run_compute_all_zones_energyplus(args, syntax, zones);
+        return;
+    }
+
+    // Every zone's file names, checked before any work: two zones whose names differ only in
+    // what zone_file() replaces would write one file.
+    Stopwatch total;
+    std::vector<ComputeArgs> runs;
+    std::map<std::string, std::string> zone_of_file;
+    for (const std::string& zone : zones) {
+        ComputeArgs one = args;
+        one.all_zones = false;
+        one.scene.zone = zone;
+        for (std::string* path :
+             {&one.output, &one.report, &one.patches, &one.pairs, &one.standard_error}) {
+            if (path->empty()) continue;
+            *path = zone_file(*path, zone);
+            const std::string key = std::filesystem::path(*path).lexically_normal().string();
+            const auto [it, fresh] = zone_of_file.emplace(key, zone);
+            if (!fresh)
+                throw OptionError("--all-zones",
+                                  fmt::format("zones '{}' and '{}' would both write '{}'; put "
+                                              "{{zone}} where the name goes or compute them "
+                                              "one by one with --zone",
+                                              it->second, zone, *path));
+        }
+        runs.push_back(std::move(one));
+    }
+    OutputTransaction tx;
+    for (const ComputeArgs& one : runs) {
+        fmt::print("zone       {}\n", one.scene.zone);
+        run_compute(one, &tx);
+    }
+    const std::vector<std::string> files = tx.paths();
+    tx.commit();
+    fmt::print("time       all zones {:.3g} s\n", total.seconds());
+    fmt::print("wrote      {} files for {} zones\n", files.size(), zones.size());
+}
+
+void run_compute(const ComputeArgs& args, OutputTransaction* outer) {
     Stopwatch total;
     if (args.all_zones) {
         args.scene.validate();
@@ -299,6 +395,15 @@ void run_compute(const ComputeArgs& args) {
     args.scene.validate();
     args.method.validate();
     parse_repair_mode(args.repair.mode);
+    if (EnergyPlusSyntax input_syntax = EnergyPlusSyntax::Idf;
+        args.scene.zone.empty() && energyplus_syntax_for(args.scene.scene, input_syntax)) {
+        const std::vector<std::string> zones = energyplus_zones(args.scene.scene);
+        if (zones.size() > 1)
+            throw OptionError("--zone",
+                              fmt::format("{} has {} zones ({}): choose one with --zone "
+                                          "NAME, or compute each with --all-zones",
+                                          args.scene.scene, zones.size(), fmt::join(zones, ", ")));
+    }
     if (args.output.empty()) {
         throw OptionError("-o",
                           "an output file is required (.csv, .npy, .txt, .dat, .vtu, .mtx or .h5)");
@@ -396,7 +501,7 @@ void run_compute(const ComputeArgs& args) {
             throw OptionError("--storage",
                               "hierarchical storage writes the per-surface matrix "
                               "as .csv, .npy or .txt");
-        run_compute_hierarchical(args);
+        run_compute_hierarchical(args, outer);
         return;
     }
     if (sparse_file) {
@@ -416,7 +521,7 @@ void run_compute(const ComputeArgs& args) {
                     ? fmt::format(", more than half of the {} available", format_bytes(available))
                     : "");
         }
-        run_compute_sparse(args, why);
+        run_compute_sparse(args, why, outer);
         return;
     }
     StepTimes times;
@@ -550,7 +655,7 @@ void run_compute(const ComputeArgs& args) {
         }
         stage_report(tx, args.report, report);
     }
-    tx.commit();
+    finish(tx, outer);
 
     print_matrix_summary(scene, to_string(method), threads, ff, d, traits.reciprocity, times,
                          total.seconds());
@@ -568,7 +673,7 @@ void run_compute(const ComputeArgs& args) {
     if (!args.standard_error.empty()) wrote += ", " + args.standard_error;
     if (!args.patches.empty()) wrote += ", " + args.patches;
     if (!args.report.empty()) wrote += ", " + args.report;
-    fmt::print("wrote      {}\n", wrote);
+    print_wrote(wrote, outer);
 }
 
 }  // namespace
@@ -605,8 +710,11 @@ void add_compute_command(CLI::App& app) {
                     "surface names")
         ->type_name("PAIRS.csv");
     cmd->add_flag("--all-zones", args->all_zones,
-                  "EnergyPlus models: every zone, each its own enclosure, into one -o .idf or "
-                  ".epJSON file (one ZoneProperty:UserViewFactors:BySurfaceName per zone)");
+                  "EnergyPlus models: every zone, each its own enclosure and matrix; -o .idf or "
+                  ".epJSON: one file (a ZoneProperty:UserViewFactors:BySurfaceName per zone); "
+                  "any other -o, --report, --patches, --pairs, --stderr: a file per zone, the "
+                  "zone's name in place of {zone} or before the extension (F.npy -> "
+                  "F_ZONE.npy)");
     cmd->add_flag("--row-sums", args->row_sums,
                   "Add the columns row_sum and sky_factor (1 - row sum) to the --patches table");
     cmd->add_option("--stderr,--standard-error", args->standard_error,
@@ -634,7 +742,7 @@ void add_compute_command(CLI::App& app) {
                     "Sparse storage: drop entries F_ij ≤ T, keeping the dropped mass per row "
                     "(--repair reciprocity then restores reciprocity without raising a row sum)")
         ->type_name("T");
-    cmd->callback([args] { run_compute(*args); });
+    cmd->callback([args] { run_compute(*args, nullptr); });
 }
 
 }  // namespace formfactor::cli

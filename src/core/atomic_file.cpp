@@ -23,6 +23,14 @@ std::string temporary_path_for(const std::string& path) {
     return path + ".tmp." + std::to_string(static_cast<long long>(::getpid()));
 }
 
+std::string staged_path_for(const std::string& path) {
+    const fs::path target(path);
+    return (target.parent_path() /
+            (".formfactor-staged-" + std::to_string(static_cast<long long>(::getpid())) + "-" +
+             target.filename().string()))
+        .string();
+}
+
 void check_output_directory(const std::string& path) {
     if (path.empty()) throw InputError(path, 0, "empty output file name");
     const fs::path parent = fs::path(path).parent_path();
@@ -133,16 +141,46 @@ void write_file_atomically(const std::string& path,
 
 OutputTransaction::~OutputTransaction() { abort(); }
 
-void OutputTransaction::stage(const std::string& path,
-                              const std::function<void(std::ostream&)>& write) {
+void OutputTransaction::check_not_staged(const std::string& path) const {
     for (const auto& s : staged_) {
         if (fs::path(s.target).lexically_normal() == fs::path(path).lexically_normal()) {
             throw Error(path + ": the same file is written twice");
         }
     }
+}
+
+void OutputTransaction::stage(const std::string& path,
+                              const std::function<void(std::ostream&)>& write) {
+    check_not_staged(path);
     const std::string temporary = temporary_path_for(path);
     write_temporary(path, temporary, write);
     staged_.push_back({path, temporary});
+}
+
+void OutputTransaction::stage_file(const std::string& path,
+                                   const std::function<void(const std::string&)>& write) {
+    check_not_staged(path);
+    process_cancellation().throw_if_requested();
+    if (fs::is_directory(path)) throw InputError(path, 0, "is a directory");
+    const std::string temporary = staged_path_for(path);
+    try {
+        write(temporary);
+    } catch (...) {
+        remove_quietly(temporary);
+        throw;
+    }
+    staged_.push_back({path, temporary});
+}
+
+void OutputTransaction::adopt(OutputTransaction& other) {
+    try {
+        for (const auto& s : other.staged_) check_not_staged(s.target);
+    } catch (...) {
+        other.abort();
+        throw;
+    }
+    staged_.insert(staged_.end(), other.staged_.begin(), other.staged_.end());
+    other.staged_.clear();
 }
 
 void OutputTransaction::commit() {

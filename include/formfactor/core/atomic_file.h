@@ -34,6 +34,17 @@ class OutputTransaction {
     /// Writes `path`'s future content to its temporary now (throws like write_file_atomically).
     /// Staging the same path twice is an error (formfactor::Error).
     void stage(const std::string& path, const std::function<void(std::ostream&)>& write);
+    /// The same for writers that open the file themselves and choose its format by the
+    /// extension (HDF5, Matrix Market): `write` gets a temporary name in `path`'s directory that
+    /// ends like `path` (staged_path_for), which commit() renames to `path`. When `write`
+    /// throws, the temporary is removed and the exception propagates.
+    void stage_file(const std::string& path, const std::function<void(const std::string&)>& write);
+    /// Moves every file staged in `other` into this transaction, in order, leaving `other`
+    /// empty: several steps stage their own outputs, and one commit writes them all or none.
+    /// A target staged in both is an error (formfactor::Error) and `other` is then aborted.
+    /// (Two transactions that stage one target the same way share its temporary name: give
+    /// them distinct targets.)
+    void adopt(OutputTransaction& other);
     /// Renames every staged temporary to its target, in staging order. When a rename fails,
     /// the remaining temporaries are removed and InputError(path, 0, reason) is thrown. When
     /// process_cancellation() is requested, every temporary is removed, nothing renamed, and
@@ -45,6 +56,7 @@ class OutputTransaction {
     std::vector<std::string> paths() const;
 
   private:
+    void check_not_staged(const std::string& path) const;
     struct Staged {
         std::string target;
         std::string temporary;
@@ -54,6 +66,10 @@ class OutputTransaction {
 
 /// The temporary name used for `path`: `path + ".tmp." + pid`.
 std::string temporary_path_for(const std::string& path);
+
+/// The temporary name OutputTransaction::stage_file uses for `path`: in the same directory,
+/// `.formfactor-staged-<pid>-` + the file name, so that it keeps `path`'s extension.
+std::string staged_path_for(const std::string& path);
 
 /// Throws InputError(path, 0, ...) when the directory that would hold `path` does not exist or
 /// is not a directory. Call it before a long computation so that a typo in -o fails at once.

@@ -13,9 +13,12 @@ FIELDS = {
                  "temperature_convergence_tolerance_value", "solar_distribution",
                  "maximum_number_of_warmup_days", "minimum_number_of_warmup_days"],
     "GlobalGeometryRules": ["starting_vertex_position", "vertex_entry_direction",
-                            "coordinate_system"],
+                            "coordinate_system", "daylighting_reference_point_coordinate_system",
+                            "rectangular_surface_coordinate_system"],
     "Zone": ["direction_of_relative_north", "x_origin", "y_origin", "z_origin", "type",
-             "multiplier", "ceiling_height", "volume"],
+             "multiplier", "ceiling_height", "volume", "floor_area",
+             "zone_inside_convection_algorithm", "zone_outside_convection_algorithm",
+             "part_of_total_floor_area"],
     "BuildingSurface:Detailed": ["surface_type", "construction_name", "zone_name",
                                  "outside_boundary_condition",
                                  "outside_boundary_condition_object", "sun_exposure",
@@ -27,6 +30,8 @@ FIELDS = {
                               "number_of_vertices"],
 }
 UNNAMED = {"Version", "GlobalGeometryRules"}   # objects without a Name field
+WITH_VERTICES = {"BuildingSurface:Detailed", "FenestrationSurface:Detailed",
+                 "Shading:Zone:Detailed"}
 
 
 def value(text):
@@ -39,6 +44,7 @@ def value(text):
 def convert(idf_text):
     text = "\n".join(line.split("!")[0] for line in idf_text.splitlines())
     model = {}
+    version = (99, 0)
     for obj in text.split(";"):
         fields = [f.strip() for f in obj.split(",")]
         if not fields[0]:
@@ -47,6 +53,12 @@ def convert(idf_text):
         if cls not in FIELDS:
             continue
         names = FIELDS[cls]
+        if cls == "Version":
+            version = tuple(int(p) for p in fields[0].split(".")[:2])
+        if cls == "FenestrationSurface:Detailed" and version < (9, 0):
+            # Before EnergyPlus 9.0 a Shading Control Name came after the view factor to
+            # ground; epJSON (9.0 and later) has none: shading controls name their windows.
+            fields = fields[:6] + fields[7:]
         if cls in UNNAMED:
             name = "%s 1" % cls
         else:
@@ -55,7 +67,7 @@ def convert(idf_text):
         for k, f in enumerate(fields[:len(names)]):
             if f:
                 out[names[k]] = value(f) if names[k] != "version_identifier" else f
-        coords = [float(c) for c in fields[len(names):]]
+        coords = [float(c) for c in fields[len(names):]] if cls in WITH_VERTICES else []
         points = [coords[k:k + 3] for k in range(0, len(coords), 3)]
         if cls == "FenestrationSurface:Detailed":
             for k, p in enumerate(points):
