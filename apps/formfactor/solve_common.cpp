@@ -182,13 +182,6 @@ nlohmann::json to_json(const HierarchicalStats& hs) {
             {"seconds", hs.seconds}};
 }
 
-nlohmann::json timings_json(const StepTimes& times, const Stopwatch& total) {
-    nlohmann::json t = nlohmann::json::object();
-    for (const auto& [name, seconds] : times.steps) t[name] = seconds;
-    t["total"] = std::max(total.seconds(), times.sum());
-    return t;
-}
-
 namespace {
 
 // Σ_j F_ij of each row, for the .vtu output.

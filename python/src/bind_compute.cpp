@@ -142,34 +142,24 @@ std::string report_of(const Scene& scene, const ComputeOptions& o, const Compute
         {"robust_rays", o.visibility.robust},
     };
     const FormFactors& ff = r.form_factors;
-    if (ff.is_block()) {
-        options["rows"] = {ff.first_row, ff.first_row + ff.size()};
-        nlohmann::json report{{"formfactor_version", FF_VERSION},
-                              {"timestamp", utc_timestamp()},
-                              {"command", "python"},
-                              {"scene", scene_summary_json(scene)},
-                              {"N", ff.areas.size()},
-                              {"rows", {ff.first_row, ff.first_row + ff.size()}},
-                              {"method", to_string(method)},
-                              {"options", options},
-                              {"threads", r.threads},
-                              {"details", to_json(r.report)},
-                              {"diagnostics", {{"standard_error", standard_error_json(ff)}}}};
-        nlohmann::json t = nlohmann::json::object();
-        for (const auto& [step, sec] : r.timings.steps) t[step] = sec;
-        t["total"] = total_seconds;
-        report["timings"] = t;
-        return json_text(report);
-    }
     ReportContext ctx;
     ctx.command = "python";
     ctx.method = to_string(method);
-    ctx.options = options;
+    ctx.options = std::move(options);
     ctx.timings = r.timings;
     ctx.total_seconds = total_seconds;
     ctx.threads = r.threads;
     ctx.details = to_json(r.report);
     ctx.reciprocity = r.traits.reciprocity;
+    if (ff.is_block()) {
+        // A block of rows has no row sums or reciprocity to diagnose: its standard errors only.
+        const nlohmann::json rows = {ff.first_row, ff.first_row + ff.size()};
+        ctx.options["rows"] = rows;
+        nlohmann::json report = report_head(scene, ff.areas.size(), ctx);
+        report["rows"] = rows;
+        report["diagnostics"] = {{"standard_error", standard_error_json(ff)}};
+        return json_text(report);
+    }
     nlohmann::json report = make_report(scene, ff, ctx);
     if (r.repair) report["repair"] = to_json(*r.repair);
     return json_text(report);

@@ -134,9 +134,7 @@ std::string reciprocity_summary(const Diagnostics& d, const ReciprocityPromise& 
     return s + ": " + v.text;
 }
 
-json make_report(const Scene& scene, const FormFactors& ff, const ReportContext& ctx) {
-    json diagnostics = diagnostics_json(diagnose(ff), ctx.reciprocity);
-    diagnostics["standard_error"] = standard_error_json(ff);
+json report_head(const Scene& scene, std::size_t n, const ReportContext& ctx) {
     json timings = json::object();
     for (const auto& [name, seconds] : ctx.timings.steps) timings[name] = seconds;
     timings["total"] = std::max(ctx.total_seconds, ctx.timings.sum());
@@ -145,16 +143,22 @@ json make_report(const Scene& scene, const FormFactors& ff, const ReportContext&
         {"timestamp", utc_timestamp()},
         {"command", ctx.command},
         {"scene", scene_summary_json(scene)},
-        {"N", ff.size()},
+        {"N", n},
         {"method", ctx.method},
         {"options", ctx.options},
         {"threads", ctx.threads},
         {"timings", timings},
-        {"diagnostics", diagnostics},
         {"details", ctx.details},
-        {"memory", {{"peak_bytes", peak_memory_bytes()}}},
         {"outputs", ctx.outputs},
     };
+}
+
+json make_report(const Scene& scene, const FormFactors& ff, const ReportContext& ctx) {
+    json report = report_head(scene, ff.size(), ctx);
+    json& diagnostics = report["diagnostics"] = diagnostics_json(diagnose(ff), ctx.reciprocity);
+    diagnostics["standard_error"] = standard_error_json(ff);
+    report["memory"] = {{"peak_bytes", peak_memory_bytes()}};
+    return report;
 }
 
 std::string json_text(const json& j) { return j.dump(2) + "\n"; }

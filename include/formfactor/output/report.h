@@ -64,9 +64,16 @@ nlohmann::json standard_error_json(const FormFactors& ff);
 /// "max"}, "bounds": {"min": [x,y,z], "max": [x,y,z]}, "warnings": [...]}.
 nlohmann::json scene_summary_json(const Scene& scene);
 
-/// The full report for F computed on `scene` (diagnose(ff) is run here, with the standard errors
-/// when ff has them; the reciprocity verdict against ctx.reciprocity; "diagnostics" also gets
-/// "standard_error": standard_error_json(ff)).
+/// The keys every report has, whatever holds F (a dense matrix, a sparse one, a hierarchical
+/// operator, a block of rows): "formfactor_version", "timestamp", "command", "scene"
+/// (scene_summary_json()), "N" (`n`, the patches), "method", "options", "threads", "timings"
+/// (each step, and "total": the larger of ctx.total_seconds and the steps' sum), "details",
+/// "outputs". make_report() adds what a dense F says; the other front ends add their storage's.
+nlohmann::json report_head(const Scene& scene, std::size_t n, const ReportContext& ctx);
+
+/// The full report for F computed on `scene`: report_head() with "diagnostics" (diagnose(ff),
+/// with the standard errors when ff has them; the reciprocity verdict against ctx.reciprocity;
+/// and "standard_error": standard_error_json(ff)) and "memory": {"peak_bytes"}.
 nlohmann::json make_report(const Scene& scene, const FormFactors& ff, const ReportContext& ctx);
 
 /// The report of repair(): mode, the diagnostics before and after, the changes, the closure
