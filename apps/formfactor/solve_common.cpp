@@ -59,7 +59,7 @@ ComputedMatrix computed_matrix(ComputeResult&& r, StepTimes& times) {
     times.add(r.timings);
     ComputedMatrix out;
     out.ff = std::move(r.form_factors);
-    out.details = to_json(r.report);
+    out.details = to_json(to_fields(r.report));
     print_method_warnings(r.report);
     out.raw = *r.diagnostics;
     out.repaired = std::move(r.repair);

@@ -149,7 +149,7 @@ std::string report_of(const Scene& scene, const ComputeOptions& o, const Compute
     ctx.timings = r.timings;
     ctx.total_seconds = total_seconds;
     ctx.threads = r.threads;
-    ctx.details = to_json(r.report);
+    ctx.details = to_json(to_fields(r.report));
     ctx.reciprocity = r.traits.reciprocity;
     if (ff.is_block()) {
         // A block of rows has no row sums or reciprocity to diagnose: its standard errors only.

@@ -230,18 +230,4 @@ nlohmann::json to_json(const Fields& f) {
     return nullptr;
 }
 
-nlohmann::json to_json(const MethodReport& r) {
-    nlohmann::json j = r.details.is_null() ? nlohmann::json::object() : to_json(r.details);
-    if (r.error_bound_per_entry) j["error_bound_per_entry"] = *r.error_bound_per_entry;
-    if (r.pairs) {
-        j["pairs"] = r.pairs->pairs;
-        j["pairs_zero"] = r.pairs->zero;
-        j["pairs_exact"] = r.pairs->exact;
-        j["pairs_far_field"] = r.pairs->far_field;
-    }
-    if (r.rays_cast) j["rays_cast"] = *r.rays_cast;
-    if (r.seconds) j["seconds"] = *r.seconds;
-    return j;
-}
-
 }  // namespace formfactor

@@ -15,11 +15,11 @@
 #include <utility>
 #include <vector>
 
+#include "formfactor/core/fields.h"
 #include "formfactor/core/timing.h"
 #include "formfactor/matrix/form_factors.h"
 #include "formfactor/matrix/reciprocity.h"
 #include "formfactor/matrix/repair.h"
-#include "formfactor/methods/method.h"
 #include "formfactor/scene/scene.h"
 
 namespace formfactor {
@@ -79,11 +79,6 @@ nlohmann::json make_report(const Scene& scene, const FormFactors& ff, const Repo
 /// The report of repair(): mode, the diagnostics before and after, the changes, the closure
 /// iterations, the warnings.
 nlohmann::json to_json(const RepairReport& report);
-
-/// The method's report as the run report's "details": its Fields, with the typed members under
-/// their keys (error_bound_per_entry; pairs, pairs_zero, pairs_exact, pairs_far_field; rays_cast;
-/// seconds).
-nlohmann::json to_json(const MethodReport& report);
 
 /// A Fields tree as JSON (objects keep their keys; lists of reals become arrays).
 nlohmann::json to_json(const Fields& fields);
