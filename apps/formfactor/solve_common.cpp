@@ -283,7 +283,7 @@ void print_method_warnings(const MethodReport& report) {
 
 void print_warnings(const std::vector<std::string>& warnings) {
     std::fflush(stdout);
-    for (const auto& w : warnings) fmt::print(stderr, "formfactor: warning: {}\n", w);
+    for (const auto& w : warnings) fmt::print(stderr, "formfactor: warning: {}\n", cli_text(w));
 }
 
 namespace {
