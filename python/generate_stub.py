@@ -1,6 +1,7 @@
-"""Writes the generated parts of python/formfactor/__init__.pyi: the methods bound from keyword
-tables in C++ (python/src/keywords.h), as formfactor._core._signatures() describes them, between
-the lines ``# <generated Owner>`` and ``# </generated>`` of the stub.
+"""Writes the generated parts of python/formfactor/__init__.pyi: the methods and functions bound
+from keyword tables in C++ (python/src/keywords.h), as formfactor._core._signatures() describes
+them, between the lines ``# <generated Owner>`` (a class, or ``module`` for the module's
+functions) and ``# </generated>`` of the stub.
 
     PYTHONPATH=build/python /usr/bin/python3 python/generate_stub.py          # rewrite the stub
     PYTHONPATH=build/python /usr/bin/python3 python/generate_stub.py --check  # exit 1 if stale
@@ -15,13 +16,14 @@ WIDTH = 100
 
 
 def method_stub(sig, indent):
-    params = ["self"]
+    params = [] if sig["owner"] == "module" else ["self"]
     star = False
     for k in sig["keywords"]:
         if not k["positional"] and not star:
             params.append("*")
             star = True
-        params.append("%s: %s = ..." % (k["name"], k["type"]))
+        # An empty default: a required argument.
+        params.append("%s: %s%s" % (k["name"], k["type"], " = ..." if k["default"] else ""))
     head = indent + "def %s(" % sig["name"]
     params[-1] += ") -> %s: ..." % sig["returns"]
     lines = [head]

@@ -64,7 +64,7 @@ Scene prepare_scene(const SceneOptions& options, StepTimes* times,
     if (options.merge_coplanar) {
         const MergeReport merged = merge_coplanar(scene);
         scene.warnings.push_back(fmt::format(
-            "--merge-coplanar: {} faces merged into {} surfaces{}", merged.faces_before,
+            "`merge_coplanar`: {} faces merged into {} surfaces{}", merged.faces_before,
             merged.faces_after,
             merged.regions_kept ? fmt::format(" ({} coplanar regions kept as faces: their "
                                               "boundary touches itself)",

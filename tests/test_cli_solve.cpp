@@ -128,6 +128,9 @@ TEST_CASE("cli solve: repair, and the errors") {
         "light.csv -o b.csv");
     CHECK(r.code == 1);
     CHECK(r.err.find("did not converge in 2 sweeps") != std::string::npos);
+    // The library names its options; the CLI shows them as flags.
+    CHECK(r.err.find("raise --max-iterations, loosen --residual or use --solver direct") !=
+          std::string::npos);
     r = cli.run(
         "solve cube --solver jacobi --max-iterations 2 --properties "
         "light.csv -o b.csv "

@@ -135,6 +135,9 @@ TEST_CASE("solve: non-convergence is an error, or a warning when allowed") {
     o.max_iterations = 3;
     CHECK_THROWS_WITH_AS(solve_radiosity(ff, p, o), doctest::Contains("did not converge in 3"),
                          Error);
+    // Options by their library names (the CLI maps them to its flags), no flag of the CLI.
+    CHECK_THROWS_WITH_AS(solve_radiosity(ff, p, o), doctest::Contains("raise `max_iterations`"),
+                         Error);
     o.fail_if_not_converged = false;
     const auto r = solve_radiosity(ff, p, o);
     CHECK_FALSE(r.stats.converged);

@@ -133,20 +133,19 @@ void run_compute_hierarchical(const ComputeArgs& args, OutputTransaction* outer)
     const HierarchicalStats& hs = H.stats();
     const Diagnostics d = diagnose(written);
     if (!args.report.empty()) {
-        nlohmann::json report = {
-            {"formfactor_version", FF_VERSION},
-            {"command", "compute"},
-            {"scene", scene_summary_json(scene)},
-            {"N", scene.patches.size()},
-            {"method", "analytic (hierarchical operator)"},
-            {"storage", {{"kind", "hierarchical"}, {"operator_bytes", hs.bytes}}},
-            {"details", {{"hierarchical", to_json(hs)}}},
-            {"threads", threads},
-            {"timings", timings_json(times, total)},
-            {"memory", {{"peak_bytes", peak_memory_bytes()}}},
-            {"per_surface", {{"N", written.size()}, {"diagnostics", diagnostics_json(d)}}},
-            {"outputs", {{"matrix", args.output}, {"report", args.report}}},
-        };
+        ReportContext ctx =
+            report_context("compute", "analytic (hierarchical operator)", args.scene, times, total,
+                           threads, {{"hierarchical", to_json(hs)}}, {});
+        ctx.options.update(args.method.to_json("analytic"));
+        ctx.options["storage"] = "hierarchical";
+        ctx.options["error_target"] = args.error_target;
+        ctx.options["output"] = args.output;
+        ctx.options["report"] = args.report;
+        ctx.outputs = {{"matrix", args.output}, {"report", args.report}};
+        nlohmann::json report = report_head(scene, scene.patches.size(), ctx);
+        report["storage"] = {{"kind", "hierarchical"}, {"operator_bytes", hs.bytes}};
+        report["memory"] = {{"peak_bytes", peak_memory_bytes()}};
+        report["per_surface"] = {{"N", written.size()}, {"diagnostics", diagnostics_json(d)}};
         stage_report(tx, args.report, report);
     }
     finish(tx, outer);
@@ -190,16 +189,19 @@ void run_compute_sparse(const ComputeArgs& args, const std::string& why, OutputT
     if (!args.patches.empty())
         tx.stage(args.patches, [&](std::ostream& out) { write_patch_table(out, scene); });
     if (!args.report.empty()) {
-        nlohmann::json report = {{"command", "compute"},
-                                 {"scene", scene_summary_json(scene)},
-                                 {"method", to_string(method)}};
+        ReportContext ctx = report_context("compute", to_string(method), args.scene, times, total,
+                                           effective_threads(args.method.options.threads),
+                                           nlohmann::json::object(), {});
+        ctx.options.update(args.method.to_json(to_string(method)));
+        ctx.options["storage"] = "sparse";
+        ctx.options["threshold"] = args.threshold;
+        ctx.options["repair"] = args.repair.mode;
+        ctx.options["per_surface"] = args.per_surface;
+        ctx.options["output"] = args.output;
+        ctx.outputs = {{"matrix", args.output}};
+        nlohmann::json report = report_head(scene, scene.patches.size(), ctx);
         report.update(sparse_report_sections(r, why, args.threshold, args.repair.mode));
-        report["threads"] = effective_threads(args.method.options.threads);
-        report["outputs"] = {{"matrix", args.output}};
         if (args.per_surface) report["per_surface"] = {{"N", F.n}, {"nonzeros", F.nonzeros()}};
-        nlohmann::json timings = nlohmann::json::object();
-        for (const auto& [step, seconds] : times.steps) timings[step] = seconds;
-        report["timings"] = timings;
         stage_report(tx, args.report, report);
     }
     SparseFileInfo info;

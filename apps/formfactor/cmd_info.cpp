@@ -128,7 +128,7 @@ void print_info(const Scene& scene, const std::vector<std::size_t>& patch_counts
     }
     if (!scene.warnings.empty()) {
         fmt::print("warnings     {}\n", scene.warnings.size());
-        for (const auto& w : scene.warnings) fmt::print("  {}\n", w);
+        for (const auto& w : scene.warnings) fmt::print("  {}\n", cli_text(w));
     }
 }
 

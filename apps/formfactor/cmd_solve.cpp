@@ -104,7 +104,7 @@ std::string auto_sparse(const SolveArgs& args, const Scene& loaded, std::size_t 
 }
 
 // The report of a solve on the hierarchical operator or a sparse F (the dense path's comes from
-// make_report): the keys every solve report has, `options` completed with the solve's own.
+// make_report): report_head() with `options` completed with the solve's own, and "solve".
 nlohmann::json solve_report(const SolveArgs& args, const Scene& scene, const std::string& method,
                             nlohmann::json options, const SolverOptions& solver_options,
                             int threads, const StepTimes& times, const Stopwatch& total,
@@ -116,18 +116,17 @@ nlohmann::json solve_report(const SolveArgs& args, const Scene& scene, const std
     options["residual"] = solver_options.residual;
     options["max_iterations"] = solver_options.max_iterations;
     options["output"] = args.output;
-    return {
-        {"formfactor_version", FF_VERSION},
-        {"command", "solve"},
-        {"scene", scene_summary_json(scene)},
-        {"N", scene.patches.size()},
-        {"method", method},
-        {"options", options},
-        {"threads", threads},
-        {"timings", timings_json(times, total)},
-        {"outputs", {{"result", args.output}, {"report", args.report}}},
-        {"solve", solve_json},
-    };
+    ReportContext ctx;
+    ctx.command = "solve";
+    ctx.method = method;
+    ctx.options = std::move(options);
+    ctx.timings = times;
+    ctx.total_seconds = total.seconds();
+    ctx.threads = threads;
+    ctx.outputs = {{"result", args.output}, {"report", args.report}};
+    nlohmann::json report = report_head(scene, scene.patches.size(), ctx);
+    report["solve"] = solve_json;
+    return report;
 }
 
 // `solve --storage hierarchical`: the operator of formfactor/matrix/hierarchical.h, never F.

@@ -141,24 +141,24 @@ void run_view(const ViewArgs& args) {
         times.add("solve", sw.lap());
     }
 
+    ReportContext ctx = report_context(
+        "view", method_name, args.scene, times, total, threads,
+        computed.details.is_null() ? nlohmann::json::object() : computed.details, promise);
+    if (args.matrix.empty()) ctx.options.update(args.method.to_json(method_name));
+    ctx.options["matrix"] =
+        args.matrix.empty() ? nlohmann::json(nullptr) : nlohmann::json(args.matrix);
+    ctx.options["repair"] = args.repair.mode;
+    ctx.outputs = {{"page", args.output}};
     nlohmann::json report;
     if (content.form_factors) {
-        ReportContext ctx = report_context(
-            "view", method_name, args.scene, times, total, threads,
-            computed.details.is_null() ? nlohmann::json::object() : computed.details, promise);
-        if (args.matrix.empty()) ctx.options.update(args.method.to_json(method_name));
-        ctx.options["matrix"] =
-            args.matrix.empty() ? nlohmann::json(nullptr) : nlohmann::json(args.matrix);
-        ctx.options["repair"] = args.repair.mode;
-        ctx.outputs = {{"page", args.output}};
         report = make_report(scene, computed.ff, ctx);
         if (computed.repaired) report["repair"] = to_json(*computed.repaired);
     } else {
-        report = {{"command", "view"},
-                  {"matrix", args.matrix},
-                  {"storage", "sparse"},
-                  {"nonzeros", sparse.nonzeros()},
-                  {"threshold", sparse.threshold}};
+        report = report_head(scene, sparse.n, ctx);
+        report["matrix"] = args.matrix;
+        report["storage"] = "sparse";
+        report["nonzeros"] = sparse.nonzeros();
+        report["threshold"] = sparse.threshold;
     }
     if (!solve_json.is_null()) report["solve"] = solve_json;
     if (!table_path.empty()) report["solution"] = table_path;

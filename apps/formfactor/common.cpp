@@ -331,6 +331,19 @@ std::string cli_flag(const std::string& field) {
     return flag;
 }
 
+std::string cli_text(const std::string& message) {
+    std::string out;
+    std::size_t at = 0;
+    for (std::size_t open; (open = message.find('`', at)) != std::string::npos;) {
+        const std::size_t close = message.find('`', open + 1);
+        if (close == std::string::npos) break;
+        out += message.substr(at, open - at);
+        out += cli_flag(message.substr(open + 1, close - open - 1));
+        at = close + 1;
+    }
+    return out + message.substr(at);
+}
+
 bool same_file(const std::string& a, const std::string& b) {
     std::error_code ea, eb;
     const auto ca = std::filesystem::weakly_canonical(std::filesystem::absolute(a), ea);

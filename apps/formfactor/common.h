@@ -127,6 +127,10 @@ void print_reciprocity(const Diagnostics& d, const ReciprocityPromise& promise);
 /// as it is.
 std::string cli_flag(const std::string& field);
 
+/// A library message as the CLI shows it: each option field quoted in backquotes ("raise
+/// `max_iterations`") becomes its flag ("raise --max-iterations"), by cli_flag().
+std::string cli_text(const std::string& message);
+
 /// True when the two paths name the same file (after normalisation; they need not exist).
 bool same_file(const std::string& a, const std::string& b);
 

@@ -22,7 +22,7 @@ namespace {
 
 /// Prints "formfactor: <message>" as a single line on stderr.
 void print_error(const std::string& message) {
-    std::string line = message;
+    std::string line = formfactor::cli::cli_text(message);
     for (char& c : line)
         if (c == '\n' || c == '\r') c = ' ';
     while (!line.empty() && line.back() == ' ') line.pop_back();

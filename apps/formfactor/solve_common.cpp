@@ -59,7 +59,7 @@ ComputedMatrix computed_matrix(ComputeResult&& r, StepTimes& times) {
     times.add(r.timings);
     ComputedMatrix out;
     out.ff = std::move(r.form_factors);
-    out.details = to_json(r.report);
+    out.details = to_json(to_fields(r.report));
     print_method_warnings(r.report);
     out.raw = *r.diagnostics;
     out.repaired = std::move(r.repair);
@@ -182,13 +182,6 @@ nlohmann::json to_json(const HierarchicalStats& hs) {
             {"seconds", hs.seconds}};
 }
 
-nlohmann::json timings_json(const StepTimes& times, const Stopwatch& total) {
-    nlohmann::json t = nlohmann::json::object();
-    for (const auto& [name, seconds] : times.steps) t[name] = seconds;
-    t["total"] = std::max(total.seconds(), times.sum());
-    return t;
-}
-
 namespace {
 
 // Σ_j F_ij of each row, for the .vtu output.
@@ -290,7 +283,7 @@ void print_method_warnings(const MethodReport& report) {
 
 void print_warnings(const std::vector<std::string>& warnings) {
     std::fflush(stdout);
-    for (const auto& w : warnings) fmt::print(stderr, "formfactor: warning: {}\n", w);
+    for (const auto& w : warnings) fmt::print(stderr, "formfactor: warning: {}\n", cli_text(w));
 }
 
 namespace {

@@ -72,8 +72,6 @@ HierarchicalFormFactors build_hierarchical(const Scene& scene, double error_targ
                                            StepTimes& times);
 /// The operator's statistics for a report (details.hierarchical / storage).
 nlohmann::json to_json(const HierarchicalStats& s);
-/// The timings of a report: each step, and `total` (≥ their sum).
-nlohmann::json timings_json(const StepTimes& times, const Stopwatch& total);
 
 /// Solves the radiosity or (thermal) the thermal problem on F (a FormFactors, a sparse F or the
 /// hierarchical operator), prints the summary, stages the result at `output` (the table, or for

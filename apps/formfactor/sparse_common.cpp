@@ -68,7 +68,7 @@ nlohmann::json sparse_report_sections(const SparseComputeResult& r, const std::s
                           {"block_rows", r.run.block_rows},
                           {"nonzeros", F.nonzeros()},
                           {"csr_bytes", F.memory_bytes()}}},
-                        {"details", to_json(r.report)},
+                        {"details", to_json(to_fields(r.report))},
                         {"diagnostics", diagnostics_json(r.diagnostics)},
                         {"memory",
                          {{"estimate_before", memory_items(r.run.estimate_before)},

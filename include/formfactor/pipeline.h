@@ -26,9 +26,9 @@
 #include "formfactor/matrix/form_factors.h"
 #include "formfactor/matrix/repair.h"
 #include "formfactor/methods/method.h"
-#include "formfactor/methods/projection_view.h"
 #include "formfactor/methods/traits.h"
 #include "formfactor/scene/obstruction.h"
+#include "formfactor/scene/projection_view.h"
 #include "formfactor/scene/scene.h"
 #include "formfactor/visibility/visibility.h"
 

@@ -46,22 +46,9 @@ __all__ = [
 ]
 
 
-def load(path, subdivide=None, max_edge=None, merge_coplanar=False, zone=None):
-    """Loads a scene: a built-in name (see builtin_scenes(): ``cornell``, ``cube``,
-    ``room-8``, ...) or a file (``.obj`` with its MTL, ``.vs3`` View3D input, an EnergyPlus
-    ``.idf`` / ``.epJSON`` model, a Gmsh ``.msh``, or ``.stl``, ``.ply``, ``.gltf``, ``.glb``,
-    ``.off``).
-
-    subdivide=n splits each quad into n×n patches (triangles into n²); max_edge=L splits until
-    every patch edge is at most L (give one of them). merge_coplanar=True merges the coplanar,
-    edge-connected triangles of each surface (an STL or glTF mesh, a Gmsh physical group) back
-    into polygons first, as ``--merge-coplanar`` does. zone=NAME picks the zone of an
-    EnergyPlus model whose enclosure is loaded, as ``--zone`` does (matched without regard to
-    case; needed when the model has several: energyplus_zones() lists them). Raises InputError
-    (with ``.file`` and ``.line``) for a bad file or an unknown zone, OptionError for bad
-    options (a zone for a file that is not an EnergyPlus model).
-    """
-    return _core.load(_os.fspath(path), subdivide, max_edge, merge_coplanar, zone)
+# Bound in C++ from their keyword tables (python/src/keywords.h): signature, docstring, checks.
+load = _core.load
+point_factors = _core.point_factors
 
 
 def energyplus_zones(path):
@@ -107,17 +94,6 @@ def _default_solver(F, dense_default):
     if _is_scipy_sparse(F):
         return "gmres" if dense_default == "direct" else "gauss-seidel"
     return dense_default
-
-
-def point_factors(scene, points, normals, *, threads=0, progress=None):
-    """Form factors from M differential elements (sensors, radiometers, the points of a
-    mean-radiant-temperature map) to every patch: an (M, N) array whose row m is point m.
-
-    points: (M, 3) positions; normals: (M, 3) front normals (any length; normalised), or one
-    (3,) normal for every point. Exact with obstructions: each entry is the factor to the part
-    of patch j the point sees past every other surface.
-    """
-    return _core.point_factors(scene, points, normals, threads, progress)
 
 
 @_dataclass

@@ -114,6 +114,40 @@ const Keyword<ComputeOptions> kComputeKeywords[] = {
      nullptr},
 };
 
+/// The arguments of point_factors(), in order (points before normals, which are checked
+/// against them).
+const Keyword<PointOptions> kPointFactorsKeywords[] = {
+    {"scene", "Scene", nullptr, "the scene whose patches receive.", nullptr, true},
+    {"points", "_ArrayLike", nullptr,
+     "(M, 3) positions of the differential elements (sensors, radiometers, the points of a "
+     "mean-radiant-temperature map).",
+     [](const py::object& v, PointOptions& o) { o.positions = as_vec3s(v, "points"); }, true},
+    {"normals", "_ArrayLike", nullptr,
+     "(M, 3) front normals (any length; normalised), or one (3,) normal for every point.",
+     [](const py::object& v, PointOptions& o) {
+         o.normals = as_vec3s(v, "normals", o.positions.size());
+         if (o.normals.size() != o.positions.size()) {
+             throw OptionError("normals", fmt::format("must have {} rows (one per point), got {}",
+                                                      o.positions.size(), o.normals.size()));
+         }
+         for (std::size_t k = 0; k < o.normals.size(); ++k)
+             if (o.normals[k].norm() == 0.0)
+                 throw OptionError("normals", fmt::format("row {} is zero", k));
+     },
+     true},
+    {"threads", "int", "0", "worker threads (0: all cores).",
+     [](const py::object& v, PointOptions& o) { o.threads = arg<int>(v, "threads"); }},
+    {"progress", "_Progress", "None",
+     "None, True (a bar on stderr) or callable(phase, done, total, elapsed_seconds).", nullptr},
+};
+
+const Signature<PointOptions> kPointFactors{
+    "point_factors", "np.ndarray",
+    "Form factors from M differential elements to every patch: an (M, N) array whose row m is "
+    "point m.\n\nExact with obstructions: each entry is the factor to the part of patch j the "
+    "point sees past every other surface.",
+    kPointFactorsKeywords};
+
 const Signature<ComputeOptions> kFormFactors{
     "form_factors", "Result",
     "Computes the form factors of this scene's patches: returns a Result whose ``matrix[i, j]`` "
@@ -142,34 +176,24 @@ std::string report_of(const Scene& scene, const ComputeOptions& o, const Compute
         {"robust_rays", o.visibility.robust},
     };
     const FormFactors& ff = r.form_factors;
-    if (ff.is_block()) {
-        options["rows"] = {ff.first_row, ff.first_row + ff.size()};
-        nlohmann::json report{{"formfactor_version", FF_VERSION},
-                              {"timestamp", utc_timestamp()},
-                              {"command", "python"},
-                              {"scene", scene_summary_json(scene)},
-                              {"N", ff.areas.size()},
-                              {"rows", {ff.first_row, ff.first_row + ff.size()}},
-                              {"method", to_string(method)},
-                              {"options", options},
-                              {"threads", r.threads},
-                              {"details", to_json(r.report)},
-                              {"diagnostics", {{"standard_error", standard_error_json(ff)}}}};
-        nlohmann::json t = nlohmann::json::object();
-        for (const auto& [step, sec] : r.timings.steps) t[step] = sec;
-        t["total"] = total_seconds;
-        report["timings"] = t;
-        return json_text(report);
-    }
     ReportContext ctx;
     ctx.command = "python";
     ctx.method = to_string(method);
-    ctx.options = options;
+    ctx.options = std::move(options);
     ctx.timings = r.timings;
     ctx.total_seconds = total_seconds;
     ctx.threads = r.threads;
-    ctx.details = to_json(r.report);
+    ctx.details = to_json(to_fields(r.report));
     ctx.reciprocity = r.traits.reciprocity;
+    if (ff.is_block()) {
+        // A block of rows has no row sums or reciprocity to diagnose: its standard errors only.
+        const nlohmann::json rows = {ff.first_row, ff.first_row + ff.size()};
+        ctx.options["rows"] = rows;
+        nlohmann::json report = report_head(scene, ff.areas.size(), ctx);
+        report["rows"] = rows;
+        report["diagnostics"] = {{"standard_error", standard_error_json(ff)}};
+        return json_text(report);
+    }
     nlohmann::json report = make_report(scene, ff, ctx);
     if (r.repair) report["repair"] = to_json(*r.repair);
     return json_text(report);
@@ -459,24 +483,16 @@ For a row block (``rows=(b, e)``) it holds rows b..e-1 and every column.
     // Whether comm= can work: the library was built with MPI.
     m.attr("built_with_mpi") = distributed::built_with_mpi();
 
-    m.def(
-        "point_factors",
-        [](const PyScene& s, const py::object& points, const py::object& normals,
-           const py::object& threads, const py::object& progress) {
-            const std::vector<Vec3> p = as_vec3s(points, "points");
-            const std::vector<Vec3> n = as_vec3s(normals, "normals", p.size());
-            if (n.size() != p.size()) {
-                throw OptionError(
-                    "normals",
-                    fmt::format("must have {} rows (one per point), got {}", p.size(), n.size()));
-            }
-            for (std::size_t k = 0; k < n.size(); ++k)
-                if (n[k].norm() == 0.0)
-                    throw OptionError("normals", fmt::format("row {} is zero", k));
-            PointOptions o;
-            o.positions = p;
-            o.normals = n;
-            o.threads = arg<int>(threads, "threads");
+    bind_function_with_keywords(
+        m, kPointFactors, [](PointOptions& o, const std::vector<py::object>& values) {
+            const py::object& scene = value_of(kPointFactors, values, "scene");
+            if (!py::isinstance<PyScene>(scene))
+                throw OptionError("scene", "must be a formfactor.Scene, got " +
+                                               py::repr(scene).cast<std::string>());
+            for (const char* name : {"points", "normals"})
+                if (value_of(kPointFactors, values, name).is_none())
+                    throw OptionError(name, "must be an array of 3-vectors, got None");
+            const PyScene& s = scene.cast<const PyScene&>();
             PointResult r = run_released(
                 [&](CancellationFlag& flag, ProgressSink* sink) {
                     PointOptions run = o;
@@ -484,11 +500,9 @@ For a row block (``rows=(b, e)``) it holds rows b..e-1 and every column.
                     run.progress = sink;
                     return compute_point_form_factors(*s.scene, run);
                 },
-                progress);
+                value_of(kPointFactors, values, "progress"));
             return adopt(std::move(r.F));
-        },
-        py::arg("scene"), py::arg("points"), py::arg("normals"), py::arg("threads") = 0,
-        py::arg("progress") = py::none());
+        });
 }
 
 }  // namespace formfactor::python

@@ -7,6 +7,7 @@
 #include "formfactor/scene/energyplus.h"
 #include "formfactor/scene/merge_coplanar.h"
 #include "formfactor/solve/properties.h"
+#include "keywords.h"
 
 namespace formfactor::python {
 
@@ -131,6 +132,43 @@ PyScene from_arrays(const py::object& vertices, const py::object& faces,
 }
 
 const Scene& get(const PyScene& s) { return *s.scene; }
+
+/// The arguments of load(), in order (all may be given by position).
+const Keyword<SceneOptions> kLoadKeywords[] = {
+    {"path", "Union[str, PathLike[str]]", nullptr,
+     "a built-in scene's name (builtin_scenes()) or a file: .obj with its MTL, .vs3 (View3D), an "
+     "EnergyPlus .idf / .epJSON model, a Gmsh .msh, or .stl, .ply, .gltf, .glb, .off.",
+     [](const py::object& v, SceneOptions& o) {
+         if (!py::isinstance<py::str>(v) && !py::hasattr(v, "__fspath__"))
+             throw OptionError(
+                 "path", "must be a str or an os.PathLike, got " + py::repr(v).cast<std::string>());
+         o.source = arg<std::string>(py::module_::import("os").attr("fspath")(v), "path");
+     },
+     true},
+    {"subdivide", "Optional[int]", "None",
+     "n: each quad into n×n patches (triangles into n²); give this or max_edge.", nullptr, true},
+    {"max_edge", "Optional[float]", "None",
+     "L: split until every patch edge is at most L; give this or subdivide.", nullptr, true},
+    {"merge_coplanar", "bool", "False",
+     "merge the coplanar, edge-connected triangles of each surface (an STL or glTF mesh, a "
+     "Gmsh physical group) back into polygons first, as --merge-coplanar does.",
+     [](const py::object& v, SceneOptions& o) {
+         o.merge_coplanar = arg<bool>(v, "merge_coplanar");
+     },
+     true},
+    {"zone", "Optional[str]", "None",
+     "the zone of an EnergyPlus model whose enclosure is loaded, as --zone does (matched "
+     "without regard to case; needed when the model has several: energyplus_zones() lists "
+     "them).",
+     [](const py::object& v, SceneOptions& o) { o.zone = arg<std::string>(v, "zone"); }, true},
+};
+
+const Signature<SceneOptions> kLoad{
+    "load", "Scene",
+    "Loads a scene, subdivided into patches.\n\nRaises InputError (with .file and .line) for a "
+    "bad file or an unknown zone, OptionError for bad options (a zone for a file that is not an "
+    "EnergyPlus model).",
+    kLoadKeywords};
 
 }  // namespace
 
@@ -344,25 +382,19 @@ valid planar polygon.
                 x.enclosure ? ", enclosure" : "");
         });
 
-    m.def(
-        "load",
-        [](const std::string& path, const py::object& n, const py::object& max_edge,
-           const py::object& merge_arg, const py::object& zone_arg) {
-            const bool merge = arg<bool>(merge_arg, "merge_coplanar");
-            const std::string zone = zone_arg.is_none() ? "" : arg<std::string>(zone_arg, "zone");
+    bind_function_with_keywords(
+        m, kLoad, [](SceneOptions& o, const std::vector<py::object>& values) {
+            if (o.source.empty() && value_of(kLoad, values, "path").is_none())
+                throw OptionError("path", "must be a file or a built-in scene's name, got None");
             Scene scene;
             {
                 py::gil_scoped_release nogil;
-                SceneOptions options;
-                options.source = path;
-                options.zone = zone;
-                scene = load_scene(options);
-                if (merge) merge_coplanar(scene);
+                scene = load_scene(o);
+                if (o.merge_coplanar) merge_coplanar(scene);
             }
-            return finish(std::move(scene), n, max_edge);
-        },
-        py::arg("path"), py::arg("subdivide") = py::none(), py::arg("max_edge") = py::none(),
-        py::arg("merge_coplanar") = false, py::arg("zone") = py::none(), "(see formfactor.load)");
+            return finish(std::move(scene), value_of(kLoad, values, "subdivide"),
+                          value_of(kLoad, values, "max_edge"));
+        });
     m.def(
         "energyplus_zones",
         [](const std::string& path) {

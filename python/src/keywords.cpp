@@ -19,18 +19,21 @@ py::list& signatures() {
 
 std::string parameter_text(const std::vector<std::string>& names,
                            const std::vector<std::string>& defaults,
-                           const std::vector<bool>& positional) {
+                           const std::vector<bool>& positional, bool self) {
     // A plain `self` (not `$self`): pybind11's functions hold a capsule as __self__, which would
     // make inspect drop a `$self` as already bound.
-    std::string text = "self";
+    std::vector<std::string> params;
+    if (self) params.emplace_back("self");
     bool star = false;
     for (std::size_t k = 0; k < names.size(); ++k) {
         if (!positional[k] && !star) {
-            text += ", *";
+            params.emplace_back("*");
             star = true;
         }
-        text += ", " + names[k] + "=" + defaults[k];
+        params.push_back(defaults[k].empty() ? names[k] : names[k] + "=" + defaults[k]);
     }
+    std::string text;
+    for (const auto& param : params) text += (text.empty() ? "" : ", ") + param;
     return text;
 }
 
@@ -60,8 +63,14 @@ std::vector<py::object> given_values(const char* function, const std::vector<std
         values[k] = py::reinterpret_borrow<py::object>(value);
     }
     const py::object literal = py::module_::import("ast").attr("literal_eval");
-    for (std::size_t k = 0; k < names.size(); ++k)
-        if (!values[k]) values[k] = literal(defaults[k]);
+    for (std::size_t k = 0; k < names.size(); ++k) {
+        if (values[k]) continue;
+        if (defaults[k].empty()) {
+            throw py::type_error(
+                fmt::format("{}() missing required argument: '{}'", function, names[k]));
+        }
+        values[k] = literal(defaults[k]);
+    }
     return values;
 }
 

@@ -21,7 +21,8 @@ struct Keyword {
     const char* name;
     /// Its annotation in the stub, e.g. "Optional[float]".
     const char* type;
-    /// Its default as a Python literal ("None", "False", "1.5").
+    /// Its default as a Python literal ("None", "False", "1.5"); null: required (a module
+    /// function's leading arguments: the scene, the path).
     const char* default_value;
     const char* doc;
     /// Sets the options from a given value (checked with arg<T>); not called for a value left
@@ -42,21 +43,22 @@ struct Signature {
     std::span<const Keyword<Options>> keywords;
 };
 
-/// The parameters of `keywords` as a signature's text: `self, method=None, *, tolerance=None`.
+/// The parameters of `keywords` as a signature's text: `self, method=None, *, tolerance=None`
+/// (without `self, ` for a module function). An empty default is a required parameter.
 std::string parameter_text(const std::vector<std::string>& names,
                            const std::vector<std::string>& defaults,
-                           const std::vector<bool>& positional);
+                           const std::vector<bool>& positional, bool self = true);
 
 /// The values given to `function(self, *args, **kwargs)`, one per keyword in table order (the
 /// default where not given), or a TypeError worded as Python's own for a positional argument
-/// too many, an unknown keyword or a keyword given twice.
+/// too many, an unknown keyword, a keyword given twice or a required one missing.
 std::vector<py::object> given_values(const char* function, const std::vector<std::string>& names,
                                      const std::vector<std::string>& defaults,
                                      std::size_t positional, const py::args& args,
                                      const py::kwargs& kwargs);
 
 /// Records a signature for formfactor._core._signatures() (what the stub generator reads):
-/// `owner` is the class name ("Scene") or "" for a module function.
+/// `owner` is the class name ("Scene") or "module" for a module function.
 void record_signature(const std::string& owner, const std::string& name, const std::string& returns,
                       const std::vector<std::string>& names, const std::vector<std::string>& types,
                       const std::vector<std::string>& defaults,
@@ -67,18 +69,19 @@ void record_signature(const std::string& owner, const std::string& name, const s
 template <class Options>
 std::string docstring(const Signature<Options>& sig, std::vector<std::string>* names = nullptr,
                       std::vector<std::string>* defaults = nullptr,
-                      std::vector<bool>* positional = nullptr) {
+                      std::vector<bool>* positional = nullptr, bool self = true) {
     std::vector<std::string> n, d;
     std::vector<bool> p;
     for (const auto& k : sig.keywords) {
         n.emplace_back(k.name);
-        d.emplace_back(k.default_value);
+        d.emplace_back(k.default_value ? k.default_value : "");
         p.push_back(k.positional);
     }
-    std::string doc = std::string(sig.name) + "(" + parameter_text(n, d, p) + ")\n--\n\n" +
-                      sig.summary + "\n\nKeyword arguments:\n";
+    std::string doc = std::string(sig.name) + "(" + parameter_text(n, d, p, self) + ")\n--\n\n" +
+                      sig.summary + "\n\nArguments:\n";
     for (const auto& k : sig.keywords)
-        doc += "\n" + std::string(k.name) + " (" + k.type + ", default " + k.default_value +
+        doc += "\n" + std::string(k.name) + " (" + k.type +
+               (k.default_value ? std::string(", default ") + k.default_value : "") +
                "): " + k.doc + "\n";
     if (names) *names = n;
     if (defaults) *defaults = d;
@@ -123,6 +126,34 @@ void bind_with_keywords(Class& cls, const Signature<Options>& sig, Call call) {
                 if (sig.keywords[k].apply && !values[k].is_none())
                     sig.keywords[k].apply(values[k], o);
             return call(self, o, values);
+        },
+        doc.c_str());
+}
+
+/// Binds `sig` as a function of module `m`: `call(options, values)`, as bind_with_keywords()
+/// without `self`.
+template <class Options, class Call>
+void bind_function_with_keywords(py::module_& m, const Signature<Options>& sig, Call call) {
+    std::vector<std::string> names, defaults;
+    std::vector<bool> positional;
+    const std::string doc = docstring(sig, &names, &defaults, &positional, false);
+    std::vector<std::string> types;
+    for (const auto& k : sig.keywords) types.emplace_back(k.type);
+    record_signature("module", sig.name, sig.returns, names, types, defaults, positional);
+    std::size_t n_positional = 0;
+    for (bool b : positional) n_positional += b ? 1 : 0;
+    py::options options;
+    options.disable_function_signatures();
+    m.def(
+        sig.name,
+        [sig, names, defaults, n_positional, call](const py::args& args, const py::kwargs& kwargs) {
+            const std::vector<py::object> values =
+                given_values(sig.name, names, defaults, n_positional, args, kwargs);
+            Options o{};
+            for (std::size_t k = 0; k < values.size(); ++k)
+                if (sig.keywords[k].apply && !values[k].is_none())
+                    sig.keywords[k].apply(values[k], o);
+            return call(o, values);
         },
         doc.c_str());
 }

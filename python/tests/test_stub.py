@@ -43,6 +43,27 @@ def test_the_keyword_tables_give_the_signatures_python_sees():
     assert "tolerance" in ff.Scene.form_factors.__doc__
 
 
+def test_module_functions_come_from_keyword_tables_too():
+    import inspect
+
+    load = inspect.signature(ff.load).parameters
+    assert list(load) == ["path", "subdivide", "max_edge", "merge_coplanar", "zone"]
+    assert load["path"].default is inspect.Parameter.empty
+    assert load["merge_coplanar"].default is False
+    assert "zone" in ff.load.__doc__
+    points = inspect.signature(ff.point_factors).parameters
+    assert [p.kind for p in points.values()][:3] == [inspect.Parameter.POSITIONAL_OR_KEYWORD] * 3
+    assert points["threads"].kind == inspect.Parameter.KEYWORD_ONLY
+    with pytest.raises(TypeError, match="missing required argument: 'path'"):
+        ff.load()
+    with pytest.raises(ff.OptionError, match="path"):
+        ff.load(3)
+    with pytest.raises(ff.OptionError, match="merge_coplanar"):
+        ff.load("cube", merge_coplanar=1)
+    with pytest.raises(ff.OptionError, match="scene"):
+        ff.point_factors("cube", [[0, 0, 0]], [0, 0, 1])
+
+
 @pytest.mark.skipif(importlib.util.find_spec("mypy") is None, reason="needs mypy (Debian: mypy)")
 def test_stubtest_finds_the_stub_and_the_module_agree(tmp_path):
     config = tmp_path / "mypy.ini"

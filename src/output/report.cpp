@@ -134,9 +134,7 @@ std::string reciprocity_summary(const Diagnostics& d, const ReciprocityPromise& 
     return s + ": " + v.text;
 }
 
-json make_report(const Scene& scene, const FormFactors& ff, const ReportContext& ctx) {
-    json diagnostics = diagnostics_json(diagnose(ff), ctx.reciprocity);
-    diagnostics["standard_error"] = standard_error_json(ff);
+json report_head(const Scene& scene, std::size_t n, const ReportContext& ctx) {
     json timings = json::object();
     for (const auto& [name, seconds] : ctx.timings.steps) timings[name] = seconds;
     timings["total"] = std::max(ctx.total_seconds, ctx.timings.sum());
@@ -145,16 +143,22 @@ json make_report(const Scene& scene, const FormFactors& ff, const ReportContext&
         {"timestamp", utc_timestamp()},
         {"command", ctx.command},
         {"scene", scene_summary_json(scene)},
-        {"N", ff.size()},
+        {"N", n},
         {"method", ctx.method},
         {"options", ctx.options},
         {"threads", ctx.threads},
         {"timings", timings},
-        {"diagnostics", diagnostics},
         {"details", ctx.details},
-        {"memory", {{"peak_bytes", peak_memory_bytes()}}},
         {"outputs", ctx.outputs},
     };
+}
+
+json make_report(const Scene& scene, const FormFactors& ff, const ReportContext& ctx) {
+    json report = report_head(scene, ff.size(), ctx);
+    json& diagnostics = report["diagnostics"] = diagnostics_json(diagnose(ff), ctx.reciprocity);
+    diagnostics["standard_error"] = standard_error_json(ff);
+    report["memory"] = {{"peak_bytes", peak_memory_bytes()}};
+    return report;
 }
 
 std::string json_text(const json& j) { return j.dump(2) + "\n"; }
@@ -224,20 +228,6 @@ nlohmann::json to_json(const Fields& f) {
         }
     }
     return nullptr;
-}
-
-nlohmann::json to_json(const MethodReport& r) {
-    nlohmann::json j = r.details.is_null() ? nlohmann::json::object() : to_json(r.details);
-    if (r.error_bound_per_entry) j["error_bound_per_entry"] = *r.error_bound_per_entry;
-    if (r.pairs) {
-        j["pairs"] = r.pairs->pairs;
-        j["pairs_zero"] = r.pairs->zero;
-        j["pairs_exact"] = r.pairs->exact;
-        j["pairs_far_field"] = r.pairs->far_field;
-    }
-    if (r.rays_cast) j["rays_cast"] = *r.rays_cast;
-    if (r.seconds) j["seconds"] = *r.seconds;
-    return j;
 }
 
 }  // namespace formfactor

@@ -280,7 +280,7 @@ void finish_iterative(SolverStats& st, double residual, const SolverOptions& opt
     st.converged = residual <= options.residual;
     st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (st.converged) return;
-    const std::string msg = not_converged(st, unit, "raise --max-iterations or loosen --residual");
+    const std::string msg = not_converged(st, unit, "raise `max_iterations` or loosen `residual`");
     if (options.fail_if_not_converged) throw Error(msg);
     st.warnings.push_back(msg);
 }
@@ -522,7 +522,7 @@ SolverStats solve_linear(const DenseMatrix& F, const std::vector<double>& areas,
                 residual, options.residual);
         else
             msg = not_converged(st, options.solver == SolverKind::shooting ? "shots" : "sweeps",
-                                "raise --max-iterations, loosen --residual or use --solver direct");
+                                "raise `max_iterations`, loosen `residual` or use `solver` direct");
         if (options.fail_if_not_converged && options.solver != SolverKind::direct &&
             !options.add_ambient)
             throw Error(msg);

@@ -12,7 +12,7 @@ namespace formfactor::testing {
 inline FormFactors run_method(const Method& method, const Scene& scene,
                               const MethodOptions& options, nlohmann::json& details) {
     MethodResult r = method.compute(MethodContext{scene, options, nullptr, nullptr, {}});
-    details = to_json(r.report);
+    details = to_json(to_fields(r.report));
     return std::move(r.form_factors);
 }
 

@@ -38,7 +38,9 @@ class InputError : public Error {
 
 /// A bad option value or combination: `what()` is "field: message". The library names the
 /// option's field (e.g. "tolerance", "samples", "rows"); the CLI maps fields to its flags
-/// (cli_flag()) and may throw with a flag itself ("--out-dir").
+/// (cli_flag()) and may throw with a flag itself ("--out-dir"). A message or warning of the
+/// library that names an option in its text quotes the field in backquotes ("raise
+/// `max_iterations`"): the CLI shows those as its flags too, Python users as they are.
 class OptionError : public Error {
   public:
     OptionError(std::string field, const std::string& message)

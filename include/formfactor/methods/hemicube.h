@@ -22,7 +22,7 @@
 
 #include "formfactor/core/types.h"
 #include "formfactor/methods/method.h"
-#include "formfactor/methods/projection_view.h"
+#include "formfactor/scene/projection_view.h"
 #include "formfactor/scene/scene.h"
 
 namespace formfactor {

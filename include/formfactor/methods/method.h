@@ -89,7 +89,8 @@ struct PairClasses {
     std::size_t far_field = 0;  ///< Gauss rule with an a-priori bound
 };
 
-/// What a method says about its run. Only output/ turns it into JSON (to_json, report.h).
+/// What a method says about its run. Only output/ turns it into JSON (to_fields(), then
+/// to_json(const Fields&) of output/report.h).
 struct MethodReport {
     MethodKind method = MethodKind::analytic;
     /// An upper bound of |F_ij − exact| for every entry (exact-grade methods), when the method
@@ -101,6 +102,11 @@ struct MethodReport {
     /// Everything else, method-specific (keys documented with each method).
     Fields details;
 };
+
+/// The report as one Fields tree (what output/report.h turns into the run report's "details"):
+/// its details, with the typed members under their keys (error_bound_per_entry; pairs,
+/// pairs_zero, pairs_exact, pairs_far_field; rays_cast; seconds).
+Fields to_fields(const MethodReport& report);
 
 /// F for the context's rows, and the method's report.
 struct MethodResult {

@@ -15,11 +15,11 @@
 #include <utility>
 #include <vector>
 
+#include "formfactor/core/fields.h"
 #include "formfactor/core/timing.h"
 #include "formfactor/matrix/form_factors.h"
 #include "formfactor/matrix/reciprocity.h"
 #include "formfactor/matrix/repair.h"
-#include "formfactor/methods/method.h"
 #include "formfactor/scene/scene.h"
 
 namespace formfactor {
@@ -64,19 +64,21 @@ nlohmann::json standard_error_json(const FormFactors& ff);
 /// "max"}, "bounds": {"min": [x,y,z], "max": [x,y,z]}, "warnings": [...]}.
 nlohmann::json scene_summary_json(const Scene& scene);
 
-/// The full report for F computed on `scene` (diagnose(ff) is run here, with the standard errors
-/// when ff has them; the reciprocity verdict against ctx.reciprocity; "diagnostics" also gets
-/// "standard_error": standard_error_json(ff)).
+/// The keys every report has, whatever holds F (a dense matrix, a sparse one, a hierarchical
+/// operator, a block of rows): "formfactor_version", "timestamp", "command", "scene"
+/// (scene_summary_json()), "N" (`n`, the patches), "method", "options", "threads", "timings"
+/// (each step, and "total": the larger of ctx.total_seconds and the steps' sum), "details",
+/// "outputs". make_report() adds what a dense F says; the other front ends add their storage's.
+nlohmann::json report_head(const Scene& scene, std::size_t n, const ReportContext& ctx);
+
+/// The full report for F computed on `scene`: report_head() with "diagnostics" (diagnose(ff),
+/// with the standard errors when ff has them; the reciprocity verdict against ctx.reciprocity;
+/// and "standard_error": standard_error_json(ff)) and "memory": {"peak_bytes"}.
 nlohmann::json make_report(const Scene& scene, const FormFactors& ff, const ReportContext& ctx);
 
 /// The report of repair(): mode, the diagnostics before and after, the changes, the closure
 /// iterations, the warnings.
 nlohmann::json to_json(const RepairReport& report);
-
-/// The method's report as the run report's "details": its Fields, with the typed members under
-/// their keys (error_bound_per_entry; pairs, pairs_zero, pairs_exact, pairs_far_field; rays_cast;
-/// seconds).
-nlohmann::json to_json(const MethodReport& report);
 
 /// A Fields tree as JSON (objects keep their keys; lists of reals become arrays).
 nlohmann::json to_json(const Fields& fields);

@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "formfactor/methods/projection_view.h"
 #include "formfactor/output/image.h"
+#include "formfactor/scene/projection_view.h"
 
 namespace formfactor {
 

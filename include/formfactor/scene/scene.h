@@ -158,7 +158,7 @@ Scene builtin_scene(const std::string& name);
 /// rules above and below (so even n = 1 gives several patches for it).
 /// A surface without holes stays whole (one patch, whatever its shape) when n = 1 without
 /// max_edge, or when all its edges are ≤ L. Children keep the surface's orientation. Throws
-/// OptionError("subdivide" / "--max-edge") for n < 1, L < 0 or not finite, both set (n > 1 and L
+/// OptionError("subdivide" / "max_edge") for n < 1, L < 0 or not finite, both set (n > 1 and L
 /// > 0), or more than kMaxPatches patches.
 void subdivide(Scene& scene, const SubdivisionOptions& options);
 

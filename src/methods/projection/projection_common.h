@@ -20,7 +20,7 @@
 #include "formfactor/matrix/form_factors.h"
 #include "formfactor/matrix/sparse.h"
 #include "formfactor/methods/method.h"
-#include "formfactor/methods/projection_view.h"
+#include "formfactor/scene/projection_view.h"
 #include "formfactor/scene/scene.h"
 
 namespace formfactor::projection {

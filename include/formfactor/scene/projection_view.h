@@ -1,7 +1,8 @@
 #pragma once
 /// What one point sees through a projection method (hemicube or hemiplane): the item buffer
 /// laid out for display, with the delta form factor of every cell. Used by `formfactor
-/// inspect`, by output/view_image.h and by tests.
+/// inspect`, by output/view_image.h and by tests. It holds patch indices and nothing of the
+/// methods that fill it, so it lives with the scene, where output/ may draw it.
 
 #include <vector>
 
