@@ -354,6 +354,7 @@ void solve_distributed_scene(const SolveArgs& args, Scene& scene, StepTimes& tim
         report["storage"] = {{"kind", kind},
                              {"why", "rows kept on the MPI ranks that computed them"},
                              {"ranks", distributed::size()},
+                             {"rows_per_rank", F.rows_per_rank},
                              {"entries", F.entries},
                              {"threshold", F.threshold}};
         report["memory"] = {{"peak_bytes", peak_memory_bytes()}};
@@ -363,10 +364,13 @@ void solve_distributed_scene(const SolveArgs& args, Scene& scene, StepTimes& tim
     fmt::print("scene      {}: N = {} patches, F from {} ({} thread{} per rank)\n", scene.name,
                format_count(double(scene.patches.size())), method_name, threads,
                threads == 1 ? "" : "s");
+    std::string shares;
+    for (std::size_t r = 0; r < F.rows_per_rank.size(); ++r)
+        shares += fmt::format("{}{}", r ? " / " : "", format_count(F.rows_per_rank[r]));
     fmt::print(
-        "storage    {} rows kept on {} ranks ({} entries), solved over the ranks; row sums "
-        "[{:.10g}, {:.10g}]\n",
-        kind, distributed::size(), format_count(F.entries), lo, hi);
+        "storage    {} rows kept on {} ranks ({} rows, {} entries), solved over the ranks; row "
+        "sums [{:.10g}, {:.10g}]\n",
+        kind, distributed::size(), shares, format_count(F.entries), lo, hi);
     fmt::print("time       {}\n", format_timings(times, total.seconds()));
     std::string wrote = args.output;
     if (!args.report.empty()) wrote += ", " + args.report;

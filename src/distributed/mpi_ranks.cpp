@@ -39,8 +39,8 @@ namespace formfactor::distributed {
 
 namespace {
 
-constexpr int kTagCommand = 1, kTagResult = 2, kTagAssign = 3;
-constexpr std::int64_t kCommandJob = 1, kCommandFinish = 2, kCommandSolve = 3;
+constexpr int kTagCommand = 1, kTagResult = 2, kTagAssign = 3, kTagMove = 4;
+constexpr std::int64_t kCommandJob = 1, kCommandFinish = 2, kCommandSolve = 3, kCommandMove = 4;
 // dense, sparse: the rows go to rank 0; kept_dense, kept_sparse: each rank keeps its rows
 // (compute_distributed_rows()) and sends their row sums.
 enum class JobKind : std::uint8_t { dense, sparse, kept_dense, kept_sparse };
@@ -134,11 +134,10 @@ void broadcast_job(const std::vector<char>& bytes) {
     MPI_Bcast(const_cast<char*>(bytes.data()), static_cast<int>(size), MPI_BYTE, 0, g_comm);
 }
 
-// Rank 0: a solve to every other rank.
-void broadcast_solve(const std::vector<char>& bytes) {
+// Rank 0: a solve (kCommandSolve) or the moves of kept rows (kCommandMove) to every other rank.
+void broadcast_command(std::int64_t command, const std::vector<char>& bytes) {
     std::int64_t size = static_cast<std::int64_t>(message_size(bytes));
-    for (int r = 1; r < g_size; ++r)
-        MPI_Send(&kCommandSolve, 1, MPI_INT64_T, r, kTagCommand, g_comm);
+    for (int r = 1; r < g_size; ++r) MPI_Send(&command, 1, MPI_INT64_T, r, kTagCommand, g_comm);
     MPI_Bcast(&size, 1, MPI_INT64_T, 0, g_comm);
     MPI_Bcast(const_cast<char*>(bytes.data()), static_cast<int>(size), MPI_BYTE, 0, g_comm);
 }
@@ -637,6 +636,8 @@ class KeptSink final : public BlockSink {
     std::vector<double> areas;
     ReportMerger report;
     Owners owners;
+    /// Per block kept: the work of a product with it (rows + stored entries), by first row.
+    std::map<std::size_t, double> weights;
     std::vector<double> row_sums;
     double entries = 0.0, dropped_max = 0.0;
 
@@ -649,6 +650,7 @@ class KeptSink final : public BlockSink {
         entries += got[rows.size()];
         dropped_max = std::max(dropped_max, got[rows.size() + 1]);
         owners[static_cast<std::size_t>(from)].push_back(rows);
+        weights[rows.begin] = double(rows.size()) + got[rows.size()];
     }
 
     const Job& job_;
@@ -723,6 +725,163 @@ class MpiExchange final : public Exchange {
     const Owners& owners_;
     std::vector<double> send_, received_;
 };
+
+// A block of kept rows that changes rank.
+struct Move {
+    RowRange rows;
+    std::int32_t from = 0, to = 0;
+};
+
+// The moves that even out the work of a product over the ranks: the rows follow the cost of
+// computing them, which may differ from a product's (rows, or stored entries) many times over.
+// While it helps, the busiest rank gives the least busy one its largest block that lowers the
+// larger of the two loads. Deterministic: the same blocks give the same moves.
+std::vector<Move> balancing_moves(Owners& owners, const std::map<std::size_t, double>& weights) {
+    const std::size_t ranks = owners.size();
+    std::vector<double> load(ranks, 0.0);
+    for (std::size_t r = 0; r < ranks; ++r)
+        for (const RowRange& b : owners[r]) load[r] += weights.at(b.begin);
+    std::vector<Move> moves;
+    for (std::size_t step = 0; step < weights.size(); ++step) {
+        const auto most = std::size_t(std::max_element(load.begin(), load.end()) - load.begin());
+        const auto least = std::size_t(std::min_element(load.begin(), load.end()) - load.begin());
+        const double gap = load[most] - load[least];
+        // A block of weight w < gap lowers max(load[most], load[least] + w).
+        std::optional<std::size_t> pick;
+        double best = 0.0;
+        for (std::size_t k = 0; k < owners[most].size(); ++k) {
+            const double w = weights.at(owners[most][k].begin);
+            if (w < gap && w > best) {
+                best = w;
+                pick = k;
+            }
+        }
+        if (!pick || best < 0.02 * load[most]) break;
+        const RowRange b = owners[most][*pick];
+        owners[most].erase(owners[most].begin() + std::ptrdiff_t(*pick));
+        owners[least].push_back(b);
+        load[most] -= best;
+        load[least] += best;
+        moves.push_back({b, std::int32_t(most), std::int32_t(least)});
+    }
+    for (auto& blocks : owners)
+        std::sort(blocks.begin(), blocks.end(),
+                  [](const RowRange& a, const RowRange& b) { return a.begin < b.begin; });
+    return moves;
+}
+
+void put_kept_block(WireWriter& w, const KeptBlock& b, std::size_t n) {
+    w.put(b.rows);
+    if (kept_rows().sparse) {
+        w.put_vector(b.indptr);
+        w.put_vector(b.indices);
+        w.put_vector(b.values);
+    } else {
+        w.put_array(b.row(b.rows.begin, n), b.rows.size() * n);
+    }
+}
+
+KeptBlock get_kept_block(WireReader& r, std::size_t n) {
+    const auto rows = r.get<RowRange>();
+    if (!kept_rows().sparse) {
+        const char* data = nullptr;
+        if (r.get_array<double>(&data) != rows.size() * n)
+            throw Error("distributed: a block of the wrong size");
+        // Copied into place at the alignment the rows have in the whole matrix.
+        std::vector<double> values(rows.size() * n);
+        if (!values.empty()) std::memcpy(values.data(), data, values.size() * sizeof(double));
+        return keep_dense(rows, values.data(), n);
+    }
+    KeptBlock b;
+    b.rows = rows;
+    b.indptr = r.get_vector<std::int64_t>();
+    b.indices = r.get_vector<std::int32_t>();
+    b.values = r.get_vector<double>();
+    return b;
+}
+
+// Every rank's part of the moves: sends the blocks it gives (non-blocking), receives the ones
+// it gets, in the order of the moves (MPI keeps the order of one sender's messages). Returns
+// the failure of this rank, or empty.
+std::string make_moves(const std::vector<Move>& moves) {
+    KeptRows& kept = kept_rows();
+    try {
+        std::vector<std::vector<char>> sent;
+        std::vector<MPI_Request> requests;
+        sent.reserve(moves.size());
+        for (const Move& m : moves) {
+            if (m.from != g_rank) continue;
+            const auto it =
+                std::find_if(kept.blocks.begin(), kept.blocks.end(),
+                             [&](const KeptBlock& b) { return b.rows.begin == m.rows.begin; });
+            if (it == kept.blocks.end()) throw Error("distributed: a block to move is not here");
+            WireWriter w;
+            put_kept_block(w, *it, kept.n);
+            sent.push_back(std::move(w.bytes()));
+            kept.blocks.erase(it);
+            requests.emplace_back();
+            MPI_Isend(sent.back().data(), message_size(sent.back()), MPI_BYTE, m.to, kTagMove,
+                      g_comm, &requests.back());
+        }
+        for (const Move& m : moves) {
+            if (m.to != g_rank) continue;
+            const std::vector<char> bytes = receive_bytes(wait_for(m.from, kTagMove, nullptr));
+            WireReader r(bytes.data(), bytes.size());
+            kept.blocks.push_back(get_kept_block(r, kept.n));
+        }
+        for (MPI_Request& q : requests) {
+            int done = 0;
+            auto pause = std::chrono::microseconds(20);
+            for (MPI_Test(&q, &done, MPI_STATUS_IGNORE); !done;
+                 MPI_Test(&q, &done, MPI_STATUS_IGNORE)) {
+                std::this_thread::sleep_for(pause);
+                pause = std::min(pause * 2, std::chrono::microseconds(1000));
+            }
+        }
+        std::sort(
+            kept.blocks.begin(), kept.blocks.end(),
+            [](const KeptBlock& a, const KeptBlock& b) { return a.rows.begin < b.rows.begin; });
+        return {};
+    } catch (const std::bad_alloc&) {
+        return kOutOfMemory;
+    } catch (const std::exception& e) {
+        return e.what();
+    }
+}
+
+std::vector<char> moves_bytes(const std::vector<Move>& moves) {
+    WireWriter w;
+    w.put_vector(moves);
+    return std::move(w.bytes());
+}
+
+// After the moves every rank says whether its own went well (a gather to rank 0; a failed
+// rank sends its message first).
+std::vector<std::int32_t> gather_move_status(const std::string& failure) {
+    if (!failure.empty() && g_rank != 0) {
+        WireWriter w;
+        w.put(Status::failed);
+        w.put_string(failure);
+        send_bytes(w.bytes(), 0, kTagResult);
+    }
+    std::int32_t mine = failure.empty() ? 0 : 1;
+    std::vector<std::int32_t> all(static_cast<std::size_t>(g_rank == 0 ? g_size : 0));
+    MPI_Gather(&mine, 1, MPI_INT32_T, all.data(), 1, MPI_INT32_T, 0, g_comm);
+    return all;
+}
+
+void work_on_moves(const std::vector<char>& bytes) {
+    std::string failure;
+    std::vector<Move> moves;
+    try {
+        WireReader r(bytes.data(), bytes.size());
+        moves = r.get_vector<Move>();
+    } catch (const std::exception& e) {
+        failure = e.what();
+    }
+    if (failure.empty()) failure = make_moves(moves);
+    gather_move_status(failure);
+}
 
 // What every rank needs for a solve of kept rows.
 struct SolveJob {
@@ -887,6 +1046,8 @@ int serve() {
             work_on_job(receive_job());
         else if (command == kCommandSolve)
             work_on_solve(receive_job());
+        else if (command == kCommandMove)
+            work_on_moves(receive_job());
         else
             return 0;
     }
@@ -1056,7 +1217,27 @@ DistributedRows compute_distributed_rows(const Scene& scene, const ComputeOption
     Stopwatch sw;
     run_job(job, scene, max_rows, sink, cancel, options.progress);
     out.timings.add("compute", sw.lap());
-    g_owners = std::move(sink.owners);
+    // Even out the work of a product: blocks move between ranks, never through rank 0.
+    Owners owners = std::move(sink.owners);
+    const std::vector<Move> moves = balancing_moves(owners, sink.weights);
+    if (!moves.empty()) {
+        broadcast_command(kCommandMove, moves_bytes(moves));
+        const std::string failure = make_moves(moves);
+        const std::vector<std::int32_t> status = gather_move_status(failure);
+        if (!failure.empty()) throw Error(failure);
+        for (int r = 1; r < g_size; ++r)
+            if (status[static_cast<std::size_t>(r)] != 0) {
+                const std::vector<char> bytes = receive_bytes(wait_for(r, kTagResult, nullptr));
+                WireReader reader(bytes.data(), bytes.size());
+                reader.get<Status>();
+                throw Error(fmt::format("rank {}: {}", r, reader.get_string()));
+            }
+        out.timings.add("balance rows", sw.lap());
+    }
+    g_owners = std::move(owners);
+    out.rows_per_rank.assign(static_cast<std::size_t>(g_size), 0.0);
+    for (std::size_t r = 0; r < g_owners.size(); ++r)
+        for (const RowRange& b : g_owners[r]) out.rows_per_rank[r] += double(b.size());
     out.sparse = sparse != nullptr;
     out.n = n;
     out.areas = std::move(sink.areas);
@@ -1085,7 +1266,7 @@ SolverStats solve_rows(const DistributedRows& rows, const Columns& d, const Colu
     job.max_iterations = options.max_iterations;
     job.threads = options.threads;
     job.fail_if_not_converged = options.fail_if_not_converged;
-    broadcast_solve(solve_job_bytes(job));
+    broadcast_command(kCommandSolve, solve_job_bytes(job));
     MpiExchange exchange(g_owners);
     try {
         return solve_kept(kept_rows(), 0, exchange, d, c, options, x, fx);

@@ -371,6 +371,7 @@ DistributedRows compute_rows_here(const Scene& scene, const ComputeOptions& opti
     }
     kept.sparse = out.sparse;
     kept.n = out.n;
+    out.rows_per_rank = {double(out.n)};
     out.id = ++kept_id();
     return out;
 }

@@ -123,12 +123,16 @@ struct DistributedRows {
     MethodTraits traits;
     StepTimes timings;
     int threads = 1;
+    /// Rows each rank holds for the solve (moved after the computation so that every rank has
+    /// about the same share of a product: rows when dense, stored entries when sparse).
+    std::vector<double> rows_per_rank;
     std::uint64_t id = 0;  ///< which computation's rows (a solve of older rows is an Error)
 };
 
 /// Rank 0: F of `scene` over every rank (the others in serve()) as compute_form_factors() and
 /// compute_sparse_form_factors() compute it, bit-identical, but each rank keeps the rows it
-/// computed and sends rank 0 only their row sums: no rank holds the whole F. `sparse` null:
+/// computed and sends rank 0 only their row sums: no rank holds the whole F. Blocks then move
+/// between ranks (never through rank 0) to even out the work of a product. `sparse` null:
 /// dense rows; else CSR rows above sparse->threshold. No repair (options.repair must be none:
 /// OptionError("repair")) and no diagnosis of reciprocity (it needs F_ji beside F_ij). On one
 /// rank the rows stay in this process.
