@@ -31,6 +31,15 @@ void check_solver(SolverKind kind) {
                                                 to_string(kind)));
 }
 
+// As detail::dropped_mass_warning() says it of a whole sparse F.
+std::string dropped_mass_warning(const DistributedRows& rows) {
+    if (!rows.sparse || !(rows.dropped_max > 1e-9)) return {};
+    return fmt::format(
+        "the stored entries of a row carry up to {:.3g} less than the method computed (dropped "
+        "mass: what a threshold dropped): the solve treats it as seen by the environment",
+        rows.dropped_max);
+}
+
 // What the solve leaves for the product after it: F x of the solution it returned.
 struct LastProduct {
     Columns x, fx;
@@ -59,12 +68,7 @@ ThermalResult solve_thermal(const DistributedRows& rows, const PatchProperties& 
         return st;
     };
     ThermalResult res = detail::solve_thermal_system(sys, props, options);
-    if (rows.sparse && rows.dropped_max > 1e-9)
-        res.warnings.push_back(fmt::format(
-            "the stored entries of a row carry up to {:.3g} less than the method computed "
-            "(dropped mass: what a threshold dropped): the solve treats it as seen by the "
-            "environment",
-            rows.dropped_max));
+    if (std::string w = dropped_mass_warning(rows); !w.empty()) res.warnings.push_back(w);
     return res;
 }
 
@@ -81,12 +85,7 @@ RadiosityResult solve_radiosity(const DistributedRows& rows, const PatchProperti
     for (Eigen::Index i = 0; i < x.rows(); ++i)
         res.radiosity[static_cast<std::size_t>(i)] = x.row(i);
     res.balance = detail::radiosity_balance_of(rows.areas, rows.row_sums, props, x, fx);
-    if (rows.sparse && rows.dropped_max > 1e-9)
-        res.stats.warnings.push_back(fmt::format(
-            "the stored entries of a row carry up to {:.3g} less than the method computed "
-            "(dropped mass: what a threshold dropped): the solve treats it as seen by the "
-            "environment",
-            rows.dropped_max));
+    if (std::string w = dropped_mass_warning(rows); !w.empty()) res.stats.warnings.push_back(w);
     return res;
 }
 

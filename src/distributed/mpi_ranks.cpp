@@ -4,6 +4,13 @@
 // Every message a worker sends (ready, rows, failure) is answered by one assignment: a block,
 // or none (the job is over for it). Waits poll with short sleeps: a blocking MPI receive spins
 // a core that the computation needs.
+//
+// A solve of kept rows (compute_distributed_rows()) is a command of its own: rank 0 sends the
+// system, and every rank iterates on its rows with one all-gather per product (row_solve.h);
+// before it, blocks of kept rows move between ranks to even out a product's work.
+//
+// The file is long (over 1,000 lines) because every part of it shares the communicator, the
+// rank's state and the message helpers, and MPI's headers are included by this file alone.
 
 // The C API only: Open MPI's deprecated C++ bindings warn in every build.
 #define OMPI_SKIP_MPICXX 1
