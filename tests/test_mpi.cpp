@@ -5,8 +5,11 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
+#include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
@@ -143,15 +146,116 @@ TEST_CASE("mpi: sparse .mtx is bit-identical on 2 and 3 ranks as on one process"
 
 TEST_CASE("mpi: thermal and radiosity solves write the same solution on 2 and 3 ranks" *
           doctest::test_suite("mpi")) {
-    // F over the ranks, gathered and solved on rank 0.
+    // F over the ranks, gathered and solved on rank 0 (the direct solve, exchange factors).
     check_same_files_on_any_rank_count(
         "solve cube --subdivide 3 --thermal --properties p.csv --threads 1 -o T{}.csv "
         "--exchange-factors X{}.csv",
         {"T{}.csv", "X{}.csv"});
+    // Rows kept on their ranks and GMRES over the ranks: one process's solution bit for bit.
     check_same_files_on_any_rank_count(
         "solve cornell --subdivide 2 --method mc-hemisphere --samples 400 --storage sparse "
-        "--solver gauss-seidel --threads 1 -o B{}.csv",
+        "--solver gmres --threads 1 -o B{}.csv",
         {"B{}.csv"});
+}
+
+TEST_CASE(
+    "mpi: a thermal solve over the ranks (gmres and jacobi, dense and sparse) writes one process's "
+    "solution bit for bit" *
+    doctest::test_suite("mpi")) {
+    check_same_files_on_any_rank_count(
+        "solve cube --subdivide 4 --thermal --properties p.csv --solver gmres --threads 1 -o "
+        "T{}.csv",
+        {"T{}.csv"});
+    check_same_files_on_any_rank_count(
+        "solve cube --subdivide 3 --method hemicube --resolution 64 --thermal --properties p.csv "
+        "--solver jacobi --threads 2 -o J{}.csv",
+        {"J{}.csv"});
+    check_same_files_on_any_rank_count(
+        "solve cube --subdivide 4 --thermal --properties p.csv --storage sparse --threshold 1e-4 "
+        "--threads 1 -o S{}.csv",
+        {"S{}.csv"});
+}
+
+namespace {
+
+// Column `name` of a CSV table with a header row.
+std::vector<double> csv_column(const std::string& text, const std::string& name) {
+    std::vector<double> out;
+    std::istringstream in(text);
+    std::string line;
+    std::getline(in, line);
+    std::size_t column = 0;
+    {
+        std::istringstream header(line);
+        std::string cell;
+        while (std::getline(header, cell, ',') && cell != name) ++column;
+    }
+    while (std::getline(in, line)) {
+        std::istringstream row(line);
+        std::string cell;
+        for (std::size_t k = 0; k <= column && std::getline(row, cell, ','); ++k) {
+        }
+        out.push_back(std::stod(cell));
+    }
+    return out;
+}
+
+}  // namespace
+
+TEST_CASE(
+    "mpi: a Gauss-Seidel thermal solve over 2 and 3 ranks is the serial one to the tolerance "
+    "and repeats bit for bit" *
+    doctest::test_suite("mpi")) {
+    TempDir dir;
+    write_text(dir.file("p.csv"),
+               "surface,emissivity,temperature\nx0,1,300\nx1,0.5,300\ny0,1,300\ny1,0.3,300\n"
+               "z0,0.6,1000\nz1,0.8,400\n");
+    const std::string args =
+        "solve cube --subdivide 4 --thermal --properties p.csv --solver gauss-seidel "
+        "--residual 1e-11 --threads 1 -o ";
+    const Run one = run(dir, 0, args + "T1.csv");
+    INFO(said(one));
+    REQUIRE(one.code == 0);
+    const std::vector<double> serial = csv_column(read_text(dir.file("T1.csv")), "radiosity");
+    REQUIRE(serial.size() == 96);
+    double scale = 0.0;
+    for (double v : serial) scale = std::max(scale, std::abs(v));
+    for (int ranks : {2, 3}) {
+        CAPTURE(ranks);
+        std::string first;
+        for (int repeat = 0; repeat < 2; ++repeat) {
+            const std::string name = "T" + std::to_string(ranks) + "-" + std::to_string(repeat);
+            const Run r = run(dir, ranks, args + name + ".csv");
+            INFO(said(r));
+            REQUIRE(r.code == 0);
+            CHECK(r.out.find("solved over the ranks") != std::string::npos);
+            const std::string text = read_text(dir.file(name + ".csv"));
+            if (repeat == 0) first = text;
+            CHECK(text == first);
+            const std::vector<double> got = csv_column(text, "radiosity");
+            REQUIRE(got.size() == serial.size());
+            for (std::size_t i = 0; i < got.size(); ++i)
+                CHECK(std::abs(got[i] - serial[i]) <= 1e-9 * scale);
+        }
+    }
+}
+
+TEST_CASE("mpi: a rank that fails during a distributed solve ends every rank with its message" *
+          doctest::test_suite("mpi")) {
+    TempDir dir;
+    write_text(dir.file("p.csv"), "surface,temperature\nx0,300\nz1,1000\n");
+    const Run r = run(dir, 3,
+                      "solve cube --subdivide 4 --thermal --properties p.csv --solver gmres "
+                      "--threads 1 -o T.csv "
+                      "--report r.json",
+                      "FORMFACTOR_TEST_FAIL_SOLVE_RANK=2");
+    INFO(said(r));
+    CHECK(r.code == 1);
+    CHECK(r.err.find("formfactor: rank 2: a failure injected on rank 2") != std::string::npos);
+    const auto first = r.err.find("formfactor:");
+    CHECK(r.err.find("formfactor:", first + 1) == std::string::npos);
+    CHECK(r.seconds < 10.0);
+    CHECK(dir.entries() == 1);  // p.csv alone
 }
 
 TEST_CASE("mpi: every zone of a model (one job per zone) gives the same EnergyPlus file" *

@@ -14,6 +14,7 @@
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
 #include "formfactor/core/progress.h"
+#include "formfactor/distributed/distributed.h"
 #include "formfactor/matrix/memory.h"
 #include "formfactor/methods/hierarchical_build.h"
 #include "formfactor/methods/traits.h"
@@ -51,6 +52,19 @@ void solve_hierarchical_scene(const SolveArgs& args, Scene& scene, StepTimes& ti
 void solve_sparse_scene(const SolveArgs& args, Scene& scene, StepTimes& times, Stopwatch& total,
                         const std::string& why);
 std::string dense_run_is_large(std::size_t n, const DenseRunNeeds& dense);
+void solve_distributed_scene(const SolveArgs& args, Scene& scene, StepTimes& times,
+                             Stopwatch& total, bool sparse, const SolverOptions& solver_options);
+
+// Whether the solve runs over the MPI ranks, each keeping the rows of F it computed: under
+// mpirun, for F computed here without repair (which needs the whole F) or exchange factors
+// (an inverse of the whole system), solved by an iterative solver. Otherwise F is gathered on
+// rank 0 and solved there.
+bool solve_on_ranks(const SolveArgs& args, SolverKind solver) {
+    return distributed::size() > 1 && args.matrix.empty() && args.exchange.empty() &&
+           parse_repair_mode(args.repair.mode) == RepairMode::none &&
+           (solver == SolverKind::jacobi || solver == SolverKind::gauss_seidel ||
+            solver == SolverKind::gmres);
+}
 
 // Whether `solve --storage auto` takes the hierarchical operator for `loaded` (before
 // subdivision; n patches after it), and why; empty when it takes the dense F. Only where the
@@ -235,6 +249,10 @@ void solve_sparse_scene(const SolveArgs& args, Scene& scene, StepTimes& times, S
     const int threads = effective_threads(args.method.options.threads);
     const SolverOptions solver_options =
         args.solver.options(args.thermal ? SolverKind::gmres : SolverKind::gauss_seidel, threads);
+    if (solve_on_ranks(args, solver_options.solver)) {
+        solve_distributed_scene(args, scene, times, total, true, solver_options);
+        return;
+    }
     warn_single_patch(scene);
     PatchProperties props = properties_from_scene(scene);
     if (!args.properties.empty()) apply_properties_csv(args.properties, scene, props);
@@ -278,6 +296,80 @@ void solve_sparse_scene(const SolveArgs& args, Scene& scene, StepTimes& times, S
                format_count(double(scene.patches.size())), read ? args.matrix : method_name,
                threads, threads == 1 ? "" : "s");
     print_sparse_summary(r, why, F.threshold, args.repair.mode);
+    fmt::print("time       {}\n", format_timings(times, total.seconds()));
+    std::string wrote = args.output;
+    if (!args.report.empty()) wrote += ", " + args.report;
+    fmt::print("wrote      {}\n", wrote);
+}
+
+// The solve over the MPI ranks (solve_on_ranks()): F computed with each rank keeping its rows
+// (dense, or `sparse` CSR rows above --threshold), the iteration exchanging the solution vector.
+void solve_distributed_scene(const SolveArgs& args, Scene& scene, StepTimes& times,
+                             Stopwatch& total, bool sparse, const SolverOptions& solver_options) {
+    const int threads = effective_threads(args.method.options.threads);
+    warn_single_patch(scene);
+    PatchProperties props = properties_from_scene(scene);
+    if (!args.properties.empty()) apply_properties_csv(args.properties, scene, props);
+    validate_properties(props);
+    const MethodKind method = args.method.resolved_kind(scene);
+    const std::string method_name = to_string(method);
+    ComputeOptions o = args.method.compute_options();
+    TerminalProgress bar;
+    o.progress = &bar;
+    o.cancel = &process_cancellation();
+    SparseOptions so;
+    so.threshold = args.threshold;
+    const distributed::DistributedRows F =
+        distributed::compute_distributed_rows(scene, o, sparse ? &so : nullptr);
+    times.add(F.timings);
+    print_rank_shares(threads);
+    print_method_warnings(F.report);
+    Stopwatch sw;
+    OutputTransaction tx;
+    const nlohmann::json solve_json =
+        solve_and_stage(F, props, args.thermal, args.ambient_temperature, solver_options,
+                        args.output, times, sw, tx, scene);
+    times.add("write", sw.lap());
+    double lo = F.row_sums.empty() ? 0.0 : F.row_sums[0], hi = lo, mean = 0.0;
+    for (double v : F.row_sums) {
+        lo = std::min(lo, v);
+        hi = std::max(hi, v);
+        mean += v;
+    }
+    if (!F.row_sums.empty()) mean /= static_cast<double>(F.row_sums.size());
+    const std::string kind = sparse ? "sparse" : "dense";
+    if (!args.report.empty()) {
+        nlohmann::json options = args.method.to_json(method_name);
+        options["matrix"] = nullptr;
+        options["storage"] = kind;
+        options["threshold"] = args.threshold;
+        options["repair"] = args.repair.mode;
+        nlohmann::json report = solve_report(args, scene, method_name, options, solver_options,
+                                             threads, times, total, solve_json);
+        report["diagnostics"] = {
+            {"row_sum", {{"min", lo}, {"max", hi}, {"mean", mean}}},
+            {"reciprocity", "not checked: the rows of F stay on the ranks that computed them"}};
+        report["details"] = to_json(F.report);
+        report["storage"] = {{"kind", kind},
+                             {"why", "rows kept on the MPI ranks that computed them"},
+                             {"ranks", distributed::size()},
+                             {"rows_per_rank", F.rows_per_rank},
+                             {"entries", F.entries},
+                             {"threshold", F.threshold}};
+        report["memory"] = {{"peak_bytes", peak_memory_bytes()}};
+        stage_report(tx, args.report, report);
+    }
+    tx.commit();
+    fmt::print("scene      {}: N = {} patches, F from {} ({} thread{} per rank)\n", scene.name,
+               format_count(double(scene.patches.size())), method_name, threads,
+               threads == 1 ? "" : "s");
+    std::string shares;
+    for (std::size_t r = 0; r < F.rows_per_rank.size(); ++r)
+        shares += fmt::format("{}{}", r ? " / " : "", format_count(F.rows_per_rank[r]));
+    fmt::print(
+        "storage    {} rows kept on {} ranks ({} rows, {} entries), solved over the ranks; row "
+        "sums [{:.10g}, {:.10g}]\n",
+        kind, distributed::size(), shares, format_count(F.entries), lo, hi);
     fmt::print("time       {}\n", format_timings(times, total.seconds()));
     std::string wrote = args.output;
     if (!args.report.empty()) wrote += ", " + args.report;
@@ -380,6 +472,10 @@ void run_solve(const SolveArgs& args) {
     }
     if (!sparse_why.empty()) {
         solve_sparse_scene(args, scene, times, total, sparse_why);
+        return;
+    }
+    if (solve_on_ranks(args, solver_options.solver)) {
+        solve_distributed_scene(args, scene, times, total, false, solver_options);
         return;
     }
     warn_single_patch(scene);

@@ -197,6 +197,7 @@ std::vector<double> row_sums_of(const SparseFormFactors& F) {
     return sums;
 }
 std::vector<double> row_sums_of(const HierarchicalFormFactors& F) { return F.row_sums(); }
+std::vector<double> row_sums_of(const distributed::DistributedRows& F) { return F.row_sums; }
 
 // The .vtu fields of F: those of form_factor_fields() for a dense F (with the standard errors
 // when it has them), the areas and row sums otherwise.
@@ -261,6 +262,10 @@ template nlohmann::json solve_and_stage<FormFactors>(const FormFactors&, const P
                                                      OutputTransaction&, const Scene&);
 template nlohmann::json solve_and_stage<HierarchicalFormFactors>(
     const HierarchicalFormFactors&, const PatchProperties&, bool, double, const SolverOptions&,
+    const std::string&, StepTimes&, Stopwatch&, OutputTransaction&, const Scene&);
+
+template nlohmann::json solve_and_stage<distributed::DistributedRows>(
+    const distributed::DistributedRows&, const PatchProperties&, bool, double, const SolverOptions&,
     const std::string&, StepTimes&, Stopwatch&, OutputTransaction&, const Scene&);
 
 template nlohmann::json solve_and_stage<SparseFormFactors>(const SparseFormFactors&,

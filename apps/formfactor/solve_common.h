@@ -9,6 +9,7 @@
 
 #include "common.h"
 #include "formfactor/core/atomic_file.h"
+#include "formfactor/distributed/distributed.h"
 #include "formfactor/matrix/repair.h"
 #include "formfactor/methods/hierarchical_build.h"
 #include "formfactor/output/render.h"
@@ -73,10 +74,11 @@ HierarchicalFormFactors build_hierarchical(const Scene& scene, double error_targ
 /// The operator's statistics for a report (details.hierarchical / storage).
 nlohmann::json to_json(const HierarchicalStats& s);
 
-/// Solves the radiosity or (thermal) the thermal problem on F (a FormFactors, a sparse F or the
-/// hierarchical operator), prints the summary, stages the result at `output` (the table, or for
-/// a `.vtu` path the patches of `scene` with the solution, area, row sum and sky factor) and
-/// returns the report's "solve" section; `options` as for solve_thermal / solve_radiosity.
+/// Solves the radiosity or (thermal) the thermal problem on F (a FormFactors, a sparse F, the
+/// hierarchical operator, or rows spread over MPI ranks), prints the summary, stages the result at
+/// `output` (the table, or for a `.vtu` path the patches of `scene` with the solution, area, row
+/// sum and sky factor) and returns the report's "solve" section; `options` as for solve_thermal /
+/// solve_radiosity.
 template <class Matrix>
 nlohmann::json solve_and_stage(const Matrix& F, const PatchProperties& props, bool thermal,
                                double ambient_temperature, const SolverOptions& options,

@@ -4,6 +4,13 @@
 // Every message a worker sends (ready, rows, failure) is answered by one assignment: a block,
 // or none (the job is over for it). Waits poll with short sleeps: a blocking MPI receive spins
 // a core that the computation needs.
+//
+// A solve of kept rows (compute_distributed_rows()) is a command of its own: rank 0 sends the
+// system, and every rank iterates on its rows with one all-gather per product (row_solve.h);
+// before it, blocks of kept rows move between ranks to even out a product's work.
+//
+// The file is long (over 1,000 lines) because every part of it shares the communicator, the
+// rank's state and the message helpers, and MPI's headers are included by this file alone.
 
 // The C API only: Open MPI's deprecated C++ bindings warn in every build.
 #define OMPI_SKIP_MPICXX 1
@@ -32,15 +39,18 @@
 #include "formfactor/core/timing.h"
 #include "formfactor/distributed/distributed.h"
 #include "formfactor/matrix/memory.h"
+#include "row_solve.h"
 #include "wire.h"
 
 namespace formfactor::distributed {
 
 namespace {
 
-constexpr int kTagCommand = 1, kTagResult = 2, kTagAssign = 3;
-constexpr std::int64_t kCommandJob = 1, kCommandFinish = 2;
-enum class JobKind : std::uint8_t { dense, sparse };
+constexpr int kTagCommand = 1, kTagResult = 2, kTagAssign = 3, kTagMove = 4;
+constexpr std::int64_t kCommandJob = 1, kCommandFinish = 2, kCommandSolve = 3, kCommandMove = 4;
+// dense, sparse: the rows go to rank 0; kept_dense, kept_sparse: each rank keeps its rows
+// (compute_distributed_rows()) and sends their row sums.
+enum class JobKind : std::uint8_t { dense, sparse, kept_dense, kept_sparse };
 enum class Status : std::uint8_t { ready, rows, failed, cancelled };
 constexpr const char* kOutOfMemory =
     "out of memory: the run needed more memory than this rank's machine could give (use fewer "
@@ -51,6 +61,7 @@ bool g_finished = false;
 int g_rank = 0, g_size = 1, g_thread_level = MPI_THREAD_SINGLE;
 MPI_Comm g_comm = MPI_COMM_WORLD;
 RankShares g_shares;
+Owners g_owners;  // rank 0: who keeps which rows of the last compute_distributed_rows()
 
 // The environment of a process that an MPI launcher started: Open MPI's mpirun, PMIx (Open
 // MPI under srun), PMI (MPICH's hydra, srun --mpi=pmi2).
@@ -101,7 +112,14 @@ struct Job {
     MethodKind method = MethodKind::analytic;
     MethodOptions method_options;
     VisibilityOptions visibility;
+    double threshold = 0.0;  // kept_sparse
+    std::uint64_t kept = 0;  // kept_*: the id of the rows
 };
+
+bool keeps_rows(JobKind kind) {
+    return kind == JobKind::kept_dense || kind == JobKind::kept_sparse;
+}
+bool sparse_job(JobKind kind) { return kind == JobKind::sparse || kind == JobKind::kept_sparse; }
 
 std::vector<char> job_bytes(const Job& job, const Scene& scene) {
     WireWriter w;
@@ -109,6 +127,8 @@ std::vector<char> job_bytes(const Job& job, const Scene& scene) {
     w.put(job.method);
     w.put(job.method_options);
     w.put(job.visibility);
+    w.put(job.threshold);
+    w.put(job.kept);
     put_scene(w, scene);
     return std::move(w.bytes());
 }
@@ -117,6 +137,14 @@ std::vector<char> job_bytes(const Job& job, const Scene& scene) {
 void broadcast_job(const std::vector<char>& bytes) {
     std::int64_t size = static_cast<std::int64_t>(message_size(bytes));  // may throw: first
     for (int r = 1; r < g_size; ++r) MPI_Send(&kCommandJob, 1, MPI_INT64_T, r, kTagCommand, g_comm);
+    MPI_Bcast(&size, 1, MPI_INT64_T, 0, g_comm);
+    MPI_Bcast(const_cast<char*>(bytes.data()), static_cast<int>(size), MPI_BYTE, 0, g_comm);
+}
+
+// Rank 0: a solve (kCommandSolve) or the moves of kept rows (kCommandMove) to every other rank.
+void broadcast_command(std::int64_t command, const std::vector<char>& bytes) {
+    std::int64_t size = static_cast<std::int64_t>(message_size(bytes));
+    for (int r = 1; r < g_size; ++r) MPI_Send(&command, 1, MPI_INT64_T, r, kTagCommand, g_comm);
     MPI_Bcast(&size, 1, MPI_INT64_T, 0, g_comm);
     MPI_Bcast(const_cast<char*>(bytes.data()), static_cast<int>(size), MPI_BYTE, 0, g_comm);
 }
@@ -173,8 +201,8 @@ class BlockSink {
     virtual ~BlockSink() = default;
     /// Rank 0's own block (main thread).
     virtual void local(const RowRange& rows) = 0;
-    /// A worker's rows as it sent them (dispatcher thread).
-    virtual void remote(const RowRange& rows, WireReader& r) = 0;
+    /// Rank `from`'s rows as it sent them (dispatcher thread).
+    virtual void remote(int from, const RowRange& rows, WireReader& r) = 0;
 };
 
 // The first failure of a job, wherever it happened.
@@ -243,7 +271,7 @@ void dispatch(Schedule& schedule, BlockSink& sink, Failure& failure, Cancellatio
             busy[static_cast<std::size_t>(from)] += r.get<double>();
             rows[static_cast<std::size_t>(from)] += double(block.size());
             try {
-                sink.remote(block, r);
+                sink.remote(from, block, r);
                 progress.advance(block.size());
             } catch (...) {
                 failure.record_local(std::current_exception());
@@ -333,10 +361,45 @@ ComputeOptions block_options(const Job& job, const Visibility* visibility, RowRa
     return o;
 }
 
+// Computes the rows of `o` and keeps them on this rank (kept_rows()): what a kept job does with a
+// block on every rank. Returns the rows' sums, then their stored entries and the largest
+// dropped mass. `areas`, when not null and empty, gets the patches' areas.
+std::vector<double> keep_block(const Job& job, const Scene& scene, ComputeOptions o,
+                               bool emit_sparse, MethodReport& report,
+                               std::vector<double>* areas = nullptr) {
+    const std::size_t n = scene.patches.size();
+    KeptBlock block;
+    double dropped = 0.0;
+    if (job.kind == JobKind::kept_sparse) {
+        SparseRows emitted;
+        if (emit_sparse) o.sparse_rows = &emitted;
+        ComputeResult r = formfactor::compute_form_factors(scene, o);
+        report = std::move(r.report);
+        if (areas && areas->empty()) *areas = r.form_factors.areas;
+        if (!emit_sparse) emitted = nonzero_rows(r.form_factors);
+        block =
+            keep_sparse(std::move(emitted), n, job.threshold, o.method_options.threads, dropped);
+    } else {
+        ComputeResult r = formfactor::compute_form_factors(scene, o);
+        report = std::move(r.report);
+        if (areas && areas->empty()) *areas = r.form_factors.areas;
+        block = keep_dense(o.rows, r.form_factors.F.data(), n);
+    }
+    std::vector<double> out = kept_row_sums(block, n, job.kind == JobKind::kept_sparse);
+    out.push_back(double(kept_entries(block, n, job.kind == JobKind::kept_sparse)));
+    out.push_back(dropped);
+    kept_rows().blocks.push_back(std::move(block));
+    return out;
+}
+
 // The rows of one block as a worker sends them (after status, rows and busy seconds).
 void put_block(WireWriter& w, const Job& job, const Scene& scene, const Visibility* visibility,
                bool emit_sparse, RowRange rows, MethodReport& report) {
     ComputeOptions o = block_options(job, visibility, rows, &process_cancellation());
+    if (keeps_rows(job.kind)) {
+        w.put_vector(keep_block(job, scene, o, emit_sparse, report));
+        return;
+    }
     if (job.kind == JobKind::sparse && emit_sparse) {
         SparseRows emitted;
         o.sparse_rows = &emitted;
@@ -389,14 +452,22 @@ void work_on_job(const std::vector<char>& bytes) {
         job.method = r.get<MethodKind>();
         job.method_options = r.get<MethodOptions>();
         job.visibility = r.get<VisibilityOptions>();
+        job.threshold = r.get<double>();
+        job.kept = r.get<std::uint64_t>();
         scene = get_scene(r);
+        if (keeps_rows(job.kind)) {
+            kept_rows() = KeptRows{};
+            kept_rows().sparse = job.kind == JobKind::kept_sparse;
+            kept_rows().n = scene.patches.size();
+            kept_id() = job.kept;
+        }
         // For the tests of one failing rank: FORMFACTOR_TEST_FAIL_RANK=K fails rank K's jobs.
         if (const char* fail = std::getenv("FORMFACTOR_TEST_FAIL_RANK");
             fail && std::atoi(fail) == g_rank)
             throw Error(
                 fmt::format("a failure injected on rank {} (FORMFACTOR_TEST_FAIL_RANK)", g_rank));
         const auto method = make_method(job.method);
-        emit_sparse = job.kind == JobKind::sparse && method->emits_sparse_rows(scene);
+        emit_sparse = sparse_job(job.kind) && method->emits_sparse_rows(scene);
         if (method->needs_visibility() && !scene.patches.empty())
             visibility = make_visibility(scene, job.visibility);
         WireWriter w;
@@ -470,7 +541,8 @@ class DenseSink final : public BlockSink {
                   *ff.standard_error);
         report.add(r.report);
     }
-    void remote(const RowRange& rows, WireReader& r) override {
+    void remote(int from, const RowRange& rows, WireReader& r) override {
+        (void)from;
         report.add(get_report(r));
         const char* data = nullptr;
         std::size_t count = r.get_array<double>(&data);
@@ -518,7 +590,8 @@ class SparseSink final : public BlockSink {
         const std::lock_guard lock(mutex_);
         blocks[rows.begin] = std::move(emitted);
     }
-    void remote(const RowRange& rows, WireReader& r) override {
+    void remote(int from, const RowRange& rows, WireReader& r) override {
+        (void)from;
         report.add(get_report(r));
         SparseRows got = get_sparse_rows(r);
         if (got.first_row != rows.begin || got.size() != rows.size())
@@ -539,6 +612,366 @@ class SparseSink final : public BlockSink {
     bool emit_sparse_;
     std::mutex mutex_;
 };
+
+// Kept jobs: rank 0 keeps its own blocks as every rank does, and learns from every block which
+// rank keeps it and its row sums.
+class KeptSink final : public BlockSink {
+  public:
+    KeptSink(const Job& job, const Scene& scene, const Visibility* visibility,
+             const CancellationFlag& cancel, bool emit_sparse)
+        : job_(job),
+          scene_(scene),
+          visibility_(visibility),
+          cancel_(cancel),
+          emit_sparse_(emit_sparse) {
+        owners.resize(static_cast<std::size_t>(g_size));
+        row_sums.assign(scene.patches.size(), 0.0);
+    }
+    void local(const RowRange& rows) override {
+        const ComputeOptions o = block_options(job_, visibility_, rows, &cancel_);
+        MethodReport block_report;
+        const std::vector<double> got =
+            keep_block(job_, scene_, o, emit_sparse_, block_report, &areas);
+        report.add(block_report);
+        record(0, rows, got);
+    }
+    void remote(int from, const RowRange& rows, WireReader& r) override {
+        report.add(get_report(r));
+        record(from, rows, r.get_vector<double>());
+    }
+
+    std::vector<double> areas;
+    ReportMerger report;
+    Owners owners;
+    /// Per block kept: the work of a product with it (rows + stored entries), by first row.
+    std::map<std::size_t, double> weights;
+    std::vector<double> row_sums;
+    double entries = 0.0, dropped_max = 0.0;
+
+  private:
+    void record(int from, const RowRange& rows, const std::vector<double>& got) {
+        if (got.size() != rows.size() + 2) throw Error("distributed: a block of the wrong size");
+        const std::lock_guard lock(mutex_);
+        std::copy(got.begin(), got.begin() + std::ptrdiff_t(rows.size()),
+                  row_sums.begin() + std::ptrdiff_t(rows.begin));
+        entries += got[rows.size()];
+        dropped_max = std::max(dropped_max, got[rows.size() + 1]);
+        owners[static_cast<std::size_t>(from)].push_back(rows);
+        weights[rows.begin] = double(rows.size()) + got[rows.size()];
+    }
+
+    const Job& job_;
+    const Scene& scene_;
+    const Visibility* visibility_;
+    const CancellationFlag& cancel_;
+    bool emit_sparse_;
+    std::mutex mutex_;
+};
+
+// Every rank's rows of a vector to every rank: one non-blocking all-gather per exchange, polled
+// with short sleeps (a blocking one spins a core that another rank on the node may need). Each
+// rank sends its status and change first, then its rows in the order it keeps them.
+class MpiExchange final : public Exchange {
+  public:
+    explicit MpiExchange(const Owners& owners) : owners_(owners) {}
+
+    Exchanged exchange(Columns& x, RankStatus status, double change) override {
+        const Eigen::Index k = x.cols();
+        const std::size_t ranks = owners_.size();
+        std::vector<int> counts(ranks), displs(ranks);
+        std::size_t total = 0;
+        for (std::size_t r = 0; r < ranks; ++r) {
+            std::size_t rows = 0;
+            for (const RowRange& b : owners_[r]) rows += b.size();
+            const std::size_t count = 2 + rows * static_cast<std::size_t>(k);
+            if (total + count > static_cast<std::size_t>(std::numeric_limits<int>::max()))
+                throw ResourceError("distributed: the solution vector is more than MPI's 2 GB");
+            counts[r] = static_cast<int>(count);
+            displs[r] = static_cast<int>(total);
+            total += count;
+        }
+        send_.clear();
+        send_.push_back(double(static_cast<int>(status)));
+        send_.push_back(change);
+        for (const RowRange& b : owners_[static_cast<std::size_t>(g_rank)])
+            for (std::size_t i = b.begin; i < b.end; ++i)
+                for (Eigen::Index c = 0; c < k; ++c)
+                    send_.push_back(x(static_cast<Eigen::Index>(i), c));
+        received_.resize(total);
+        MPI_Request request;
+        MPI_Iallgatherv(send_.data(), counts[static_cast<std::size_t>(g_rank)], MPI_DOUBLE,
+                        received_.data(), counts.data(), displs.data(), MPI_DOUBLE, g_comm,
+                        &request);
+        auto pause = std::chrono::microseconds(5);
+        for (;;) {
+            int done = 0;
+            MPI_Test(&request, &done, MPI_STATUS_IGNORE);
+            if (done) break;
+            std::this_thread::sleep_for(pause);
+            pause = std::min(pause * 2, std::chrono::microseconds(500));
+        }
+        Exchanged e;
+        for (std::size_t r = 0; r < ranks; ++r) {
+            const double* p = received_.data() + displs[r];
+            const auto st = static_cast<RankStatus>(static_cast<int>(p[0]));
+            if (static_cast<int>(st) > static_cast<int>(e.status)) {
+                e.status = st;
+                e.rank = static_cast<int>(r);
+            }
+            e.change = std::max(e.change, p[1]);
+            if (static_cast<int>(r) == g_rank) continue;
+            p += 2;
+            for (const RowRange& b : owners_[r])
+                for (std::size_t i = b.begin; i < b.end; ++i)
+                    for (Eigen::Index c = 0; c < k; ++c) x(static_cast<Eigen::Index>(i), c) = *p++;
+        }
+        return e;
+    }
+
+  private:
+    const Owners& owners_;
+    std::vector<double> send_, received_;
+};
+
+// A block of kept rows that changes rank.
+struct Move {
+    RowRange rows;
+    std::int32_t from = 0, to = 0;
+};
+
+// The moves that even out the work of a product over the ranks: the rows follow the cost of
+// computing them, which may differ from a product's (rows, or stored entries) many times over.
+// While it helps, the busiest rank gives the least busy one its largest block that lowers the
+// larger of the two loads. Deterministic: the same blocks give the same moves.
+std::vector<Move> balancing_moves(Owners& owners, const std::map<std::size_t, double>& weights) {
+    const std::size_t ranks = owners.size();
+    std::vector<double> load(ranks, 0.0);
+    for (std::size_t r = 0; r < ranks; ++r)
+        for (const RowRange& b : owners[r]) load[r] += weights.at(b.begin);
+    std::vector<Move> moves;
+    for (std::size_t step = 0; step < weights.size(); ++step) {
+        const auto most = std::size_t(std::max_element(load.begin(), load.end()) - load.begin());
+        const auto least = std::size_t(std::min_element(load.begin(), load.end()) - load.begin());
+        const double gap = load[most] - load[least];
+        // A block of weight w < gap lowers max(load[most], load[least] + w).
+        std::optional<std::size_t> pick;
+        double best = 0.0;
+        for (std::size_t k = 0; k < owners[most].size(); ++k) {
+            const double w = weights.at(owners[most][k].begin);
+            if (w < gap && w > best) {
+                best = w;
+                pick = k;
+            }
+        }
+        if (!pick || best < 0.02 * load[most]) break;
+        const RowRange b = owners[most][*pick];
+        owners[most].erase(owners[most].begin() + std::ptrdiff_t(*pick));
+        owners[least].push_back(b);
+        load[most] -= best;
+        load[least] += best;
+        moves.push_back({b, std::int32_t(most), std::int32_t(least)});
+    }
+    for (auto& blocks : owners)
+        std::sort(blocks.begin(), blocks.end(),
+                  [](const RowRange& a, const RowRange& b) { return a.begin < b.begin; });
+    return moves;
+}
+
+void put_kept_block(WireWriter& w, const KeptBlock& b, std::size_t n) {
+    w.put(b.rows);
+    if (kept_rows().sparse) {
+        w.put_vector(b.indptr);
+        w.put_vector(b.indices);
+        w.put_vector(b.values);
+    } else {
+        w.put_array(b.row(b.rows.begin, n), b.rows.size() * n);
+    }
+}
+
+KeptBlock get_kept_block(WireReader& r, std::size_t n) {
+    const auto rows = r.get<RowRange>();
+    if (!kept_rows().sparse) {
+        const char* data = nullptr;
+        if (r.get_array<double>(&data) != rows.size() * n)
+            throw Error("distributed: a block of the wrong size");
+        // Copied into place at the alignment the rows have in the whole matrix.
+        std::vector<double> values(rows.size() * n);
+        if (!values.empty()) std::memcpy(values.data(), data, values.size() * sizeof(double));
+        return keep_dense(rows, values.data(), n);
+    }
+    KeptBlock b;
+    b.rows = rows;
+    b.indptr = r.get_vector<std::int64_t>();
+    b.indices = r.get_vector<std::int32_t>();
+    b.values = r.get_vector<double>();
+    return b;
+}
+
+// Every rank's part of the moves: sends the blocks it gives (non-blocking), receives the ones
+// it gets, in the order of the moves (MPI keeps the order of one sender's messages). Returns
+// the failure of this rank, or empty.
+std::string make_moves(const std::vector<Move>& moves) {
+    KeptRows& kept = kept_rows();
+    try {
+        std::vector<std::vector<char>> sent;
+        std::vector<MPI_Request> requests;
+        sent.reserve(moves.size());
+        for (const Move& m : moves) {
+            if (m.from != g_rank) continue;
+            const auto it =
+                std::find_if(kept.blocks.begin(), kept.blocks.end(),
+                             [&](const KeptBlock& b) { return b.rows.begin == m.rows.begin; });
+            if (it == kept.blocks.end()) throw Error("distributed: a block to move is not here");
+            WireWriter w;
+            put_kept_block(w, *it, kept.n);
+            sent.push_back(std::move(w.bytes()));
+            kept.blocks.erase(it);
+            requests.emplace_back();
+            MPI_Isend(sent.back().data(), message_size(sent.back()), MPI_BYTE, m.to, kTagMove,
+                      g_comm, &requests.back());
+        }
+        for (const Move& m : moves) {
+            if (m.to != g_rank) continue;
+            const std::vector<char> bytes = receive_bytes(wait_for(m.from, kTagMove, nullptr));
+            WireReader r(bytes.data(), bytes.size());
+            kept.blocks.push_back(get_kept_block(r, kept.n));
+        }
+        for (MPI_Request& q : requests) {
+            int done = 0;
+            auto pause = std::chrono::microseconds(20);
+            for (MPI_Test(&q, &done, MPI_STATUS_IGNORE); !done;
+                 MPI_Test(&q, &done, MPI_STATUS_IGNORE)) {
+                std::this_thread::sleep_for(pause);
+                pause = std::min(pause * 2, std::chrono::microseconds(1000));
+            }
+        }
+        std::sort(
+            kept.blocks.begin(), kept.blocks.end(),
+            [](const KeptBlock& a, const KeptBlock& b) { return a.rows.begin < b.rows.begin; });
+        return {};
+    } catch (const std::bad_alloc&) {
+        return kOutOfMemory;
+    } catch (const std::exception& e) {
+        return e.what();
+    }
+}
+
+std::vector<char> moves_bytes(const std::vector<Move>& moves) {
+    WireWriter w;
+    w.put_vector(moves);
+    return std::move(w.bytes());
+}
+
+// After the moves every rank says whether its own went well (a gather to rank 0; a failed
+// rank sends its message first).
+std::vector<std::int32_t> gather_move_status(const std::string& failure) {
+    if (!failure.empty() && g_rank != 0) {
+        WireWriter w;
+        w.put(Status::failed);
+        w.put_string(failure);
+        send_bytes(w.bytes(), 0, kTagResult);
+    }
+    std::int32_t mine = failure.empty() ? 0 : 1;
+    std::vector<std::int32_t> all(static_cast<std::size_t>(g_rank == 0 ? g_size : 0));
+    MPI_Gather(&mine, 1, MPI_INT32_T, all.data(), 1, MPI_INT32_T, 0, g_comm);
+    return all;
+}
+
+void work_on_moves(const std::vector<char>& bytes) {
+    std::string failure;
+    std::vector<Move> moves;
+    try {
+        WireReader r(bytes.data(), bytes.size());
+        moves = r.get_vector<Move>();
+    } catch (const std::exception& e) {
+        failure = e.what();
+    }
+    if (failure.empty()) failure = make_moves(moves);
+    gather_move_status(failure);
+}
+
+// What every rank needs for a solve of kept rows.
+struct SolveJob {
+    std::uint64_t kept = 0;
+    Owners owners;
+    Columns d, c;
+    SolverKind solver = SolverKind::gauss_seidel;
+    double residual = 0.0;
+    long long max_iterations = 0;
+    int threads = 0;
+    bool fail_if_not_converged = true;
+
+    SolverOptions options() const {
+        SolverOptions o;
+        o.solver = solver;
+        o.residual = residual;
+        o.max_iterations = max_iterations;
+        o.threads = threads;
+        o.fail_if_not_converged = fail_if_not_converged;
+        return o;
+    }
+};
+
+std::vector<char> solve_job_bytes(const SolveJob& job) {
+    WireWriter w;
+    w.put(job.kept);
+    w.put<std::uint64_t>(job.owners.size());
+    for (const auto& blocks : job.owners) w.put_vector(blocks);
+    w.put<std::int64_t>(job.d.rows());
+    w.put<std::int64_t>(job.d.cols());
+    w.put_array(job.d.data(), static_cast<std::size_t>(job.d.size()));
+    w.put_array(job.c.data(), static_cast<std::size_t>(job.c.size()));
+    w.put(job.solver);
+    w.put(job.residual);
+    w.put(job.max_iterations);
+    w.put(job.threads);
+    w.put<std::uint8_t>(job.fail_if_not_converged);
+    return std::move(w.bytes());
+}
+
+SolveJob get_solve_job(const std::vector<char>& bytes) {
+    WireReader r(bytes.data(), bytes.size());
+    SolveJob job;
+    job.kept = r.get<std::uint64_t>();
+    job.owners.resize(r.get<std::uint64_t>());
+    for (auto& blocks : job.owners) blocks = r.get_vector<RowRange>();
+    const auto rows = r.get<std::int64_t>(), cols = r.get<std::int64_t>();
+    job.d.resize(rows, cols);
+    job.c.resize(rows, cols);
+    for (Columns* m : {&job.d, &job.c}) {
+        const std::vector<double> v = r.get_vector<double>();
+        if (v.size() != static_cast<std::size_t>(m->size()))
+            throw Error("distributed: a system of the wrong size");
+        std::copy(v.begin(), v.end(), m->data());
+    }
+    job.solver = r.get<SolverKind>();
+    job.residual = r.get<double>();
+    job.max_iterations = r.get<long long>();
+    job.threads = r.get<int>();
+    job.fail_if_not_converged = r.get<std::uint8_t>() != 0;
+    return job;
+}
+
+// A worker's part of a solve: the same iteration as rank 0's on its own rows. It ends with the
+// solve on every rank; only a rank whose own failure stopped it tells rank 0 why.
+void work_on_solve(const std::vector<char>& bytes) {
+    const SolveJob job = get_solve_job(bytes);
+    MpiExchange exchange(job.owners);
+    Columns x, fx;
+    try {
+        if (job.kept != kept_id()) throw Error("distributed: the rows of F are not the ones kept");
+        solve_kept(kept_rows(), g_rank, exchange, job.d, job.c, job.options(), x, fx);
+    } catch (const RankStopped& e) {
+        if (e.state.rank == g_rank && e.state.status == RankStatus::failed) {
+            WireWriter w;
+            w.put(Status::failed);
+            w.put_string(e.own_message);
+            send_bytes(w.bytes(), 0, kTagResult);
+        }
+    } catch (const std::exception&) {
+        // Not converged (and any error of the options): rank 0 meets the same and reports it.
+    }
+}
 
 // Rank 0's ray tracer for its own blocks.
 std::unique_ptr<Visibility> rank0_visibility(const Method& method, const Scene& scene,
@@ -616,8 +1049,14 @@ int serve() {
         wait_for(0, kTagCommand, &current_cancellation());
         std::int64_t command = 0;
         MPI_Recv(&command, 1, MPI_INT64_T, 0, kTagCommand, g_comm, MPI_STATUS_IGNORE);
-        if (command != kCommandJob) return 0;
-        work_on_job(receive_job());
+        if (command == kCommandJob)
+            work_on_job(receive_job());
+        else if (command == kCommandSolve)
+            work_on_solve(receive_job());
+        else if (command == kCommandMove)
+            work_on_moves(receive_job());
+        else
+            return 0;
     }
 }
 
@@ -742,6 +1181,115 @@ SparseComputeResult compute_sparse_form_factors(const Scene& scene, const Comput
     result.run.block_rows = max_rows;
     result.threads = effective_threads(options.method_options.threads);
     return result;
+}
+
+DistributedRows compute_distributed_rows(const Scene& scene, const ComputeOptions& options,
+                                         const SparseOptions* sparse) {
+    if (g_size <= 1 || g_rank != 0) return compute_rows_here(scene, options, sparse);
+    validate(options);
+    if (options.repair.mode != RepairMode::none)
+        throw OptionError("repair", "needs the whole F on one process, not rows kept apart");
+    const std::size_t n = scene.patches.size();
+    if (options.rows.clamped(n).size() != n || options.sparse_rows)
+        throw OptionError("rows", "a distributed run computes every row");
+    if (sparse && (!(sparse->threshold >= 0.0) || !std::isfinite(sparse->threshold)))
+        throw OptionError("threshold", "must be a finite number ≥ 0");
+    const CancellationScope scope(options.cancel ? *options.cancel : process_cancellation());
+    DistributedRows out;
+    Job job;
+    job.kind = sparse ? JobKind::kept_sparse : JobKind::kept_dense;
+    job.method = options.method ? *options.method : default_method(scene);
+    job.method_options = options.method_options;
+    job.visibility = options.visibility;
+    job.threshold = sparse ? sparse->threshold : 0.0;
+    job.kept = ++kept_id();
+    out.traits = method_traits(job.method, options.method_options, &scene);
+    const auto method = make_method(job.method);
+    method->check(scene);
+    const bool emit_sparse = sparse && method->emits_sparse_rows(scene);
+    const bool strip = job.method == MethodKind::analytic || job.method == MethodKind::mc_target;
+    std::size_t max_rows =
+        emit_sparse ? 8192
+                    : rows_for_budget(double(n) * 8.0 *
+                                      ((out.traits.standard_errors ? 2 : 1) + (strip ? 1 : 0)));
+    if (sparse && sparse->block_rows > 0) max_rows = std::min(max_rows, sparse->block_rows);
+    kept_rows() = KeptRows{};
+    kept_rows().sparse = sparse != nullptr;
+    kept_rows().n = n;
+    auto visibility = rank0_visibility(*method, scene, options, out.timings);
+    CancellationFlag cancel;
+    KeptSink sink(job, scene,
+                  options.prebuilt_visibility ? options.prebuilt_visibility : visibility.get(),
+                  cancel, emit_sparse);
+    Stopwatch sw;
+    run_job(job, scene, max_rows, sink, cancel, options.progress);
+    out.timings.add("compute", sw.lap());
+    // Even out the work of a product: blocks move between ranks, never through rank 0.
+    Owners owners = std::move(sink.owners);
+    const std::vector<Move> moves = balancing_moves(owners, sink.weights);
+    if (!moves.empty()) {
+        broadcast_command(kCommandMove, moves_bytes(moves));
+        const std::string failure = make_moves(moves);
+        const std::vector<std::int32_t> status = gather_move_status(failure);
+        if (!failure.empty()) throw Error(failure);
+        for (int r = 1; r < g_size; ++r)
+            if (status[static_cast<std::size_t>(r)] != 0) {
+                const std::vector<char> bytes = receive_bytes(wait_for(r, kTagResult, nullptr));
+                WireReader reader(bytes.data(), bytes.size());
+                reader.get<Status>();
+                throw Error(fmt::format("rank {}: {}", r, reader.get_string()));
+            }
+        out.timings.add("balance rows", sw.lap());
+    }
+    g_owners = std::move(owners);
+    out.rows_per_rank.assign(static_cast<std::size_t>(g_size), 0.0);
+    for (std::size_t r = 0; r < g_owners.size(); ++r)
+        for (const RowRange& b : g_owners[r]) out.rows_per_rank[r] += double(b.size());
+    out.sparse = sparse != nullptr;
+    out.n = n;
+    out.areas = std::move(sink.areas);
+    out.row_sums = std::move(sink.row_sums);
+    out.entries = sink.entries;
+    out.dropped_max = sink.dropped_max;
+    out.threshold = job.threshold;
+    out.report = sink.report.take();
+    add_shares(out.report);
+    out.threads = effective_threads(options.method_options.threads);
+    out.id = job.kept;
+    return out;
+}
+
+SolverStats solve_rows(const DistributedRows& rows, const Columns& d, const Columns& c,
+                       const SolverOptions& options, Columns& x, Columns& fx) {
+    if (g_size <= 1 || g_rank != 0) return solve_rows_here(rows, d, c, options, x, fx);
+    check_kept(rows);
+    SolveJob job;
+    job.kept = rows.id;
+    job.owners = g_owners;
+    job.d = d;
+    job.c = c;
+    job.solver = options.solver;
+    job.residual = options.residual;
+    job.max_iterations = options.max_iterations;
+    job.threads = options.threads;
+    job.fail_if_not_converged = options.fail_if_not_converged;
+    broadcast_command(kCommandSolve, solve_job_bytes(job));
+    MpiExchange exchange(g_owners);
+    try {
+        return solve_kept(kept_rows(), 0, exchange, d, c, options, x, fx);
+    } catch (const RankStopped& e) {
+        const int from = e.state.rank;
+        if (e.state.status == RankStatus::cancelled) {
+            if (from == 0) throw Cancelled();
+            throw Cancelled(fmt::format("rank {}: interrupted", from));
+        }
+        if (from == 0) throw Error(e.own_message);
+        const MPI_Status probed = wait_for(from, kTagResult, nullptr);
+        const std::vector<char> bytes = receive_bytes(probed);
+        WireReader r(bytes.data(), bytes.size());
+        r.get<Status>();
+        throw Error(fmt::format("rank {}: {}", from, r.get_string()));
+    }
 }
 
 }  // namespace formfactor::distributed

@@ -5,6 +5,7 @@
 
 #include "formfactor/core/error.h"
 #include "formfactor/distributed/distributed.h"
+#include "row_solve.h"
 
 namespace formfactor::distributed {
 
@@ -54,6 +55,16 @@ ComputeResult compute_form_factors(const Scene& scene, const ComputeOptions& opt
 SparseComputeResult compute_sparse_form_factors(const Scene& scene, const ComputeOptions& options,
                                                 const SparseOptions& sparse) {
     return formfactor::compute_sparse_form_factors(scene, options, sparse);
+}
+
+DistributedRows compute_distributed_rows(const Scene& scene, const ComputeOptions& options,
+                                         const SparseOptions* sparse) {
+    return compute_rows_here(scene, options, sparse);
+}
+
+SolverStats solve_rows(const DistributedRows& rows, const Columns& d, const Columns& c,
+                       const SolverOptions& options, Columns& x, Columns& fx) {
+    return solve_rows_here(rows, d, c, options, x, fx);
 }
 
 }  // namespace formfactor::distributed

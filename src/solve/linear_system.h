@@ -10,7 +10,10 @@
 
 #include "formfactor/matrix/form_factors.h"
 #include "formfactor/matrix/sparse.h"
+#include "formfactor/solve/properties.h"
+#include "formfactor/solve/radiosity.h"
 #include "formfactor/solve/solver.h"
+#include "formfactor/solve/thermal.h"
 
 namespace formfactor::detail {
 
@@ -67,5 +70,31 @@ void check_sparse_solver(SolverKind kind);
 
 /// Throws Error unless the CSR matrix has n areas and n patch properties.
 void check_sizes(const SparseFormFactors& F, std::size_t properties);
+
+/// What the thermal solve needs of F: its size, areas and row sums, y = F x, and a solver of
+/// x = c + diag(d) F x. Dense, sparse, an operator, or rows spread over MPI ranks.
+struct ThermalSystem {
+    Eigen::Index n = 0;
+    const std::vector<double>* areas = nullptr;
+    std::vector<double> row_sums;
+    /// How far below 1 a row sum of a closed enclosure may come out: rounding for a dense F,
+    /// the compression error for an operator.
+    double row_sum_tolerance = 1e-9;
+    ApplyF apply;  // y = F x
+    std::function<SolverStats(const Columns& d, const Columns& c, Columns& x)> solve;
+};
+
+/// solve_thermal() on any ThermalSystem (formfactor/solve/thermal.h).
+ThermalResult solve_thermal_system(const ThermalSystem& sys, const PatchProperties& props,
+                                   const ThermalOptions& options);
+
+/// The radiosity system of `props`: d = ρ and c = E, one column per channel.
+void radiosity_system(const PatchProperties& props, Columns& d, Columns& c);
+
+/// The energy balance of a radiosity solution B from H = F B and the row sums of F.
+RadiosityBalance radiosity_balance_of(const std::vector<double>& areas,
+                                      const std::vector<double>& row_sums,
+                                      const PatchProperties& props, const Columns& B,
+                                      const Columns& H);
 
 }  // namespace formfactor::detail

@@ -9,12 +9,12 @@
 
 namespace formfactor {
 
-namespace {
+namespace detail {
 
-// The balance from H = F B and the row sums.
-RadiosityBalance balance_of(const std::vector<double>& areas, const std::vector<double>& row_sums,
-                            const PatchProperties& props, const detail::Columns& B,
-                            const detail::Columns& H) {
+RadiosityBalance radiosity_balance_of(const std::vector<double>& areas,
+                                      const std::vector<double>& row_sums,
+                                      const PatchProperties& props, const detail::Columns& B,
+                                      const detail::Columns& H) {
     const auto n = static_cast<Eigen::Index>(areas.size());
     RadiosityBalance bal;
     for (Eigen::Index i = 0; i < n; ++i) {
@@ -35,13 +35,7 @@ RadiosityBalance balance_of(const std::vector<double>& areas, const std::vector<
     return bal;
 }
 
-detail::Columns columns_of(const std::vector<Rgb>& radiosity) {
-    detail::Columns B(static_cast<Eigen::Index>(radiosity.size()), 3);
-    for (Eigen::Index i = 0; i < B.rows(); ++i) B.row(i) = radiosity[static_cast<std::size_t>(i)];
-    return B;
-}
-
-void system_of(const PatchProperties& props, detail::Columns& d, detail::Columns& c) {
+void radiosity_system(const PatchProperties& props, Columns& d, Columns& c) {
     const auto n = static_cast<Eigen::Index>(props.size());
     d.resize(n, 3);
     c.resize(n, 3);
@@ -49,6 +43,16 @@ void system_of(const PatchProperties& props, detail::Columns& d, detail::Columns
         d.row(i) = props.reflectance[static_cast<std::size_t>(i)];
         c.row(i) = props.emission[static_cast<std::size_t>(i)];
     }
+}
+
+}  // namespace detail
+
+namespace {
+
+detail::Columns columns_of(const std::vector<Rgb>& radiosity) {
+    detail::Columns B(static_cast<Eigen::Index>(radiosity.size()), 3);
+    for (Eigen::Index i = 0; i < B.rows(); ++i) B.row(i) = radiosity[static_cast<std::size_t>(i)];
+    return B;
 }
 
 }  // namespace
@@ -61,7 +65,7 @@ RadiosityBalance radiosity_balance(const FormFactors& ff, const PatchProperties&
     std::vector<double> sums(ff.size());
     for (Eigen::Index i = 0; i < ff.F.rows(); ++i)
         sums[static_cast<std::size_t>(i)] = ff.F.row(i).sum();
-    return balance_of(ff.areas, sums, props, B, H);
+    return detail::radiosity_balance_of(ff.areas, sums, props, B, H);
 }
 
 RadiosityResult solve_radiosity(const FormFactors& ff, const PatchProperties& props,
@@ -70,7 +74,7 @@ RadiosityResult solve_radiosity(const FormFactors& ff, const PatchProperties& pr
     validate_properties(props);
     const Eigen::Index n = ff.F.rows();
     detail::Columns d, c, x;
-    system_of(props, d, c);
+    detail::radiosity_system(props, d, c);
     RadiosityResult res;
     res.stats = detail::solve_linear(ff.F, ff.areas, d, c, options, x);
     res.radiosity.resize(static_cast<std::size_t>(n));
@@ -87,7 +91,7 @@ RadiosityResult solve_radiosity(const HierarchicalFormFactors& ff, const PatchPr
     validate_properties(props);
     const auto n = static_cast<Eigen::Index>(ff.size());
     detail::Columns d, c, x;
-    system_of(props, d, c);
+    detail::radiosity_system(props, d, c);
     const detail::ApplyF apply = [&](const detail::Columns& v, detail::Columns& y) {
         ff.multiply(v, y, options.threads);
     };
@@ -97,7 +101,8 @@ RadiosityResult solve_radiosity(const HierarchicalFormFactors& ff, const PatchPr
     for (Eigen::Index i = 0; i < n; ++i) res.radiosity[static_cast<std::size_t>(i)] = x.row(i);
     detail::Columns H;
     apply(x, H);
-    res.balance = balance_of(ff.areas(), ff.row_sums(options.threads), props, x, H);
+    res.balance =
+        detail::radiosity_balance_of(ff.areas(), ff.row_sums(options.threads), props, x, H);
     return res;
 }
 
@@ -108,7 +113,7 @@ RadiosityResult solve_radiosity(const SparseFormFactors& ff, const PatchProperti
     validate_properties(props);
     const auto n = static_cast<Eigen::Index>(ff.n);
     detail::Columns d, c, x;
-    system_of(props, d, c);
+    detail::radiosity_system(props, d, c);
     RadiosityResult res;
     res.stats = detail::solve_linear(ff, d, c, options, x);
     res.radiosity.resize(ff.n);
@@ -117,7 +122,7 @@ RadiosityResult solve_radiosity(const SparseFormFactors& ff, const PatchProperti
     detail::multiply(ff, x, H, options.threads);
     std::vector<double> sums(ff.n);
     for (std::size_t i = 0; i < ff.n; ++i) sums[i] = ff.row_sum(i);
-    res.balance = balance_of(ff.areas, sums, props, x, H);
+    res.balance = detail::radiosity_balance_of(ff.areas, sums, props, x, H);
     if (std::string w = detail::dropped_mass_warning(ff); !w.empty())
         res.stats.warnings.push_back(w);
     return res;

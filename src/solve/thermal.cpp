@@ -12,24 +12,10 @@
 
 namespace formfactor {
 
-namespace {
+namespace detail {
 
-// What the thermal solve needs of F: dense, or an operator that is never formed.
-struct ThermalSystem {
-    Eigen::Index n = 0;
-    const std::vector<double>* areas = nullptr;
-    std::vector<double> row_sums;
-    /// How far below 1 a row sum of a closed enclosure may come out: rounding for a dense F,
-    /// the compression error for an operator.
-    double row_sum_tolerance = 1e-9;
-    detail::ApplyF apply;  // y = F x
-    std::function<SolverStats(const detail::Columns& d, const detail::Columns& c,
-                              detail::Columns& x)>
-        solve;
-};
-
-ThermalResult thermal_on(const ThermalSystem& sys, const PatchProperties& props,
-                         const ThermalOptions& options) {
+ThermalResult solve_thermal_system(const ThermalSystem& sys, const PatchProperties& props,
+                                   const ThermalOptions& options) {
     validate_properties(props);
     if (!(options.ambient_temperature >= 0.0) || !std::isfinite(options.ambient_temperature))
         throw OptionError("ambient_temperature", "must be a temperature ≥ 0 K");
@@ -154,12 +140,12 @@ ThermalResult thermal_on(const ThermalSystem& sys, const PatchProperties& props,
     return res;
 }
 
-}  // namespace
+}  // namespace detail
 
 ThermalResult solve_thermal(const FormFactors& ff, const PatchProperties& props,
                             const ThermalOptions& options) {
     detail::check_sizes(ff, props.size());
-    ThermalSystem sys;
+    detail::ThermalSystem sys;
     sys.n = ff.F.rows();
     sys.areas = &ff.areas;
     sys.row_sums.resize(ff.size());
@@ -172,7 +158,7 @@ ThermalResult solve_thermal(const FormFactors& ff, const PatchProperties& props,
     sys.solve = [&](const detail::Columns& d, const detail::Columns& c, detail::Columns& x) {
         return detail::solve_linear(ff.F, ff.areas, d, c, options.solver, x);
     };
-    return thermal_on(sys, props, options);
+    return detail::solve_thermal_system(sys, props, options);
 }
 
 ThermalResult solve_thermal(const HierarchicalFormFactors& ff, const PatchProperties& props,
@@ -180,7 +166,7 @@ ThermalResult solve_thermal(const HierarchicalFormFactors& ff, const PatchProper
     if (props.size() != ff.size())
         throw Error(fmt::format("solve: the scene has {} patches but the operator has {}",
                                 props.size(), ff.size()));
-    ThermalSystem sys;
+    detail::ThermalSystem sys;
     sys.n = static_cast<Eigen::Index>(ff.size());
     sys.areas = &ff.areas();
     const int threads = options.solver.threads;
@@ -192,14 +178,14 @@ ThermalResult solve_thermal(const HierarchicalFormFactors& ff, const PatchProper
     sys.solve = [&](const detail::Columns& d, const detail::Columns& c, detail::Columns& x) {
         return detail::solve_linear_operator(sys.apply, sys.n, d, c, options.solver, x);
     };
-    return thermal_on(sys, props, options);
+    return detail::solve_thermal_system(sys, props, options);
 }
 
 ThermalResult solve_thermal(const SparseFormFactors& ff, const PatchProperties& props,
                             const ThermalOptions& options) {
     detail::check_sizes(ff, props.size());
     detail::check_sparse_solver(options.solver.solver);
-    ThermalSystem sys;
+    detail::ThermalSystem sys;
     sys.n = static_cast<Eigen::Index>(ff.n);
     sys.areas = &ff.areas;
     sys.row_sums.resize(ff.n);
@@ -212,7 +198,7 @@ ThermalResult solve_thermal(const SparseFormFactors& ff, const PatchProperties& 
     sys.solve = [&](const detail::Columns& d, const detail::Columns& c, detail::Columns& x) {
         return detail::solve_linear(ff, d, c, options.solver, x);
     };
-    ThermalResult res = thermal_on(sys, props, options);
+    ThermalResult res = detail::solve_thermal_system(sys, props, options);
     if (std::string w = detail::dropped_mass_warning(ff); !w.empty()) res.warnings.push_back(w);
     return res;
 }

@@ -30,6 +30,8 @@
 
 #include "formfactor/pipeline.h"
 #include "formfactor/pipeline_sparse.h"
+#include "formfactor/solve/radiosity.h"
+#include "formfactor/solve/thermal.h"
 
 namespace formfactor::distributed {
 
@@ -105,5 +107,49 @@ ComputeResult compute_form_factors(const Scene& scene, const ComputeOptions& opt
 /// sparse.block_rows and sparse.block_memory bound the blocks. On one rank: the pipeline's.
 SparseComputeResult compute_sparse_form_factors(const Scene& scene, const ComputeOptions& options,
                                                 const SparseOptions& sparse);
+
+/// F whose rows stay on the ranks that computed them, as rank 0 knows it: what the solvers and
+/// a report need of F without its entries. The rows themselves live on their ranks until the
+/// next computation.
+struct DistributedRows {
+    bool sparse = false;           ///< CSR rows (entries above `threshold`), else dense rows
+    std::size_t n = 0;             ///< N patches
+    std::vector<double> areas;     ///< A_i
+    std::vector<double> row_sums;  ///< Σ_j F_ij per row (sparse: over the stored entries)
+    double dropped_max = 0.0;      ///< sparse: the largest mass a row's threshold dropped
+    double entries = 0.0;          ///< stored entries over every rank (N² when dense)
+    double threshold = 0.0;        ///< sparse: entries F_ij ≤ threshold were dropped
+    MethodReport report;           ///< the method's, counts summed over the blocks
+    MethodTraits traits;
+    StepTimes timings;
+    int threads = 1;
+    /// Rows each rank holds for the solve (moved after the computation so that every rank has
+    /// about the same share of a product: rows when dense, stored entries when sparse).
+    std::vector<double> rows_per_rank;
+    std::uint64_t id = 0;  ///< which computation's rows (a solve of older rows is an Error)
+};
+
+/// Rank 0: F of `scene` over every rank (the others in serve()) as compute_form_factors() and
+/// compute_sparse_form_factors() compute it, bit-identical, but each rank keeps the rows it
+/// computed and sends rank 0 only their row sums: no rank holds the whole F. Blocks then move
+/// between ranks (never through rank 0) to even out the work of a product. `sparse` null:
+/// dense rows; else CSR rows above sparse->threshold. No repair (options.repair must be none:
+/// OptionError("repair")) and no diagnosis of reciprocity (it needs F_ji beside F_ij). On one
+/// rank the rows stay in this process.
+DistributedRows compute_distributed_rows(const Scene& scene, const ComputeOptions& options,
+                                         const SparseOptions* sparse);
+
+/// solve_thermal() (formfactor/solve/thermal.h) on rows spread over the ranks, called on rank 0:
+/// every rank iterates on its own rows and the solution vector is exchanged after every product
+/// or sweep. options.solver.solver: gmres and jacobi give one process's result bit for bit;
+/// gauss-seidel sweeps each row block in order from the values all blocks had at the start of
+/// the sweep (block Jacobi between blocks), bit-identical for a fixed number of ranks and within
+/// the residual tolerance of one process's; direct and shooting: OptionError("solver").
+ThermalResult solve_thermal(const DistributedRows& rows, const PatchProperties& props,
+                            const ThermalOptions& options);
+
+/// solve_radiosity() on rows spread over the ranks, as solve_thermal() above.
+RadiosityResult solve_radiosity(const DistributedRows& rows, const PatchProperties& props,
+                                const SolverOptions& options);
 
 }  // namespace formfactor::distributed
