@@ -349,7 +349,7 @@ void solve_distributed_scene(const SolveArgs& args, Scene& scene, StepTimes& tim
         report["diagnostics"] = {
             {"row_sum", {{"min", lo}, {"max", hi}, {"mean", mean}}},
             {"reciprocity", "not checked: the rows of F stay on the ranks that computed them"}};
-        report["details"] = to_json(F.report);
+        report["details"] = to_json(to_fields(F.report));
         report["storage"] = {{"kind", kind},
                              {"why", "rows kept on the MPI ranks that computed them"},
                              {"ranks", distributed::size()},
