@@ -305,7 +305,7 @@ SolverStats solve_kept(const KeptRows& rows, int rank, Exchange& exchange, const
     if (!st.converged) {
         const std::string msg = fmt::format(
             "solve: {} did not converge in {} sweeps: relative residual {:.3g} > tolerance "
-            "{:.3g} (raise --max-iterations or loosen --residual)",
+            "{:.3g} (raise `max_iterations` or loosen `residual`)",
             st.solver, st.iterations, st.residual, st.tolerance);
         if (options.fail_if_not_converged) throw Error(msg);
         st.warnings.push_back(msg);
