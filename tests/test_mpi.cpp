@@ -159,8 +159,8 @@ TEST_CASE("mpi: thermal and radiosity solves write the same solution on 2 and 3 
 }
 
 TEST_CASE(
-    "mpi: a thermal solve over the ranks (gmres and jacobi, dense and sparse) writes one process's "
-    "solution bit for bit" *
+    "mpi: a thermal solve over the ranks with gmres and jacobi on dense and sparse rows writes one "
+    "process's solution bit for bit" *
     doctest::test_suite("mpi")) {
     check_same_files_on_any_rank_count(
         "solve cube --subdivide 4 --thermal --properties p.csv --solver gmres --threads 1 -o "
