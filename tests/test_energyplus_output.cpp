@@ -243,15 +243,17 @@ TEST_CASE(
 
 TEST_CASE("energyplus output: --all-zones writes no file when a zone fails or two share a name") {
     Cli cli;
-    // The second zone holds a simplified wall, which its build refuses: after the first zone
-    // was computed.
+    // The second zone holds a window beside its wall, which its build refuses: after the first
+    // zone was computed.
     std::string model = two_zone_model();
-    model += "  Wall:Exterior, Extra wall, EXTWALL80, ZONE TWO, 0, 90, 0, 0, 0, 3, 2;\n";
+    model +=
+        "  Wall:Exterior, Extra wall, EXTWALL80, ZONE TWO, 0, 90, 0, 0, 0, 3, 2;\n"
+        "  Window, Stray window, SINGLE PANE HW WINDOW, Extra wall, , 1, 40, 1, 1, 1;\n";
     cli.write("two.idf", model);
     CliResult r = cli.run("compute two.idf --all-zones -o F.csv --report R.json");
     CHECK(r.code == 1);
     CHECK(r.one_error_line());
-    CHECK(r.err.find("Wall:Exterior") != std::string::npos);
+    CHECK(r.err.find("Window 'Stray window' is not within its base surface") != std::string::npos);
     CHECK(r.out.find("zone       ZONE ONE\n") != std::string::npos);  // computed, not written
     CHECK(cli.dir().entries() == 1);
 
