@@ -8,6 +8,7 @@
 
 #include <memory>
 
+#include "all_zones.h"
 #include "commands.h"
 #include "common.h"
 #include "formfactor/core/atomic_file.h"
@@ -42,9 +43,11 @@ struct SolveArgs {
     std::string exchange;
     std::string output;
     std::string report;
-    std::string storage = "auto";  ///< --storage auto|dense|sparse|hierarchical
-    double error_target = 1e-6;    ///< --error-target (hierarchical)
-    double threshold = 0.0;        ///< --threshold (sparse)
+    std::string storage = "auto";        ///< --storage auto|dense|sparse|hierarchical
+    double error_target = 1e-6;          ///< --error-target (hierarchical)
+    double threshold = 0.0;              ///< --threshold (sparse)
+    bool all_zones = false;              ///< --all-zones (EnergyPlus models)
+    OutputTransaction* outer = nullptr;  ///< one zone of --all-zones: its files go there
 };
 
 void solve_hierarchical_scene(const SolveArgs& args, Scene& scene, StepTimes& times,
@@ -210,14 +213,14 @@ void solve_hierarchical_scene(const SolveArgs& args, Scene& scene, StepTimes& ti
         report["memory"] = {{"peak_bytes", peak_memory_bytes()}};
         stage_report(tx, args.report, report);
     }
-    tx.commit();
+    finish(tx, args.outer);
     fmt::print("scene      {}: N = {} patches, hierarchical operator (analytic entries)\n",
                scene.name, scene.patches.size());
     fmt::print("storage    hierarchical ({}), operator {}\n", why, format_bytes(double(hs.bytes)));
     fmt::print("time       {}\n", format_timings(times, total.seconds()));
     std::string wrote = args.output;
     if (!args.report.empty()) wrote += ", " + args.report;
-    fmt::print("wrote      {}\n", wrote);
+    print_wrote(wrote, args.outer);
 }
 
 // `solve --storage sparse` (or --matrix F.mtx|F.h5): the checks that need no scene.
@@ -291,7 +294,7 @@ void solve_sparse_scene(const SolveArgs& args, Scene& scene, StepTimes& times, S
         report["memory"]["peak_bytes"] = peak_memory_bytes();  // the solve's too
         stage_report(tx, args.report, report);
     }
-    tx.commit();
+    finish(tx, args.outer);
     fmt::print("scene      {}: N = {} patches, F from {} ({} thread{})\n", scene.name,
                format_count(double(scene.patches.size())), read ? args.matrix : method_name,
                threads, threads == 1 ? "" : "s");
@@ -299,13 +302,17 @@ void solve_sparse_scene(const SolveArgs& args, Scene& scene, StepTimes& times, S
     fmt::print("time       {}\n", format_timings(times, total.seconds()));
     std::string wrote = args.output;
     if (!args.report.empty()) wrote += ", " + args.report;
-    fmt::print("wrote      {}\n", wrote);
+    print_wrote(wrote, args.outer);
 }
 
 // The solve over the MPI ranks (solve_on_ranks()): F computed with each rank keeping its rows
 // (dense, or `sparse` CSR rows above --threshold), the iteration exchanging the solution vector.
 void solve_distributed_scene(const SolveArgs& args, Scene& scene, StepTimes& times,
                              Stopwatch& total, bool sparse, const SolverOptions& solver_options) {
+    if (args.outer)
+        throw OptionError("--all-zones",
+                          "solves the zones one after another in one process; under mpirun "
+                          "solve one zone (--zone NAME)");
     const int threads = effective_threads(args.method.options.threads);
     warn_single_patch(scene);
     PatchProperties props = properties_from_scene(scene);
@@ -359,7 +366,7 @@ void solve_distributed_scene(const SolveArgs& args, Scene& scene, StepTimes& tim
         report["memory"] = {{"peak_bytes", peak_memory_bytes()}};
         stage_report(tx, args.report, report);
     }
-    tx.commit();
+    finish(tx, args.outer);
     fmt::print("scene      {}: N = {} patches, F from {} ({} thread{} per rank)\n", scene.name,
                format_count(double(scene.patches.size())), method_name, threads,
                threads == 1 ? "" : "s");
@@ -373,10 +380,50 @@ void solve_distributed_scene(const SolveArgs& args, Scene& scene, StepTimes& tim
     fmt::print("time       {}\n", format_timings(times, total.seconds()));
     std::string wrote = args.output;
     if (!args.report.empty()) wrote += ", " + args.report;
-    fmt::print("wrote      {}\n", wrote);
+    print_wrote(wrote, args.outer);
+}
+
+void run_solve(const SolveArgs& args);
+
+// --all-zones: every zone of an EnergyPlus model solved as its own enclosure. Every output
+// (-o, --report, --exchange-factors) and every input (--matrix, --properties) is a file per
+// zone, named by zone_file() as compute --all-zones names its outputs; the outputs are written
+// together after the last zone, or not at all.
+void run_solve_all_zones(const SolveArgs& args) {
+    Stopwatch total;
+    args.scene.validate();
+    args.method.validate();
+    const std::vector<std::string> zones = all_zones(args.scene, "solves");
+    if (args.output.empty()) throw OptionError("-o", "a result file is required (RESULT.csv)");
+    std::vector<SolveArgs> runs;
+    ZoneOutputs outputs;
+    for (const std::string& zone : zones) {
+        SolveArgs one = args;
+        one.all_zones = false;
+        one.scene.zone = zone;
+        for (std::string* path : {&one.output, &one.report, &one.exchange})
+            outputs.claim(*path, zone);
+        for (std::string* path : {&one.matrix, &one.properties})
+            if (!path->empty()) *path = zone_file(*path, zone);
+        runs.push_back(std::move(one));
+    }
+    OutputTransaction tx;
+    for (SolveArgs& one : runs) {
+        fmt::print("zone       {}\n", one.scene.zone);
+        one.outer = &tx;
+        run_solve(one);
+    }
+    const std::vector<std::string> files = tx.paths();
+    tx.commit();
+    fmt::print("time       all zones {:.3g} s\n", total.seconds());
+    fmt::print("wrote      {} files for {} zones\n", files.size(), zones.size());
 }
 
 void run_solve(const SolveArgs& args) {
+    if (args.all_zones) {
+        run_solve_all_zones(args);
+        return;
+    }
     Stopwatch total;
     args.scene.validate();
     args.method.validate();
@@ -545,7 +592,7 @@ void run_solve(const SolveArgs& args) {
         if (repaired) report["repair"] = to_json(*repaired);
         stage_report(tx, args.report, report);
     }
-    tx.commit();
+    finish(tx, args.outer);
     fmt::print("scene      {}: N = {} patches, F from {}\n", scene.name, scene.patches.size(),
                method_name);
     print_reciprocity(diagnostics, promise);
@@ -553,7 +600,7 @@ void run_solve(const SolveArgs& args) {
     std::string wrote = args.output;
     if (!args.exchange.empty()) wrote += ", " + args.exchange;
     if (!args.report.empty()) wrote += ", " + args.report;
-    fmt::print("wrote      {}\n", wrote);
+    print_wrote(wrote, args.outer);
 }
 
 }  // namespace
@@ -620,6 +667,11 @@ void add_solve_command(CLI::App& app) {
                     "Hierarchical storage: relative error of each compressed block")
         ->type_name("T")
         ->capture_default_str();
+    cmd->add_flag("--all-zones", args->all_zones,
+                  "EnergyPlus models: every zone, each its own enclosure and solve; -o, "
+                  "--report, --exchange-factors and the inputs --matrix and --properties are a "
+                  "file per zone, the zone's name in place of {zone} or before the extension "
+                  "(B.csv -> B_ZONE.csv), as compute --all-zones writes them");
     cmd->callback([args] { run_solve(*args); });
 }
 
