@@ -580,3 +580,33 @@ TEST_CASE("energyplus: bad simplified objects name the file and line and the obj
           }) ==
           "m.epJSON: Wall:Exterior 'Zn001:Wall001': Height '\"tall\"' is not a finite number");
 }
+
+TEST_CASE(
+    "energyplus: NREL's second simplified example: zones below grade closed and its flaws found") {
+    // Version 9.1 windows (no Shading Control Name), GlazedDoor, Wall:Underground,
+    // Floor:GroundContact, Ceiling:Adiabatic; Relative coordinates, zones 1 and 2 below grade.
+    const std::string path = data("energyplus/4ZoneWithShading_Simple_2.idf");
+    const Scene one = load_energyplus(path, "ZONE 1");
+    CHECK(one.surfaces.size() == 9);
+    check_enclosure_rows(analytic(one));
+    const Surface& south = named(one, "Zn001:Wall001");
+    CHECK(south.holes.size() == 2);  // a window and a glass door
+    CHECK(std::abs(surface_area(south) - (200 - 15 - 15)) < 1e-9);
+    for (const Vec3& v : named(one, "Zn001:Flr001").polygon.vertices)
+        CHECK(std::abs(v.z() + 10.0) < 1e-12);
+    const Scene two = load_energyplus(path, "ZONE 2");
+    CHECK(two.surfaces.size() == 8);
+    check_enclosure_rows(analytic(two));
+    // Zone 3's interzone wall holds a door and a glass door on the same rectangle.
+    CHECK(input_error([&] { load_energyplus(path, "ZONE 3"); }) ==
+          path +
+              ":353: Door:Interzone 'Zn003:Wall004:Door001' overlaps another subsurface of "
+              "'Zn003:Wall004'");
+    // Zone 4's west wall is the one EnergyPlus generates from zone 3's Wall:Interzone (whose
+    // outside boundary condition object names the zone); formfactor reads what is written, so
+    // the zone is open.
+    const Scene four = load_energyplus(path, "ZONE 4");
+    CHECK(four.surfaces.size() == 6);
+    const FormFactors f = analytic(four);
+    for (Eigen::Index i = 0; i < f.F.rows(); ++i) CHECK(f.F.row(i).sum() < 1.0 - 1e-3);
+}
