@@ -178,7 +178,6 @@ class Runner {
     // that the next block sees them; the new values go in at the end.
     double sweep_own(const Columns& d, const Columns& c, Columns& x) {
         const std::size_t n = rows_.n;
-        const Eigen::Index kc = x.cols();
         double change = 0.0;
         std::vector<Columns> swept;
         swept.reserve(rows_.blocks.size());
@@ -188,33 +187,19 @@ class Runner {
             const Columns start = x.middleRows(first, m);
             for (std::size_t i = b.rows.begin; i < b.rows.end; ++i) {
                 const auto row = static_cast<Eigen::Index>(i);
+                double changed = 0.0;
                 if (rows_.sparse) {
                     const std::size_t r = i - b.rows.begin;
                     const auto begin = static_cast<std::size_t>(b.indptr[r]);
                     const auto end = static_cast<std::size_t>(b.indptr[r + 1]);
-                    for (Eigen::Index k = 0; k < kc; ++k) {
-                        double s = 0.0, fii = 0.0;
-                        for (std::size_t e = begin; e < end; ++e) {
-                            const Eigen::Index j = b.indices[e];
-                            if (j == row)
-                                fii = b.values[e];
-                            else
-                                s += b.values[e] * x(j, k);
-                        }
-                        const double v = (c(row, k) + d(row, k) * s) / (1.0 - d(row, k) * fii);
-                        change = std::max(change, std::abs(v - x(row, k)));
-                        x(row, k) = v;
-                    }
+                    changed =
+                        detail::gauss_seidel_row(row, b.indices.data() + begin,
+                                                 b.values.data() + begin, end - begin, d, c, x);
                 } else {
                     const RowVector f(b.row(i, n), static_cast<Eigen::Index>(n));
-                    const double fii = f(row);
-                    for (Eigen::Index k = 0; k < kc; ++k) {
-                        const double s = f.dot(x.col(k)) - fii * x(row, k);
-                        const double v = (c(row, k) + d(row, k) * s) / (1.0 - d(row, k) * fii);
-                        change = std::max(change, std::abs(v - x(row, k)));
-                        x(row, k) = v;
-                    }
+                    changed = detail::gauss_seidel_row(row, f, d, c, x);
                 }
+                change = std::max(change, changed);
             }
             swept.push_back(x.middleRows(first, m));
             x.middleRows(first, m) = start;
