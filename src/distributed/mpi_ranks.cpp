@@ -86,6 +86,19 @@ MPI_Status wait_for(int source, int tag, const CancellationFlag* cancel) {
     }
 }
 
+// Waits for a non-blocking operation without spinning: test, then sleep from `first` up to
+// `most`.
+void complete(MPI_Request& request, std::chrono::microseconds first,
+              std::chrono::microseconds most) {
+    auto pause = first;
+    for (int done = 0;;) {
+        MPI_Test(&request, &done, MPI_STATUS_IGNORE);
+        if (done) return;
+        std::this_thread::sleep_for(pause);
+        pause = std::min(pause * 2, most);
+    }
+}
+
 std::vector<char> receive_bytes(const MPI_Status& probed) {
     int count = 0;
     MPI_Get_count(&probed, MPI_BYTE, &count);
@@ -702,14 +715,7 @@ class MpiExchange final : public Exchange {
         MPI_Iallgatherv(send_.data(), counts[static_cast<std::size_t>(g_rank)], MPI_DOUBLE,
                         received_.data(), counts.data(), displs.data(), MPI_DOUBLE, g_comm,
                         &request);
-        auto pause = std::chrono::microseconds(5);
-        for (;;) {
-            int done = 0;
-            MPI_Test(&request, &done, MPI_STATUS_IGNORE);
-            if (done) break;
-            std::this_thread::sleep_for(pause);
-            pause = std::min(pause * 2, std::chrono::microseconds(500));
-        }
+        complete(request, std::chrono::microseconds(5), std::chrono::microseconds(500));
         Exchanged e;
         for (std::size_t r = 0; r < ranks; ++r) {
             const double* p = received_.data() + displs[r];
@@ -836,15 +842,8 @@ std::string make_moves(const std::vector<Move>& moves) {
             WireReader r(bytes.data(), bytes.size());
             kept.blocks.push_back(get_kept_block(r, kept.n));
         }
-        for (MPI_Request& q : requests) {
-            int done = 0;
-            auto pause = std::chrono::microseconds(20);
-            for (MPI_Test(&q, &done, MPI_STATUS_IGNORE); !done;
-                 MPI_Test(&q, &done, MPI_STATUS_IGNORE)) {
-                std::this_thread::sleep_for(pause);
-                pause = std::min(pause * 2, std::chrono::microseconds(1000));
-            }
-        }
+        for (MPI_Request& q : requests)
+            complete(q, std::chrono::microseconds(20), std::chrono::microseconds(1000));
         std::sort(
             kept.blocks.begin(), kept.blocks.end(),
             [](const KeptBlock& a, const KeptBlock& b) { return a.rows.begin < b.rows.begin; });
