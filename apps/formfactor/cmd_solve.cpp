@@ -120,12 +120,9 @@ std::string auto_sparse(const SolveArgs& args, const Scene& loaded, std::size_t 
                                                         : "F's entries are needed (--repair)");
 }
 
-// The report of a solve on the hierarchical operator or a sparse F (the dense path's comes from
-// make_report): report_head() with `options` completed with the solve's own, and "solve".
-nlohmann::json solve_report(const SolveArgs& args, const Scene& scene, const std::string& method,
-                            nlohmann::json options, const SolverOptions& solver_options,
-                            int threads, const StepTimes& times, const Stopwatch& total,
-                            const nlohmann::json& solve_json) {
+// The solve's own options in a report's "options": every path's report has them.
+void add_solve_options(const SolveArgs& args, const SolverOptions& solver_options,
+                       nlohmann::json& options) {
     options["properties"] =
         args.properties.empty() ? nlohmann::json(nullptr) : nlohmann::json(args.properties);
     options["thermal"] = args.thermal;
@@ -133,6 +130,28 @@ nlohmann::json solve_report(const SolveArgs& args, const Scene& scene, const std
     options["residual"] = solver_options.residual;
     options["max_iterations"] = solver_options.max_iterations;
     options["output"] = args.output;
+}
+
+// The options of F stored sparse or kept on the ranks (`storage`): the method's (none when F
+// was read from `matrix`), the threshold and the repair.
+nlohmann::json stored_options(const SolveArgs& args, const std::string& method_name,
+                              const std::string& matrix, const std::string& storage) {
+    nlohmann::json options =
+        matrix.empty() ? args.method.to_json(method_name) : nlohmann::json::object();
+    options["matrix"] = matrix.empty() ? nlohmann::json(nullptr) : nlohmann::json(matrix);
+    options["storage"] = storage;
+    options["threshold"] = args.threshold;
+    options["repair"] = args.repair.mode;
+    return options;
+}
+
+// The report of a solve on the hierarchical operator or a sparse F (the dense path's comes from
+// make_report): report_head() with `options` completed with the solve's own, and "solve".
+nlohmann::json solve_report(const SolveArgs& args, const Scene& scene, const std::string& method,
+                            nlohmann::json options, const SolverOptions& solver_options,
+                            int threads, const StepTimes& times, const Stopwatch& total,
+                            const nlohmann::json& solve_json) {
+    add_solve_options(args, solver_options, options);
     ReportContext ctx;
     ctx.command = "solve";
     ctx.method = method;
@@ -282,12 +301,8 @@ void solve_sparse_scene(const SolveArgs& args, Scene& scene, StepTimes& times, S
                         args.output, times, sw, tx, scene);
     times.add("write", sw.lap());
     if (!args.report.empty()) {
-        nlohmann::json options =
-            read ? nlohmann::json::object() : args.method.to_json(to_string(method));
-        options["matrix"] = read ? nlohmann::json(args.matrix) : nlohmann::json(nullptr);
-        options["storage"] = "sparse";
-        options["threshold"] = args.threshold;
-        options["repair"] = args.repair.mode;
+        const nlohmann::json options =
+            stored_options(args, to_string(method), read ? args.matrix : "", "sparse");
         nlohmann::json report = solve_report(args, scene, method_name, options, solver_options,
                                              threads, times, total, solve_json);
         report.update(sparse_report_sections(r, why, F.threshold, args.repair.mode));
@@ -346,11 +361,7 @@ void solve_distributed_scene(const SolveArgs& args, Scene& scene, StepTimes& tim
     if (!F.row_sums.empty()) mean /= static_cast<double>(F.row_sums.size());
     const std::string kind = sparse ? "sparse" : "dense";
     if (!args.report.empty()) {
-        nlohmann::json options = args.method.to_json(method_name);
-        options["matrix"] = nullptr;
-        options["storage"] = kind;
-        options["threshold"] = args.threshold;
-        options["repair"] = args.repair.mode;
+        const nlohmann::json options = stored_options(args, method_name, "", kind);
         nlohmann::json report = solve_report(args, scene, method_name, options, solver_options,
                                              threads, times, total, solve_json);
         report["diagnostics"] = {
@@ -576,14 +587,8 @@ void run_solve(const SolveArgs& args) {
         if (args.matrix.empty()) ctx.options.update(args.method.to_json(method_name));
         ctx.options["matrix"] =
             args.matrix.empty() ? nlohmann::json(nullptr) : nlohmann::json(args.matrix);
-        ctx.options["properties"] =
-            args.properties.empty() ? nlohmann::json(nullptr) : nlohmann::json(args.properties);
-        ctx.options["thermal"] = args.thermal;
-        ctx.options["solver"] = to_string(solver_options.solver);
-        ctx.options["residual"] = solver_options.residual;
-        ctx.options["max_iterations"] = solver_options.max_iterations;
+        add_solve_options(args, solver_options, ctx.options);
         ctx.options["repair"] = args.repair.mode;
-        ctx.options["output"] = args.output;
         ctx.outputs["result"] = args.output;
         if (!args.exchange.empty()) ctx.outputs["exchange_factors"] = args.exchange;
         ctx.outputs["report"] = args.report;

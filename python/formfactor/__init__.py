@@ -123,7 +123,7 @@ class ThermalResult:
 
 
 def solve_radiosity(scene, F, reflectance=None, emission=None, *, solver=None,
-                    residual=1e-8, max_iterations=0, threads=0, progress=None):
+                    residual=1e-8, max_iterations=0, threads=0, progress=None, comm=None):
     """Solves the radiosity equation B = E + diag(ρ) F B for each of R, G, B.
 
     F: a :class:`Result` of this scene (used without a copy), an (N, N) array, F[i, j] from
@@ -134,16 +134,24 @@ def solve_radiosity(scene, F, reflectance=None, emission=None, *, solver=None,
     (MTL Kd and Ke). solver: ``gauss-seidel`` (default for a matrix), ``jacobi``, ``shooting``
     (progressive refinement), ``direct`` (LU) or ``gmres`` (default for an operator, which
     takes gmres or jacobi). Returns a :class:`RadiosityResult`.
+
+    comm: an mpi4py communicator (``MPI.COMM_WORLD``) to solve over its ranks under mpirun.
+    Every rank calls with the same arguments; only rank 0's F is read (the others may pass
+    None). With ``gauss-seidel``, ``gmres`` or ``jacobi`` on a matrix, rank 0 sends each rank a
+    block of rows of F and every rank iterates on its own rows: jacobi and gmres give the one
+    process's result bit for bit, gauss-seidel one within ``residual`` of it. Other solvers and
+    the operator run on rank 0 alone. Rank 0 gets the result, the others None
+    (docs/cluster.md).
     """
     solver = _default_solver(F, "gauss-seidel") if solver is None else solver
     d = _core.radiosity(scene, _core_matrix(F), reflectance, emission, solver, residual,
-                        max_iterations, threads, progress)
-    return RadiosityResult(**d)
+                        max_iterations, threads, progress, comm)
+    return None if d is None else RadiosityResult(**d)
 
 
 def solve_thermal(scene, F, emissivity=None, temperature=None, net_flux=None, *,
                   ambient_temperature=0.0, solver=None, residual=1e-8, max_iterations=0,
-                  threads=0, progress=None):
+                  threads=0, progress=None, comm=None):
     """Radiative heat exchange between grey diffuse patches (net-radiation method).
 
     Each patch has an emissivity ε and either a temperature T (K) or a net flux q (W/m²,
@@ -153,12 +161,15 @@ def solve_thermal(scene, F, emissivity=None, temperature=None, net_flux=None, *,
     environment that the open part of each row sees (K). F as in solve_radiosity. solver:
     ``direct`` by default for a matrix, ``gmres`` for an operator or a sparse F. Returns a
     :class:`ThermalResult` (temperature, radiosity, net_flux, net_power, total_net_power, ...).
+
+    comm: an mpi4py communicator to solve over its ranks, as in solve_radiosity (pass
+    ``solver="gmres"``: the default ``direct`` solve of a matrix runs on rank 0 alone).
     """
     solver = _default_solver(F, "direct") if solver is None else solver
     d = _core.thermal(scene, _core_matrix(F), emissivity, temperature, net_flux,
                       ambient_temperature, solver, residual, max_iterations, threads,
-                      progress)
-    return ThermalResult(**d)
+                      progress, comm)
+    return None if d is None else ThermalResult(**d)
 
 
 def repair(F, areas, mode="both", *, enclosure=False, force_closure=False):

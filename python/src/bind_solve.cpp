@@ -156,6 +156,13 @@ std::optional<SparseFormFactors> sparse_of(const PyScene& s, const py::object& F
     return sf;
 }
 
+/// Whether a solve over a communicator spreads F's rows over its ranks: the iterative solvers
+/// (direct and shooting need the whole F, and run on rank 0 alone).
+bool distributes(const SolverOptions& o) {
+    return o.solver == SolverKind::jacobi || o.solver == SolverKind::gauss_seidel ||
+           o.solver == SolverKind::gmres;
+}
+
 /// The hierarchical operator passed as F, or null; checked against the scene.
 const HierarchicalFormFactors* operator_of(const PyScene& s, const py::object& F) {
     if (!py::isinstance<PyHierarchical>(F)) return nullptr;
@@ -165,10 +172,17 @@ const HierarchicalFormFactors* operator_of(const PyScene& s, const py::object& F
     return h.op.get();
 }
 
-py::dict radiosity(const PyScene& s, const py::object& F, const py::object& reflectance,
-                   const py::object& emission, const py::object& solver, const py::object& residual,
-                   const py::object& max_iterations, const py::object& threads,
-                   const py::object& progress) {
+py::object radiosity(const PyScene& s, const py::object& F, const py::object& reflectance,
+                     const py::object& emission, const py::object& solver,
+                     const py::object& residual, const py::object& max_iterations,
+                     const py::object& threads, const py::object& progress,
+                     const py::object& comm_arg) {
+    std::optional<distributed::Communicator> comm;
+    open_communicator(comm_arg, comm);
+    if (comm && distributed::rank() != 0) {
+        serve_rank0();
+        return py::none();
+    }
     const HierarchicalFormFactors* op = operator_of(s, F);
     const std::optional<SparseFormFactors> sp = op ? std::nullopt : sparse_of(s, F);
     const FormFactors ff = op || sp ? FormFactors{} : form_factors_of(s, F);
@@ -178,10 +192,15 @@ py::dict radiosity(const PyScene& s, const py::object& F, const py::object& refl
     if (!emission.is_none()) props.emission = per_patch_rgb(emission, "emission", n);
     validate_properties(props);
     const SolverOptions o = solver_options(solver, residual, max_iterations, threads);
+    const bool over_ranks = comm && !op && distributes(o);
     const RadiosityResult r = run_released(
         [&](CancellationFlag&, ProgressSink* sink) {
             SolverOptions run = o;
             run.progress = sink;
+            if (over_ranks)
+                return distributed::solve_radiosity(
+                    sp ? distributed::distribute_rows(*sp) : distributed::distribute_rows(ff),
+                    props, run);
             return op   ? solve_radiosity(*op, props, run)
                    : sp ? solve_radiosity(*sp, props, run)
                         : solve_radiosity(ff, props, run);
@@ -199,11 +218,17 @@ py::dict radiosity(const PyScene& s, const py::object& F, const py::object& refl
     return d;
 }
 
-py::dict thermal(const PyScene& s, const py::object& F, const py::object& emissivity,
-                 const py::object& temperature, const py::object& net_flux,
-                 const py::object& ambient, const py::object& solver, const py::object& residual,
-                 const py::object& max_iterations, const py::object& threads,
-                 const py::object& progress) {
+py::object thermal(const PyScene& s, const py::object& F, const py::object& emissivity,
+                   const py::object& temperature, const py::object& net_flux,
+                   const py::object& ambient, const py::object& solver, const py::object& residual,
+                   const py::object& max_iterations, const py::object& threads,
+                   const py::object& progress, const py::object& comm_arg) {
+    std::optional<distributed::Communicator> comm;
+    open_communicator(comm_arg, comm);
+    if (comm && distributed::rank() != 0) {
+        serve_rank0();
+        return py::none();
+    }
     const double ambient_temperature = arg<double>(ambient, "ambient_temperature");
     const HierarchicalFormFactors* op = operator_of(s, F);
     const std::optional<SparseFormFactors> sp = op ? std::nullopt : sparse_of(s, F);
@@ -240,10 +265,15 @@ py::dict thermal(const PyScene& s, const py::object& F, const py::object& emissi
             "ambient_temperature",
             fmt::format("must be a finite number ≥ 0 (K), got {}", ambient_temperature));
     }
+    const bool over_ranks = comm && !op && distributes(o.solver);
     const ThermalResult r = run_released(
         [&](CancellationFlag&, ProgressSink* sink) {
             ThermalOptions run = o;
             run.solver.progress = sink;
+            if (over_ranks)
+                return distributed::solve_thermal(
+                    sp ? distributed::distribute_rows(*sp) : distributed::distribute_rows(ff),
+                    props, run);
             return op   ? solve_thermal(*op, props, run)
                    : sp ? solve_thermal(*sp, props, run)
                         : solve_thermal(ff, props, run);
@@ -455,11 +485,11 @@ void bind_solve(py::module_& m) {
     bind_hierarchical(m);
     m.def("radiosity", &radiosity, py::arg("scene"), py::arg("F"), py::arg("reflectance"),
           py::arg("emission"), py::arg("solver"), py::arg("residual"), py::arg("max_iterations"),
-          py::arg("threads"), py::arg("progress"));
+          py::arg("threads"), py::arg("progress"), py::arg("comm") = py::none());
     m.def("thermal", &thermal, py::arg("scene"), py::arg("F"), py::arg("emissivity"),
           py::arg("temperature"), py::arg("net_flux"), py::arg("ambient_temperature"),
           py::arg("solver"), py::arg("residual"), py::arg("max_iterations"), py::arg("threads"),
-          py::arg("progress"));
+          py::arg("progress"), py::arg("comm") = py::none());
     m.def(
         "repair",
         [](const py::object& F, const py::object& areas, const py::object& mode,
