@@ -460,6 +460,25 @@ PartialStats combined(ThreadStats& per_thread) {
     return total;
 }
 
+// The sender cut into four: a triangle at its edges' midpoints, a quad at its edges' midpoints
+// and its centre (the other polygons whole).
+std::vector<Polygon> quarters(const Polygon& p) {
+    const std::size_t n = p.size();
+    if (n != 3 && n != 4) return {p};
+    std::vector<Polygon> out(4);
+    auto mid = [&](std::size_t a) { return 0.5 * (p[a] + p[(a + 1) % n]); };
+    if (n == 3) {
+        out[0].vertices = {p[0], mid(0), mid(2)};
+        out[1].vertices = {mid(0), p[1], mid(1)};
+        out[2].vertices = {mid(2), mid(1), p[2]};
+        out[3].vertices = {mid(0), mid(1), mid(2)};
+        return out;
+    }
+    const Vec3 c = 0.25 * (p[0] + p[1] + p[2] + p[3]);
+    for (std::size_t k = 0; k < 4; ++k) out[k].vertices = {p[k], mid(k), c, mid((k + 3) % 4)};
+    return out;
+}
+
 // A partly hidden pair whose unobstructed value is at most the tolerance is placed inside its
 // bracket [0, unobstructed] without integration (see integrate_partial()). Not twice the
 // tolerance: a value moved to the middle of a wider bracket errs the same way in every small
@@ -472,6 +491,11 @@ constexpr double kBracketShare = 1.0;
 // same way in every pair of a row, and a closed room's rows of such pairs fell 1.4e-4 short of
 // 1 at 1e-4 with the whole tolerance; at 0.3 they are as close to 1 as when integrated.
 constexpr double kUmbraShare = 0.3;
+
+// A sender whose own umbra bound is within this factor of its share is tried again as four
+// quarters (on the 1,066-triangle urban array at 1e-4: 4,162 more pairs settled, 13% less time;
+// trying every sender costs more than it settles).
+constexpr double kQuartersReach = 16.0;
 
 // The unobstructed value less the integrated hidden part, over the smaller patch of the pair
 // (reciprocity gives the other entry, with a smaller error). unobstructed(s, r): the exact
@@ -512,18 +536,29 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
     // Nearly hidden pairs (most partly hidden pairs among buildings): what the sender sees past
     // the umbrae of the occluders bounds the pair's value; within kUmbraShare of the tolerance,
     // the value is placed inside [0, bound] without the event split and its integration.
+    // The sender whole first; where its bound is within a few times the share, its four
+    // quarters (umbrae from a smaller sender are larger).
     double bound = 0.0, seen = 0.0;
-    bool bounded = true;
-    for (const Polygon& pr : parts) {
-        const detail::VisibleBound b =
-            detail::visible_bound(ps, pr, S.blockers, cand.data() + pp.cand_first, pp.cand_count,
-                                  S.eps, kUmbraShare * tol - bound);
-        st.points += b.points;
-        bound += b.bound;
-        seen += b.estimate;
-        bounded = b.ok && bound <= kUmbraShare * tol;
-        if (!bounded) break;
-    }
+    auto bounded_by = [&](const std::vector<Polygon>& senders) {
+        bound = 0.0;
+        seen = 0.0;
+        for (const Polygon& sp : senders) {
+            const double w = area(sp) / a_s;
+            for (const Polygon& pr : parts) {
+                const detail::VisibleBound b =
+                    detail::visible_bound(sp, pr, S.blockers, cand.data() + pp.cand_first,
+                                          pp.cand_count, S.eps, (kUmbraShare * tol - bound) / w);
+                st.points += b.points;
+                bound += w * b.bound;
+                seen += w * b.estimate;
+                if (!b.ok || bound > kUmbraShare * tol) return false;
+            }
+        }
+        return true;
+    };
+    bool bounded = bounded_by({ps});
+    if (!bounded && bound > 0.0 && bound <= kQuartersReach * kUmbraShare * tol)
+        bounded = bounded_by(quarters(ps));
     if (bounded) {
         v.f = std::clamp(seen, 0.0, bound);
         st.changed = v.f != unobs;

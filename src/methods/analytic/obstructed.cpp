@@ -821,6 +821,35 @@ double hidden_estimate(const Polygon& s, const Polygon& r, const BlockerSet& blo
     return sum;
 }
 
+namespace {
+
+// 1/A ∫ F(x → frags) dA_x over the cell [u0, u1] × [v0, v1] of the map m, by the tensor Gauss
+// rule g of the given order (x in the sender's plane, normal ns; frags in the receiver's plane
+// coordinates, in front of that plane): the smooth integrand of the umbra bounds. Scaled by
+// `scale` (the cell's share of the unit square over the sender's area).
+double fragments_rule(const SenderMap& m, double u0, double u1, double v0, double v1,
+                      const GaussRule& g, int order, const Receiver& rc, const Vec3& ns,
+                      const std::vector<Poly2>& frags, double scale) {
+    const Vec3 nl(ns.dot(rc.u), ns.dot(rc.v), ns.dot(rc.n));
+    double q = 0.0;
+    for (int i = 0; i < order; ++i)
+        for (int j = 0; j < order; ++j) {
+            const double u = u0 + (u1 - u0) * g.x[static_cast<std::size_t>(i)];
+            const double v = v0 + (v1 - v0) * g.x[static_cast<std::size_t>(j)];
+            const Vec3 x = m.at(u, v);
+            const Vec3 xr = x - rc.o;
+            const Vec3 xl(rc.u.dot(xr), rc.v.dot(xr), rc.n.dot(x) - rc.d);
+            if (!(xl.z() > 0.0)) continue;
+            double f = 0.0;
+            for (const Poly2& p : frags) f += lambert2(p, xl, nl);
+            q += g.w[static_cast<std::size_t>(i)] * g.w[static_cast<std::size_t>(j)] *
+                 m.jacobian(u, v) * f;
+        }
+    return q * scale;
+}
+
+}  // namespace
+
 VisibleBound visible_bound(const Polygon& s, const Polygon& r, const BlockerSet& blockers,
                            const int* cand, int n, double eps, double give_up) {
     VisibleBound out;
@@ -843,26 +872,9 @@ VisibleBound visible_bound(const Polygon& s, const Polygon& r, const BlockerSet&
     } else {
         m.tri_j = (m.p1 - m.p0).cross(m.p2 - m.p1).norm();
     }
-    const Vec3 nl(ns.dot(rc.u), ns.dot(rc.v), ns.dot(rc.n));
-    auto at = [&](double u, double v, double& w) {
-        const Vec3 x = m.at(u, v);
-        const Vec3 xr = x - rc.o;
-        w *= m.jacobian(u, v);
-        return std::make_pair(x, Vec3(rc.u.dot(xr), rc.v.dot(xr), rc.n.dot(x) - rc.d));
-    };
+    const double scale = 1.0 / area_s;
     auto rule = [&](const GaussRule& g, int order) {
-        double q = 0.0;
-        for (int i = 0; i < order; ++i)
-            for (int j = 0; j < order; ++j) {
-                double w = g.w[static_cast<std::size_t>(i)] * g.w[static_cast<std::size_t>(j)];
-                const auto [x, xl] =
-                    at(g.x[static_cast<std::size_t>(i)], g.x[static_cast<std::size_t>(j)], w);
-                if (!(xl.z() > 0.0)) continue;
-                double f = 0.0;
-                for (const Poly2& p : frags) f += lambert2(p, xl, nl);
-                q += w * f;
-            }
-        return q / area_s;
+        return fragments_rule(m, 0.0, 1.0, 0.0, 1.0, g, order, rc, ns, frags, scale);
     };
     const CellRules rules;
     const double q2 = rule(rules.g2, kLowOrder);
@@ -877,13 +889,13 @@ VisibleBound visible_bound(const Polygon& s, const Polygon& r, const BlockerSet&
     double seen = 0.0;
     for (int i = 0; i < kLowOrder; ++i)
         for (int j = 0; j < kLowOrder; ++j) {
-            double w =
-                rules.g2.w[static_cast<std::size_t>(i)] * rules.g2.w[static_cast<std::size_t>(j)];
-            const auto [x, xl] = at(rules.g2.x[static_cast<std::size_t>(i)],
-                                    rules.g2.x[static_cast<std::size_t>(j)], w);
-            const PointResult pr = evaluate_point(rc, x, ns, blockers, cand, n, eps, true);
+            const double u = rules.g2.x[static_cast<std::size_t>(i)];
+            const double v = rules.g2.x[static_cast<std::size_t>(j)];
+            const PointResult pr = evaluate_point(rc, m.at(u, v), ns, blockers, cand, n, eps, true);
             ++out.points;
-            seen += w * std::max(0.0, pr.unobstructed - pr.hidden);
+            seen += rules.g2.w[static_cast<std::size_t>(i)] *
+                    rules.g2.w[static_cast<std::size_t>(j)] * m.jacobian(u, v) *
+                    std::max(0.0, pr.unobstructed - pr.hidden);
         }
     out.estimate = std::clamp(seen / area_s, 0.0, out.bound);
     return out;
