@@ -172,7 +172,7 @@ TEST_CASE("energyplus: several zones need --zone, which matches names case-insen
                       "");
     const std::string both = text + second;
     CHECK(input_error([&] { load_energyplus_text(both, "two.idf"); }) ==
-          "two.idf: the model has 2 zones; choose one with --zone NAME: ZONE ONE, Zone Two");
+          "two.idf: the model has 2 zones; choose one with `zone` NAME: ZONE ONE, Zone Two");
     const Scene z2 = load_energyplus_text(both, "two.idf", "zone two");
     CHECK(z2.title == "Zone Two");
     REQUIRE(z2.surfaces.size() == 7);
