@@ -318,3 +318,16 @@ TEST_CASE("cli interrupt: the analytic classification stops within a second of S
             "analytic classification", std::chrono::milliseconds(3000)),
         "analytic classification");
 }
+
+TEST_CASE("cli interrupt: thresholding sparse rows stops within a second of SIGTERM" *
+          doctest::test_suite("slow")) {
+    // 4,320 patches, ~4,000 entries a row from dense hemicube rows: the threshold into CSR is
+    // most of a second.
+    TempDir work, capture;
+    check_prompt_stop(
+        interrupt_in_phase(work, capture,
+                           {"solve", "room-24", "--method", "hemicube", "--resolution", "64",
+                            "--threads", "2", "--storage", "sparse", "-o", "B.csv"},
+                           "threshold", std::chrono::milliseconds(100)),
+        "threshold");
+}

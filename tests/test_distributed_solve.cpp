@@ -280,3 +280,78 @@ TEST_CASE(
     repaired.repair.mode = RepairMode::reciprocity;
     CHECK_THROWS_AS(compute_distributed_rows(scene, repaired, nullptr), OptionError);
 }
+
+TEST_CASE(
+    "distributed rows from a whole F on one process: thermal and radiosity equal the solves of "
+    "that F bit for bit") {
+    Scene scene = load_scene("cube");
+    subdivide(scene, SubdivisionOptions{3, 0.0});
+    PatchProperties props = properties_from_scene(scene);
+    for (std::size_t i = 0; i < props.size(); ++i) {
+        props.emissivity[i] = 0.3 + 0.1 * double(i % 7);
+        props.temperature[i] = 300.0 + double(i % 5) * 20.0;
+        props.reflectance[i] = Rgb::Constant(0.2 + 0.1 * double(i % 5));
+        props.emission[i] = Rgb::Constant(double(i % 3));
+    }
+    const FormFactors ff = compute_form_factors(scene).form_factors;
+    const SparseFormFactors csr = to_sparse(ff);
+    ThermalOptions to;
+    to.solver.solver = SolverKind::gmres;
+    to.solver.threads = 1;
+    for (const SolverKind kind : {SolverKind::gmres, SolverKind::jacobi}) {
+        CAPTURE(to_string(kind));
+        to.solver.solver = kind;
+        const ThermalResult dense = distributed::solve_thermal(distribute_rows(ff), props, to);
+        CHECK(dense.radiosity == formfactor::solve_thermal(ff, props, to).radiosity);
+        const ThermalResult sparse = distributed::solve_thermal(distribute_rows(csr), props, to);
+        CHECK(sparse.radiosity == formfactor::solve_thermal(csr, props, to).radiosity);
+        const RadiosityResult b =
+            distributed::solve_radiosity(distribute_rows(csr), props, to.solver);
+        CHECK(b.radiosity == formfactor::solve_radiosity(csr, props, to.solver).radiosity);
+    }
+    // Rows that a later distribution replaced are refused.
+    const DistributedRows old = distribute_rows(ff);
+    (void)distribute_rows(csr);
+    CHECK_THROWS_AS(distributed::solve_thermal(old, props, to), Error);
+}
+
+TEST_CASE("distributed rows from a whole F: one contiguous block per rank of about equal work") {
+    Scene scene = load_scene("cube");
+    subdivide(scene, SubdivisionOptions{3, 0.0});
+    const FormFactors ff = compute_form_factors(scene).form_factors;
+    const std::size_t n = ff.size();
+    for (const int ranks : {1, 3, 5, 100}) {
+        CAPTURE(ranks);
+        const WholeRows dense = whole_rows(ff, ranks);
+        REQUIRE(dense.blocks.size() == std::size_t(ranks));
+        std::size_t next = 0, smallest = n, largest = 0;
+        for (const RowRange& b : dense.blocks) {
+            CHECK(b.begin == next);
+            next = b.end;
+            smallest = std::min(smallest, b.size());
+            largest = std::max(largest, b.size());
+        }
+        CHECK(next == n);
+        CHECK(largest - smallest <= 1);
+    }
+    // Sparse: the work of a product (a row and its entries) evens out, not the rows.
+    SparseFormFactors csr = to_sparse(ff);
+    const WholeRows sparse = whole_rows(csr, 3);
+    double most = 0.0, least = 1e300, total = 0.0, heaviest_row = 0.0;
+    for (std::size_t i = 0; i < n; ++i)
+        heaviest_row = std::max(heaviest_row, 1.0 + double(csr.indptr[i + 1] - csr.indptr[i]));
+    for (const RowRange& b : sparse.blocks) {
+        const double w = double(b.size()) + double(csr.indptr[b.end] - csr.indptr[b.begin]);
+        total += w;
+        most = std::max(most, w);
+        least = std::min(least, w);
+        const KeptBlock kept = sparse.block(b);
+        CHECK(kept.values.size() == std::size_t(csr.indptr[b.end] - csr.indptr[b.begin]));
+    }
+    CHECK(most - least <= 2.0 * heaviest_row);
+    CHECK(least > 0.0);
+    // A block of rows is not a whole F.
+    FormFactors block = ff;
+    block.first_row = 1;
+    CHECK_THROWS_AS(whole_rows(block, 2), Error);
+}

@@ -238,15 +238,17 @@ TEST_CASE(
 
 TEST_CASE("energyplus output: --all-zones writes no file when a zone fails or two share a name") {
     Cli cli;
-    // The second zone holds a simplified wall, which its build refuses: after the first zone
-    // was computed.
+    // The second zone holds a window beside its wall, which its build refuses: after the first
+    // zone was computed.
     std::string model = two_zone_model();
-    model += "  Wall:Exterior, Extra wall, EXTWALL80, ZONE TWO, 0, 90, 0, 0, 0, 3, 2;\n";
+    model +=
+        "  Wall:Exterior, Extra wall, EXTWALL80, ZONE TWO, 0, 90, 0, 0, 0, 3, 2;\n"
+        "  Window, Stray window, SINGLE PANE HW WINDOW, Extra wall, , 1, 40, 1, 1, 1;\n";
     cli.write("two.idf", model);
     CliResult r = cli.run("compute two.idf --all-zones -o F.csv --report R.json");
     CHECK(r.code == 1);
     CHECK(r.one_error_line());
-    CHECK(r.err.find("Wall:Exterior") != std::string::npos);
+    CHECK(r.err.find("Window 'Stray window' is not within its base surface") != std::string::npos);
     CHECK(r.out.find("zone       ZONE ONE\n") != std::string::npos);  // computed, not written
     CHECK(cli.dir().entries() == 1);
 
@@ -263,4 +265,74 @@ TEST_CASE("energyplus output: --all-zones writes no file when a zone fails or tw
     CHECK(r.err ==
           "formfactor: --all-zones: computes the zones of an EnergyPlus model (.idf or .epJSON); "
           "'cornell' is not one\n");
+}
+
+TEST_CASE("energyplus output: solve --all-zones solves each zone as solve --zone does") {
+    Cli cli;
+    cli.write("two.idf", two_zone_model());
+    // Per-zone inputs by the same naming rule: a hot floor in each zone.
+    for (const std::string part : {"ZONE_ONE", "ZONE_TWO"}) {
+        const std::string floor = part == "ZONE_ONE" ? "Zn001:Flr001" : "Zn002:Flr001";
+        cli.write("T_" + part + ".csv", "surface,emissivity,temperature\n" + floor + ",0.9,350\n");
+    }
+    CliResult r = cli.run("compute two.idf --all-zones -o F.npy");
+    REQUIRE(r.code == 0);
+    r = cli.run(
+        "solve two.idf --all-zones --thermal --properties T.csv --matrix F.npy -o "
+        "J.csv --report R.json");
+    INFO(r.out, r.err);
+    REQUIRE(r.code == 0);
+    CHECK(r.out.find("wrote      4 files for 2 zones\n") != std::string::npos);
+    for (const std::string zone : {"ZONE ONE", "ZONE TWO"}) {
+        CAPTURE(zone);
+        const std::string part = zone == "ZONE ONE" ? "ZONE_ONE" : "ZONE_TWO";
+        r = cli.run("solve two.idf --zone " + shell_quote(zone) + " --thermal --properties T_" +
+                    part + ".csv -o one.csv");
+        REQUIRE(r.code == 0);
+        const std::string mine = read_text(cli.file("J_" + part + ".csv"));
+        CHECK(mine == read_text(cli.file("one.csv")));
+        CHECK(mine.find("350") != std::string::npos);  // the hot floor's temperature
+        const auto report = nlohmann::json::parse(read_text(cli.file("R_" + part + ".json")));
+        CHECK(report.at("options").at("matrix") == "F_" + part + ".npy");
+    }
+    // A zone that fails (its properties name a surface of the other zone): nothing written.
+    Cli bad;
+    bad.write("two.idf", two_zone_model());
+    bad.write("T_ZONE_ONE.csv", "surface,emissivity,temperature\nZn001:Flr001,0.9,350\n");
+    bad.write("T_ZONE_TWO.csv", "surface,emissivity,temperature\nZn001:Flr001,0.9,350\n");
+    r = bad.run("solve two.idf --all-zones --thermal --properties T.csv -o J.csv");
+    CHECK(r.code == 1);
+    // Zone one's warning (adiabatic patches), then the one error.
+    const std::string error = "formfactor: T_ZONE_TWO.csv:2: unknown surface 'Zn001:Flr001'\n";
+    CHECK(r.err.size() > error.size());
+    CHECK(r.err.compare(r.err.size() - error.size(), error.size(), error) == 0);
+    CHECK(bad.dir().entries() == 3);
+    r = bad.run("solve cornell --all-zones -o J.csv");
+    CHECK(r.err ==
+          "formfactor: --all-zones: solves the zones of an EnergyPlus model (.idf or .epJSON); "
+          "'cornell' is not one\n");
+}
+
+TEST_CASE("energyplus output: view --all-zones writes a page per zone or none") {
+    Cli cli;
+    cli.write("two.idf", two_zone_model());
+    CliResult r = cli.run("view two.idf --all-zones -o {zone}.html");
+    INFO(r.out, r.err);
+    REQUIRE(r.code == 0);
+    CHECK(r.out.find("wrote      2 files for 2 zones\n") != std::string::npos);
+    for (const std::string part : {"ZONE_ONE", "ZONE_TWO"}) {
+        const std::string page = read_text(cli.file(part + ".html"));
+        CHECK(page.find(part == "ZONE_ONE" ? "Zn001:Wall001" : "Zn002:Wall001") !=
+              std::string::npos);
+    }
+    // Every page read from its own matrix file; a missing one fails the run before any page.
+    Cli bad;
+    bad.write("two.idf", two_zone_model());
+    r = bad.run("compute two.idf --zone 'ZONE ONE' -o F_ZONE_ONE.npy");
+    REQUIRE(r.code == 0);
+    r = bad.run("view two.idf --all-zones --matrix F.npy -o page.html");
+    CHECK(r.code == 1);
+    CHECK(r.one_error_line());
+    CHECK(r.err.find("F_ZONE_TWO.npy") != std::string::npos);
+    CHECK(bad.dir().entries() == 2);
 }

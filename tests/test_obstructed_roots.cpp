@@ -6,8 +6,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <random>
 #include <vector>
 
+#include "formfactor/kernels/analytic.h"
 #include "formfactor/methods/method.h"
 #include "formfactor/scene/room.h"
 #include "formfactor/scene/scene.h"
@@ -472,4 +474,50 @@ TEST_CASE("obstructed roots: a faceted sphere is one convex solid, and hides wha
     CHECK(worst_z <= 5.0);
     CHECK(worst_tight <= bound + 1e-9);
     CHECK(d1["obstructions"]["patch_pairs_partly_hidden"].get<long long>() > 0);
+}
+
+TEST_CASE("obstructed roots: the umbra bound is never below what the sender sees") {
+    // A ground triangle and a wall facing it across a street of boxes of random heights (a few
+    // sit low enough to let light over them): the sender's corners' umbrae bound what it sees.
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> u01(0.0, 1.0);
+    int settled = 0, hidden_whole = 0, partial = 0;
+    for (int trial = 0; trial < 60; ++trial) {
+        BlockerSet bs;
+        int id = 0;
+        const int boxes = 1 + trial % 3;
+        for (int b = 0; b < boxes; ++b) {
+            const double x0 = -3.0 + 2.0 * b + 0.5 * u01(rng), y0 = -1.0 + u01(rng);
+            add_box(bs, Vec3(x0, y0, 0.0),
+                    Vec3(x0 + 1.0, y0 + 1.5 + u01(rng), 0.3 + 2.0 * u01(rng)), 1, id);
+        }
+        bs.build();
+        bs.mark_closed_solids({}, 1e-9);
+        const int n = static_cast<int>(bs.size());
+        std::vector<int> cand(bs.size());
+        for (int k = 0; k < n; ++k) cand[static_cast<std::size_t>(k)] = k;
+        const double sx = 2.0 + u01(rng), sy = u01(rng);
+        const Polygon s = poly({Vec3(sx, sy, 0), Vec3(sx + 0.7, sy, 0), Vec3(sx, sy + 0.7, 0)});
+        const double wz = 0.5 * u01(rng);
+        const Polygon r =
+            poly({Vec3(-5, 0, wz), Vec3(-5, 1, wz), Vec3(-5, 1, wz + 1), Vec3(-5, 0, wz + 1)});
+        const VisibleBound vb = visible_bound(s, r, bs, cand.data(), n, 1e-12, INFINITY);
+        if (!vb.ok) continue;
+        const HiddenIntegral h = hidden_integral(s, r, bs, cand.data(), n, 1e-10, 1e-12);
+        const double seen = polygon_to_polygon(s, r) - h.hidden;
+        CHECK(seen <= vb.bound + 1e-8);
+        CHECK(vb.estimate >= 0.0);
+        CHECK(vb.estimate <= vb.bound);
+        if (vb.bound == 0.0) {
+            ++hidden_whole;
+            CHECK(std::abs(seen) <= 1e-8);
+        } else if (vb.bound < polygon_to_polygon(s, r)) {
+            ++partial;
+        }
+        ++settled;
+    }
+    // The bound did something: whole umbrae and partial ones both occurred.
+    CHECK(settled >= 20);
+    CHECK(hidden_whole >= 3);
+    CHECK(partial >= 3);
 }

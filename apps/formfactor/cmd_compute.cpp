@@ -11,6 +11,7 @@
 #include <memory>
 #include <optional>
 
+#include "all_zones.h"
 #include "commands.h"
 #include "common.h"
 #include "formfactor/core/atomic_file.h"
@@ -67,20 +68,6 @@ bool rows_per_surface(const ComputeArgs& args) {
     std::transform(ext.begin(), ext.end(), ext.begin(),
                    [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
     return ext == ".vs3";
-}
-
-// Every output of one run is staged in `tx`; it is committed here, or handed to `outer` when
-// the run is one zone of --all-zones (the zones' files are then written together or not at all).
-void finish(OutputTransaction& tx, OutputTransaction* outer) {
-    if (outer)
-        outer->adopt(tx);
-    else
-        tx.commit();
-}
-
-// The last line of a run: what it wrote, or (one zone of --all-zones) what it will write.
-void print_wrote(const std::string& files, const OutputTransaction* outer) {
-    fmt::print("{:<10} {}\n", outer ? "output" : "wrote", files);
 }
 
 // Hierarchical storage (formfactor/matrix/hierarchical.h): the per-surface matrix from the
@@ -252,33 +239,6 @@ void run_compute_sparse(const ComputeArgs& args, const std::string& why, OutputT
     print_wrote(wrote, outer);
 }
 
-// A zone's name as part of a file name: letters, digits, '-' and '_' kept (and bytes of UTF-8
-// letters), anything else ('/', ':', spaces, '.') an '_', so that no name reaches another folder.
-std::string file_name_part(const std::string& zone) {
-    std::string part = zone;
-    for (char& c : part) {
-        const auto u = static_cast<unsigned char>(c);
-        if (!(std::isalnum(u) || c == '-' || c == '_' || u >= 0x80)) c = '_';
-    }
-    return part;
-}
-
-// One zone's file for an output of --all-zones: `{zone}` in `path` replaced by the zone's name,
-// else the name inserted before the extension (F.npy -> F_SPACE1-1.npy).
-std::string zone_file(const std::string& path, const std::string& zone) {
-    const std::string part = file_name_part(zone);
-    static const std::string kPlaceholder = "{zone}";
-    if (path.find(kPlaceholder) != std::string::npos) {
-        std::string out = path;
-        for (std::size_t at = 0; (at = out.find(kPlaceholder, at)) != std::string::npos;
-             at += part.size())
-            out.replace(at, kPlaceholder.size(), part);
-        return out;
-    }
-    const std::filesystem::path p(path);
-    return (p.parent_path() / (p.stem().string() + "_" + part + p.extension().string())).string();
-}
-
 // --all-zones into one EnergyPlus file (.idf or .epJSON): one
 // ZoneProperty:UserViewFactors:BySurfaceName object per zone.
 void run_compute_all_zones_energyplus(const ComputeArgs& args, EnergyPlusSyntax syntax,
@@ -327,22 +287,12 @@ void run_compute(const ComputeArgs& args, OutputTransaction* outer);
 // --stderr) is one file per zone, named by zone_file(). The zones' files are written together
 // after the last zone, or not at all.
 void run_compute_all_zones(const ComputeArgs& args) {
-    EnergyPlusSyntax input_syntax = EnergyPlusSyntax::Idf;
-    if (!energyplus_syntax_for(args.scene.scene, input_syntax))
-        throw OptionError("--all-zones",
-                          "computes the zones of an EnergyPlus model (.idf or "
-                          ".epJSON); '" +
-                              args.scene.scene + "' is not one");
-    if (!args.scene.zone.empty())
-        throw OptionError("--all-zones", "computes every zone: leave out --zone");
+    const std::vector<std::string> zones = all_zones(args.scene, "computes");
     if (args.output.empty())
         throw OptionError("-o",
                           "an output file is required (.idf or .epJSON for all zones in "
                           "one file; .csv, .npy, .txt, .dat, .vtu, .mtx or .h5 for a file "
                           "per zone)");
-    const std::vector<std::string> zones = energyplus_zones(args.scene.scene);
-    if (zones.empty())
-        throw InputError(args.scene.scene, 0, "no Zone objects (nothing to enclose)");
     EnergyPlusSyntax syntax = EnergyPlusSyntax::Idf;
     if (energyplus_syntax_for(args.output, syntax)) {
         run_compute_all_zones_energyplus(args, syntax, zones);
@@ -353,24 +303,14 @@ void run_compute_all_zones(const ComputeArgs& args) {
     // what zone_file() replaces would write one file.
     Stopwatch total;
     std::vector<ComputeArgs> runs;
-    std::map<std::string, std::string> zone_of_file;
+    ZoneOutputs outputs;
     for (const std::string& zone : zones) {
         ComputeArgs one = args;
         one.all_zones = false;
         one.scene.zone = zone;
         for (std::string* path :
-             {&one.output, &one.report, &one.patches, &one.pairs, &one.standard_error}) {
-            if (path->empty()) continue;
-            *path = zone_file(*path, zone);
-            const std::string key = std::filesystem::path(*path).lexically_normal().string();
-            const auto [it, fresh] = zone_of_file.emplace(key, zone);
-            if (!fresh)
-                throw OptionError("--all-zones",
-                                  fmt::format("zones '{}' and '{}' would both write '{}'; put "
-                                              "{{zone}} where the name goes or compute them "
-                                              "one by one with --zone",
-                                              it->second, zone, *path));
-        }
+             {&one.output, &one.report, &one.patches, &one.pairs, &one.standard_error})
+            outputs.claim(*path, zone);
         runs.push_back(std::move(one));
     }
     OutputTransaction tx;

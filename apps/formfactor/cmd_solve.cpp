@@ -8,6 +8,7 @@
 
 #include <memory>
 
+#include "all_zones.h"
 #include "commands.h"
 #include "common.h"
 #include "formfactor/core/atomic_file.h"
@@ -42,9 +43,11 @@ struct SolveArgs {
     std::string exchange;
     std::string output;
     std::string report;
-    std::string storage = "auto";  ///< --storage auto|dense|sparse|hierarchical
-    double error_target = 1e-6;    ///< --error-target (hierarchical)
-    double threshold = 0.0;        ///< --threshold (sparse)
+    std::string storage = "auto";        ///< --storage auto|dense|sparse|hierarchical
+    double error_target = 1e-6;          ///< --error-target (hierarchical)
+    double threshold = 0.0;              ///< --threshold (sparse)
+    bool all_zones = false;              ///< --all-zones (EnergyPlus models)
+    OutputTransaction* outer = nullptr;  ///< one zone of --all-zones: its files go there
 };
 
 void solve_hierarchical_scene(const SolveArgs& args, Scene& scene, StepTimes& times,
@@ -117,12 +120,9 @@ std::string auto_sparse(const SolveArgs& args, const Scene& loaded, std::size_t 
                                                         : "F's entries are needed (--repair)");
 }
 
-// The report of a solve on the hierarchical operator or a sparse F (the dense path's comes from
-// make_report): report_head() with `options` completed with the solve's own, and "solve".
-nlohmann::json solve_report(const SolveArgs& args, const Scene& scene, const std::string& method,
-                            nlohmann::json options, const SolverOptions& solver_options,
-                            int threads, const StepTimes& times, const Stopwatch& total,
-                            const nlohmann::json& solve_json) {
+// The solve's own options in a report's "options": every path's report has them.
+void add_solve_options(const SolveArgs& args, const SolverOptions& solver_options,
+                       nlohmann::json& options) {
     options["properties"] =
         args.properties.empty() ? nlohmann::json(nullptr) : nlohmann::json(args.properties);
     options["thermal"] = args.thermal;
@@ -130,6 +130,28 @@ nlohmann::json solve_report(const SolveArgs& args, const Scene& scene, const std
     options["residual"] = solver_options.residual;
     options["max_iterations"] = solver_options.max_iterations;
     options["output"] = args.output;
+}
+
+// The options of F stored sparse or kept on the ranks (`storage`): the method's (none when F
+// was read from `matrix`), the threshold and the repair.
+nlohmann::json stored_options(const SolveArgs& args, const std::string& method_name,
+                              const std::string& matrix, const std::string& storage) {
+    nlohmann::json options =
+        matrix.empty() ? args.method.to_json(method_name) : nlohmann::json::object();
+    options["matrix"] = matrix.empty() ? nlohmann::json(nullptr) : nlohmann::json(matrix);
+    options["storage"] = storage;
+    options["threshold"] = args.threshold;
+    options["repair"] = args.repair.mode;
+    return options;
+}
+
+// The report of a solve on the hierarchical operator or a sparse F (the dense path's comes from
+// make_report): report_head() with `options` completed with the solve's own, and "solve".
+nlohmann::json solve_report(const SolveArgs& args, const Scene& scene, const std::string& method,
+                            nlohmann::json options, const SolverOptions& solver_options,
+                            int threads, const StepTimes& times, const Stopwatch& total,
+                            const nlohmann::json& solve_json) {
+    add_solve_options(args, solver_options, options);
     ReportContext ctx;
     ctx.command = "solve";
     ctx.method = method;
@@ -210,14 +232,14 @@ void solve_hierarchical_scene(const SolveArgs& args, Scene& scene, StepTimes& ti
         report["memory"] = {{"peak_bytes", peak_memory_bytes()}};
         stage_report(tx, args.report, report);
     }
-    tx.commit();
+    finish(tx, args.outer);
     fmt::print("scene      {}: N = {} patches, hierarchical operator (analytic entries)\n",
                scene.name, scene.patches.size());
     fmt::print("storage    hierarchical ({}), operator {}\n", why, format_bytes(double(hs.bytes)));
     fmt::print("time       {}\n", format_timings(times, total.seconds()));
     std::string wrote = args.output;
     if (!args.report.empty()) wrote += ", " + args.report;
-    fmt::print("wrote      {}\n", wrote);
+    print_wrote(wrote, args.outer);
 }
 
 // `solve --storage sparse` (or --matrix F.mtx|F.h5): the checks that need no scene.
@@ -279,19 +301,15 @@ void solve_sparse_scene(const SolveArgs& args, Scene& scene, StepTimes& times, S
                         args.output, times, sw, tx, scene);
     times.add("write", sw.lap());
     if (!args.report.empty()) {
-        nlohmann::json options =
-            read ? nlohmann::json::object() : args.method.to_json(to_string(method));
-        options["matrix"] = read ? nlohmann::json(args.matrix) : nlohmann::json(nullptr);
-        options["storage"] = "sparse";
-        options["threshold"] = args.threshold;
-        options["repair"] = args.repair.mode;
+        const nlohmann::json options =
+            stored_options(args, to_string(method), read ? args.matrix : "", "sparse");
         nlohmann::json report = solve_report(args, scene, method_name, options, solver_options,
                                              threads, times, total, solve_json);
         report.update(sparse_report_sections(r, why, F.threshold, args.repair.mode));
         report["memory"]["peak_bytes"] = peak_memory_bytes();  // the solve's too
         stage_report(tx, args.report, report);
     }
-    tx.commit();
+    finish(tx, args.outer);
     fmt::print("scene      {}: N = {} patches, F from {} ({} thread{})\n", scene.name,
                format_count(double(scene.patches.size())), read ? args.matrix : method_name,
                threads, threads == 1 ? "" : "s");
@@ -299,13 +317,17 @@ void solve_sparse_scene(const SolveArgs& args, Scene& scene, StepTimes& times, S
     fmt::print("time       {}\n", format_timings(times, total.seconds()));
     std::string wrote = args.output;
     if (!args.report.empty()) wrote += ", " + args.report;
-    fmt::print("wrote      {}\n", wrote);
+    print_wrote(wrote, args.outer);
 }
 
 // The solve over the MPI ranks (solve_on_ranks()): F computed with each rank keeping its rows
 // (dense, or `sparse` CSR rows above --threshold), the iteration exchanging the solution vector.
 void solve_distributed_scene(const SolveArgs& args, Scene& scene, StepTimes& times,
                              Stopwatch& total, bool sparse, const SolverOptions& solver_options) {
+    if (args.outer)
+        throw OptionError("--all-zones",
+                          "solves the zones one after another in one process; under mpirun "
+                          "solve one zone (--zone NAME)");
     const int threads = effective_threads(args.method.options.threads);
     warn_single_patch(scene);
     PatchProperties props = properties_from_scene(scene);
@@ -339,11 +361,7 @@ void solve_distributed_scene(const SolveArgs& args, Scene& scene, StepTimes& tim
     if (!F.row_sums.empty()) mean /= static_cast<double>(F.row_sums.size());
     const std::string kind = sparse ? "sparse" : "dense";
     if (!args.report.empty()) {
-        nlohmann::json options = args.method.to_json(method_name);
-        options["matrix"] = nullptr;
-        options["storage"] = kind;
-        options["threshold"] = args.threshold;
-        options["repair"] = args.repair.mode;
+        const nlohmann::json options = stored_options(args, method_name, "", kind);
         nlohmann::json report = solve_report(args, scene, method_name, options, solver_options,
                                              threads, times, total, solve_json);
         report["diagnostics"] = {
@@ -359,7 +377,7 @@ void solve_distributed_scene(const SolveArgs& args, Scene& scene, StepTimes& tim
         report["memory"] = {{"peak_bytes", peak_memory_bytes()}};
         stage_report(tx, args.report, report);
     }
-    tx.commit();
+    finish(tx, args.outer);
     fmt::print("scene      {}: N = {} patches, F from {} ({} thread{} per rank)\n", scene.name,
                format_count(double(scene.patches.size())), method_name, threads,
                threads == 1 ? "" : "s");
@@ -373,10 +391,50 @@ void solve_distributed_scene(const SolveArgs& args, Scene& scene, StepTimes& tim
     fmt::print("time       {}\n", format_timings(times, total.seconds()));
     std::string wrote = args.output;
     if (!args.report.empty()) wrote += ", " + args.report;
-    fmt::print("wrote      {}\n", wrote);
+    print_wrote(wrote, args.outer);
+}
+
+void run_solve(const SolveArgs& args);
+
+// --all-zones: every zone of an EnergyPlus model solved as its own enclosure. Every output
+// (-o, --report, --exchange-factors) and every input (--matrix, --properties) is a file per
+// zone, named by zone_file() as compute --all-zones names its outputs; the outputs are written
+// together after the last zone, or not at all.
+void run_solve_all_zones(const SolveArgs& args) {
+    Stopwatch total;
+    args.scene.validate();
+    args.method.validate();
+    const std::vector<std::string> zones = all_zones(args.scene, "solves");
+    if (args.output.empty()) throw OptionError("-o", "a result file is required (RESULT.csv)");
+    std::vector<SolveArgs> runs;
+    ZoneOutputs outputs;
+    for (const std::string& zone : zones) {
+        SolveArgs one = args;
+        one.all_zones = false;
+        one.scene.zone = zone;
+        for (std::string* path : {&one.output, &one.report, &one.exchange})
+            outputs.claim(*path, zone);
+        for (std::string* path : {&one.matrix, &one.properties})
+            if (!path->empty()) *path = zone_file(*path, zone);
+        runs.push_back(std::move(one));
+    }
+    OutputTransaction tx;
+    for (SolveArgs& one : runs) {
+        fmt::print("zone       {}\n", one.scene.zone);
+        one.outer = &tx;
+        run_solve(one);
+    }
+    const std::vector<std::string> files = tx.paths();
+    tx.commit();
+    fmt::print("time       all zones {:.3g} s\n", total.seconds());
+    fmt::print("wrote      {} files for {} zones\n", files.size(), zones.size());
 }
 
 void run_solve(const SolveArgs& args) {
+    if (args.all_zones) {
+        run_solve_all_zones(args);
+        return;
+    }
     Stopwatch total;
     args.scene.validate();
     args.method.validate();
@@ -529,14 +587,8 @@ void run_solve(const SolveArgs& args) {
         if (args.matrix.empty()) ctx.options.update(args.method.to_json(method_name));
         ctx.options["matrix"] =
             args.matrix.empty() ? nlohmann::json(nullptr) : nlohmann::json(args.matrix);
-        ctx.options["properties"] =
-            args.properties.empty() ? nlohmann::json(nullptr) : nlohmann::json(args.properties);
-        ctx.options["thermal"] = args.thermal;
-        ctx.options["solver"] = to_string(solver_options.solver);
-        ctx.options["residual"] = solver_options.residual;
-        ctx.options["max_iterations"] = solver_options.max_iterations;
+        add_solve_options(args, solver_options, ctx.options);
         ctx.options["repair"] = args.repair.mode;
-        ctx.options["output"] = args.output;
         ctx.outputs["result"] = args.output;
         if (!args.exchange.empty()) ctx.outputs["exchange_factors"] = args.exchange;
         ctx.outputs["report"] = args.report;
@@ -545,7 +597,7 @@ void run_solve(const SolveArgs& args) {
         if (repaired) report["repair"] = to_json(*repaired);
         stage_report(tx, args.report, report);
     }
-    tx.commit();
+    finish(tx, args.outer);
     fmt::print("scene      {}: N = {} patches, F from {}\n", scene.name, scene.patches.size(),
                method_name);
     print_reciprocity(diagnostics, promise);
@@ -553,7 +605,7 @@ void run_solve(const SolveArgs& args) {
     std::string wrote = args.output;
     if (!args.exchange.empty()) wrote += ", " + args.exchange;
     if (!args.report.empty()) wrote += ", " + args.report;
-    fmt::print("wrote      {}\n", wrote);
+    print_wrote(wrote, args.outer);
 }
 
 }  // namespace
@@ -620,6 +672,11 @@ void add_solve_command(CLI::App& app) {
                     "Hierarchical storage: relative error of each compressed block")
         ->type_name("T")
         ->capture_default_str();
+    cmd->add_flag("--all-zones", args->all_zones,
+                  "EnergyPlus models: every zone, each its own enclosure and solve; -o, "
+                  "--report, --exchange-factors and the inputs --matrix and --properties are a "
+                  "file per zone, the zone's name in place of {zone} or before the extension "
+                  "(B.csv -> B_ZONE.csv), as compute --all-zones writes them");
     cmd->callback([args] { run_solve(*args); });
 }
 

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <memory>
 
+#include "all_zones.h"
 #include "commands.h"
 #include "common.h"
 #include "formfactor/core/atomic_file.h"
@@ -36,6 +37,8 @@ struct ViewArgs {
     double threshold = -1.0;
     std::string title;
     std::string output;
+    bool all_zones = false;              ///< --all-zones (EnergyPlus models)
+    OutputTransaction* outer = nullptr;  ///< one zone of --all-zones: its page goes there
 };
 
 bool emits(const Scene& scene) {
@@ -44,7 +47,45 @@ bool emits(const Scene& scene) {
     return false;
 }
 
+void run_view(const ViewArgs& args);
+
+// --all-zones: a page per zone of an EnergyPlus model, each zone its own enclosure; -o and the
+// inputs --matrix, --radiosity and --thermal are a file per zone, named by zone_file() as
+// compute and solve --all-zones name theirs. The pages are written together after the last zone,
+// or not at all.
+void run_view_all_zones(const ViewArgs& args) {
+    Stopwatch total;
+    args.scene.validate();
+    const std::vector<std::string> zones = all_zones(args.scene, "makes a page for");
+    if (args.output.empty()) throw OptionError("-o", "an output file is required (.html)");
+    std::vector<ViewArgs> runs;
+    ZoneOutputs outputs;
+    for (const std::string& zone : zones) {
+        ViewArgs one = args;
+        one.all_zones = false;
+        one.scene.zone = zone;
+        outputs.claim(one.output, zone);
+        for (std::string* path : {&one.matrix, &one.radiosity, &one.thermal})
+            if (!path->empty()) *path = zone_file(*path, zone);
+        runs.push_back(std::move(one));
+    }
+    OutputTransaction tx;
+    for (ViewArgs& one : runs) {
+        fmt::print("zone       {}\n", one.scene.zone);
+        one.outer = &tx;
+        run_view(one);
+    }
+    const std::vector<std::string> files = tx.paths();
+    tx.commit();
+    fmt::print("time       all zones {:.3g} s\n", total.seconds());
+    fmt::print("wrote      {} files for {} zones\n", files.size(), zones.size());
+}
+
 void run_view(const ViewArgs& args) {
+    if (args.all_zones) {
+        run_view_all_zones(args);
+        return;
+    }
     Stopwatch total;
     args.scene.validate();
     if (args.output.empty()) throw OptionError("-o", "an output file is required (.html)");
@@ -168,14 +209,16 @@ void run_view(const ViewArgs& args) {
     po.threshold = args.threshold;
     const std::string html = page_html(scene, content, po);
     times.add("page", sw.lap());
-    write_file_atomically(args.output, [&](std::ostream& out) { out << html; });
+    OutputTransaction tx;
+    tx.stage(args.output, [&](std::ostream& out) { out << html; });
+    finish(tx, args.outer);
     times.add("write", sw.lap());
     if (content.form_factors)
         print_matrix_summary(scene, method_name, threads, computed.ff, computed.raw, promise, times,
                              total.seconds());
     else
         fmt::print("time       {}\n", format_timings(times, total.seconds()));
-    fmt::print("wrote      {} ({:.1f} MB)\n", args.output, double(html.size()) / 1e6);
+    print_wrote(fmt::format("{} ({:.1f} MB)", args.output, double(html.size()) / 1e6), args.outer);
 }
 
 }  // namespace
@@ -210,6 +253,11 @@ void add_view_command(CLI::App& app) {
     cmd->add_option("--title", args->title, "The page's heading (default: the scene's title)")
         ->type_name("TEXT");
     cmd->add_option("-o,--output", args->output, "result.html")->type_name("OUT");
+    cmd->add_flag("--all-zones", args->all_zones,
+                  "EnergyPlus models: a page per zone, each zone its own enclosure; -o and the "
+                  "inputs --matrix, --radiosity and --thermal are a file per zone, the zone's "
+                  "name in place of {zone} or before the extension (page.html -> "
+                  "page_ZONE.html), as compute --all-zones writes them");
     cmd->callback([args] { run_view(*args); });
 }
 

@@ -184,13 +184,8 @@ nlohmann::json to_json(const HierarchicalStats& hs) {
 
 namespace {
 
-// Σ_j F_ij of each row, for the .vtu output.
-std::vector<double> row_sums_of(const FormFactors& F) {
-    std::vector<double> sums(F.size());
-    for (std::size_t i = 0; i < sums.size(); ++i)
-        sums[i] = F.F.row(static_cast<Eigen::Index>(i)).sum();
-    return sums;
-}
+// Σ_j F_ij of each row, for the .vtu output of F that is not dense (a dense F has its own
+// fields).
 std::vector<double> row_sums_of(const SparseFormFactors& F) {
     std::vector<double> sums(F.n);
     for (std::size_t i = 0; i < F.n; ++i) sums[i] = F.row_sum(i);

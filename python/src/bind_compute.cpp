@@ -19,6 +19,18 @@
 
 namespace formfactor::python {
 
+void open_communicator(const py::object& comm, std::optional<distributed::Communicator>& scope) {
+    if (comm.is_none()) return;
+    if (!py::hasattr(comm, "py2f"))
+        throw OptionError(
+            "comm", "must be an mpi4py communicator, got " + py::repr(comm).cast<std::string>());
+    scope.emplace(arg<std::int64_t>(comm.attr("py2f")(), "comm"));
+}
+
+void serve_rank0() {
+    run_released([](CancellationFlag&, ProgressSink*) { return distributed::serve(); }, py::none());
+}
+
 namespace {
 
 /// A non-negative integer keyword: a negative Python int is an OptionError naming it.
@@ -205,18 +217,13 @@ py::object compute(const PyScene& s, ComputeOptions o, const py::object& progres
     o.repair.enclosure = known_enclosure(*s.scene);
     if (!o.method) o.method = default_method(*s.scene);
     validate(o);
+    if (!comm_arg.is_none() && rows_given)
+        throw OptionError("rows", "a run over a communicator computes every row");
     std::optional<distributed::Communicator> comm;
-    if (!comm_arg.is_none()) {
-        if (rows_given) throw OptionError("rows", "a run over a communicator computes every row");
-        if (!py::hasattr(comm_arg, "py2f"))
-            throw OptionError("comm", "must be an mpi4py communicator, got " +
-                                          py::repr(comm_arg).cast<std::string>());
-        comm.emplace(arg<std::int64_t>(comm_arg.attr("py2f")(), "comm"));
-        if (distributed::rank() != 0) {
-            run_released([](CancellationFlag&, ProgressSink*) { return distributed::serve(); },
-                         py::none());
-            return py::none();
-        }
+    open_communicator(comm_arg, comm);
+    if (comm && distributed::rank() != 0) {
+        serve_rank0();
+        return py::none();
     }
     PyResult out;
     out.scene = s.scene;

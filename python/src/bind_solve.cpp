@@ -162,6 +162,15 @@ const Keyword<SolveArgs> kSolveRadiosityKeywords[] = {
     kSolveMaxIterations,
     kSolveThreads,
     kSolveProgress,
+    {"comm", "Optional[Any]", "None",
+     "an mpi4py communicator (``MPI.COMM_WORLD``) to solve over its ranks under mpirun. Every "
+     "rank calls with the same arguments; only rank 0's F is read (the others may pass None). "
+     "With ``gauss-seidel``, ``gmres`` or ``jacobi`` on a matrix, rank 0 sends each rank a block "
+     "of rows of F and every rank iterates on its own rows: jacobi and gmres give the one "
+     "process's result bit for bit, gauss-seidel one within ``residual`` of it. Other solvers and "
+     "the operator run on rank 0 alone. Rank 0 gets the result, the others None "
+     "(docs/cluster.md).",
+     nullptr},
 };
 
 const Signature<SolveArgs> kSolveRadiosity{
@@ -202,6 +211,10 @@ const Keyword<SolveArgs> kSolveThermalKeywords[] = {
     kSolveMaxIterations,
     kSolveThreads,
     kSolveProgress,
+    {"comm", "Optional[Any]", "None",
+     "an mpi4py communicator to solve over its ranks, as in solve_radiosity (pass "
+     "``solver=\"gmres\"``: the default ``direct`` solve of a matrix runs on rank 0 alone).",
+     nullptr},
 };
 
 const Signature<SolveArgs> kSolveThermal{
@@ -309,6 +322,13 @@ std::optional<SparseFormFactors> sparse_of(const PyScene& s, const py::object& F
     return sf;
 }
 
+/// Whether a solve over a communicator spreads F's rows over its ranks: the iterative solvers
+/// (direct and shooting need the whole F, and run on rank 0 alone).
+bool distributes(const SolverOptions& o) {
+    return o.solver == SolverKind::jacobi || o.solver == SolverKind::gauss_seidel ||
+           o.solver == SolverKind::gmres;
+}
+
 /// The hierarchical operator passed as F, or null; checked against the scene.
 const HierarchicalFormFactors* operator_of(const PyScene& s, const py::object& F) {
     if (!py::isinstance<PyHierarchical>(F)) return nullptr;
@@ -331,6 +351,12 @@ py::object radiosity(const SolveArgs& a, const std::vector<py::object>& values) 
     const auto value = [&](const char* name) { return value_of(kSolveRadiosity, values, name); };
     const PyScene& s = scene_arg(value("scene"));
     const py::object& F = value("F");
+    std::optional<distributed::Communicator> comm;
+    open_communicator(value("comm"), comm);
+    if (comm && distributed::rank() != 0) {
+        serve_rank0();
+        return py::none();
+    }
     const HierarchicalFormFactors* op = operator_of(s, F);
     const std::optional<SparseFormFactors> sp = op ? std::nullopt : sparse_of(s, F);
     const FormFactors ff = op || sp ? FormFactors{} : form_factors_of(s, F);
@@ -343,10 +369,15 @@ py::object radiosity(const SolveArgs& a, const std::vector<py::object>& values) 
     validate_properties(props);
     SolverOptions o = a.solver;
     o.solver = a.kind.value_or(default_solver(op, sp.has_value(), SolverKind::gauss_seidel));
+    const bool over_ranks = comm && !op && distributes(o);
     const RadiosityResult r = run_released(
         [&](CancellationFlag&, ProgressSink* sink) {
             SolverOptions run = o;
             run.progress = sink;
+            if (over_ranks)
+                return distributed::solve_radiosity(
+                    sp ? distributed::distribute_rows(*sp) : distributed::distribute_rows(ff),
+                    props, run);
             return op   ? solve_radiosity(*op, props, run)
                    : sp ? solve_radiosity(*sp, props, run)
                         : solve_radiosity(ff, props, run);
@@ -366,6 +397,12 @@ py::object thermal(const SolveArgs& a, const std::vector<py::object>& values) {
     const auto value = [&](const char* name) { return value_of(kSolveThermal, values, name); };
     const PyScene& s = scene_arg(value("scene"));
     const py::object& F = value("F");
+    std::optional<distributed::Communicator> comm;
+    open_communicator(value("comm"), comm);
+    if (comm && distributed::rank() != 0) {
+        serve_rank0();
+        return py::none();
+    }
     const HierarchicalFormFactors* op = operator_of(s, F);
     const std::optional<SparseFormFactors> sp = op ? std::nullopt : sparse_of(s, F);
     const FormFactors ff = op || sp ? FormFactors{} : form_factors_of(s, F);
@@ -400,10 +437,15 @@ py::object thermal(const SolveArgs& a, const std::vector<py::object>& values) {
     o.solver.solver = a.kind.value_or(default_solver(op, sp.has_value(), SolverKind::direct));
     o.ambient_temperature = a.ambient_temperature;
     o.closed = check_closure(*s.scene).closed;
+    const bool over_ranks = comm && !op && distributes(o.solver);
     const ThermalResult r = run_released(
         [&](CancellationFlag&, ProgressSink* sink) {
             ThermalOptions run = o;
             run.solver.progress = sink;
+            if (over_ranks)
+                return distributed::solve_thermal(
+                    sp ? distributed::distribute_rows(*sp) : distributed::distribute_rows(ff),
+                    props, run);
             return op   ? solve_thermal(*op, props, run)
                    : sp ? solve_thermal(*sp, props, run)
                         : solve_thermal(ff, props, run);

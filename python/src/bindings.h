@@ -21,6 +21,7 @@
 #include "formfactor/core/error.h"
 #include "formfactor/core/progress.h"
 #include "formfactor/core/types.h"
+#include "formfactor/distributed/distributed.h"
 #include "formfactor/methods/hierarchical_build.h"
 #include "formfactor/pipeline.h"
 #include "formfactor/scene/scene.h"
@@ -185,6 +186,15 @@ auto run_released(Work&& work, const py::object& callback = py::none())
     if (sink) progress.deliver(deliver_to);
     return done.get();
 }
+
+/// comm= of a call that may run over the ranks of an mpi4py communicator: opens `scope` on it
+/// (formfactor/distributed/distributed.h) unless `comm` is None; OptionError("comm") for
+/// anything that is not an mpi4py communicator.
+void open_communicator(const py::object& comm, std::optional<distributed::Communicator>& scope);
+
+/// A call over a communicator on a rank other than 0: serves rank 0's computations with the GIL
+/// released until rank 0's scope ends.
+void serve_rank0();
 
 void bind_errors(py::module_& m);
 void bind_scene(py::module_& m);

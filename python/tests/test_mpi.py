@@ -36,6 +36,26 @@ def test_form_factors_over_a_communicator_equal_one_process(ranks):
     assert f"same on {ranks} ranks" in done.stdout
 
 
+@pytest.mark.parametrize("ranks", [2, 3])
+def test_solves_over_a_communicator_equal_one_process(ranks):
+    done = subprocess.run(_mpirun() + ["-np", str(ranks), sys.executable,
+                                        os.path.join(HERE, "mpi_solve.py")],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert f"solved the same on {ranks} ranks" in done.stdout
+    # Every case ran: thermal and radiosity, dense and sparse, each iterative solver, direct.
+    assert done.stdout.count("gmres") == 4 and done.stdout.count("jacobi") == 4
+    assert "thermal sparse gauss-seidel" in done.stdout
+    assert "thermal dense direct" in done.stdout
+
+
+def test_solve_with_a_comm_that_is_no_communicator_is_refused():
+    scene = formfactor.load("room-2")
+    r = scene.form_factors("hemicube", resolution=64)
+    with pytest.raises(formfactor.OptionError, match="comm"):
+        formfactor.solve_thermal(scene, r, solver="gmres", comm="world")
+
+
 def test_comm_with_rows_is_refused():
     pytest.importorskip("mpi4py")
     from mpi4py import MPI

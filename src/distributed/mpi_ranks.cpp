@@ -47,7 +47,8 @@ namespace formfactor::distributed {
 namespace {
 
 constexpr int kTagCommand = 1, kTagResult = 2, kTagAssign = 3, kTagMove = 4;
-constexpr std::int64_t kCommandJob = 1, kCommandFinish = 2, kCommandSolve = 3, kCommandMove = 4;
+constexpr std::int64_t kCommandJob = 1, kCommandFinish = 2, kCommandSolve = 3, kCommandMove = 4,
+                       kCommandScatter = 5;
 // dense, sparse: the rows go to rank 0; kept_dense, kept_sparse: each rank keeps its rows
 // (compute_distributed_rows()) and sends their row sums.
 enum class JobKind : std::uint8_t { dense, sparse, kept_dense, kept_sparse };
@@ -83,6 +84,19 @@ MPI_Status wait_for(int source, int tag, const CancellationFlag* cancel) {
         if (cancel) cancel->throw_if_requested();
         std::this_thread::sleep_for(pause);
         pause = std::min(pause * 2, std::chrono::microseconds(1000));
+    }
+}
+
+// Waits for a non-blocking operation without spinning: test, then sleep from `first` up to
+// `most`.
+void complete(MPI_Request& request, std::chrono::microseconds first,
+              std::chrono::microseconds most) {
+    auto pause = first;
+    for (int done = 0;;) {
+        MPI_Test(&request, &done, MPI_STATUS_IGNORE);
+        if (done) return;
+        std::this_thread::sleep_for(pause);
+        pause = std::min(pause * 2, most);
     }
 }
 
@@ -702,14 +716,7 @@ class MpiExchange final : public Exchange {
         MPI_Iallgatherv(send_.data(), counts[static_cast<std::size_t>(g_rank)], MPI_DOUBLE,
                         received_.data(), counts.data(), displs.data(), MPI_DOUBLE, g_comm,
                         &request);
-        auto pause = std::chrono::microseconds(5);
-        for (;;) {
-            int done = 0;
-            MPI_Test(&request, &done, MPI_STATUS_IGNORE);
-            if (done) break;
-            std::this_thread::sleep_for(pause);
-            pause = std::min(pause * 2, std::chrono::microseconds(500));
-        }
+        complete(request, std::chrono::microseconds(5), std::chrono::microseconds(500));
         Exchanged e;
         for (std::size_t r = 0; r < ranks; ++r) {
             const double* p = received_.data() + displs[r];
@@ -836,15 +843,8 @@ std::string make_moves(const std::vector<Move>& moves) {
             WireReader r(bytes.data(), bytes.size());
             kept.blocks.push_back(get_kept_block(r, kept.n));
         }
-        for (MPI_Request& q : requests) {
-            int done = 0;
-            auto pause = std::chrono::microseconds(20);
-            for (MPI_Test(&q, &done, MPI_STATUS_IGNORE); !done;
-                 MPI_Test(&q, &done, MPI_STATUS_IGNORE)) {
-                std::this_thread::sleep_for(pause);
-                pause = std::min(pause * 2, std::chrono::microseconds(1000));
-            }
-        }
+        for (MPI_Request& q : requests)
+            complete(q, std::chrono::microseconds(20), std::chrono::microseconds(1000));
         std::sort(
             kept.blocks.begin(), kept.blocks.end(),
             [](const KeptBlock& a, const KeptBlock& b) { return a.rows.begin < b.rows.begin; });
@@ -888,6 +888,114 @@ void work_on_moves(const std::vector<char>& bytes) {
     }
     if (failure.empty()) failure = make_moves(moves);
     gather_move_status(failure);
+}
+
+// Rank 0, after the ranks gathered their status (gather_move_status()): the first failure, its
+// own or a rank's, thrown as that rank's.
+void throw_move_failures(const std::string& failure, const std::vector<std::int32_t>& status) {
+    if (!failure.empty()) throw Error(failure);
+    for (int r = 1; r < g_size; ++r)
+        if (status[static_cast<std::size_t>(r)] != 0) {
+            const std::vector<char> bytes = receive_bytes(wait_for(r, kTagResult, nullptr));
+            WireReader reader(bytes.data(), bytes.size());
+            reader.get<Status>();
+            throw Error(fmt::format("rank {}: {}", r, reader.get_string()));
+        }
+}
+
+// The header of distribute_rows()'s blocks: which rows, whose, and the id they are kept under.
+std::vector<char> scatter_bytes(std::uint64_t id, bool sparse, std::size_t n,
+                                const Owners& owners) {
+    WireWriter w;
+    w.put(id);
+    w.put<std::uint8_t>(sparse);
+    w.put<std::uint64_t>(n);
+    w.put<std::uint64_t>(owners.size());
+    for (const auto& blocks : owners) w.put_vector(blocks);
+    return std::move(w.bytes());
+}
+
+// A worker's part of distribute_rows(): its block from rank 0 (a flag first: rank 0 that failed
+// on the way sends no block), then its status.
+void work_on_scatter(const std::vector<char>& bytes) {
+    WireReader r(bytes.data(), bytes.size());
+    const auto id = r.get<std::uint64_t>();
+    const bool sparse = r.get<std::uint8_t>() != 0;
+    const auto n = r.get<std::uint64_t>();
+    Owners owners(r.get<std::uint64_t>());
+    for (auto& blocks : owners) blocks = r.get_vector<RowRange>();
+    KeptRows& kept = kept_rows();
+    kept = KeptRows{};
+    kept.sparse = sparse;
+    kept.n = n;
+    kept_id() = id;
+    std::string failure;
+    if (!owners.at(static_cast<std::size_t>(g_rank)).empty()) {
+        try {
+            const std::vector<char> got = receive_bytes(wait_for(0, kTagMove, nullptr));
+            WireReader block(got.data(), got.size());
+            if (block.get<std::uint8_t>() != 0) kept.blocks.push_back(get_kept_block(block, n));
+        } catch (const std::bad_alloc&) {
+            failure = kOutOfMemory;
+        } catch (const std::exception& e) {
+            failure = e.what();
+        }
+    }
+    gather_move_status(failure);
+}
+
+// Rank 0: distribute_rows() over the ranks. The blocks go one at a time, so that rank 0 holds
+// at most its own block and one other besides F.
+DistributedRows scatter_rows(const WholeRows& whole) {
+    if (g_size <= 1 || g_rank != 0) return distribute_rows_here(whole);
+    DistributedRows out = whole.head;
+    const std::size_t n = out.n;
+    KeptRows& kept = kept_rows();
+    kept = KeptRows{};
+    kept.sparse = out.sparse;
+    kept.n = n;
+    const std::uint64_t id = ++kept_id();
+    Owners owners(static_cast<std::size_t>(g_size));
+    out.rows_per_rank.assign(owners.size(), 0.0);
+    for (std::size_t r = 0; r < whole.blocks.size() && r < owners.size(); ++r)
+        if (whole.blocks[r].size() > 0) {
+            owners[r].push_back(whole.blocks[r]);
+            out.rows_per_rank[r] = double(whole.blocks[r].size());
+        }
+    broadcast_command(kCommandScatter, scatter_bytes(id, out.sparse, n, owners));
+    out.row_sums.assign(n, 0.0);
+    std::string failure;
+    for (std::size_t r = 0; r < owners.size(); ++r) {
+        if (owners[r].empty()) continue;
+        WireWriter w;
+        try {
+            if (!failure.empty()) throw Error(failure);
+            KeptBlock b = whole.block(owners[r].front());
+            const std::vector<double> sums = kept_row_sums(b, n, out.sparse);
+            std::copy(sums.begin(), sums.end(),
+                      out.row_sums.begin() + std::ptrdiff_t(b.rows.begin));
+            if (r == 0) {
+                kept.blocks.push_back(std::move(b));
+                continue;
+            }
+            w.put<std::uint8_t>(1);
+            put_kept_block(w, b, n);
+        } catch (const std::bad_alloc&) {
+            if (failure.empty()) failure = kOutOfMemory;
+        } catch (const std::exception& e) {
+            if (failure.empty()) failure = e.what();
+        }
+        if (r == 0) continue;
+        if (!failure.empty()) {
+            w = WireWriter{};
+            w.put<std::uint8_t>(0);
+        }
+        send_bytes(w.bytes(), int(r), kTagMove);
+    }
+    throw_move_failures(failure, gather_move_status(failure));
+    g_owners = std::move(owners);
+    out.id = id;
+    return out;
 }
 
 // What every rank needs for a solve of kept rows.
@@ -1055,6 +1163,8 @@ int serve() {
             work_on_solve(receive_job());
         else if (command == kCommandMove)
             work_on_moves(receive_job());
+        else if (command == kCommandScatter)
+            work_on_scatter(receive_job());
         else
             return 0;
     }
@@ -1230,15 +1340,7 @@ DistributedRows compute_distributed_rows(const Scene& scene, const ComputeOption
     if (!moves.empty()) {
         broadcast_command(kCommandMove, moves_bytes(moves));
         const std::string failure = make_moves(moves);
-        const std::vector<std::int32_t> status = gather_move_status(failure);
-        if (!failure.empty()) throw Error(failure);
-        for (int r = 1; r < g_size; ++r)
-            if (status[static_cast<std::size_t>(r)] != 0) {
-                const std::vector<char> bytes = receive_bytes(wait_for(r, kTagResult, nullptr));
-                WireReader reader(bytes.data(), bytes.size());
-                reader.get<Status>();
-                throw Error(fmt::format("rank {}: {}", r, reader.get_string()));
-            }
+        throw_move_failures(failure, gather_move_status(failure));
         out.timings.add("balance rows", sw.lap());
     }
     g_owners = std::move(owners);
@@ -1257,6 +1359,14 @@ DistributedRows compute_distributed_rows(const Scene& scene, const ComputeOption
     out.threads = effective_threads(options.method_options.threads);
     out.id = job.kept;
     return out;
+}
+
+DistributedRows distribute_rows(const FormFactors& F) {
+    return scatter_rows(whole_rows(F, g_rank == 0 ? g_size : 1));
+}
+
+DistributedRows distribute_rows(const SparseFormFactors& F) {
+    return scatter_rows(whole_rows(F, g_rank == 0 ? g_size : 1));
 }
 
 SolverStats solve_rows(const DistributedRows& rows, const Columns& d, const Columns& c,

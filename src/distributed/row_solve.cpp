@@ -178,7 +178,6 @@ class Runner {
     // that the next block sees them; the new values go in at the end.
     double sweep_own(const Columns& d, const Columns& c, Columns& x) {
         const std::size_t n = rows_.n;
-        const Eigen::Index kc = x.cols();
         double change = 0.0;
         std::vector<Columns> swept;
         swept.reserve(rows_.blocks.size());
@@ -188,33 +187,19 @@ class Runner {
             const Columns start = x.middleRows(first, m);
             for (std::size_t i = b.rows.begin; i < b.rows.end; ++i) {
                 const auto row = static_cast<Eigen::Index>(i);
+                double changed = 0.0;
                 if (rows_.sparse) {
                     const std::size_t r = i - b.rows.begin;
                     const auto begin = static_cast<std::size_t>(b.indptr[r]);
                     const auto end = static_cast<std::size_t>(b.indptr[r + 1]);
-                    for (Eigen::Index k = 0; k < kc; ++k) {
-                        double s = 0.0, fii = 0.0;
-                        for (std::size_t e = begin; e < end; ++e) {
-                            const Eigen::Index j = b.indices[e];
-                            if (j == row)
-                                fii = b.values[e];
-                            else
-                                s += b.values[e] * x(j, k);
-                        }
-                        const double v = (c(row, k) + d(row, k) * s) / (1.0 - d(row, k) * fii);
-                        change = std::max(change, std::abs(v - x(row, k)));
-                        x(row, k) = v;
-                    }
+                    changed =
+                        detail::gauss_seidel_row(row, b.indices.data() + begin,
+                                                 b.values.data() + begin, end - begin, d, c, x);
                 } else {
                     const RowVector f(b.row(i, n), static_cast<Eigen::Index>(n));
-                    const double fii = f(row);
-                    for (Eigen::Index k = 0; k < kc; ++k) {
-                        const double s = f.dot(x.col(k)) - fii * x(row, k);
-                        const double v = (c(row, k) + d(row, k) * s) / (1.0 - d(row, k) * fii);
-                        change = std::max(change, std::abs(v - x(row, k)));
-                        x(row, k) = v;
-                    }
+                    changed = detail::gauss_seidel_row(row, f, d, c, x);
                 }
+                change = std::max(change, changed);
             }
             swept.push_back(x.middleRows(first, m));
             x.middleRows(first, m) = start;
@@ -371,6 +356,89 @@ DistributedRows compute_rows_here(const Scene& scene, const ComputeOptions& opti
     }
     kept.sparse = out.sparse;
     kept.n = out.n;
+    out.rows_per_rank = {double(out.n)};
+    out.id = ++kept_id();
+    return out;
+}
+
+namespace {
+
+// Contiguous blocks, one per rank, each with about 1/ranks of the total weight (`cumulative`
+// holds the weight of rows [0, i] at i).
+std::vector<RowRange> even_blocks(const std::vector<double>& cumulative, int ranks) {
+    const std::size_t n = cumulative.size();
+    const double total = n ? cumulative.back() : 0.0;
+    std::vector<RowRange> blocks;
+    std::size_t begin = 0;
+    for (int r = 0; r < ranks; ++r) {
+        std::size_t end = n;
+        if (r + 1 < ranks) {
+            const double target = total * double(r + 1) / double(ranks);
+            // Up to and with the row where the weight reaches the target.
+            end = std::size_t(std::lower_bound(cumulative.begin(), cumulative.end(), target) -
+                              cumulative.begin()) +
+                  1;
+            end = std::clamp(end, begin, n);
+        }
+        blocks.push_back({begin, end});
+        begin = end;
+    }
+    return blocks;
+}
+
+}  // namespace
+
+WholeRows whole_rows(const FormFactors& F, int ranks) {
+    if (F.is_block())
+        throw Error("solve: the rows of F spread over ranks must be the whole matrix, not a block");
+    WholeRows w;
+    const std::size_t n = F.size();
+    w.head.n = n;
+    w.head.areas = F.areas;
+    w.head.entries = double(n) * double(n);
+    std::vector<double> cumulative(n);
+    for (std::size_t i = 0; i < n; ++i) cumulative[i] = double(i + 1);
+    w.blocks = even_blocks(cumulative, ranks);
+    w.block = [&F, n](RowRange rows) { return keep_dense(rows, F.F.data() + rows.begin * n, n); };
+    return w;
+}
+
+WholeRows whole_rows(const SparseFormFactors& F, int ranks) {
+    F.check();
+    WholeRows w;
+    const std::size_t n = F.n;
+    w.head.sparse = true;
+    w.head.n = n;
+    w.head.areas = F.areas;
+    w.head.entries = double(F.nonzeros());
+    w.head.threshold = F.threshold;
+    w.head.dropped_max = detail::max_dropped(F);
+    // A product's work: a row and its stored entries.
+    std::vector<double> cumulative(n);
+    for (std::size_t i = 0; i < n; ++i) cumulative[i] = double(i + 1) + double(F.indptr[i + 1]);
+    w.blocks = even_blocks(cumulative, ranks);
+    w.block = [&F](RowRange rows) {
+        KeptBlock b;
+        b.rows = rows;
+        const std::int64_t first = F.indptr[rows.begin], last = F.indptr[rows.end];
+        b.indptr.reserve(rows.size() + 1);
+        for (std::size_t i = rows.begin; i <= rows.end; ++i)
+            b.indptr.push_back(F.indptr[i] - first);
+        b.indices.assign(F.indices.begin() + first, F.indices.begin() + last);
+        b.values.assign(F.values.begin() + first, F.values.begin() + last);
+        return b;
+    };
+    return w;
+}
+
+DistributedRows distribute_rows_here(const WholeRows& whole) {
+    KeptRows& kept = kept_rows();
+    kept = KeptRows{};
+    DistributedRows out = whole.head;
+    kept.sparse = out.sparse;
+    kept.n = out.n;
+    kept.blocks.push_back(whole.block({0, out.n}));
+    out.row_sums = kept_row_sums(kept.blocks.back(), out.n, out.sparse);
     out.rows_per_rank = {double(out.n)};
     out.id = ++kept_id();
     return out;

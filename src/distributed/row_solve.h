@@ -15,6 +15,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -115,6 +116,21 @@ DistributedRows compute_rows_here(const Scene& scene, const ComputeOptions& opti
                                   const SparseOptions* sparse);
 SolverStats solve_rows_here(const DistributedRows& rows, const Columns& d, const Columns& c,
                             const SolverOptions& options, Columns& x, Columns& fx);
+
+/// A whole F that distribute_rows() cuts into blocks: what rank 0 knows of it (everything of
+/// DistributedRows but the row sums, the ranks' rows and the id), the blocks (one per rank,
+/// contiguous and ascending, empty for a rank when there are fewer rows than ranks) and a copy
+/// of any block of rows.
+struct WholeRows {
+    DistributedRows head;
+    std::vector<RowRange> blocks;
+    std::function<KeptBlock(RowRange)> block;
+};
+WholeRows whole_rows(const FormFactors& F, int ranks);
+WholeRows whole_rows(const SparseFormFactors& F, int ranks);
+
+/// distribute_rows() on this process alone: one block of every row.
+DistributedRows distribute_rows_here(const WholeRows& whole);
 
 /// Throws Error unless `rows` are the ones this process keeps.
 void check_kept(const DistributedRows& rows);

@@ -62,6 +62,14 @@ DistributedRows compute_distributed_rows(const Scene& scene, const ComputeOption
     return compute_rows_here(scene, options, sparse);
 }
 
+DistributedRows distribute_rows(const FormFactors& F) {
+    return distribute_rows_here(whole_rows(F, 1));
+}
+
+DistributedRows distribute_rows(const SparseFormFactors& F) {
+    return distribute_rows_here(whole_rows(F, 1));
+}
+
 SolverStats solve_rows(const DistributedRows& rows, const Columns& d, const Columns& c,
                        const SolverOptions& options, Columns& x, Columns& fx) {
     return solve_rows_here(rows, d, c, options, x, fx);

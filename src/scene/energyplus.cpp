@@ -48,6 +48,12 @@ struct ZoneInfo {
     double north = 0.0, x = 0.0, y = 0.0, z = 0.0;
 };
 
+// A simplified object's rectangle as given: azimuth and tilt in degrees (subsurfaces take their
+// base surface's), the starting (lower left) corner, the two sides in metres.
+struct Rect {
+    double azimuth = 0.0, tilt = 0.0, x = 0.0, y = 0.0, z = 0.0, length = 0.0, height = 0.0;
+};
+
 struct SurfaceInfo {
     std::string name, zone, base;  // base: fenestration only
     std::vector<Vec3> vertices;
@@ -55,33 +61,42 @@ struct SurfaceInfo {
     int line = 0;
     double multiplier = 1.0;
     bool fenestration = false;
+    std::optional<Rect> rect;  // a simplified object: vertices made from it in build()
+    bool placed = false;       // vertices are world coordinates, counter-clockwise from outside
 };
 
 const char* const kDetailedSurfaces[] = {"buildingsurface:detailed", "wall:detailed",
                                          "roofceiling:detailed", "floor:detailed"};
-// Simplified geometry objects: their zone (or base surface) field, by position after the name.
-struct Simplified {
-    const char* type;
-    int zone_field;  // index into fields of the zone name (surfaces) or base surface name
-    bool on_base;
+// The simplified (rectangular) geometry objects, as the Input-Output Reference lists their fields:
+// base surfaces (name, construction, zone, [space], [outside boundary condition object], azimuth,
+// tilt, starting x, y, z, length, height or width) and subsurfaces (name, construction, base
+// surface, [shading control name before 9.0], [frame and divider], [outside boundary condition
+// object], multiplier, starting x, starting z, length, height).
+struct RectClass {
+    const char* type;    // lower case
+    bool sub;            // on a base surface (Window, Door, ...) rather than in a zone
+    bool interzone;      // has an Outside Boundary Condition Object field
+    bool frame;          // Window, GlazedDoor: Frame and Divider (and Shading Control before 9.0)
+    double tilt;         // the default tilt of a base surface, degrees
+    const char* second;  // the second side: "height" or "width" (epJSON key)
 };
-const Simplified kSimplified[] = {
-    {"wall:exterior", 2, false},
-    {"wall:adiabatic", 2, false},
-    {"wall:underground", 2, false},
-    {"wall:interzone", 2, false},
-    {"roof", 2, false},
-    {"ceiling:adiabatic", 2, false},
-    {"ceiling:interzone", 2, false},
-    {"floor:groundcontact", 2, false},
-    {"floor:adiabatic", 2, false},
-    {"floor:interzone", 2, false},
-    {"window", 2, true},
-    {"door", 2, true},
-    {"glazeddoor", 2, true},
-    {"window:interzone", 2, true},
-    {"door:interzone", 2, true},
-    {"glazeddoor:interzone", 2, true},
+const RectClass kRectClasses[] = {
+    {"wall:exterior", false, false, false, 90.0, "height"},
+    {"wall:adiabatic", false, false, false, 90.0, "height"},
+    {"wall:underground", false, false, false, 90.0, "height"},
+    {"wall:interzone", false, true, false, 90.0, "height"},
+    {"roof", false, false, false, 0.0, "width"},
+    {"ceiling:adiabatic", false, false, false, 0.0, "width"},
+    {"ceiling:interzone", false, true, false, 0.0, "width"},
+    {"floor:groundcontact", false, false, false, 180.0, "width"},
+    {"floor:adiabatic", false, false, false, 180.0, "width"},
+    {"floor:interzone", false, true, false, 180.0, "width"},
+    {"window", true, false, true, 0.0, "height"},
+    {"door", true, false, false, 0.0, "height"},
+    {"glazeddoor", true, false, true, 0.0, "height"},
+    {"window:interzone", true, true, false, 0.0, "height"},
+    {"door:interzone", true, true, false, 0.0, "height"},
+    {"glazeddoor:interzone", true, true, false, 0.0, "height"},
 };
 
 const char* const kBoundaryConditions[] = {"adiabatic",
@@ -128,8 +143,8 @@ class ModelBuilder {
                                  [&](const char* t) { return o.type == t; }))
                 read_surface(o);
             else
-                for (const Simplified& s : kSimplified)
-                    if (o.type == s.type) simplified_.push_back(&o);
+                for (const RectClass& c : kRectClasses)
+                    if (o.type == c.type) read_rectangle(o, c);
         }
     }
 
@@ -158,24 +173,12 @@ class ModelBuilder {
                                              join(zone_names())));
         }
         const std::string zkey = lower(zone->name);
+        const std::vector<SurfaceInfo> all = with_rectangles(zkey);
         std::map<std::string, const SurfaceInfo*> by_name;  // lower-case name → surface
         std::map<std::string, std::vector<const SurfaceInfo*>> fenestration_of;  // by base
-        for (const SurfaceInfo& s : surfaces_) {
+        for (const SurfaceInfo& s : all) {
             by_name[lower(s.name)] = &s;
             if (s.fenestration) fenestration_of[lower(s.base)].push_back(&s);
-        }
-        // Simplified objects of this zone cannot be read.
-        for (const EnergyPlusObject* o : simplified_) {
-            const int k = 2;
-            if (static_cast<int>(o->fields.size()) <= k) continue;
-            const std::string target = lower(o->fields[static_cast<std::size_t>(k)].value);
-            auto base = by_name.find(target);
-            if (target == zkey || (base != by_name.end() && lower(base->second->zone) == zkey))
-                throw InputError(path_, o->line,
-                                 fmt::format("{} '{}' (simplified geometry) is not read: describe "
-                                             "zone '{}' with BuildingSurface:Detailed and "
-                                             "FenestrationSurface:Detailed objects",
-                                             o->type_as_written, o->name, zone->name));
         }
         Scene scene;
         scene.name = path_;
@@ -184,16 +187,17 @@ class ModelBuilder {
         scene.materials.push_back(Material{});
         std::map<std::string, int> index;  // lower-case surface name → scene surface
         // Base surfaces in file order, each followed by its fenestration surfaces (in file
-        // order): the same order from IDF and epJSON, whose objects are grouped by class.
+        // order): the same order from IDF and epJSON (whose objects are grouped by class) when
+        // the model uses one class of base surfaces.
         std::vector<const SurfaceInfo*> order;
-        for (const SurfaceInfo& s : surfaces_) {
+        for (const SurfaceInfo& s : all) {
             if (s.fenestration) continue;
             order.push_back(&s);
             auto f = fenestration_of.find(lower(s.name));
             if (f != fenestration_of.end())
                 order.insert(order.end(), f->second.begin(), f->second.end());
         }
-        for (const SurfaceInfo& s : surfaces_)
+        for (const SurfaceInfo& s : all)
             if (s.fenestration &&
                 (!by_name.count(lower(s.base)) || by_name.at(lower(s.base))->fenestration))
                 order.push_back(&s);  // refused below, with its line
@@ -224,10 +228,13 @@ class ModelBuilder {
             out.name = s.name;
             out.material = 0;
             out.where = {path_, s.line};
-            for (const Vec3& v : s.vertices) out.polygon.vertices.push_back(place(v, *z));
+            for (const Vec3& v : s.vertices)
+                out.polygon.vertices.push_back(s.placed ? v : place(v, *z));
             // EnergyPlus lists vertices counter-clockwise seen from outside (unless the rules say
-            // clockwise): reversed, they run counter-clockwise seen from inside the zone.
-            if (!clockwise_) std::reverse(out.polygon.vertices.begin(), out.polygon.vertices.end());
+            // clockwise; rectangles are made that way): reversed, they run counter-clockwise
+            // seen from inside the zone.
+            if (s.placed || !clockwise_)
+                std::reverse(out.polygon.vertices.begin(), out.polygon.vertices.end());
             validate_polygon(out.polygon, out.where, where(s));
             index[lower(s.name)] = static_cast<int>(scene.surfaces.size());
             scene.surfaces.push_back(std::move(out));
@@ -283,8 +290,76 @@ class ModelBuilder {
         return nullptr;
     }
 
-    Vec3 place(const Vec3& v, const ZoneInfo& z) const {
-        if (!relative_) return v;
+    // The surfaces with the rectangles of simplified objects made into vertices (world
+    // coordinates, counter-clockwise seen from outside, upper left corner first), as EnergyPlus
+    // makes them: a base surface's azimuth turns with the building's and the zone's north under
+    // relative coordinates (`Coordinate System`), its starting corner is moved into the zone by
+    // `Rectangular Surface Coordinate System`; a subsurface starts at its base surface's lower
+    // left corner moved by its X along the base's length and its Z up the base, and takes the
+    // base's azimuth and tilt. Also refuses a base surface whose zone does not exist. Subsurfaces
+    // are made for the zone `zkey` (lower case) only, whose errors build() reports.
+    std::vector<SurfaceInfo> with_rectangles(const std::string& zkey) const {
+        std::vector<SurfaceInfo> all = surfaces_;
+        std::map<std::string, std::size_t> index;  // lower-case name → first surface of that name
+        for (std::size_t k = 0; k < all.size(); ++k) index.emplace(lower(all[k].name), k);
+        for (SurfaceInfo& s : all) {
+            if (s.fenestration) continue;
+            const ZoneInfo* z = find_zone(s.zone);
+            if (!z)
+                throw InputError(path_, s.line,
+                                 where(s) + ": its zone '" + s.zone + "' does not exist");
+            if (!s.rect) continue;
+            Rect& r = *s.rect;
+            if (relative_) r.azimuth += building_north_ + z->north;
+            const Vec3 corner(r.x, r.y, r.z);
+            s.vertices = rectangle(rect_relative_ ? to_world(corner, *z) : corner, r.azimuth,
+                                   r.tilt, r.length, r.height);
+            s.placed = true;
+        }
+        for (SurfaceInfo& s : all) {
+            if (!s.fenestration || !s.rect) continue;
+            auto b = index.find(lower(s.base));
+            // A missing base, or one that is a subsurface, is refused by build() with its line.
+            if (b == index.end() || all[b->second].fenestration) continue;
+            const SurfaceInfo& base = all[b->second];
+            if (lower(base.zone) != zkey) continue;
+            if (!base.rect)
+                throw InputError(path_, s.line,
+                                 where(s) + ": its base surface '" + base.name +
+                                     "' is not a simplified surface (Wall:Exterior, Roof, ...), "
+                                     "whose lower left corner and sides place it; describe it "
+                                     "with FenestrationSurface:Detailed");
+            const Rect& br = *base.rect;
+            const Vec3 corner = base.vertices[1] + s.rect->x * length_direction(br.azimuth) +
+                                s.rect->z * up_direction(br.azimuth, br.tilt);
+            s.vertices = rectangle(corner, br.azimuth, br.tilt, s.rect->length, s.rect->height);
+            s.placed = true;
+        }
+        return all;
+    }
+
+    // EnergyPlus's rectangle axes: along the length (to the right seen from outside) and up the
+    // surface, for an azimuth (clockwise from north, of the outward normal) and a tilt from
+    // horizontal, in degrees.
+    static Vec3 length_direction(double azimuth) {
+        const double a = azimuth * std::numbers::pi / 180.0;
+        return Vec3(-std::cos(a), std::sin(a), 0.0);
+    }
+    static Vec3 up_direction(double azimuth, double tilt) {
+        const double a = azimuth * std::numbers::pi / 180.0, t = tilt * std::numbers::pi / 180.0;
+        return Vec3(-std::cos(t) * std::sin(a), -std::cos(t) * std::cos(a), std::sin(t));
+    }
+
+    // Upper left, lower left (the starting corner), lower right, upper right.
+    static std::vector<Vec3> rectangle(const Vec3& corner, double azimuth, double tilt,
+                                       double length, double height) {
+        const Vec3 u = length * length_direction(azimuth), w = height * up_direction(azimuth, tilt);
+        return {corner + w, corner, corner + u, corner + u + w};
+    }
+
+    Vec3 place(const Vec3& v, const ZoneInfo& z) const { return relative_ ? to_world(v, z) : v; }
+
+    Vec3 to_world(const Vec3& v, const ZoneInfo& z) const {
         // EnergyPlus (SurfaceGeometry): rotate by the zone's relative north, move to its origin,
         // rotate by the building's north axis. Angles are clockwise from north, in degrees.
         const double deg = std::numbers::pi / 180.0;
@@ -404,6 +479,9 @@ class ModelBuilder {
                             {"Counterclockwise", "Clockwise"}, "counterclockwise") == "clockwise";
         relative_ = choice(o, 2, "coordinate_system", "Coordinate System",
                            {"Relative", "World", "Absolute"}, "relative") == "relative";
+        rect_relative_ = choice(o, 4, "rectangular_surface_coordinate_system",
+                                "Rectangular Surface Coordinate System",
+                                {"Relative", "World", "Absolute"}, "relative") == "relative";
     }
 
     void read_building(const EnergyPlusObject& o) {
@@ -574,6 +652,64 @@ class ModelBuilder {
         surfaces_.push_back(std::move(s));
     }
 
+    // A simplified object: its rectangle, zone or base surface; the vertices are made in build().
+    void read_rectangle(const EnergyPlusObject& o, const RectClass& c) {
+        SurfaceInfo s;
+        s.name = o.name;
+        s.type_as_written = o.type_as_written;
+        s.line = o.line;
+        s.fenestration = c.sub;
+        if (s.name.empty()) throw InputError(path_, o.line, o.type_as_written + " without a name");
+        Rect r;
+        if (c.sub) {
+            s.base = text_field(o, 2, "building_surface_name");
+            if (s.base.empty())
+                throw InputError(path_, line_of(o, 2), where(s) + " names no base surface");
+            // Name, construction, base surface, then [outside boundary condition object],
+            // [shading control name (before 9.0)], [frame and divider], multiplier.
+            std::size_t k = 3;
+            if (c.interzone) ++k;
+            if (c.frame)
+                k += version_ > 0 ? (version_ < 900 ? 2 : 1) : (o.fields.size() >= 10 ? 2 : 1);
+            s.multiplier = number(o, k, "multiplier", "Multiplier", 1.0);
+            r.x = number(o, k + 1, "starting_x_coordinate", "Starting X Coordinate", 0.0);
+            r.z = number(o, k + 2, "starting_z_coordinate", "Starting Z Coordinate", 0.0);
+            r.length = side(o, k + 3, "length", "Length");
+            r.height = side(o, k + 4, "height", "Height");
+        } else {
+            s.zone = text_field(o, 2, "zone_name");
+            if (s.zone.empty()) throw InputError(path_, line_of(o, 2), where(s) + " names no zone");
+            // Name, construction, zone, [space (EnergyPlus >= 9.6)], [outside boundary condition
+            // object], then seven numbers.
+            const std::size_t with_space = c.interzone ? 12 : 11;
+            const bool space = version_ > 0 ? version_ >= 906 : o.fields.size() >= with_space;
+            const std::size_t k = 3 + (space ? 1 : 0) + (c.interzone ? 1 : 0);
+            r.azimuth = number(o, k, "azimuth_angle", "Azimuth Angle", 0.0);
+            r.tilt = number(o, k + 1, "tilt_angle", "Tilt Angle", c.tilt);
+            r.x = number(o, k + 2, "starting_x_coordinate", "Starting X Coordinate", 0.0);
+            r.y = number(o, k + 3, "starting_y_coordinate", "Starting Y Coordinate", 0.0);
+            r.z = number(o, k + 4, "starting_z_coordinate", "Starting Z Coordinate", 0.0);
+            r.length = side(o, k + 5, "length", "Length");
+            r.height =
+                side(o, k + 6, c.second, std::string(c.second) == "width" ? "Width" : "Height");
+        }
+        s.rect = r;
+        surfaces_.push_back(std::move(s));
+    }
+
+    // A side of a rectangle: a positive number.
+    double side(const EnergyPlusObject& o, std::size_t idf_index, const char* key,
+                const char* what) const {
+        const double v = number(o, idf_index, key, what, 0.0);
+        if (v > 0.0) return v;
+        const std::string given = text_field(o, idf_index, key);
+        throw InputError(path_, line_of(o, idf_index),
+                         given.empty()
+                             ? fmt::format("{} '{}' has no {}", o.type_as_written, o.name, what)
+                             : fmt::format("{} '{}': {} '{}' is not positive", o.type_as_written,
+                                           o.name, what, given));
+    }
+
     // Without a Version object: the old layout (with Shading Control Name) is the one in which
     // the field count and the declared number of vertices agree.
     static bool fenestration_is_old(const EnergyPlusObject& o) {
@@ -591,8 +727,8 @@ class ModelBuilder {
     bool have_rules_ = false, clockwise_ = false, relative_ = true;
     double building_north_ = 0.0;
     std::vector<ZoneInfo> zones_;
+    bool rect_relative_ = true;  // Rectangular Surface Coordinate System
     std::vector<SurfaceInfo> surfaces_;
-    std::vector<const EnergyPlusObject*> simplified_;
 };
 
 std::string read_file_text(const std::string& path) {

@@ -133,15 +133,8 @@ long long run_gauss_seidel(const DenseMatrix& F, const Columns& d, const Columns
         o, max_it, progress, x, residual,
         [&] {
             double change = 0.0;
-            for (Eigen::Index i = 0; i < n; ++i) {
-                const double fii = F(i, i);
-                for (Eigen::Index k = 0; k < x.cols(); ++k) {
-                    const double s = F.row(i).dot(x.col(k)) - fii * x(i, k);
-                    const double v = (c(i, k) + d(i, k) * s) / (1.0 - d(i, k) * fii);
-                    change = std::max(change, std::abs(v - x(i, k)));
-                    x(i, k) = v;
-                }
-            }
+            for (Eigen::Index i = 0; i < n; ++i)
+                change = std::max(change, gauss_seidel_row(i, F.row(i), d, c, x));
             return change;
         },
         [&] { return relative_residual(F, d, c, x, y, o.threads); });
@@ -589,19 +582,9 @@ long long run_gauss_seidel(const SparseFormFactors& F, const Columns& d, const C
                 const auto begin = static_cast<std::size_t>(F.indptr[static_cast<std::size_t>(i)]);
                 const auto end =
                     static_cast<std::size_t>(F.indptr[static_cast<std::size_t>(i) + 1]);
-                for (Eigen::Index k = 0; k < x.cols(); ++k) {
-                    double s = 0.0, fii = 0.0;
-                    for (std::size_t e = begin; e < end; ++e) {
-                        const Eigen::Index j = F.indices[e];
-                        if (j == i)
-                            fii = F.values[e];
-                        else
-                            s += F.values[e] * x(j, k);
-                    }
-                    const double v = (c(i, k) + d(i, k) * s) / (1.0 - d(i, k) * fii);
-                    change = std::max(change, std::abs(v - x(i, k)));
-                    x(i, k) = v;
-                }
+                change = std::max(
+                    change, gauss_seidel_row(i, F.indices.data() + begin, F.values.data() + begin,
+                                             end - begin, d, c, x));
             }
             return change;
         },

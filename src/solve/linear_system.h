@@ -3,6 +3,9 @@
 
 #include <Eigen/Core>
 #include <Eigen/LU>
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <string>
@@ -24,6 +27,44 @@ using Columns = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::Col
 /// the shooting order (A_i |r_i|) and the ambient term. x is resized to c's shape.
 SolverStats solve_linear(const DenseMatrix& F, const std::vector<double>& areas, const Columns& d,
                          const Columns& c, const SolverOptions& options, Columns& x);
+
+/// One Gauss–Seidel update of row i of x = c + diag(d) F x, in place for every column, with
+/// F_ii solved for: x_i = (c_i + d_i Σ_{j≠i} F_ij x_j) / (1 − d_i F_ii). `f` is row i of a dense
+/// F (any Eigen row expression: its own summation order is kept). Returns the largest change.
+template <class Row>
+double gauss_seidel_row(Eigen::Index i, const Row& f, const Columns& d, const Columns& c,
+                        Columns& x) {
+    double change = 0.0;
+    const double fii = f(i);
+    for (Eigen::Index k = 0; k < x.cols(); ++k) {
+        const double s = f.dot(x.col(k)) - fii * x(i, k);
+        const double v = (c(i, k) + d(i, k) * s) / (1.0 - d(i, k) * fii);
+        change = std::max(change, std::abs(v - x(i, k)));
+        x(i, k) = v;
+    }
+    return change;
+}
+
+/// The same for a CSR row: its `count` stored entries (columns `indices`, ascending), the
+/// diagonal among them when stored.
+inline double gauss_seidel_row(Eigen::Index i, const std::int32_t* indices, const double* values,
+                               std::size_t count, const Columns& d, const Columns& c, Columns& x) {
+    double change = 0.0;
+    for (Eigen::Index k = 0; k < x.cols(); ++k) {
+        double s = 0.0, fii = 0.0;
+        for (std::size_t e = 0; e < count; ++e) {
+            const Eigen::Index j = indices[e];
+            if (j == i)
+                fii = values[e];
+            else
+                s += values[e] * x(j, k);
+        }
+        const double v = (c(i, k) + d(i, k) * s) / (1.0 - d(i, k) * fii);
+        change = std::max(change, std::abs(v - x(i, k)));
+        x(i, k) = v;
+    }
+    return change;
+}
 
 /// y = F x for an operator that is never formed (the hierarchical operator).
 using ApplyF = std::function<void(const Columns& x, Columns& y)>;

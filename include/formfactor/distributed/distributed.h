@@ -139,6 +139,16 @@ struct DistributedRows {
 DistributedRows compute_distributed_rows(const Scene& scene, const ComputeOptions& options,
                                          const SparseOptions* sparse);
 
+/// Rank 0: a whole F that this process already holds (dense, or CSR) cut into one block of
+/// contiguous rows per rank and sent to the ranks (the others in serve()), which keep them for
+/// solve_thermal() and solve_radiosity() below as compute_distributed_rows() leaves its rows.
+/// The blocks carry about equal work of a product (rows when dense, rows and stored entries when
+/// sparse), so their bounds depend on F and the number of ranks only. F is not changed; rank 0
+/// holds a copy of its own block (and, while sending, of one other). Error for a block of rows
+/// (FormFactors::is_block()). On one rank the copy stays in this process.
+DistributedRows distribute_rows(const FormFactors& F);
+DistributedRows distribute_rows(const SparseFormFactors& F);
+
 /// solve_thermal() (formfactor/solve/thermal.h) on rows spread over the ranks, called on rank 0:
 /// every rank iterates on its own rows and the solution vector is exchanged after every product
 /// or sweep. options.solver.solver: gmres and jacobi give one process's result bit for bit;

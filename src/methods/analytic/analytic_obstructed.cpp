@@ -406,7 +406,7 @@ struct PairStats {
     double error = 0;
     std::size_t points = 0, cells = 0, closed_forms = 0, proven_hidden = 0;
     int level = 0, capped = 0;
-    bool integrated = false, changed = false, bracketed = false;
+    bool integrated = false, changed = false, bracketed = false, settled_by_umbrae = false;
 };
 
 // The same summed over pairs (per thread, then over threads: sums, maxima and counts, the same
@@ -416,7 +416,7 @@ struct PartialStats {
     std::array<std::size_t, kLevels + 1> levels{};
     double max_error = 0;
     std::size_t points = 0, cells = 0, closed_forms = 0, proven_hidden = 0, capped = 0, changed = 0,
-                bracketed = 0;
+                bracketed = 0, settled_by_umbrae = 0;
     void add(const PairStats& p) {
         points += p.points;
         cells += p.cells;
@@ -424,6 +424,7 @@ struct PartialStats {
         proven_hidden += p.proven_hidden;
         capped += static_cast<std::size_t>(p.capped);
         bracketed += p.bracketed ? 1 : 0;
+        settled_by_umbrae += p.settled_by_umbrae ? 1 : 0;
         if (!p.integrated) return;
         changed += p.changed ? 1 : 0;
         max_error = std::max(max_error, p.error);
@@ -439,6 +440,7 @@ struct PartialStats {
         capped += o.capped;
         changed += o.changed;
         bracketed += o.bracketed;
+        settled_by_umbrae += o.settled_by_umbrae;
     }
 };
 
@@ -463,6 +465,13 @@ PartialStats combined(ThreadStats& per_thread) {
 // tolerance: a value moved to the middle of a wider bracket errs the same way in every small
 // pair of a row (an urban array's row sums drifted by 6e-4 at 1e-4).
 constexpr double kBracketShare = 1.0;
+
+// A partly hidden pair whose visible part is bounded by at most this share of the tolerance
+// (visible_bound()) takes its estimate inside the bound without integration. Not the whole
+// tolerance: the estimate (4 points) misses the slivers of light near the umbrae's edges the
+// same way in every pair of a row, and a closed room's rows of such pairs fell 1.4e-4 short of
+// 1 at 1e-4 with the whole tolerance; at 0.3 they are as close to 1 as when integrated.
+constexpr double kUmbraShare = 0.3;
 
 // The unobstructed value less the integrated hidden part, over the smaller patch of the pair
 // (reciprocity gives the other entry, with a smaller error). unobstructed(s, r): the exact
@@ -497,6 +506,29 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
         st.changed = v.f != unobs;
         st.bracketed = true;
         st.error = std::max(v.f, unobs - v.f);
+        v.back = a_r > 0.0 ? v.f * a_s / a_r : 0.0;
+        return v;
+    }
+    // Nearly hidden pairs (most partly hidden pairs among buildings): what the sender sees past
+    // the umbrae of the occluders bounds the pair's value; within kUmbraShare of the tolerance,
+    // the value is placed inside [0, bound] without the event split and its integration.
+    double bound = 0.0, seen = 0.0;
+    bool bounded = true;
+    for (const Polygon& pr : parts) {
+        const detail::VisibleBound b =
+            detail::visible_bound(ps, pr, S.blockers, cand.data() + pp.cand_first, pp.cand_count,
+                                  S.eps, kUmbraShare * tol - bound);
+        st.points += b.points;
+        bound += b.bound;
+        seen += b.estimate;
+        bounded = b.ok && bound <= kUmbraShare * tol;
+        if (!bounded) break;
+    }
+    if (bounded) {
+        v.f = std::clamp(seen, 0.0, bound);
+        st.changed = v.f != unobs;
+        st.settled_by_umbrae = true;
+        st.error = std::max(v.f, bound - v.f);
         v.back = a_r > 0.0 ? v.f * a_s / a_r : 0.0;
         return v;
     }
@@ -547,6 +579,7 @@ void report_obstructions(const Obstructions& S, const PartialStats& total, std::
     o["umbra_cells_proven_by_corners"] = total.proven_hidden;
     o["capped_pairs"] = total.capped;
     o["partly_hidden_pairs_bracketed"] = total.bracketed;
+    o["partly_hidden_pairs_settled_by_umbrae"] = total.settled_by_umbrae;
     o["tolerance"] = tol;
     o["max_error_estimate"] = total.max_error;
     o["threads"] = threads;

@@ -562,8 +562,14 @@ PointResult evaluate_point(const Receiver& rc, const Vec3& x, const Vec3& nx,
 // edge-edge-edge event) only where the umbrae leave one. Occluders whose shadow is not one
 // polygon at every corner (a solid that a corner does not cull, a silhouette fanned into
 // several polygons) are left out, which only makes the test fail more often.
-bool cell_hidden(const Receiver& rc, const Vec3* poly, int np, const Vec3& nx,
-                 const BlockerSet& blockers, const int* cand, int count, double eps) {
+//
+// umbra_remainder() gives what is left of the receiver (its part in front, in its plane's
+// coordinates, `frags`) after the umbrae, for a bound on what the cell sees; false when no
+// occluder has an umbra (nothing to bound with).
+bool umbra_remainder(const Receiver& rc, const Vec3* poly, int np, const Vec3& nx,
+                     const BlockerSet& blockers, const int* cand, int count, double eps,
+                     std::vector<Poly2>& frags) {
+    frags.clear();
     if (count == 0 || np < 3 || np > 4) return false;
     thread_local std::array<std::vector<Poly2>, 4> shadows;
     thread_local std::array<std::vector<int>, 4> ids;
@@ -589,7 +595,7 @@ bool cell_hidden(const Receiver& rc, const Vec3* poly, int np, const Vec3& nx,
             }
         return at;
     };
-    thread_local std::vector<Poly2> umbrae, frags, next;
+    thread_local std::vector<Poly2> umbrae, next;
     umbrae.clear();
     Poly2 buf[2];
     for (std::size_t k = 0; k < shadows[0].size(); ++k) {
@@ -643,7 +649,13 @@ bool cell_hidden(const Receiver& rc, const Vec3* poly, int np, const Vec3& nx,
             if (std::abs(area2(f)) > left_over) frags.push_back(f);
         if (frags.empty()) return true;
     }
-    return false;
+    return true;
+}
+
+bool cell_hidden(const Receiver& rc, const Vec3* poly, int np, const Vec3& nx,
+                 const BlockerSet& blockers, const int* cand, int count, double eps) {
+    thread_local std::vector<Poly2> frags;
+    return umbra_remainder(rc, poly, np, nx, blockers, cand, count, eps, frags) && frags.empty();
 }
 
 // Cells where the shaft test finds a blocker but no sample point sees a shadow get their whole
@@ -807,6 +819,74 @@ double hidden_estimate(const Polygon& s, const Polygon& r, const BlockerSet& blo
         }
     }
     return sum;
+}
+
+VisibleBound visible_bound(const Polygon& s, const Polygon& r, const BlockerSet& blockers,
+                           const int* cand, int n, double eps, double give_up) {
+    VisibleBound out;
+    const double area_s = area(s);
+    const int np = static_cast<int>(s.size());
+    if (!(area_s > 0.0) || n == 0 || np < 3 || np > 4) return out;
+    const Vec3 ns = normal(s);
+    const Receiver rc(r);
+    thread_local std::vector<Poly2> frags;
+    if (!umbra_remainder(rc, s.vertices.data(), np, ns, blockers, cand, n, eps, frags)) return out;
+    out.ok = true;
+    if (frags.empty()) return out;
+    SenderMap m;
+    m.p0 = s[0];
+    m.p1 = s[1];
+    m.p2 = s[2];
+    if (np == 4) {
+        m.quad = true;
+        m.p3 = s[3];
+    } else {
+        m.tri_j = (m.p1 - m.p0).cross(m.p2 - m.p1).norm();
+    }
+    const Vec3 nl(ns.dot(rc.u), ns.dot(rc.v), ns.dot(rc.n));
+    auto at = [&](double u, double v, double& w) {
+        const Vec3 x = m.at(u, v);
+        const Vec3 xr = x - rc.o;
+        w *= m.jacobian(u, v);
+        return std::make_pair(x, Vec3(rc.u.dot(xr), rc.v.dot(xr), rc.n.dot(x) - rc.d));
+    };
+    auto rule = [&](const GaussRule& g, int order) {
+        double q = 0.0;
+        for (int i = 0; i < order; ++i)
+            for (int j = 0; j < order; ++j) {
+                double w = g.w[static_cast<std::size_t>(i)] * g.w[static_cast<std::size_t>(j)];
+                const auto [x, xl] =
+                    at(g.x[static_cast<std::size_t>(i)], g.x[static_cast<std::size_t>(j)], w);
+                if (!(xl.z() > 0.0)) continue;
+                double f = 0.0;
+                for (const Poly2& p : frags) f += lambert2(p, xl, nl);
+                q += w * f;
+            }
+        return q / area_s;
+    };
+    const CellRules rules;
+    const double q2 = rule(rules.g2, kLowOrder);
+    if (q2 > give_up) {
+        out.bound = q2;
+        return out;
+    }
+    const double q3 = rule(rules.g3, kMidOrder);
+    out.bound = q3 + kAgreement * std::abs(q3 - q2);
+    if (out.bound > give_up) return out;
+    // What the sender sees past the blockers, at the 2 × 2 points: an estimate inside the bound.
+    double seen = 0.0;
+    for (int i = 0; i < kLowOrder; ++i)
+        for (int j = 0; j < kLowOrder; ++j) {
+            double w =
+                rules.g2.w[static_cast<std::size_t>(i)] * rules.g2.w[static_cast<std::size_t>(j)];
+            const auto [x, xl] = at(rules.g2.x[static_cast<std::size_t>(i)],
+                                    rules.g2.x[static_cast<std::size_t>(j)], w);
+            const PointResult pr = evaluate_point(rc, x, ns, blockers, cand, n, eps, true);
+            ++out.points;
+            seen += w * std::max(0.0, pr.unobstructed - pr.hidden);
+        }
+    out.estimate = std::clamp(seen / area_s, 0.0, out.bound);
+    return out;
 }
 
 HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const BlockerSet& blockers,

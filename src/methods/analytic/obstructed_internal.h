@@ -222,6 +222,20 @@ struct HiddenIntegral {
 HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const BlockerSet& blockers,
                                const int* cand, int n, double target, double eps);
 
+/// A bound on what the sender s sees of r past the candidate pieces (1/A_s ∫_s F(x → visible
+/// part of r) dA_x ≤ bound): F from s to r less the umbrae of the occluders, the points of r
+/// hidden from every corner of s by one convex solid or piece (cell_hidden()'s test), by Gauss
+/// rules of orders 2 and 3 with kAgreement × their difference added. `ok` is false when no
+/// occluder has an umbra; the bound is left once it exceeds give_up. `estimate`: the visible
+/// part at the 2 × 2 points, inside [0, bound] (only when bound ≤ give_up).
+struct VisibleBound {
+    bool ok = false;
+    double bound = 0, estimate = 0;
+    std::size_t points = 0;
+};
+VisibleBound visible_bound(const Polygon& s, const Polygon& r, const BlockerSet& blockers,
+                           const int* cand, int n, double eps, double give_up);
+
 /// A low-order estimate of hidden_integral()'s value (three points per triangle of s's fan, a
 /// rule of degree 2), without an error estimate: for a pair whose bracket 0 ≤ hidden ≤ F(s → r)
 /// is already inside its tolerance, to place the value inside the bracket. `points` counts the

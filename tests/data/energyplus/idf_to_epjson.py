@@ -29,6 +29,25 @@ FIELDS = {
     "Shading:Zone:Detailed": ["base_surface_name", "transmittance_schedule_name",
                               "number_of_vertices"],
 }
+# The simplified (rectangular) objects, as of EnergyPlus 9.0 (no Space Name).
+_RECT = ["azimuth_angle", "tilt_angle", "starting_x_coordinate", "starting_y_coordinate",
+         "starting_z_coordinate", "length"]
+for _cls, _obc, _side in [("Wall:Exterior", False, "height"), ("Wall:Adiabatic", False, "height"),
+                          ("Wall:Underground", False, "height"),
+                          ("Wall:Interzone", True, "height"), ("Roof", False, "width"),
+                          ("Ceiling:Adiabatic", False, "width"),
+                          ("Ceiling:Interzone", True, "width"),
+                          ("Floor:GroundContact", False, "width"),
+                          ("Floor:Adiabatic", False, "width"), ("Floor:Interzone", True, "width")]:
+    FIELDS[_cls] = (["construction_name", "zone_name"] +
+                    (["outside_boundary_condition_object"] if _obc else []) + _RECT + [_side])
+_SUB = ["multiplier", "starting_x_coordinate", "starting_z_coordinate", "length", "height"]
+for _cls in ["Window", "GlazedDoor"]:
+    FIELDS[_cls] = ["construction_name", "building_surface_name", "frame_and_divider_name"] + _SUB
+FIELDS["Door"] = ["construction_name", "building_surface_name"] + _SUB
+for _cls in ["Window:Interzone", "Door:Interzone", "GlazedDoor:Interzone"]:
+    FIELDS[_cls] = (["construction_name", "building_surface_name",
+                     "outside_boundary_condition_object"] + _SUB)
 UNNAMED = {"Version", "GlobalGeometryRules"}   # objects without a Name field
 WITH_VERTICES = {"BuildingSurface:Detailed", "FenestrationSurface:Detailed",
                  "Shading:Zone:Detailed"}
@@ -59,6 +78,8 @@ def convert(idf_text):
             # Before EnergyPlus 9.0 a Shading Control Name came after the view factor to
             # ground; epJSON (9.0 and later) has none: shading controls name their windows.
             fields = fields[:6] + fields[7:]
+        if cls in ("Window", "GlazedDoor") and version < (9, 0):
+            fields = fields[:3] + fields[4:]  # the same field, after the base surface name
         if cls in UNNAMED:
             name = "%s 1" % cls
         else:
