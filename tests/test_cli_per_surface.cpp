@@ -11,8 +11,10 @@
 
 #include "formfactor/output/matrix_io.h"
 #include "support/cli_runner.h"
+#include "support/matrix_checks.h"
 
 using namespace formfactor;
+using formfactor::testing::check_row_sums;
 using formfactor::testing::Cli;
 using formfactor::testing::CliResult;
 using formfactor::testing::read_text;
@@ -42,7 +44,7 @@ TEST_CASE("cli: compute on a .vs3 writes one row per surface by default (View3D'
     CHECK(r.out.find("per surface") != std::string::npos);
     const DenseMatrix F = read_matrix(cli.file("F.csv"));
     REQUIRE(F.rows() == 12);
-    for (Eigen::Index i = 0; i < 12; ++i) CHECK(std::abs(F.row(i).sum() - 1.0) < 1e-9);
+    check_row_sums(F, 1.0, 1e-9);
     const auto report = nlohmann::json::parse(read_text(cli.file("r.json")));
     CHECK(report["options"]["per_surface"] == true);
     CHECK(report["N"] == 25);                   // the computation

@@ -111,6 +111,9 @@ TEST_CASE("cli solve: repair, and the errors") {
     r = cli.run("solve plates --repair closure -o b.csv");
     CHECK(r.code == 2);
     CHECK(r.err.find("--repair: the scene is open") != std::string::npos);
+    // The library names its options; the CLI shows them as flags.
+    CHECK(r.err.find("use --repair reciprocity, or --force-closure if") != std::string::npos);
+    CHECK(r.err.find('`') == std::string::npos);
     r = cli.run("solve cube --solver sor -o b.csv");
     CHECK(r.code == 2);
     CHECK(r.err.find("--solver: unknown solver 'sor'") != std::string::npos);
@@ -265,6 +268,7 @@ TEST_CASE("cli solve --storage hierarchical: what it refuses, with the option na
                   "-o r.csv",
                   "--exchange-factors"},
              Case{"solve cornell --storage hierarchical -o r.csv", "obstructions"},
+             Case{"solve cornell --storage hierarchical -o r.csv", "Use --storage dense or sparse"},
          }) {
         const CliResult r = cli.run(c.args);
         INFO(c.args << "\n" << describe(r));
@@ -347,6 +351,10 @@ TEST_CASE("cli solve --storage sparse: the dense path's solutions from CSR, and 
     REQUIRE(r.code == 0);
     CHECK(r.out.find("storage    sparse (auto: --threshold given)") != std::string::npos);
     CHECK(r.err.find("dropped mass") != std::string::npos);
+    // The warnings name the options by their flags, as the library's backquoted names become.
+    CHECK(r.err.find("in a closed scene --repair closure or both puts it back") !=
+          std::string::npos);
+    CHECK(r.err.find('`') == std::string::npos);
     r = cli.run(cube + "--storage sparse --threshold 1e-3 --repair both -o t.csv --report t.json");
     INFO(describe(r));
     REQUIRE(r.code == 0);

@@ -460,6 +460,8 @@ TEST_CASE("closed models: a closed model's thermal solve sends nothing to the en
     CHECK(closed.closed);
     CHECK_FALSE(has(closed, "open scene"));
     CHECK(has(closed, "closed model with row sums down to 0.999"));
+    // The option that puts the mass back, by its library name (the CLI shows its flag).
+    CHECK(has(closed, "(`repair` closure puts it back into the rows)"));
     CHECK(closed.escaped_power == 0.0);
     // The missing part sees the patch itself: the power stays in (F reciprocal).
     CHECK(closed.relative_balance_defect < 1e-12);

@@ -6,7 +6,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <map>
 #include <sstream>
 #include <string>
@@ -18,20 +17,16 @@
 #include "formfactor/scene/scene.h"
 #include "scene/energyplus_objects.h"
 #include "support/cli_runner.h"
+#include "support/matrix_checks.h"
 
 using namespace formfactor;
+using formfactor::testing::check_row_sums;
 using formfactor::testing::Cli;
 using formfactor::testing::CliResult;
+using formfactor::testing::read_text;
 using formfactor::testing::shell_quote;
 
 namespace {
-
-std::string read_text(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
 
 struct ReadBack {
     std::string zone;
@@ -229,7 +224,7 @@ TEST_CASE(
         CHECK(report.at("scene").dump().find(zone) != std::string::npos);
         const DenseMatrix F = read_matrix(cli.file("F_" + part + ".npy"));
         REQUIRE(F.rows() > 7);  // patches: each surface split 2 x 2
-        for (Eigen::Index i = 0; i < F.rows(); ++i) CHECK(std::abs(F.row(i).sum() - 1.0) < 1e-9);
+        check_row_sums(F, 1.0, 1e-9);
     }
 
     // {zone} in a name: the zone's name goes there; sparse and ParaView outputs too.

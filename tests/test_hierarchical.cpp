@@ -243,6 +243,8 @@ TEST_CASE("hierarchical: per-surface factors from the operator") {
 TEST_CASE("hierarchical: obstructed scenes and bad options are refused") {
     CHECK_THROWS_WITH_AS(build_hierarchical(room_scene(4), {}), doctest::Contains("obstructions"),
                          Error);
+    CHECK_THROWS_WITH_AS(build_hierarchical(room_scene(4), {}),
+                         doctest::Contains("Use `storage` dense or sparse"), Error);
     const Scene s = room_scene(4, RoomBox::kNone);
     HierarchicalOptions o;
     o.tolerance = 0.0;

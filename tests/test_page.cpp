@@ -131,6 +131,16 @@ TEST_CASE("page: rows keep the entries above the threshold, and each row's dropp
     REQUIRE(dropped.size() == 6);
     CHECK(dropped[0] == doctest::Approx(0.1));
     CHECK(dropped[1] == 0.0f);
+    // The page states the share of a row's mass dropped: the mean and the largest over the rows.
+    const auto row_sum = decode<double>(m["row_sum"]);
+    double share_sum = 0.0, share_max = 0.0;
+    for (std::size_t i = 0; i < 6; ++i) {
+        share_sum += dropped[i] / row_sum[i];
+        share_max = std::max(share_max, dropped[i] / row_sum[i]);
+    }
+    CHECK(share_max > 0.0);
+    CHECK(m["dropped_share_max"].get<double>() == doctest::Approx(share_max).epsilon(1e-6));
+    CHECK(m["dropped_share_mean"].get<double>() == doctest::Approx(share_sum / 6).epsilon(1e-6));
     // Every array is deflated; row 0 keeps 0.5, 0.3, 0.1 (columns 1, 2, 3: steps 1, 1, 1), row 1
     // keeps columns 0, 2, 3, 4, 5 (steps from 0: 0, 2, 1, 1, 1), exactly as float32.
     CHECK(m["col"]["compression"] == "deflate");
@@ -156,6 +166,14 @@ TEST_CASE("page: rows keep the entries above the threshold, and each row's dropp
     CHECK(m["threshold"].get<double>() < 0.2);
     options.max_entries = 30;
     CHECK(page_data(scene, content, options)["matrix"]["threshold"] == 0.0);
+    CHECK(page_data(scene, content, options)["matrix"]["dropped_share_max"] == 0.0);
+    // Each array is deflated once, its bytes laid out by what it holds: F's values and the
+    // indices by byte planes, the vertex coordinates as they are.
+    const nlohmann::json d = page_data(scene, content, {});
+    CHECK(d["matrix"]["val"].value("byte_planes", false));
+    CHECK(d["matrix"]["row_ptr"].value("byte_planes", false));
+    CHECK(d["patches"]["triangles"].value("byte_planes", false));
+    CHECK_FALSE(d["patches"]["vertices"].value("byte_planes", false));
 }
 
 TEST_CASE(

@@ -115,6 +115,11 @@ TEST_CASE("repair: an open scene keeps its row sums, closure is refused unless f
     o.mode = RepairMode::both;
     CHECK_THROWS_WITH_AS(repair(F, ff.areas, o), doctest::Contains("the scene is open"),
                          OptionError);
+    // The options that would do, by their library names (the CLI shows its flags).
+    CHECK_THROWS_WITH_AS(
+        repair(F, ff.areas, o),
+        doctest::Contains("use `repair` reciprocity, or `force_closure` if the scene really is"),
+        OptionError);
     CHECK(F == ff.F);  // untouched
     o.mode = RepairMode::reciprocity;
     repair(F, ff.areas, o);

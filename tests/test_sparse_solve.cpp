@@ -170,6 +170,10 @@ TEST_CASE("sparse solve: a threshold's dropped mass is said, and closure puts it
     bool said = false;
     for (const auto& w : open.warnings) said = said || w.find("dropped mass") != std::string::npos;
     CHECK(said);
+    bool advised = false;  // the option that puts it back, by its library name
+    for (const auto& w : open.warnings)
+        advised = advised || w.find("`repair` closure or both puts it back") != std::string::npos;
+    CHECK(advised);
     CHECK(open.escaped_power > 0.0);  // energy lost to the "environment" the threshold made
 
     // The conservative closure puts the mass back on the stored entries: reciprocal, rows 1,

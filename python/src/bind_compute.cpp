@@ -117,8 +117,7 @@ const Keyword<ComputeOptions> kComputeKeywords[] = {
      [](const py::object& v, ComputeOptions& o) {
          o.visibility.robust = arg<bool>(v, "robust_rays");
      }},
-    {"progress", "_Progress", "None",
-     "None, True (a bar on stderr) or callable(phase, done, total, elapsed_seconds).", nullptr},
+    {"progress", "_Progress", "None", kProgressDoc, nullptr},
     {"comm", "Optional[Any]", "None",
      "an mpi4py communicator (MPI.COMM_WORLD) to compute over its ranks under mpirun: every "
      "rank calls with the same arguments; rank 0 gets the Result, bit for bit the one process's, "
@@ -149,8 +148,7 @@ const Keyword<PointOptions> kPointFactorsKeywords[] = {
      true},
     {"threads", "int", "0", "worker threads (0: all cores).",
      [](const py::object& v, PointOptions& o) { o.threads = arg<int>(v, "threads"); }},
-    {"progress", "_Progress", "None",
-     "None, True (a bar on stderr) or callable(phase, done, total, elapsed_seconds).", nullptr},
+    {"progress", "_Progress", "None", kProgressDoc, nullptr},
 };
 
 const Signature<PointOptions> kPointFactors{
@@ -492,14 +490,10 @@ For a row block (``rows=(b, e)``) it holds rows b..e-1 and every column.
 
     bind_function_with_keywords(
         m, kPointFactors, [](PointOptions& o, const std::vector<py::object>& values) {
-            const py::object& scene = value_of(kPointFactors, values, "scene");
-            if (!py::isinstance<PyScene>(scene))
-                throw OptionError("scene", "must be a formfactor.Scene, got " +
-                                               py::repr(scene).cast<std::string>());
+            const PyScene& s = scene_arg(value_of(kPointFactors, values, "scene"));
             for (const char* name : {"points", "normals"})
                 if (value_of(kPointFactors, values, name).is_none())
                     throw OptionError(name, "must be an array of 3-vectors, got None");
-            const PyScene& s = scene.cast<const PyScene&>();
             PointResult r = run_released(
                 [&](CancellationFlag& flag, ProgressSink* sink) {
                     PointOptions run = o;

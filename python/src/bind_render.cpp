@@ -6,6 +6,7 @@
 #include "formfactor/core/error.h"
 #include "formfactor/output/render.h"
 #include "formfactor/solve/properties.h"
+#include "keywords.h"
 
 namespace formfactor::python {
 
@@ -30,36 +31,78 @@ Camera camera_of(const py::dict& d) {
     return c;
 }
 
-py::array_t<std::uint8_t> render(const PyScene& s, const py::object& values,
-                                 const py::object& width, const py::object& height,
-                                 const std::string& path, const py::object& flat,
-                                 const py::object& exposure, const py::object& label_arg,
-                                 const py::object& unit_arg, const py::object& vmin,
-                                 const py::object& vmax, const py::object& camera,
-                                 const py::object& supersample, const py::object& back_faces) {
-    const Scene& scene = *s.scene;
+/// What the keywords of render() set.
+struct RenderArgs {
+    RenderOptions options;
+    /// The colour bar of a value per patch (label, unit, min, max; the values come later).
+    FalseColourField field;
+    std::string path;
+};
+
+/// The arguments of render(), in order.
+const Keyword<RenderArgs> kRenderKeywords[] = {
+    {"scene", "Scene", nullptr, "the scene to draw.", nullptr, true},
+    {"values", "Optional[_ArrayLike]", "None",
+     "None (each patch in its material's colour), an (N, 3) radiosity (linear RGB, exposed "
+     "automatically unless exposure > 0), or an (N,) value per patch shown in false colour "
+     "(inferno) with a colour bar.",
+     nullptr, true},
+    {"width", "int", "640", "pixels.",
+     [](const py::object& v, RenderArgs& o) { o.options.width = arg<int>(v, "width"); }},
+    {"height", "int", "640", "pixels.",
+     [](const py::object& v, RenderArgs& o) { o.options.height = arg<int>(v, "height"); }},
+    {"path", "Union[None, str, PathLike[str]]", "None",
+     "also write the picture there as a PNG (atomically).",
+     [](const py::object& v, RenderArgs& o) { o.path = path_arg(v); }},
+    {"flat", "bool", "False", "each patch in its own value (no smoothing to the vertices).",
+     [](const py::object& v, RenderArgs& o) { o.options.flat = arg<bool>(v, "flat"); }},
+    {"exposure", "float", "0.0",
+     "linear radiosity is multiplied by this before the sRGB encoding; 0: automatic.",
+     [](const py::object& v, RenderArgs& o) { o.options.exposure = arg<double>(v, "exposure"); }},
+    {"label", "str", "''", "the colour bar's label (false colour).",
+     [](const py::object& v, RenderArgs& o) { o.field.label = arg<std::string>(v, "label"); }},
+    {"unit", "str", "''", "the colour bar's unit (false colour).",
+     [](const py::object& v, RenderArgs& o) { o.field.unit = arg<std::string>(v, "unit"); }},
+    {"vmin", "Optional[float]", "None", "the colour bar's low end (default: the values' least).",
+     [](const py::object& v, RenderArgs& o) { o.field.min = arg<double>(v, "vmin"); }},
+    {"vmax", "Optional[float]", "None",
+     "the colour bar's high end (default: the values' greatest).",
+     [](const py::object& v, RenderArgs& o) { o.field.max = arg<double>(v, "vmax"); }},
+    {"camera", "Optional[dict[str, Any]]", "None",
+     "{\"eye\": (x, y, z), \"target\": ..., \"up\": ..., \"fov\": degrees}; default: the "
+     "scene's camera or one that sees everything.",
+     [](const py::object& v, RenderArgs& o) {
+         if (!py::isinstance<py::dict>(v))
+             throw OptionError("camera", "must be a dict (eye, target, up, fov), got " +
+                                             py::repr(v).cast<std::string>());
+         o.options.camera = camera_of(v.cast<py::dict>());
+     }},
+    {"supersample", "int", "2", "samples per pixel along each axis (box-filtered).",
+     [](const py::object& v, RenderArgs& o) {
+         o.options.supersample = arg<int>(v, "supersample");
+     }},
+    {"back_faces", "bool", "False",
+     "draw back faces (dark grey); off: a closed room seen from outside shows its inside.",
+     [](const py::object& v, RenderArgs& o) { o.options.back_faces = arg<bool>(v, "back_faces"); }},
+};
+
+const Signature<RenderArgs> kRender{
+    "render", "np.ndarray",
+    "A picture of the scene: an (height, width, 3) uint8 sRGB array, also written as a PNG to "
+    "``path`` when given.",
+    kRenderKeywords};
+
+py::array_t<std::uint8_t> render(RenderArgs& a, const std::vector<py::object>& values) {
+    const Scene& scene = *scene_arg(value_of(kRender, values, "scene")).scene;
+    const py::object& shown = value_of(kRender, values, "values");
     const std::size_t n = scene.patches.size();
-    const std::string label = arg<std::string>(label_arg, "label");
-    const std::string unit = arg<std::string>(unit_arg, "unit");
-    RenderOptions o;
-    o.width = arg<int>(width, "width");
-    o.height = arg<int>(height, "height");
-    o.flat = arg<bool>(flat, "flat");
-    o.exposure = arg<double>(exposure, "exposure");
-    o.supersample = arg<int>(supersample, "supersample");
-    o.back_faces = arg<bool>(back_faces, "back_faces");
-    if (!camera.is_none()) {
-        if (!py::isinstance<py::dict>(camera))
-            throw OptionError("camera", "must be a dict (eye, target, up, fov), got " +
-                                            py::repr(camera).cast<std::string>());
-        o.camera = camera_of(camera.cast<py::dict>());
-    }
+    RenderOptions& o = a.options;
     const PatchProperties props = properties_from_scene(scene);
     o.emitters.resize(n);
     for (std::size_t i = 0; i < n; ++i) o.emitters[i] = props.emission[i].maxCoeff() > 0.0;
 
     Image image;
-    if (values.is_none()) {
+    if (shown.is_none()) {
         // A preview of the geometry: each patch in its reflectance (emitters in their emission).
         std::vector<Rgb> colour(n);
         for (std::size_t i = 0; i < n; ++i)
@@ -67,22 +110,18 @@ py::array_t<std::uint8_t> render(const PyScene& s, const py::object& values,
         py::gil_scoped_release nogil;
         image = render_radiosity(scene, colour, o);
     } else {
-        const auto a =
-            py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(values);
-        if (!a) throw OptionError("values", "must be an array of numbers");
-        if (a.ndim() == 2 && a.shape(1) == 3 && static_cast<std::size_t>(a.shape(0)) == n) {
+        const auto v =
+            py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(shown);
+        if (!v) throw OptionError("values", "must be an array of numbers");
+        if (v.ndim() == 2 && v.shape(1) == 3 && static_cast<std::size_t>(v.shape(0)) == n) {
             std::vector<Rgb> rad(n);
             for (std::size_t i = 0; i < n; ++i)
-                rad[i] = Rgb(a.data()[3 * i], a.data()[3 * i + 1], a.data()[3 * i + 2]);
+                rad[i] = Rgb(v.data()[3 * i], v.data()[3 * i + 1], v.data()[3 * i + 2]);
             py::gil_scoped_release nogil;
             image = render_radiosity(scene, rad, o);
-        } else if (a.ndim() == 1 && static_cast<std::size_t>(a.shape(0)) == n) {
-            FalseColourField f;
-            f.values.assign(a.data(), a.data() + n);
-            f.label = label;
-            f.unit = unit;
-            if (!vmin.is_none()) f.min = arg<double>(vmin, "vmin");
-            if (!vmax.is_none()) f.max = arg<double>(vmax, "vmax");
+        } else if (v.ndim() == 1 && static_cast<std::size_t>(v.shape(0)) == n) {
+            FalseColourField& f = a.field;
+            f.values.assign(v.data(), v.data() + n);
             py::gil_scoped_release nogil;
             image = render_false_colour(scene, f, o);
         } else {
@@ -91,7 +130,7 @@ py::array_t<std::uint8_t> render(const PyScene& s, const py::object& values,
                                                     n));
         }
     }
-    if (!path.empty()) write_png(path, image);
+    if (!a.path.empty()) write_png(a.path, image);
     py::array_t<std::uint8_t> out({static_cast<std::size_t>(image.height),
                                    static_cast<std::size_t>(image.width), std::size_t(3)});
     std::copy(image.rgb.begin(), image.rgb.end(), out.mutable_data());
@@ -100,11 +139,6 @@ py::array_t<std::uint8_t> render(const PyScene& s, const py::object& values,
 
 }  // namespace
 
-void bind_render(py::module_& m) {
-    m.def("render", &render, py::arg("scene"), py::arg("values"), py::arg("width"),
-          py::arg("height"), py::arg("path"), py::arg("flat"), py::arg("exposure"),
-          py::arg("label"), py::arg("unit"), py::arg("vmin"), py::arg("vmax"), py::arg("camera"),
-          py::arg("supersample"), py::arg("back_faces"));
-}
+void bind_render(py::module_& m) { bind_function_with_keywords(m, kRender, render); }
 
 }  // namespace formfactor::python

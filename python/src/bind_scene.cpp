@@ -133,18 +133,15 @@ PyScene from_arrays(const py::object& vertices, const py::object& faces,
 
 const Scene& get(const PyScene& s) { return *s.scene; }
 
+/// path= of load() and energyplus_zones(): a str or an os.PathLike.
+void apply_path(const py::object& v, SceneOptions& o) { o.source = path_arg(v); }
+
 /// The arguments of load(), in order (all may be given by position).
 const Keyword<SceneOptions> kLoadKeywords[] = {
     {"path", "Union[str, PathLike[str]]", nullptr,
      "a built-in scene's name (builtin_scenes()) or a file: .obj with its MTL, .vs3 (View3D), an "
      "EnergyPlus .idf / .epJSON model, a Gmsh .msh, or .stl, .ply, .gltf, .glb, .off.",
-     [](const py::object& v, SceneOptions& o) {
-         if (!py::isinstance<py::str>(v) && !py::hasattr(v, "__fspath__"))
-             throw OptionError(
-                 "path", "must be a str or an os.PathLike, got " + py::repr(v).cast<std::string>());
-         o.source = arg<std::string>(py::module_::import("os").attr("fspath")(v), "path");
-     },
-     true},
+     apply_path, true},
     {"subdivide", "Optional[int]", "None",
      "n: each quad into n×n patches (triangles into n²); give this or max_edge.", nullptr, true},
     {"max_edge", "Optional[float]", "None",
@@ -169,6 +166,17 @@ const Signature<SceneOptions> kLoad{
     "bad file or an unknown zone, OptionError for bad options (a zone for a file that is not an "
     "EnergyPlus model).",
     kLoadKeywords};
+
+const Keyword<SceneOptions> kEnergyplusZonesKeywords[] = {
+    {"path", "Union[str, PathLike[str]]", nullptr, "an EnergyPlus model: .idf or .epJSON.",
+     apply_path, true},
+};
+
+const Signature<SceneOptions> kEnergyplusZones{
+    "energyplus_zones", "list[str]",
+    "The zone names of an EnergyPlus model, in file order: the names load(path, zone=NAME) "
+    "takes. Raises InputError for a bad file.",
+    kEnergyplusZonesKeywords};
 
 }  // namespace
 
@@ -395,13 +403,11 @@ valid planar polygon.
             return finish(std::move(scene), value_of(kLoad, values, "subdivide"),
                           value_of(kLoad, values, "max_edge"));
         });
-    m.def(
-        "energyplus_zones",
-        [](const std::string& path) {
-            py::gil_scoped_release nogil;
-            return energyplus_zones(path);
-        },
-        py::arg("path"), "(see formfactor.energyplus_zones)");
+    bind_function_with_keywords(m, kEnergyplusZones,
+                                [](const SceneOptions& o, const std::vector<py::object>&) {
+                                    py::gil_scoped_release nogil;
+                                    return energyplus_zones(o.source);
+                                });
     m.def("builtin_scenes", &builtin_scene_names, "Names of the built-in scenes.");
 }
 

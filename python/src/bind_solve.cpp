@@ -93,23 +93,177 @@ py::array_t<double> array_of(const std::vector<Rgb>& v) {
     return out;
 }
 
-SolverOptions solver_options(const py::object& solver_arg, const py::object& residual_arg,
-                             const py::object& max_iterations_arg, const py::object& threads_arg) {
-    const std::string solver = arg<std::string>(solver_arg, "solver");
-    const double residual = arg<double>(residual_arg, "residual");
-    const long long max_iterations = arg<long long>(max_iterations_arg, "max_iterations");
-    const int threads = arg<int>(threads_arg, "threads");
-    SolverOptions o;
-    o.solver = parse_solver(solver);
-    o.residual = residual;
-    o.max_iterations = max_iterations;
-    o.threads = threads;
-    if (!(residual > 0.0) || !std::isfinite(residual))
-        throw OptionError("residual", fmt::format("must be a finite number > 0, got {}", residual));
-    if (max_iterations < 0)
-        throw OptionError("max_iterations", fmt::format("must be ≥ 0, got {}", max_iterations));
-    return o;
+/// What the keywords of solve_radiosity() and solve_thermal() set.
+struct SolveArgs {
+    SolverOptions solver;
+    /// Empty: the default for the kind of F (default_solver()).
+    std::optional<SolverKind> kind;
+    double ambient_temperature = 0.0;
+};
+
+// The keywords the two solves share, each written once.
+const Keyword<SolveArgs> kSolveScene = {
+    "scene", "Scene", nullptr, "the scene whose patches F couples.", nullptr, true};
+const Keyword<SolveArgs> kSolveF = {
+    "F",
+    "Union[Result, HierarchicalOperator, scipy.sparse.spmatrix, _ArrayLike]",
+    nullptr,
+    "F[i, j] from patch i to patch j: a Result of this scene (used without a copy), an (N, N) "
+    "array, a scipy.sparse matrix (N, N) (``Result.sparse()``, a Matrix Market or HDF5 file read "
+    "with SciPy/h5py; solved by gauss-seidel, gmres or jacobi on its stored entries, never "
+    "densified), or the scene's HierarchicalOperator (gmres or jacobi).",
+    nullptr,
+    true};
+const Keyword<SolveArgs> kSolveResidual = {
+    "residual", "float", "1e-08",
+    "stop when the relative residual is below this (a finite number > 0).",
+    [](const py::object& v, SolveArgs& o) {
+        const double residual = arg<double>(v, "residual");
+        if (!(residual > 0.0) || !std::isfinite(residual)) {
+            throw OptionError("residual",
+                              fmt::format("must be a finite number > 0, got {}", residual));
+        }
+        o.solver.residual = residual;
+    }};
+const Keyword<SolveArgs> kSolveMaxIterations = {
+    "max_iterations", "int", "0",
+    "sweeps (jacobi, gauss-seidel), shots (shooting) or products (gmres) at most; 0: automatic.",
+    [](const py::object& v, SolveArgs& o) {
+        const long long max_iterations = arg<long long>(v, "max_iterations");
+        if (max_iterations < 0)
+            throw OptionError("max_iterations", fmt::format("must be ≥ 0, got {}", max_iterations));
+        o.solver.max_iterations = max_iterations;
+    }};
+const Keyword<SolveArgs> kSolveThreads = {
+    "threads", "int", "0", "worker threads (0: all cores).",
+    [](const py::object& v, SolveArgs& o) { o.solver.threads = arg<int>(v, "threads"); }};
+const Keyword<SolveArgs> kSolveProgress = {"progress", "_Progress", "None", kProgressDoc, nullptr};
+
+void apply_solver(const py::object& v, SolveArgs& o) {
+    o.kind = parse_solver(arg<std::string>(v, "solver"));
 }
+
+/// The arguments of solve_radiosity(), in order.
+const Keyword<SolveArgs> kSolveRadiosityKeywords[] = {
+    kSolveScene,
+    kSolveF,
+    {"reflectance", "Optional[_ArrayLike]", "None",
+     "ρ per patch: (N, 3), (N,) (grey) or a scalar; by default the scene's materials (MTL Kd).",
+     nullptr, true},
+    {"emission", "Optional[_ArrayLike]", "None",
+     "E per patch, in the units of the radiosity: (N, 3), (N,) (grey) or a scalar; by default "
+     "the scene's materials (MTL Ke).",
+     nullptr, true},
+    {"solver", "Optional[str]", "None",
+     "gauss-seidel (the default for a matrix), jacobi, shooting (progressive refinement), direct "
+     "(LU) or gmres (the default for an operator).",
+     apply_solver},
+    kSolveResidual,
+    kSolveMaxIterations,
+    kSolveThreads,
+    kSolveProgress,
+    {"comm", "Optional[Any]", "None",
+     "an mpi4py communicator (``MPI.COMM_WORLD``) to solve over its ranks under mpirun. Every "
+     "rank calls with the same arguments; only rank 0's F is read (the others may pass None). "
+     "With ``gauss-seidel``, ``gmres`` or ``jacobi`` on a matrix, rank 0 sends each rank a block "
+     "of rows of F and every rank iterates on its own rows: jacobi and gmres give the one "
+     "process's result bit for bit, gauss-seidel one within ``residual`` of it. Other solvers and "
+     "the operator run on rank 0 alone. Rank 0 gets the result, the others None "
+     "(docs/cluster.md).",
+     nullptr},
+};
+
+const Signature<SolveArgs> kSolveRadiosity{
+    "solve_radiosity", "RadiosityResult",
+    "Solves the radiosity equation B = E + diag(ρ) F B for each of R, G, B. Returns a "
+    "RadiosityResult.",
+    kSolveRadiosityKeywords};
+
+/// The arguments of solve_thermal(), in order.
+const Keyword<SolveArgs> kSolveThermalKeywords[] = {
+    kSolveScene,
+    kSolveF,
+    {"emissivity", "Optional[_ArrayLike]", "None",
+     "ε per patch, (N,) or a scalar, in (0, 1]; by default the scene's materials.", nullptr, true},
+    {"temperature", "Optional[_ArrayLike]", "None",
+     "T per patch in K, (N,) or a scalar; NaN: not given for that patch. By default the scene's "
+     "materials.",
+     nullptr, true},
+    {"net_flux", "Optional[_ArrayLike]", "None",
+     "q per patch in W/m² leaving the patch, (N,) or a scalar; NaN: not given for that patch. A "
+     "patch with neither a temperature nor a net flux is adiabatic (q = 0).",
+     nullptr, true},
+    {"ambient_temperature", "float", "0.0",
+     "the black environment that the open part of each row sees, K (≥ 0).",
+     [](const py::object& v, SolveArgs& o) {
+         const double t = arg<double>(v, "ambient_temperature");
+         if (!(t >= 0.0) || !std::isfinite(t)) {
+             throw OptionError("ambient_temperature",
+                               fmt::format("must be a finite number ≥ 0 (K), got {}", t));
+         }
+         o.ambient_temperature = t;
+     }},
+    {"solver", "Optional[str]", "None",
+     "direct (the default for a matrix), gmres (the default for an operator or a sparse F), "
+     "gauss-seidel, jacobi or shooting.",
+     apply_solver},
+    kSolveResidual,
+    kSolveMaxIterations,
+    kSolveThreads,
+    kSolveProgress,
+    {"comm", "Optional[Any]", "None",
+     "an mpi4py communicator to solve over its ranks, as in solve_radiosity (pass "
+     "``solver=\"gmres\"``: the default ``direct`` solve of a matrix runs on rank 0 alone).",
+     nullptr},
+};
+
+const Signature<SolveArgs> kSolveThermal{
+    "solve_thermal", "ThermalResult",
+    "Radiative heat exchange between grey diffuse patches (net-radiation method): each patch has "
+    "an emissivity ε and either a temperature T (K) or a net flux q (W/m², leaving the patch). "
+    "Returns a ThermalResult (temperature, radiosity, net_flux, net_power, total_net_power, "
+    "...).",
+    kSolveThermalKeywords};
+
+/// The arguments of repair(), in order.
+const Keyword<RepairOptions> kRepairKeywords[] = {
+    {"F", "_ArrayLike", nullptr, "(N, N) form factors, F[i, j] from patch i to patch j.", nullptr,
+     true},
+    {"areas", "_ArrayLike", nullptr, "(N,) patch areas.", nullptr, true},
+    {"mode", "str", "'both'",
+     "reciprocity (symmetrises A_i F_ij), closure (scales rows to sum to 1, keeping "
+     "reciprocity) or both.",
+     [](const py::object& v, RepairOptions& o) {
+         o.mode = parse_repair_mode(arg<std::string>(v, "mode"));
+     },
+     true},
+    {"enclosure", "bool", "False", "the patches close a volume: closure may close the rows.",
+     [](const py::object& v, RepairOptions& o) { o.enclosure = arg<bool>(v, "enclosure"); }},
+    {"force_closure", "bool", "False", "close the rows of a matrix that looks open.",
+     [](const py::object& v, RepairOptions& o) {
+         o.force_closure = arg<bool>(v, "force_closure");
+     }},
+};
+
+const Signature<RepairOptions> kRepair{
+    "repair", "Tuple[np.ndarray, dict[str, Any]]",
+    "Repairs a form-factor matrix. F is not changed: returns (repaired copy, report dict).",
+    kRepairKeywords};
+
+/// The arguments of exchange_factors(), in order.
+const Keyword<NoOptions> kExchangeFactorsKeywords[] = {
+    {"F", "_ArrayLike", nullptr, "(N, N) form factors, F[i, j] from patch i to patch j.", nullptr,
+     true},
+    {"emissivity", "_ArrayLike", nullptr, "ε per patch, (N,) in (0, 1], or a scalar.", nullptr,
+     true},
+};
+
+const Signature<NoOptions> kExchangeFactors{
+    "exchange_factors", "np.ndarray",
+    "Hottel's total exchange factors 𝓕 = diag(ε) F (I − diag(1−ε) F)⁻¹ diag(ε): 𝓕[i, j] is the "
+    "fraction of the power a black body at i's temperature would emit over A_i that j absorbs "
+    "after any number of diffuse reflections (Σ_j 𝓕_ij = ε_i in a closed enclosure). O(N³).",
+    kExchangeFactorsKeywords};
 
 py::dict stats_dict(const SolverStats& s) {
     py::dict d;
@@ -123,19 +277,31 @@ py::dict stats_dict(const SolverStats& s) {
     return d;
 }
 
-/// A sparse F passed as ("csr", indptr, indices, data) (the Python layer's form of a
-/// scipy.sparse matrix), with the scene's areas; nullopt for anything else.
+/// A scipy.sparse matrix (any format) as the solvers take it: its CSR entries, duplicates
+/// summed, with the scene's areas; nullopt for anything else.
 std::optional<SparseFormFactors> sparse_of(const PyScene& s, const py::object& F) {
-    if (!py::isinstance<py::tuple>(F)) return std::nullopt;
-    const py::tuple t = F.cast<py::tuple>();
-    if (t.size() != 4 || !py::isinstance<py::str>(t[0]) || t[0].cast<std::string>() != "csr")
-        return std::nullopt;
+    const std::string module = py::str(py::type::of(F).attr("__module__")).cast<std::string>();
+    if (module.rfind("scipy.sparse", 0) != 0) return std::nullopt;
+    const py::module_ scipy_sparse = py::module_::import("scipy.sparse");
+    if (!scipy_sparse.attr("issparse")(F).cast<bool>()) return std::nullopt;
+    const auto shape = F.attr("shape").cast<std::pair<long long, long long>>();
+    if (shape.first != shape.second) {
+        throw OptionError(
+            "F", fmt::format("a sparse F must be square, got {}x{}", shape.first, shape.second));
+    }
+    const py::object c = scipy_sparse.attr("csr_matrix")(
+        F, py::arg("dtype") = py::float_().get_type(), py::arg("copy") = true);
+    c.attr("sum_duplicates")();
+    c.attr("sort_indices")();
     const std::size_t n = s.scene->patches.size();
     const auto indptr =
-        t[1].cast<py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>>();
+        py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(
+            c.attr("indptr"));
     const auto indices =
-        t[2].cast<py::array_t<std::int32_t, py::array::c_style | py::array::forcecast>>();
-    const auto data = t[3].cast<py::array_t<double, py::array::c_style | py::array::forcecast>>();
+        py::array_t<std::int32_t, py::array::c_style | py::array::forcecast>::ensure(
+            c.attr("indices"));
+    const auto data =
+        py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(c.attr("data"));
     if (static_cast<std::size_t>(indptr.size()) != n + 1)
         throw OptionError("F", fmt::format("must be {0}×{0} (the scene's patches), got {1} rows", n,
                                            indptr.size() - 1));
@@ -172,13 +338,21 @@ const HierarchicalFormFactors* operator_of(const PyScene& s, const py::object& F
     return h.op.get();
 }
 
-py::object radiosity(const PyScene& s, const py::object& F, const py::object& reflectance,
-                     const py::object& emission, const py::object& solver,
-                     const py::object& residual, const py::object& max_iterations,
-                     const py::object& threads, const py::object& progress,
-                     const py::object& comm_arg) {
+/// The solver when none is given: gmres for an operator; for a sparse F gauss-seidel where a
+/// matrix's default is an iterative one, gmres where it is direct; else the matrix's default.
+SolverKind default_solver(bool op, bool sparse, SolverKind dense_default) {
+    if (op) return SolverKind::gmres;
+    if (sparse)
+        return dense_default == SolverKind::direct ? SolverKind::gmres : SolverKind::gauss_seidel;
+    return dense_default;
+}
+
+py::object radiosity(const SolveArgs& a, const std::vector<py::object>& values) {
+    const auto value = [&](const char* name) { return value_of(kSolveRadiosity, values, name); };
+    const PyScene& s = scene_arg(value("scene"));
+    const py::object& F = value("F");
     std::optional<distributed::Communicator> comm;
-    open_communicator(comm_arg, comm);
+    open_communicator(value("comm"), comm);
     if (comm && distributed::rank() != 0) {
         serve_rank0();
         return py::none();
@@ -188,10 +362,13 @@ py::object radiosity(const PyScene& s, const py::object& F, const py::object& re
     const FormFactors ff = op || sp ? FormFactors{} : form_factors_of(s, F);
     const std::size_t n = op ? op->size() : sp ? sp->n : ff.size();
     PatchProperties props = properties_from_scene(*s.scene);
-    if (!reflectance.is_none()) props.reflectance = per_patch_rgb(reflectance, "reflectance", n);
-    if (!emission.is_none()) props.emission = per_patch_rgb(emission, "emission", n);
+    if (!value("reflectance").is_none())
+        props.reflectance = per_patch_rgb(value("reflectance"), "reflectance", n);
+    if (!value("emission").is_none())
+        props.emission = per_patch_rgb(value("emission"), "emission", n);
     validate_properties(props);
-    const SolverOptions o = solver_options(solver, residual, max_iterations, threads);
+    SolverOptions o = a.solver;
+    o.solver = a.kind.value_or(default_solver(op, sp.has_value(), SolverKind::gauss_seidel));
     const bool over_ranks = comm && !op && distributes(o);
     const RadiosityResult r = run_released(
         [&](CancellationFlag&, ProgressSink* sink) {
@@ -205,42 +382,41 @@ py::object radiosity(const PyScene& s, const py::object& F, const py::object& re
                    : sp ? solve_radiosity(*sp, props, run)
                         : solve_radiosity(ff, props, run);
         },
-        progress);
-    py::dict d;
-    d["radiosity"] = array_of(r.radiosity);
-    d["stats"] = stats_dict(r.stats);
+        value("progress"));
     py::dict b;
     b["emitted"] = array_of(std::vector<Rgb>{r.balance.emitted}).attr("reshape")(3);
     b["absorbed"] = array_of(std::vector<Rgb>{r.balance.absorbed}).attr("reshape")(3);
     b["escaped"] = array_of(std::vector<Rgb>{r.balance.escaped}).attr("reshape")(3);
     b["relative_defect"] = r.balance.relative_defect;
-    d["balance"] = b;
-    return d;
+    return py::module_::import("formfactor")
+        .attr("RadiosityResult")(py::arg("radiosity") = array_of(r.radiosity),
+                                 py::arg("stats") = stats_dict(r.stats), py::arg("balance") = b);
 }
 
-py::object thermal(const PyScene& s, const py::object& F, const py::object& emissivity,
-                   const py::object& temperature, const py::object& net_flux,
-                   const py::object& ambient, const py::object& solver, const py::object& residual,
-                   const py::object& max_iterations, const py::object& threads,
-                   const py::object& progress, const py::object& comm_arg) {
+py::object thermal(const SolveArgs& a, const std::vector<py::object>& values) {
+    const auto value = [&](const char* name) { return value_of(kSolveThermal, values, name); };
+    const PyScene& s = scene_arg(value("scene"));
+    const py::object& F = value("F");
     std::optional<distributed::Communicator> comm;
-    open_communicator(comm_arg, comm);
+    open_communicator(value("comm"), comm);
     if (comm && distributed::rank() != 0) {
         serve_rank0();
         return py::none();
     }
-    const double ambient_temperature = arg<double>(ambient, "ambient_temperature");
     const HierarchicalFormFactors* op = operator_of(s, F);
     const std::optional<SparseFormFactors> sp = op ? std::nullopt : sparse_of(s, F);
     const FormFactors ff = op || sp ? FormFactors{} : form_factors_of(s, F);
     const std::size_t n = op ? op->size() : sp ? sp->n : ff.size();
     PatchProperties props = properties_from_scene(*s.scene);
-    if (!emissivity.is_none()) props.emissivity = per_patch(emissivity, "emissivity", n);
+    if (!value("emissivity").is_none())
+        props.emissivity = per_patch(value("emissivity"), "emissivity", n);
     const double nan = std::numeric_limits<double>::quiet_NaN();
-    const std::vector<double> T = temperature.is_none() ? std::vector<double>(n, nan)
-                                                        : per_patch(temperature, "temperature", n);
-    const std::vector<double> q =
-        net_flux.is_none() ? std::vector<double>(n, nan) : per_patch(net_flux, "net_flux", n);
+    const auto given = [&](const char* name) {
+        return value(name).is_none() ? std::vector<double>(n, nan)
+                                     : per_patch(value(name), name, n);
+    };
+    const std::vector<double> T = given("temperature");
+    const std::vector<double> q = given("net_flux");
     for (std::size_t i = 0; i < n; ++i) {
         if (!std::isnan(T[i]) && !std::isnan(q[i])) {
             throw OptionError("net_flux", fmt::format("patch {} has both a temperature and a net "
@@ -257,14 +433,10 @@ py::object thermal(const PyScene& s, const py::object& F, const py::object& emis
     }
     validate_properties(props);
     ThermalOptions o;
-    o.solver = solver_options(solver, residual, max_iterations, threads);
-    o.ambient_temperature = ambient_temperature;
+    o.solver = a.solver;
+    o.solver.solver = a.kind.value_or(default_solver(op, sp.has_value(), SolverKind::direct));
+    o.ambient_temperature = a.ambient_temperature;
     o.closed = check_closure(*s.scene).closed;
-    if (!(ambient_temperature >= 0.0) || !std::isfinite(ambient_temperature)) {
-        throw OptionError(
-            "ambient_temperature",
-            fmt::format("must be a finite number ≥ 0 (K), got {}", ambient_temperature));
-    }
     const bool over_ranks = comm && !op && distributes(o.solver);
     const ThermalResult r = run_released(
         [&](CancellationFlag&, ProgressSink* sink) {
@@ -278,7 +450,7 @@ py::object thermal(const PyScene& s, const py::object& F, const py::object& emis
                    : sp ? solve_thermal(*sp, props, run)
                         : solve_thermal(ff, props, run);
         },
-        progress);
+        value("progress"));
     py::dict d;
     d["area"] = array_of(r.area);
     d["emissivity"] = array_of(r.emissivity);
@@ -296,7 +468,55 @@ py::object thermal(const PyScene& s, const py::object& F, const py::object& emis
     d["ambient_temperature"] = r.ambient_temperature;
     d["stats"] = stats_dict(r.stats);
     d["warnings"] = r.warnings;
-    return d;
+    return py::module_::import("formfactor").attr("ThermalResult")(**d);
+}
+
+/// A square F as a float64 array, or an OptionError.
+py::array_t<double, py::array::c_style | py::array::forcecast> square(const py::object& F) {
+    auto a = as_doubles(F, "F", 2);
+    if (a.shape(0) != a.shape(1)) throw OptionError("F", "must be square");
+    return a;
+}
+
+py::object repair_call(const RepairOptions& o, const std::vector<py::object>& values) {
+    const auto a = square(value_of(kRepair, values, "F"));
+    const auto n = static_cast<std::size_t>(a.shape(0));
+    const auto ar = as_doubles(value_of(kRepair, values, "areas"), "areas", 1);
+    if (static_cast<std::size_t>(ar.shape(0)) != n)
+        throw OptionError("areas", fmt::format("must have {} values", n));
+    auto* held = new DenseMatrix(Eigen::Map<const DenseMatrix>(
+        a.data(), static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n)));
+    py::capsule owner(held, [](void* p) { delete static_cast<DenseMatrix*>(p); });
+    const std::vector<double> av(ar.data(), ar.data() + n);
+    RepairReport report;
+    {
+        py::gil_scoped_release nogil;
+        report = repair(*held, av, o);
+    }
+    py::array_t<double> out({n, n}, held->data(), owner);
+    return py::make_tuple(out,
+                          py::module_::import("json").attr("loads")(json_text(to_json(report))));
+}
+
+py::array_t<double> exchange_factors_call(const NoOptions&, const std::vector<py::object>& values) {
+    const auto a = square(value_of(kExchangeFactors, values, "F"));
+    const auto n = static_cast<std::size_t>(a.shape(0));
+    const std::vector<double> eps =
+        per_patch(value_of(kExchangeFactors, values, "emissivity"), "emissivity", n);
+    for (double e : eps)
+        if (!(e > 0.0 && e <= 1.0))
+            throw OptionError("emissivity",
+                              fmt::format("every value must be in (0, 1], got {}", e));
+    const DenseMatrix M = Eigen::Map<const DenseMatrix>(a.data(), static_cast<Eigen::Index>(n),
+                                                        static_cast<Eigen::Index>(n));
+    DenseMatrix X;
+    {
+        py::gil_scoped_release nogil;
+        X = total_exchange_factors(M, eps);
+    }
+    py::array_t<double> out({n, n});
+    std::copy(X.data(), X.data() + X.size(), out.mutable_data());
+    return out;
 }
 
 }  // namespace
@@ -344,8 +564,7 @@ const Keyword<HierarchicalOptions> kHierarchicalKeywords[] = {
      }},
     {"threads", "int", "0", "worker threads (0: all cores).",
      [](const py::object& v, HierarchicalOptions& o) { o.threads = arg<int>(v, "threads"); }},
-    {"progress", "_Progress", "None",
-     "None, True (a bar on stderr) or callable(phase, done, total, elapsed_seconds).", nullptr},
+    {"progress", "_Progress", "None", kProgressDoc, nullptr},
 };
 
 const Signature<HierarchicalOptions> kHierarchical{
@@ -483,60 +702,10 @@ vectors without forming it (docs/hierarchical.md). ``op @ x`` or ``op.matvec(x)`
 
 void bind_solve(py::module_& m) {
     bind_hierarchical(m);
-    m.def("radiosity", &radiosity, py::arg("scene"), py::arg("F"), py::arg("reflectance"),
-          py::arg("emission"), py::arg("solver"), py::arg("residual"), py::arg("max_iterations"),
-          py::arg("threads"), py::arg("progress"), py::arg("comm") = py::none());
-    m.def("thermal", &thermal, py::arg("scene"), py::arg("F"), py::arg("emissivity"),
-          py::arg("temperature"), py::arg("net_flux"), py::arg("ambient_temperature"),
-          py::arg("solver"), py::arg("residual"), py::arg("max_iterations"), py::arg("threads"),
-          py::arg("progress"), py::arg("comm") = py::none());
-    m.def(
-        "repair",
-        [](const py::object& F, const py::object& areas, const py::object& mode,
-           const py::object& enclosure, const py::object& force_closure) {
-            const auto a = as_doubles(F, "F", 2);
-            const auto n = static_cast<std::size_t>(a.shape(0));
-            if (static_cast<std::size_t>(a.shape(1)) != n) throw OptionError("F", "must be square");
-            const auto ar = as_doubles(areas, "areas", 1);
-            if (static_cast<std::size_t>(ar.shape(0)) != n)
-                throw OptionError("areas", fmt::format("must have {} values", n));
-            auto* held = new DenseMatrix(Eigen::Map<const DenseMatrix>(
-                a.data(), static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n)));
-            py::capsule owner(held, [](void* p) { delete static_cast<DenseMatrix*>(p); });
-            RepairOptions o;
-            o.mode = parse_repair_mode(arg<std::string>(mode, "mode"));
-            o.enclosure = arg<bool>(enclosure, "enclosure");
-            o.force_closure = arg<bool>(force_closure, "force_closure");
-            const std::vector<double> av(ar.data(), ar.data() + n);
-            RepairReport report;
-            {
-                py::gil_scoped_release nogil;
-                report = repair(*held, av, o);
-            }
-            py::array_t<double> out({n, n}, held->data(), owner);
-            return py::make_tuple(out, json_text(to_json(report)));
-        },
-        py::arg("F"), py::arg("areas"), py::arg("mode"), py::arg("enclosure"),
-        py::arg("force_closure"));
-    m.def(
-        "exchange_factors",
-        [](const py::object& F, const py::object& emissivity) {
-            const auto a = as_doubles(F, "F", 2);
-            const auto n = static_cast<std::size_t>(a.shape(0));
-            if (static_cast<std::size_t>(a.shape(1)) != n) throw OptionError("F", "must be square");
-            const std::vector<double> eps = per_patch(emissivity, "emissivity", n);
-            const DenseMatrix M = Eigen::Map<const DenseMatrix>(
-                a.data(), static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
-            DenseMatrix X;
-            {
-                py::gil_scoped_release nogil;
-                X = total_exchange_factors(M, eps);
-            }
-            py::array_t<double> out({n, n});
-            std::copy(X.data(), X.data() + X.size(), out.mutable_data());
-            return out;
-        },
-        py::arg("F"), py::arg("emissivity"));
+    bind_function_with_keywords(m, kSolveRadiosity, radiosity);
+    bind_function_with_keywords(m, kSolveThermal, thermal);
+    bind_function_with_keywords(m, kRepair, repair_call);
+    bind_function_with_keywords(m, kExchangeFactors, exchange_factors_call);
 }
 
 }  // namespace formfactor::python

@@ -4,6 +4,8 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+
 namespace formfactor::python {
 
 namespace {
@@ -15,7 +17,60 @@ py::list& signatures() {
     return *list;
 }
 
+/// Levenshtein's edit distance between a and b (insertions, deletions, substitutions).
+std::size_t edit_distance(std::string_view a, std::string_view b) {
+    std::vector<std::size_t> row(b.size() + 1);
+    for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+    for (std::size_t i = 1; i <= a.size(); ++i) {
+        std::size_t diagonal = row[0];
+        row[0] = i;
+        for (std::size_t j = 1; j <= b.size(); ++j) {
+            const std::size_t above = row[j];
+            row[j] =
+                std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+            diagonal = above;
+        }
+    }
+    return row[b.size()];
+}
+
 }  // namespace
+
+const PyScene& scene_arg(const py::object& value, const char* name) {
+    if (!py::isinstance<PyScene>(value))
+        throw OptionError(name,
+                          "must be a formfactor.Scene, got " + py::repr(value).cast<std::string>());
+    return value.cast<const PyScene&>();
+}
+
+std::string path_arg(const py::object& value, const char* name) {
+    if (!py::isinstance<py::str>(value) && !py::hasattr(value, "__fspath__"))
+        throw OptionError(
+            name, "must be a str or an os.PathLike, got " + py::repr(value).cast<std::string>());
+    return arg<std::string>(py::module_::import("os").attr("fspath")(value), name);
+}
+
+std::string unknown_keyword_message(const char* function, const std::string& name,
+                                    const std::vector<std::string>& names) {
+    std::string message =
+        fmt::format("{}() got an unexpected keyword argument '{}'", function, name);
+    // The nearest keyword when a typing slip away (a third of its letters at most), else them
+    // all: a misspelt keyword should say what was meant.
+    const std::string* nearest = nullptr;
+    std::size_t best = std::string::npos;
+    for (const auto& candidate : names) {
+        const std::size_t d = edit_distance(name, candidate);
+        if (d < best) {
+            best = d;
+            nearest = &candidate;
+        }
+    }
+    if (nearest && best <= std::max<std::size_t>(2, nearest->size() / 3))
+        return message + fmt::format("; did you mean '{}'?", *nearest);
+    std::string all;
+    for (const auto& candidate : names) all += (all.empty() ? "" : ", ") + candidate;
+    return message + fmt::format(" (it takes {})", all.empty() ? "none" : all);
+}
 
 std::string parameter_text(const std::vector<std::string>& names,
                            const std::vector<std::string>& defaults,
@@ -53,8 +108,7 @@ std::vector<py::object> given_values(const char* function, const std::vector<std
         std::size_t k = 0;
         while (k < names.size() && names[k] != name) ++k;
         if (k == names.size()) {
-            throw py::type_error(
-                fmt::format("{}() got an unexpected keyword argument '{}'", function, name));
+            throw py::type_error(unknown_keyword_message(function, name, names));
         }
         if (values[k]) {
             throw py::type_error(

@@ -15,6 +15,19 @@
 
 namespace formfactor::python {
 
+/// The doc of every progress= keyword.
+inline constexpr const char* kProgressDoc =
+    "None, True (a bar on stderr) or callable(phase, done, total, elapsed_seconds).";
+
+/// The options of a function whose every argument is read in its call (value_of()).
+struct NoOptions {};
+
+/// `value` as the Scene it must be, or an OptionError naming the keyword `name`.
+const PyScene& scene_arg(const py::object& value, const char* name = "scene");
+
+/// `value` as a file path (a str or an os.PathLike), or an OptionError naming `name`.
+std::string path_arg(const py::object& value, const char* name = "path");
+
 /// One keyword argument of a function bound with bind_with_keywords().
 template <class Options>
 struct Keyword {
@@ -25,8 +38,8 @@ struct Keyword {
     /// function's leading arguments: the scene, the path).
     const char* default_value;
     const char* doc;
-    /// Sets the options from a given value (checked with arg<T>); not called for a value left
-    /// at None. Null: the function reads the value itself (progress=).
+    /// Sets the options from a given value (checked with arg<T>); not called for None where the
+    /// default is None (apply_keywords()). Null: the function reads the value itself (progress=).
     void (*apply)(const py::object& value, Options& options);
     /// May also be given by position (it then comes before the `*` of the signature).
     bool positional = false;
@@ -49,9 +62,16 @@ std::string parameter_text(const std::vector<std::string>& names,
                            const std::vector<std::string>& defaults,
                            const std::vector<bool>& positional, bool self = true);
 
+/// The TypeError message of a keyword `name` that `function` does not take: Python's own
+/// words, then the nearest of `names` when it is a slip away ("did you mean 'residual'?"), else
+/// the list of them.
+std::string unknown_keyword_message(const char* function, const std::string& name,
+                                    const std::vector<std::string>& names);
+
 /// The values given to `function(self, *args, **kwargs)`, one per keyword in table order (the
 /// default where not given), or a TypeError worded as Python's own for a positional argument
-/// too many, an unknown keyword, a keyword given twice or a required one missing.
+/// too many, an unknown keyword (unknown_keyword_message()), a keyword given twice or a required
+/// one missing.
 std::vector<py::object> given_values(const char* function, const std::vector<std::string>& names,
                                      const std::vector<std::string>& defaults,
                                      std::size_t positional, const py::args& args,
@@ -98,6 +118,22 @@ const py::object& value_of(const Signature<Options>& sig, const std::vector<py::
     throw std::logic_error("no keyword " + std::string(name) + " in " + sig.name);
 }
 
+/// Applies each of `values` (in table order) to `o` by its keyword's `apply`: a None where the
+/// default is None (or for a required argument, which the call checks) leaves the option as it
+/// is; any other None (for a flag, a number or a string with a default) goes to `apply`, which
+/// refuses it as the wrong type.
+template <class Options>
+void apply_keywords(const Signature<Options>& sig, const std::vector<py::object>& values,
+                    Options& o) {
+    for (std::size_t k = 0; k < values.size(); ++k) {
+        const Keyword<Options>& key = sig.keywords[k];
+        const bool not_given =
+            values[k].is_none() &&
+            (!key.default_value || std::string_view(key.default_value) == "None");
+        if (key.apply && !not_given) key.apply(values[k], o);
+    }
+}
+
 /// Binds `sig` as a method of `cls`: `call(self, options, values)` runs it with `options`
 /// (default-constructed, then each given keyword applied in table order) and `values`, the
 /// values of every keyword by table order (for those without `apply`).
@@ -122,9 +158,7 @@ void bind_with_keywords(Class& cls, const Signature<Options>& sig, Call call) {
             const std::vector<py::object> values =
                 given_values(sig.name, names, defaults, n_positional, args, kwargs);
             Options o{};
-            for (std::size_t k = 0; k < values.size(); ++k)
-                if (sig.keywords[k].apply && !values[k].is_none())
-                    sig.keywords[k].apply(values[k], o);
+            apply_keywords(sig, values, o);
             return call(self, o, values);
         },
         doc.c_str());
@@ -150,9 +184,7 @@ void bind_function_with_keywords(py::module_& m, const Signature<Options>& sig, 
             const std::vector<py::object> values =
                 given_values(sig.name, names, defaults, n_positional, args, kwargs);
             Options o{};
-            for (std::size_t k = 0; k < values.size(); ++k)
-                if (sig.keywords[k].apply && !values[k].is_none())
-                    sig.keywords[k].apply(values[k], o);
+            apply_keywords(sig, values, o);
             return call(o, values);
         },
         doc.c_str());

@@ -74,3 +74,75 @@ def test_stubtest_finds_the_stub_and_the_module_agree(tmp_path):
                         "--allowlist", str(SOURCE_DIR / "python" / "stubtest_allowlist.txt")],
                        capture_output=True, text=True, cwd=tmp_path, env=dict(os.environ))
     assert p.returncode == 0, p.stdout + p.stderr
+
+
+def _keyword_functions():
+    scene = ff.load("plates")
+    return {"load": ff.load, "energyplus_zones": ff.energyplus_zones,
+            "point_factors": ff.point_factors, "solve_radiosity": ff.solve_radiosity,
+            "solve_thermal": ff.solve_thermal, "repair": ff.repair,
+            "exchange_factors": ff.exchange_factors, "render": ff.render,
+            "form_factors": scene.form_factors, "hierarchical": scene.hierarchical}
+
+
+# A misspelt keyword of each function and the keyword meant.
+MISSPELT = [("load", "subdivid", "subdivide"), ("energyplus_zones", "pth", "path"),
+            ("point_factors", "normal", "normals"), ("solve_radiosity", "residul", "residual"),
+            ("solve_thermal", "ambient_temprature", "ambient_temperature"),
+            ("repair", "force_closer", "force_closure"), ("exchange_factors", "emisivity",
+                                                          "emissivity"),
+            ("render", "widht", "width"), ("form_factors", "tolerence", "tolerance"),
+            ("hierarchical", "leafsize", "leaf_size")]
+
+
+@pytest.mark.parametrize("function, given, meant", MISSPELT)
+def test_a_misspelt_keyword_names_the_function_and_the_nearest_keyword(function, given, meant):
+    f = _keyword_functions()[function]
+    with pytest.raises(TypeError) as e:
+        f(**{given: 1})
+    assert str(e.value) == "%s() got an unexpected keyword argument '%s'; did you mean '%s'?" % (
+        function, given, meant)
+
+
+def test_every_function_with_a_keyword_table_is_in_the_misspelling_test():
+    tables = {s["name"] for s in ff._core._signatures()}
+    assert tables == set(_keyword_functions()) == {m[0] for m in MISSPELT}
+
+
+@pytest.mark.parametrize("function", [m[0] for m in MISSPELT])
+def test_an_unknown_keyword_lists_the_keywords_the_function_takes(function):
+    f = _keyword_functions()[function]
+    with pytest.raises(TypeError) as e:
+        f(colour_scheme=1)
+    message = str(e.value)
+    assert message.startswith("%s() got an unexpected keyword argument 'colour_scheme' (it takes "
+                              % function)
+    names = [k["name"] for s in ff._core._signatures() if s["name"] == function
+             for k in s["keywords"]]
+    assert message.endswith(", ".join(names) + ")")
+
+
+def test_the_solve_functions_take_their_arguments_by_position_and_by_keyword():
+    import inspect
+
+    for f, positional in ((ff.solve_radiosity, ["scene", "F", "reflectance", "emission"]),
+                          (ff.solve_thermal, ["scene", "F", "emissivity", "temperature",
+                                              "net_flux"]),
+                          (ff.repair, ["F", "areas", "mode"]),
+                          (ff.exchange_factors, ["F", "emissivity"]),
+                          (ff.render, ["scene", "values"]),
+                          (ff.energyplus_zones, ["path"])):
+        params = inspect.signature(f).parameters.values()
+        assert [p.name for p in params if p.kind == p.POSITIONAL_OR_KEYWORD] == positional
+        assert f.__doc__.count("\n\n") >= 2  # the summary, then the arguments
+    assert inspect.signature(ff.repair).parameters["mode"].default == "both"
+    assert inspect.signature(ff.solve_radiosity).parameters["residual"].default == 1e-8
+    with pytest.raises(ff.OptionError) as e:
+        ff.solve_radiosity("cube", [[0.0]])
+    assert e.value.option == "scene"
+    with pytest.raises(ff.OptionError) as e:
+        ff.solve_radiosity(ff.load("plates"), ff.load("plates").form_factors(), threads=True)
+    assert e.value.option == "threads"
+    with pytest.raises(ff.OptionError) as e:
+        ff.render(ff.load("plates"), path=3)
+    assert e.value.option == "path"

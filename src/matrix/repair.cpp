@@ -140,8 +140,8 @@ RepairReport repair(DenseMatrix& F, const std::vector<double>& areas,
             throw OptionError(
                 "repair",
                 fmt::format("the scene is open (row sums down to {:.6g}, radiation escapes): "
-                            "closing its rows would invent exchange; use --repair reciprocity, "
-                            "or --force-closure if the scene really is a closed enclosure",
+                            "closing its rows would invent exchange; use `repair` reciprocity, "
+                            "or `force_closure` if the scene really is a closed enclosure",
                             rep.before.row_sum_min));
         if (looks_open)
             rep.warnings.push_back(fmt::format(

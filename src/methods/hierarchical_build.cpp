@@ -485,7 +485,7 @@ void check(const Scene& scene, const HierarchicalOptions& options) {
         throw Error(
             "hierarchical storage: a surface of this scene can block the view between two others "
             "(obstructions); the hierarchical operator of this version is exact only without "
-            "blockers (convex enclosures such as a closed room, furnace or cavity). Use --storage "
+            "blockers (convex enclosures such as a closed room, furnace or cavity). Use `storage` "
             "dense or sparse");
 }
 

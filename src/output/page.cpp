@@ -62,30 +62,39 @@ std::string deflate(const void* data, std::size_t bytes) {
     return out;
 }
 
+// How an array's bytes are laid out before they are deflated: by byte planes (every value's
+// first byte, then every second byte, ...), which line up the exponents of floats and the high
+// bytes of indices (F's values deflate a seventh smaller, triangle indices 7 to 10 times), or as
+// they are, which suits vertex coordinates and Monte-Carlo standard errors (half the size of
+// their planes). Chosen by what the array holds, so that each array is deflated once.
+enum class Bytes { planes, as_is };
+
 // The page's typed arrays: {dtype, count, compression, base64} of little-endian values (x86 and
-// ARM are), deflated: the file is what the browser reads before the page can start. Deflated
-// as they are or by byte planes (every value's first byte, then every second byte, ...), the
-// smaller of the two: planes line up the exponents of floats and the high bytes of indices,
-// and shrink F's values by a seventh (triangle indices 30 times), but not coordinates.
+// ARM are), deflated: the file is what the browser reads before the page can start.
 template <class T>
-nlohmann::json typed(const std::vector<T>& v, const char* dtype) {
+nlohmann::json typed(const std::vector<T>& v, const char* dtype, Bytes layout = Bytes::planes) {
     const std::size_t bytes = v.size() * sizeof(T);
-    std::string packed = deflate(v.data(), bytes);
-    std::string planes(bytes, '\0');
-    const auto* p = reinterpret_cast<const char*>(v.data());
-    for (std::size_t k = 0; k < v.size(); ++k)
-        for (std::size_t b = 0; b < sizeof(T); ++b) planes[b * v.size() + k] = p[k * sizeof(T) + b];
-    std::string by_planes = deflate(planes.data(), bytes);
-    const bool use_planes = by_planes.size() < packed.size();
-    if (use_planes) packed = std::move(by_planes);
+    std::string packed;
+    if (layout == Bytes::planes) {
+        std::string planes(bytes, '\0');
+        const auto* p = reinterpret_cast<const char*>(v.data());
+        for (std::size_t k = 0; k < v.size(); ++k)
+            for (std::size_t b = 0; b < sizeof(T); ++b)
+                planes[b * v.size() + k] = p[k * sizeof(T) + b];
+        packed = deflate(planes.data(), bytes);
+    } else {
+        packed = deflate(v.data(), bytes);
+    }
     nlohmann::json j = {{"dtype", dtype},
                         {"count", v.size()},
                         {"compression", "deflate"},
                         {"base64", base64(packed.data(), packed.size())}};
-    if (use_planes) j["byte_planes"] = true;
+    if (layout == Bytes::planes) j["byte_planes"] = true;
     return j;
 }
-nlohmann::json f32(const std::vector<float>& v) { return typed(v, "f32"); }
+nlohmann::json f32(const std::vector<float>& v, Bytes layout = Bytes::planes) {
+    return typed(v, "f32", layout);
+}
 nlohmann::json f64(const std::vector<double>& v) { return typed(v, "f64"); }
 nlohmann::json u32(const std::vector<std::uint32_t>& v) { return typed(v, "u32"); }
 // Column indices in 2 bytes each when every index fits (N ≤ 65,536), else 4; each after the
@@ -191,6 +200,8 @@ nlohmann::json matrix_json(const Scene& scene, const Rows& m, const PageOptions&
     std::vector<float> val, se, dropped(n, 0.0f), se_max(n, 0.0f), row_error(n, 0.0f);
     std::vector<double> row_sum(n, 0.0);
     std::size_t nonzeros = 0;
+    // The share of each row's mass left out, for the page's statement of what it stores.
+    double share_sum = 0.0, share_max = 0.0;
     for (std::size_t i = 0; i < n; ++i) {
         double sum = 0.0, lost = 0.0, worst = 0.0, variance = 0.0;
         std::size_t entries = 0;
@@ -210,6 +221,9 @@ nlohmann::json matrix_json(const Scene& scene, const Rows& m, const PageOptions&
         });
         row_sum[i] = sum;
         dropped[i] = static_cast<float>(lost);
+        const double share = sum > 0.0 ? lost / sum : 0.0;
+        share_sum += share;
+        share_max = std::max(share_max, share);
         se_max[i] = static_cast<float>(worst);
         // The row sum's error: entries × the bound per entry, or 3 standard errors of the sum
         // (entries treated as independent, as the report's row_sum_standard_error_max).
@@ -220,13 +234,15 @@ nlohmann::json matrix_json(const Scene& scene, const Rows& m, const PageOptions&
     nlohmann::json j = {{"threshold", threshold},
                         {"stored_entries", val.size()},
                         {"nonzeros", nonzeros},
+                        {"dropped_share_mean", n > 0 ? share_sum / double(n) : 0.0},
+                        {"dropped_share_max", share_max},
                         {"row_ptr", u32(row_ptr)},
                         {"col", row_delta_indices(row_ptr, col, n)},
                         {"col_coding", "row-delta"},
                         {"val", f32(val)},
                         {"dropped", f32(dropped)},
                         {"row_sum", f64(row_sum)}};
-    if (m.standard_errors()) j["standard_error"] = f32(se);
+    if (m.standard_errors()) j["standard_error"] = f32(se, Bytes::as_is);
     std::vector<float> sky(n);
     for (std::size_t i = 0; i < n; ++i)
         sky[i] = static_cast<float>(std::max(0.0, 1.0 - row_sum[i]));
@@ -392,7 +408,7 @@ nlohmann::json page_data(const Scene& scene, const PageContent& content,
           {"area", f64(area)},
           {"surface", u32(surface)},
           {"vertex_offset", u32(vertex_offset)},
-          {"vertices", f32(vertices)},
+          {"vertices", f32(vertices, Bytes::as_is)},
           {"triangles", u32(triangles)},
           {"triangle_patch", u32(triangle_patch)}}},
     };

@@ -160,7 +160,7 @@ class ModelBuilder {
         if (wanted.empty()) {
             if (zones_.size() > 1)
                 throw InputError(path_, 0,
-                                 fmt::format("the model has {} zones; choose one with --zone "
+                                 fmt::format("the model has {} zones; choose one with `zone` "
                                              "NAME: {}",
                                              zones_.size(), join(zone_names())));
             zone = &zones_.front();

@@ -642,7 +642,7 @@ std::string dropped_mass_warning(const SparseFormFactors& F) {
     return fmt::format(
         "the stored entries of a row carry up to {:.3g} less than the method computed (dropped "
         "mass: what a threshold dropped or an open-scene repair lowered): the solve treats it as "
-        "seen by the environment; in a closed scene --repair closure or both puts it back",
+        "seen by the environment; in a closed scene `repair` closure or both puts it back",
         dropped);
 }
 

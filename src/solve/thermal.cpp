@@ -75,7 +75,7 @@ ThermalResult solve_thermal_system(const ThermalSystem& sys, const PatchProperti
     if (options.closed && min_row_sum < 1.0 - std::max(1e-6, sys.row_sum_tolerance))
         res.warnings.push_back(fmt::format(
             "closed model with row sums down to {:.6g}: the missing part is an error of the form "
-            "factors, not an opening; nothing is sent to the environment (--repair closure puts "
+            "factors, not an opening; nothing is sent to the environment (`repair` closure puts "
             "it back into the rows)",
             min_row_sum));
     else if (min_row_sum < 1.0 - std::max(1e-6, sys.row_sum_tolerance))

@@ -130,6 +130,17 @@ export async function decodeMatrix(m, n) {
     };
 }
 
+/// What the page says of the F it stores (the data block's matrix, before it is decoded): how
+/// many of F's nonzero entries, the threshold, and the share of its mass a row drops.
+export function storageText(m) {
+    const count = (x) => Number(x).toLocaleString('en-US');
+    const percent = (x) => `${(100 * (x ?? 0)).toFixed(1)} %`;
+    const stored = `F: ${count(m.stored_entries)} of ${count(m.nonzeros)} nonzero entries stored`;
+    if (m.stored_entries >= m.nonzeros) return `${stored} (all)`;
+    return `${stored} (F > ${Number(m.threshold).toPrecision(2)}); a row drops ` +
+        `${percent(m.dropped_share_mean)} of its mass on average, ${percent(m.dropped_share_max)} at most`;
+}
+
 /// The model's rows of F, decoded on the first call (later calls share it); null when the page
 /// has none.
 export function loadMatrix(model) {

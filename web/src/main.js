@@ -5,7 +5,7 @@
 
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
-import { decodeData, loadMatrix, colourModes, denseRow, denseColumn, topEntries, reciprocity, surfaceRow, surfaceColumn, entry } from './data.js';
+import { decodeData, loadMatrix, storageText, colourModes, denseRow, denseColumn, topEntries, reciprocity, surfaceRow, surfaceColumn, entry } from './data.js';
 import { inferno, toneMap, makeScale, ticks, formatNumber, valueRange, categorical } from './colour.js';
 
 const kTopEntries = 12;
@@ -100,12 +100,13 @@ class Page {
         const m = this.model;
         const h = el('h1', m.title || 'formfactor result');
         const sub = el('p', `${m.scene.name ?? ''} — ${m.n} patches, ${m.surfaces.length} surfaces`, 'ff-sub');
+        const storage = m.hasMatrix ? storageText(m.matrixBlock) : null;
         this.controls = el('div', null, 'ff-controls');
         this.bar = el('div', null, 'ff-bar');
         this.selection = el('div', null, 'ff-selection');
         this.selection.append(el('p', 'Click a patch to see its row of F.', 'ff-hint'));
         this.reportBox = el('details', null, 'ff-report');
-        this.side.append(h, sub, this.controls, this.bar, this.selection, this.reportBox);
+        this.side.append(h, sub, ...(storage ? [el('p', storage, 'ff-storage')] : []), this.controls, this.bar, this.selection, this.reportBox);
     }
 
     setupThree() {

@@ -193,3 +193,12 @@ test('per-surface form factors are area-weighted sums of the rows', async () => 
     // The column into surface t is each surface's row, read at t.
     for (const t of [0, 1]) assert.deepEqual([...surfaceColumn(m, t)], [surfaceRow(m, 0)[t], surfaceRow(m, 1)[t]]);
 });
+
+test('the storage statement says how much of F is kept and the share of a row dropped', async () => {
+    const { storageText } = await import('../src/data.js');
+    assert.equal(storageText({ stored_entries: 2430, nonzeros: 2430, threshold: 0 }),
+        'F: 2,430 of 2,430 nonzero entries stored (all)');
+    assert.equal(storageText({ stored_entries: 914755, nonzeros: 2191681, threshold: 5.0e-4,
+        dropped_share_mean: 0.1104, dropped_share_max: 0.5 }),
+        'F: 914,755 of 2,191,681 nonzero entries stored (F > 0.00050); a row drops 11.0 % of its mass on average, 50.0 % at most');
+});
