@@ -321,13 +321,13 @@ TEST_CASE("cli interrupt: the analytic classification stops within a second of S
 
 TEST_CASE("cli interrupt: thresholding sparse rows stops within a second of SIGTERM" *
           doctest::test_suite("slow")) {
-    // 4,320 patches, ~4,000 entries a row from dense hemicube rows: the threshold into CSR is
-    // most of a second.
+    // 4,320 patches, ~4,000 entries a row from dense hemicube rows: the threshold into CSR takes
+    // well under a second on a quiet machine, so the signal goes as soon as the phase begins.
     TempDir work, capture;
     check_prompt_stop(
         interrupt_in_phase(work, capture,
                            {"solve", "room-24", "--method", "hemicube", "--resolution", "64",
                             "--threads", "2", "--storage", "sparse", "-o", "B.csv"},
-                           "threshold", std::chrono::milliseconds(100)),
+                           "threshold", std::chrono::milliseconds(0)),
         "threshold");
 }
