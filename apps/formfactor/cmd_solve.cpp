@@ -336,7 +336,7 @@ void solve_distributed_scene(const SolveArgs& args, Scene& scene, StepTimes& tim
     const MethodKind method = args.method.resolved_kind(scene);
     const std::string method_name = to_string(method);
     ComputeOptions o = args.method.compute_options();
-    TerminalProgress bar;
+    TerminalProgress bar(cli_text);
     o.progress = &bar;
     o.cancel = &process_cancellation();
     SparseOptions so;

@@ -86,7 +86,7 @@ ComputedMatrix compute_matrix(const Scene& scene, const MethodArgs& method,
                               const RepairArgs& repair, StepTimes& times) {
     ComputeOptions o = method.compute_options();
     o.repair = repair.options(scene);
-    TerminalProgress bar;
+    TerminalProgress bar(cli_text);
     o.progress = &bar;
     o.cancel = &process_cancellation();
     // Over every MPI rank under mpirun; the pipeline's own on one process.
@@ -145,7 +145,7 @@ HierarchicalFormFactors build_hierarchical(const Scene& scene, double error_targ
     HierarchicalOptions ho;
     ho.tolerance = error_target;
     ho.threads = threads;
-    TerminalProgress bar;
+    TerminalProgress bar(cli_text);
     ho.progress = &bar;
     HierarchicalFormFactors H = formfactor::build_hierarchical(scene, ho);
     times.add("hierarchical operator", sw.lap());

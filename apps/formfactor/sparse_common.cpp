@@ -18,7 +18,7 @@ SparseComputeResult compute_sparse_matrix(const Scene& scene, const MethodArgs& 
     o.method_options = method.method_options();
     o.visibility = method.visibility;
     o.repair = repair.options(scene);
-    TerminalProgress bar;
+    TerminalProgress bar(cli_text);
     o.progress = &bar;
     o.cancel = &process_cancellation();
     SparseOptions so;

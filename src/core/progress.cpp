@@ -43,7 +43,8 @@ void TerminalProgress::finish(const std::string&) {
 void TerminalProgress::note(const std::string& text) {
     if (drawn_) std::fprintf(stderr, "\r\033[K");
     drawn_ = false;
-    std::fprintf(stderr, "formfactor: %s\n", text.c_str());
+    const std::string line = words_ ? words_(text) : text;
+    std::fprintf(stderr, "formfactor: %s\n", line.c_str());
     std::fflush(stderr);
 }
 

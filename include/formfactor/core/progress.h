@@ -6,6 +6,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstddef>
+#include <functional>
 #include <mutex>
 #include <string>
 
@@ -32,6 +33,11 @@ class ProgressSink {
 /// second.
 class TerminalProgress final : public ProgressSink {
   public:
+    TerminalProgress() = default;
+    /// Notes pass through `words` first (a front end's names for the library's backquoted
+    /// option names).
+    explicit TerminalProgress(std::function<std::string(const std::string&)> words)
+        : words_(std::move(words)) {}
     void update(const std::string& label, std::size_t done, std::size_t total,
                 double elapsed_seconds) override;
     void finish(const std::string& label) override;
@@ -40,6 +46,7 @@ class TerminalProgress final : public ProgressSink {
 
   private:
     bool drawn_ = false;
+    std::function<std::string(const std::string&)> words_;
 };
 
 /// The handle a method holds for one phase: counts units (thread-safe, cheap) and forwards to
