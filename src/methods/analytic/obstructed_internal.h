@@ -1,8 +1,9 @@
 #pragma once
 // Internals of the obstruction-aware analytic method (not public API): convex blocker pieces in
 // a BVH (blocker_set.cpp), conservative shaft classification of polygon pairs (shaft.cpp), and
-// the adaptive integration of the hidden part of a partly hidden pair (obstructed.cpp, with
-// discontinuity_mesh.cpp and shadow_clip.{h,cpp}). See docs/analytic.md, "Obstructed scenes".
+// the adaptive integration of the hidden part of a partly hidden pair (point_kernel.cpp,
+// umbrae.cpp, hidden_integral.cpp, with discontinuity_mesh.cpp and shadow_clip.{h,cpp}). See
+// docs/analytic.md, "Obstructed scenes".
 
 #include <algorithm>
 #include <cstdint>

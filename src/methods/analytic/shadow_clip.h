@@ -1,6 +1,6 @@
 #pragma once
 // Small fixed-capacity convex polygons and their clipping, shared by the point kernel
-// (obstructed.cpp: shadows of the blocker pieces on the receiver, their union by fragment
+// (point_kernel.cpp: shadows of the blocker pieces on the receiver, their union by fragment
 // subtraction, Lambert's formula on the fragments) and the sender's event split
 // (discontinuity_mesh.cpp). The small helpers are inline here; clip3, clip2 and lambert2 are
 // in shadow_clip.cpp.

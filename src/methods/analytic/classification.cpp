@@ -1,0 +1,316 @@
+// The classification of the obstructed analytic method: the patches grouped by plane (nothing
+// in one plane blocks a pair of that plane), each group a cluster tree whose nodes bound their
+// patches by a convex hull; a group's tiles merged into convex blocker pieces; then for every
+// pair of groups a recursion over node pairs whose shaft (Haines & Wallace 1994) is tested
+// against the blocker pieces (shaft.cpp): hidden and visible node pairs end the recursion, the
+// partly hidden patch pairs are kept with their candidate pieces for the integration. See
+// docs/analytic.md, "Obstructed scenes".
+
+#include "methods/analytic/classification.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <vector>
+
+#include "formfactor/core/cancel.h"
+#include "formfactor/core/parallel.h"
+#include "formfactor/core/phase.h"
+
+namespace formfactor::detail {
+
+int ClusterTree::build(const std::vector<TreeItem>& items, int first, int count) {
+    const int id = static_cast<int>(nodes.size());
+    nodes.push_back({});
+    std::vector<Vec3> pts;
+    Bounds3 cbox;
+    for (int k = first; k < first + count; ++k) {
+        const TreeItem& p = items[static_cast<std::size_t>(order[static_cast<std::size_t>(k)])];
+        for (const Vec3& v : p.polygon->vertices) pts.push_back(v);
+        cbox.extend(p.centroid);
+    }
+    std::vector<Vec3> hull = detail::planar_convex_hull(pts, normal);
+    if (hull.size() > static_cast<std::size_t>(detail::kMaxPieceVertices) || hull.size() < 3) {
+        // Too many vertices for a shaft: the bounding rectangle in the plane (a superset).
+        Vec3 u, v;
+        orthonormal_basis(normal, u, v);
+        double lo_u = 1e300, hi_u = -1e300, lo_v = 1e300, hi_v = -1e300;
+        for (const Vec3& q : pts) {
+            lo_u = std::min(lo_u, u.dot(q));
+            hi_u = std::max(hi_u, u.dot(q));
+            lo_v = std::min(lo_v, v.dot(q));
+            hi_v = std::max(hi_v, v.dot(q));
+        }
+        const Vec3 o = normal * normal.dot(pts[0]);
+        hull = {o + lo_u * u + lo_v * v, o + hi_u * u + lo_v * v, o + hi_u * u + hi_v * v,
+                o + lo_u * u + hi_v * v};
+    }
+    Polygon hp;
+    hp.vertices = hull;
+    nodes[static_cast<std::size_t>(id)].area = area(hp);
+    nodes[static_cast<std::size_t>(id)].hull = std::move(hull);
+    nodes[static_cast<std::size_t>(id)].first = first;
+    nodes[static_cast<std::size_t>(id)].count = count;
+    if (count == 1) return id;
+    int axis = 0;
+    const Vec3 ext = cbox.diagonal();
+    if (ext.y() > ext[axis]) axis = 1;
+    if (ext.z() > ext[axis]) axis = 2;
+    const int mid = first + count / 2;
+    std::nth_element(order.begin() + first, order.begin() + mid, order.begin() + first + count,
+                     [&](int a, int b) {
+                         const double ca = items[static_cast<std::size_t>(a)].centroid[axis];
+                         const double cb = items[static_cast<std::size_t>(b)].centroid[axis];
+                         return ca < cb || (ca == cb && a < b);
+                     });
+    const int l = build(items, first, mid - first);
+    const int r = build(items, mid, first + count - mid);
+    nodes[static_cast<std::size_t>(id)].left = l;
+    nodes[static_cast<std::size_t>(id)].right = r;
+    return id;
+}
+
+namespace {
+
+// When the polygons of node nd tile their convex hull (their areas add up to its area within
+// 1e-9): that hull in `out`, as one convex blocker piece. Hull vertices within 1e-11 of the
+// points' extent of the line through their neighbours are dropped first: the boundary vertices
+// of a subdivided face are collinear only up to rounding, and a face split 12 × 12 would
+// otherwise have a hull of more vertices than a piece may have (and block as many pieces).
+bool tiled_hull(const ClusterTree& T, const ClusterTree::Node& nd,
+                const std::vector<TreeItem>& items, double sum, Polygon& out) {
+    std::vector<Vec3> pts;
+    Bounds3 box;
+    for (int k = nd.first; k < nd.first + nd.count; ++k)
+        for (const Vec3& v : items[static_cast<std::size_t>(T.order[static_cast<std::size_t>(k)])]
+                                 .polygon->vertices) {
+            pts.push_back(v);
+            box.extend(v);
+        }
+    std::vector<Vec3> hull = detail::planar_convex_hull(pts, T.normal);
+    const double tol = 1e-11 * box.diagonal().norm();
+    for (bool removed = true; removed && hull.size() > 3;) {
+        removed = false;
+        for (std::size_t k = 0; k < hull.size() && hull.size() > 3; ++k) {
+            const Vec3& a = hull[(k + hull.size() - 1) % hull.size()];
+            const Vec3& b = hull[(k + 1) % hull.size()];
+            const Vec3 e = b - a;
+            const double el = e.norm();
+            if (el > 0.0 && e.cross(hull[k] - a).norm() <= tol * el) {
+                hull.erase(hull.begin() + static_cast<std::ptrdiff_t>(k));
+                removed = true;
+            }
+        }
+    }
+    if (hull.size() < 3 || hull.size() > static_cast<std::size_t>(detail::kMaxPieceVertices))
+        return false;
+    out.vertices = std::move(hull);
+    const double a = area(out);
+    return std::abs(sum - a) <= 1e-9 * a;
+}
+
+class Classifier {
+  public:
+    Classifier(const std::vector<ClusterTree>& trees, const BlockerSet& blockers, double eps,
+               const CancellationFlag& cancel, bool record_visible = false)
+        : trees_(trees),
+          blockers_(blockers),
+          eps_(eps),
+          cancel_(cancel),
+          record_visible_(record_visible) {}
+
+    void surface_pair(int ta, int tb, PairOutput& out) {
+        pool_.clear();
+        const auto& A = trees_[static_cast<std::size_t>(ta)].nodes[0];
+        const auto& B = trees_[static_cast<std::size_t>(tb)].nodes[0];
+        Shaft sh;
+        sh.build(A.hull.data(), static_cast<int>(A.hull.size()),
+                 trees_[static_cast<std::size_t>(ta)].normal, B.hull.data(),
+                 static_cast<int>(B.hull.size()), trees_[static_cast<std::size_t>(tb)].normal,
+                 eps_);
+        if (sh.facing_away()) return;
+        blockers_.query(sh, trees_[static_cast<std::size_t>(ta)].blocker_id,
+                        trees_[static_cast<std::size_t>(tb)].blocker_id, pool_);
+        recurse(ta, 0, tb, 0, 0, pool_.size(), out);
+    }
+
+  private:
+    const std::vector<ClusterTree>& trees_;
+    const BlockerSet& blockers_;
+    double eps_;
+    const CancellationFlag& cancel_;
+    bool record_visible_ = false;
+    std::vector<int> pool_, kept_;
+
+    void recurse(int ta, int a, int tb, int b, std::size_t first, std::size_t count,
+                 PairOutput& out) {
+        const ClusterTree& TA = trees_[static_cast<std::size_t>(ta)];
+        const ClusterTree& TB = trees_[static_cast<std::size_t>(tb)];
+        const auto& A = TA.nodes[static_cast<std::size_t>(a)];
+        const auto& B = TB.nodes[static_cast<std::size_t>(b)];
+        // One pair of large surfaces (a city's ground and a facade) is seconds of node pairs.
+        cancel_.throw_if_requested();
+        ++out.node_pairs;
+        Shaft sh;
+        sh.build(A.hull.data(), static_cast<int>(A.hull.size()), TA.normal, B.hull.data(),
+                 static_cast<int>(B.hull.size()), TB.normal, eps_);
+        if (sh.facing_away()) return;
+        // The exact (edge-edge) separation test only for patch pairs: above them a false
+        // "partly hidden" costs one more level of recursion, below it an integration.
+        const bool leaves = A.count == 1 && B.count == 1;
+        const ShaftClass cls = detail::classify_shaft(sh, blockers_, pool_.data() + first,
+                                                      static_cast<int>(count), kept_, leaves);
+        const std::size_t pairs =
+            static_cast<std::size_t>(A.count) * static_cast<std::size_t>(B.count);
+        if (cls == ShaftClass::kHidden) {
+            out.hidden.push_back({ta, a, tb, b});
+            out.hidden_patch_pairs += pairs;
+            return;
+        }
+        if (cls == ShaftClass::kVisible) {
+            out.visible_patch_pairs += pairs;
+            if (record_visible_) out.visible.push_back({ta, a, tb, b});
+            return;
+        }
+        if (leaves) {
+            PartialPair p;
+            p.i = TA.order[static_cast<std::size_t>(A.first)];
+            p.j = TB.order[static_cast<std::size_t>(B.first)];
+            p.cand_first = out.cand.size();
+            p.cand_count = static_cast<int>(kept_.size());
+            out.cand.insert(out.cand.end(), kept_.begin(), kept_.end());
+            out.partial.push_back(p);
+            return;
+        }
+        const std::size_t mine = pool_.size();
+        pool_.insert(pool_.end(), kept_.begin(), kept_.end());
+        const std::size_t n = kept_.size();
+        const bool split_a = B.count == 1 || (A.count > 1 && A.area >= B.area);
+        if (split_a) {
+            recurse(ta, A.left, tb, b, mine, n, out);
+            recurse(ta, A.right, tb, b, mine, n, out);
+        } else {
+            recurse(ta, a, tb, B.left, mine, n, out);
+            recurse(ta, a, tb, B.right, mine, n, out);
+        }
+        pool_.resize(mine);
+    }
+};
+
+}  // namespace
+
+void prepare_obstructions(const MethodContext& ctx, bool record_visible, Obstructions& S) {
+    const Scene& scene = ctx.scene;
+    const MethodOptions& options = ctx.options;
+    const auto t_start = Clock::now();
+    announce_phase("analytic setup");
+    const std::size_t n = scene.patches.size();
+    Bounds3 box = scene.bounds();
+    for (const Patch& p : scene.patches)
+        for (const Vec3& v : p.polygon.vertices) box.extend(v);
+    const double diag = box.empty() ? 1.0 : box.diagonal().norm();
+    // Groups of patches: those in one plane with one orientation (whatever surfaces they came
+    // from: a VS3 file may list every patch as a surface). Nothing in a group can block a pair
+    // involving the group, and a group's patches often tile a convex region, which then blocks
+    // as one piece. Obstruction-only surfaces are grouped the same way (apart from the
+    // patches), so that a box given as many small obstruction records blocks as the same
+    // few pieces as the box given as whole faces.
+    std::vector<TreeItem>& items = S.items;
+    std::vector<ClusterTree>& trees = S.trees;
+    std::vector<ClusterTree>& otrees = S.otrees;
+    BlockerSet& blockers = S.blockers;
+    items.reserve(n);
+    for (const Patch& p : scene.patches) items.push_back({&p.polygon, p.centroid, p.area});
+    auto group = [&](std::vector<ClusterTree>& dst, std::size_t first, std::size_t last,
+                     int id_base) {
+        std::map<std::array<long long, 4>, int> key_to_group;
+        for (std::size_t p = first; p < last; ++p) {
+            const TreeItem& it = items[p];
+            const Vec3 nn = normal(*it.polygon);
+            const double d = nn.dot(it.centroid) / diag;
+            const std::array<long long, 4> key = {
+                std::llround(nn.x() * 1e8), std::llround(nn.y() * 1e8), std::llround(nn.z() * 1e8),
+                std::llround(d * 1e8)};
+            auto g = key_to_group.find(key);
+            if (g == key_to_group.end()) {
+                g = key_to_group.emplace(key, static_cast<int>(dst.size())).first;
+                ClusterTree t;
+                t.normal = nn;
+                t.blocker_id = id_base + static_cast<int>(dst.size());
+                dst.push_back(std::move(t));
+            }
+            dst[static_cast<std::size_t>(g->second)].order.push_back(static_cast<int>(p));
+        }
+    };
+    group(trees, 0, n, 0);
+    for (const Surface& s : scene.surfaces)
+        if (s.obstruction && area(s.polygon) > 0.0)
+            items.push_back({&s.polygon, centroid(s.polygon), area(s.polygon)});
+    group(otrees, n, items.size(), static_cast<int>(trees.size()));
+    parallel_for(trees.size() + otrees.size(), options.threads, [&](std::size_t t) {
+        ClusterTree& T = t < trees.size() ? trees[t] : otrees[t - trees.size()];
+        T.build(items, 0, static_cast<int>(T.order.size()));
+    });
+    // Blockers: for each group, the largest tree nodes whose polygons tile their hull (one
+    // convex piece each), else single polygons.
+    std::size_t& merged_pieces = S.merged_pieces;
+    for (std::size_t t = 0; t < trees.size() + otrees.size(); ++t) {
+        const ClusterTree& T = t < trees.size() ? trees[t] : otrees[t - trees.size()];
+        std::vector<int> stack = {0};
+        while (!stack.empty()) {
+            const auto& nd = T.nodes[static_cast<std::size_t>(stack.back())];
+            stack.pop_back();
+            double sum = 0.0;
+            for (int k = nd.first; k < nd.first + nd.count; ++k)
+                sum += items[static_cast<std::size_t>(T.order[static_cast<std::size_t>(k)])].area;
+            if (nd.count == 1) {
+                blockers.add(
+                    *items[static_cast<std::size_t>(T.order[static_cast<std::size_t>(nd.first)])]
+                         .polygon,
+                    T.blocker_id);
+            } else if (Polygon hp; tiled_hull(T, nd, items, sum, hp)) {
+                blockers.add(hp, T.blocker_id);
+                ++merged_pieces;
+            } else {
+                stack.push_back(nd.left);
+                stack.push_back(nd.right);
+            }
+        }
+    }
+    blockers.build();
+    {
+        std::vector<std::pair<Bounds3, int>> patch_boxes;
+        for (const ClusterTree& t : trees)
+            for (int p : t.order) {
+                Bounds3 b;
+                for (const Vec3& v : scene.patches[static_cast<std::size_t>(p)].polygon.vertices)
+                    b.extend(v);
+                patch_boxes.emplace_back(b, t.blocker_id);
+            }
+        blockers.mark_closed_solids(patch_boxes, 1e-9 * diag);
+    }
+
+    const double eps = 1e-11 * diag;
+    S.eps = eps;
+
+    const auto t_setup = Clock::now();
+    // 1. Classification, one task per unordered pair of surfaces.
+    std::vector<std::array<int, 2>> spairs;
+    for (std::size_t a = 0; a < trees.size(); ++a)
+        for (std::size_t b = a + 1; b < trees.size(); ++b)
+            spairs.push_back({static_cast<int>(a), static_cast<int>(b)});
+    std::vector<PairOutput>& outputs = S.outputs;
+    outputs.resize(spairs.size());
+    announce_phase("analytic classification");
+    const CancellationFlag& cancel = current_cancellation();
+    parallel_for(spairs.size(), options.threads, [&](std::size_t k) {
+        Classifier c(trees, blockers, eps, cancel, record_visible);
+        c.surface_pair(spairs[k][0], spairs[k][1], outputs[k]);
+    });
+
+    const auto t_classified = Clock::now();
+    S.seconds_setup = seconds(t_start, t_setup);
+    S.seconds_classification = seconds(t_setup, t_classified);
+}
+
+}  // namespace formfactor::detail

@@ -1,0 +1,100 @@
+#pragma once
+// The classification of the obstructed analytic method (classification.cpp): patch pairs sorted
+// into visible, hidden and partly hidden by shafts between cluster nodes against the blocker
+// pieces, hierarchically (Haines & Wallace 1994, shaft culling; Hanrahan, Salzman & Aupperle
+// 1991, the hierarchy). What the dense pass and the sparse rows of analytic_obstructed.cpp share.
+
+#include <chrono>
+#include <cstddef>
+#include <vector>
+
+#include "formfactor/core/types.h"
+#include "formfactor/geometry/polygon.h"
+#include "methods/analytic/analytic_method.h"
+#include "methods/analytic/obstructed_internal.h"
+
+namespace formfactor::detail {
+
+// A polygon that a cluster tree holds: a patch, or an obstruction-only surface.
+struct TreeItem {
+    const Polygon* polygon = nullptr;
+    Vec3 centroid = Vec3::Zero();
+    double area = 0.0;
+};
+
+// A hierarchy of coplanar polygons (the patches of one plane group, or its obstruction-only
+// surfaces): nodes bound their polygons by the planar convex hull of their vertices (a superset
+// of their union, so every shaft test stays conservative).
+struct ClusterTree {
+    struct Node {
+        std::vector<Vec3> hull;
+        double area = 0;
+        int left = -1, right = -1;
+        int first = 0, count = 0;  // order[first, first + count)
+    };
+    std::vector<Node> nodes;
+    std::vector<int> order;  // indices into the items the tree was built on
+    Vec3 normal = Vec3::UnitZ();
+    int blocker_id = -1;  // the id of this group's pieces in the BlockerSet
+
+    /// Builds the node over order[first, first + count) (items' indices); returns its id.
+    int build(const std::vector<TreeItem>& items, int first, int count);
+};
+
+struct PartialPair {
+    int i = 0, j = 0;
+    std::size_t cand_first = 0;
+    int cand_count = 0;
+};
+
+struct NodePair {
+    int ta, a, tb, b;  // tree and node indices
+};
+
+// What one surface pair's classification produced.
+struct PairOutput {
+    std::vector<NodePair> hidden;
+    std::vector<NodePair> visible;  // only when the classifier records them (sparse rows)
+    std::vector<PartialPair> partial;
+    std::vector<int> cand;
+    std::size_t node_pairs = 0;
+    std::size_t visible_patch_pairs = 0, hidden_patch_pairs = 0;
+};
+
+using Clock = std::chrono::steady_clock;
+inline double seconds(Clock::time_point a, Clock::time_point b) {
+    return std::chrono::duration<double>(b - a).count();
+}
+
+// The blockers and the classification of every patch pair of a scene that may obstruct: what
+// the dense pass and the sparse rows share.
+struct Obstructions {
+    std::vector<TreeItem> items;
+    std::vector<ClusterTree> trees, otrees;  // patches' and obstruction-only plane groups
+    BlockerSet blockers;
+    std::size_t merged_pieces = 0;
+    double eps = 0;
+    std::vector<PairOutput> outputs;  // one per unordered pair of plane groups
+    double seconds_setup = 0, seconds_classification = 0;
+};
+
+/// Groups the scene's patches and obstruction-only surfaces by plane, builds their cluster trees
+/// and the blocker pieces, and classifies every pair of groups (in parallel; announces the
+/// phases "analytic setup" and "analytic classification"). record_visible: keep the visible
+/// node pairs too (the sparse rows need them).
+void prepare_obstructions(const MethodContext& ctx, bool record_visible, Obstructions& S);
+
+// f(i, j) for every patch pair (i of node a, j of node b) of a node pair.
+template <class F>
+void for_each_patch_pair(const std::vector<ClusterTree>& trees, const NodePair& np, const F& f) {
+    const ClusterTree& TA = trees[static_cast<std::size_t>(np.ta)];
+    const ClusterTree& TB = trees[static_cast<std::size_t>(np.tb)];
+    const auto& A = TA.nodes[static_cast<std::size_t>(np.a)];
+    const auto& B = TB.nodes[static_cast<std::size_t>(np.b)];
+    for (int x = A.first; x < A.first + A.count; ++x)
+        for (int y = B.first; y < B.first + B.count; ++y)
+            f(static_cast<std::size_t>(TA.order[static_cast<std::size_t>(x)]),
+              static_cast<std::size_t>(TB.order[static_cast<std::size_t>(y)]));
+}
+
+}  // namespace formfactor::detail

@@ -1,0 +1,549 @@
+// The adaptive integration of the hidden part of a partly hidden pair over the sender
+// (Walton's adaptive method, NISTIR 6925): the sender cut along its event lines
+// (discontinuity_mesh.cpp), each piece mapped from the unit square and integrated cell by cell by
+// tensor Gauss rules of the exact point kernel (point_kernel.cpp), the cells with the largest
+// error estimates split until their sum is within the target; with the public functions of
+// formfactor/methods/obstructed.h. See docs/analytic.md, "Obstructed scenes".
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <numeric>
+#include <queue>
+#include <vector>
+
+#include "formfactor/core/error.h"
+#include "formfactor/kernels/analytic.h"
+#include "formfactor/methods/obstructed.h"
+#include "kernels/analytic_internal.h"
+#include "methods/analytic/obstructed_internal.h"
+#include "methods/analytic/point_kernel.h"
+#include "methods/analytic/sender_cells.h"
+#include "methods/analytic/shadow_clip.h"
+
+namespace formfactor {
+namespace detail {
+
+namespace {
+
+// Cells where the shaft test finds a blocker but no sample point sees a shadow get their whole
+// unobstructed contribution as the error estimate (forcing subdivision) down to this level; below
+// it such a shadow is a sliver along a shadow boundary, whose part the normal estimate covers.
+constexpr int kSuspiciousLevels = 4;
+
+// Squared distance between the segments p0 p1 and q0 q1 (the closest pair of points, clamped
+// to both segments).
+double segment_distance2(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1) {
+    const Vec3 d1 = p1 - p0, d2 = q1 - q0, r = p0 - q0;
+    const double a = d1.squaredNorm(), e = d2.squaredNorm(), f = d2.dot(r);
+    double sp = 0.0, tq = 0.0;
+    if (a <= 0.0 && e <= 0.0) return r.squaredNorm();
+    if (a <= 0.0) {
+        tq = std::clamp(f / e, 0.0, 1.0);
+    } else {
+        const double c = d1.dot(r);
+        if (e <= 0.0) {
+            sp = std::clamp(-c / a, 0.0, 1.0);
+        } else {
+            const double b = d1.dot(d2), den = a * e - b * b;
+            sp = den > 0.0 ? std::clamp((b * f - c * e) / den, 0.0, 1.0) : 0.0;
+            tq = (b * sp + f) / e;
+            if (tq < 0.0) {
+                tq = 0.0;
+                sp = std::clamp(-c / a, 0.0, 1.0);
+            } else if (tq > 1.0) {
+                tq = 1.0;
+                sp = std::clamp((b - c) / a, 0.0, 1.0);
+            }
+        }
+    }
+    return (p0 + sp * d1 - (q0 + tq * d2)).squaredNorm();
+}
+
+// Squared distance from x to the planar convex polygon p (n vertices): to its plane when x
+// projects inside it, else to its nearest edge.
+double point_polygon_distance2(const Vec3& x, const Vec3* p, int n) {
+    double best = INFINITY;
+    for (int k = 0; k < n; ++k)
+        best = std::min(best, segment_distance2(x, x, p[k], p[k + 1 == n ? 0 : k + 1]));
+    if (n < 3) return best;
+    Vec3 nrm = Vec3::Zero();
+    for (int k = 0; k < n; ++k) nrm += p[k].cross(p[k + 1 == n ? 0 : k + 1]);
+    const double len = nrm.norm();
+    if (!(len > 0.0)) return best;
+    nrm /= len;
+    bool inside = true;
+    for (int k = 0; k < n && inside; ++k) {
+        const Vec3& a = p[k];
+        const Vec3& b = p[k + 1 == n ? 0 : k + 1];
+        inside = (b - a).cross(x - a).dot(nrm) >= 0.0;
+    }
+    if (!inside) return best;
+    const double h = nrm.dot(x - p[0]);
+    return std::min(best, h * h);
+}
+
+// A lower bound on the distance between two planar convex polygons (exact when they do not
+// intersect): the closest of vertex-polygon and edge-edge distances; 0 when they meet.
+double polygon_distance(const Vec3* a, int na, const Vec3* b, int nb) {
+    double best = INFINITY;
+    for (int i = 0; i < na; ++i) best = std::min(best, point_polygon_distance2(a[i], b, nb));
+    for (int j = 0; j < nb; ++j) best = std::min(best, point_polygon_distance2(b[j], a, na));
+    for (int i = 0; i < na; ++i)
+        for (int j = 0; j < nb; ++j)
+            best = std::min(best, segment_distance2(a[i], a[i + 1 == na ? 0 : i + 1], b[j],
+                                                    b[j + 1 == nb ? 0 : j + 1]));
+    // Two polygons that cross each other have every such distance > 0: test an edge of each
+    // through the other's interior.
+    auto pierces = [](const Vec3* p, int np, const Vec3* q, int nq) {
+        if (nq < 3) return false;
+        const Vec3 nrm = (q[1] - q[0]).cross(q[2] - q[0]);
+        for (int i = 0; i < np; ++i) {
+            const Vec3& e0 = p[i];
+            const Vec3& e1 = p[i + 1 == np ? 0 : i + 1];
+            const double h0 = nrm.dot(e0 - q[0]), h1 = nrm.dot(e1 - q[0]);
+            if ((h0 < 0.0) == (h1 < 0.0) || h0 == h1) continue;
+            const Vec3 x = e0 + (e1 - e0) * (h0 / (h0 - h1));
+            bool inside = true;
+            for (int k = 0; k < nq && inside; ++k)
+                inside = (q[k + 1 == nq ? 0 : k + 1] - q[k]).cross(x - q[k]).dot(nrm) >= 0.0;
+            if (inside) return true;
+        }
+        return false;
+    };
+    if (pierces(a, na, b, nb) || pierces(b, nb, a, na)) return 0.0;
+    return std::sqrt(best);
+}
+
+}  // namespace
+
+double point_hidden(const Vec3& x, const Vec3& n, const Polygon& r, const BlockerSet& blockers,
+                    const int* cand, int count, double eps, double* unobstructed) {
+    const Receiver rc(r);
+    const PointResult res =
+        evaluate_point(rc, x, n, blockers, cand, count, eps, unobstructed != nullptr);
+    if (unobstructed) *unobstructed = res.unobstructed;
+    return std::min(res.hidden, unobstructed ? res.unobstructed : res.hidden);
+}
+
+double hidden_estimate(const Polygon& s, const Polygon& r, const BlockerSet& blockers,
+                       const int* cand, int n, double eps, std::size_t& points) {
+    const double area_s = area(s);
+    if (!(area_s > 0.0) || n == 0) return 0.0;
+    const Vec3 ns = normal(s);
+    const Receiver rc(r);
+    // The degree-2 rule of a triangle (points 2/3, 1/6, 1/6 in barycentric coordinates, equal
+    // weights) on each triangle of s's fan.
+    double sum = 0.0;
+    for (std::size_t k = 1; k + 1 < s.size(); ++k) {
+        const Vec3 &a = s[0], &b = s[k], &c = s[k + 1];
+        const double w = 0.5 * (b - a).cross(c - a).norm() / (3.0 * area_s);
+        for (int q = 0; q < 3; ++q) {
+            const Vec3 corner = q == 0 ? a : q == 1 ? b : c;
+            const Vec3 x = (a + b + c + 3.0 * corner) / 6.0;
+            sum += w * evaluate_point(rc, x, ns, blockers, cand, n, eps, false).hidden;
+            ++points;
+        }
+    }
+    return sum;
+}
+
+HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const BlockerSet& blockers,
+                               const int* cand, int n, double target, double eps) {
+    HiddenIntegral out;
+    const double area_s = area(s);
+    if (!(area_s > 0.0) || n == 0) return out;
+    const Vec3 ns = normal(s);
+    const Receiver rc(r);
+    // The lowest elevation above the sender's plane at which a point of s sees a point of r:
+    // sin θ_r ≥ (the receiver's lowest height above that plane) / (the largest sender–receiver
+    // vertex distance); 0 when r reaches down to the plane. Directions below θ_r meet no part
+    // of r, so nothing seen only below θ_r hides any of it.
+    double sin_receiver = 0.0;
+    {
+        double hmin = INFINITY, dmax = 0.0;
+        for (const Vec3& q : r.vertices) {
+            hmin = std::min(hmin, ns.dot(q - s[0]));
+            for (const Vec3& v : s.vertices) dmax = std::max(dmax, (q - v).norm());
+        }
+        if (hmin > 0.0 && dmax > 0.0) sin_receiver = std::min(1.0, hmin / dmax);
+    }
+    const double sin2_receiver = sin_receiver * sin_receiver;
+    // Sender pieces: the sender cut along the lines where the integrand has kinks, then
+    // triangles (or the sender's own quad when nothing cuts it).
+    const std::vector<Polygon> pieces = split_by_events(s, ns, rc, blockers, cand, n, eps);
+    // Each convex piece is mapped from the unit square by quads (0, k, k+1, k+2) of its fan
+    // (convex, as parts of a convex polygon) and a last triangle when the count is odd: half
+    // the maps, so half the cells, of a fan of triangles. Slivers below 1e-12 of the sender
+    // (rounding pieces of the cut) are not integrated: F(x → r) ≤ 1 bounds what they hold,
+    // and that bound goes into the error.
+    std::vector<SenderMap> maps;
+    double sliver_error = 0.0;
+    auto add_map = [&](const SenderMap& m, double a) {
+        if (a <= 1e-12 * area_s) {
+            sliver_error += a / area_s;
+            return;
+        }
+        maps.push_back(m);
+    };
+    for (const Polygon& pc : pieces) {
+        const std::size_t nv = pc.size();
+        std::size_t k = 1;
+        for (; k + 2 < nv; k += 2) {
+            SenderMap m;
+            m.quad = true;
+            m.p0 = pc[0];
+            m.p1 = pc[k];
+            m.p2 = pc[k + 1];
+            m.p3 = pc[k + 2];
+            const double a = 0.5 * ((m.p2 - m.p0).cross(m.p3 - m.p1)).norm();
+            add_map(m, a);
+        }
+        if (k + 1 < nv) {
+            SenderMap m;
+            m.p0 = pc[0];
+            m.p1 = pc[k];
+            m.p2 = pc[k + 1];
+            m.tri_j = (m.p1 - m.p0).cross(m.p2 - m.p1).norm();
+            add_map(m, 0.5 * m.tri_j);
+        }
+    }
+    const CellRules rules;
+    thread_local std::vector<int> kept;
+    std::vector<int> cell_cand;
+    const double inv_area = 1.0 / area_s;
+
+    auto process = [&](Cell& c) {
+        const SenderMap& m = maps[static_cast<std::size_t>(c.map)];
+        Vec3 corner[4] = {m.at(c.u0, c.v0), m.at(c.u1, c.v0), m.at(c.u1, c.v1), m.at(c.u0, c.v1)};
+        Vec3 poly[4];
+        int np = 0;
+        for (const Vec3& q : corner)
+            if (np == 0 || (q - poly[np - 1]).squaredNorm() > 0.0) poly[np++] = q;
+        while (np > 1 && (poly[0] - poly[np - 1]).squaredNorm() == 0.0) --np;
+        c.value = 0.0;
+        c.error = 0.0;
+        if (np < 3) return;
+        Shaft sh;
+        sh.build(poly, np, ns, rc.poly.v.data(), rc.poly.n, rc.n, eps);
+        if (sh.facing_away()) return;
+        const ShaftClass cls = classify_shaft(sh, blockers, cand, n, kept, false);
+        if (cls == ShaftClass::kVisible) return;
+        const double du = c.u1 - c.u0, dv = c.v1 - c.v0;
+        const double scale = du * dv * inv_area;
+        // The cell's share of the target: its part of the sender's area (the 2 × 2 rule
+        // integrates the bilinear and the collapsed map's Jacobians exactly), so that the cells
+        // that end by agreement of orders 2 and 3 never add up to more than the target.
+        double frac = 0.0;
+        for (std::size_t i = 0; i < kLowOrder; ++i)
+            for (std::size_t j = 0; j < kLowOrder; ++j)
+                frac += rules.g2.w[i] * rules.g2.w[j] *
+                        m.jacobian(c.u0 + du * rules.g2.x[i], c.v0 + dv * rules.g2.x[j]);
+        frac *= scale;
+        // Hidden: the cell's whole unobstructed part. F(x → r) is smooth on the cell: orders 2
+        // and 3 of it agreeing kAgreement times better than the cell's share of the target (as
+        // for a partly hidden cell below) give its integral for 13 evaluations of Lambert's
+        // formula; else the closed form, whose edge integrals resolved to 1e-16 cost many times
+        // more.
+        // A cell that sees nothing of the receiver: its whole unobstructed part.
+        // known_q2: order 2 of it when the caller has it already (< 0: not).
+        auto whole_cell = [&](double known_q2) {
+            ++out.closed_forms;
+            double q2 = 0.0, q3 = 0.0;
+            auto unobstructed_rule = [&](const GaussRule& g, int order, double& q) {
+                for (int i = 0; i < order; ++i)
+                    for (int j = 0; j < order; ++j) {
+                        const double u = c.u0 + du * g.x[static_cast<std::size_t>(i)];
+                        const double v = c.v0 + dv * g.x[static_cast<std::size_t>(j)];
+                        const double w = g.w[static_cast<std::size_t>(i)] *
+                                         g.w[static_cast<std::size_t>(j)] * m.jacobian(u, v);
+                        q += w * evaluate_point(rc, m.at(u, v), ns, blockers, nullptr, 0, eps, true)
+                                     .unobstructed;
+                        ++out.points;
+                    }
+            };
+            if (known_q2 >= 0.0)
+                q2 = known_q2;
+            else
+                unobstructed_rule(rules.g2, kLowOrder, q2);
+            unobstructed_rule(rules.g3, kMidOrder, q3);
+            const double e23 = std::abs(q3 - q2) * scale;
+            if (kAgreement * e23 <= target * frac) {
+                c.value = q3 * scale;
+                c.error = kAgreement * e23;
+                return;
+            }
+            Polygon cp;
+            cp.vertices.assign(poly, poly + np);
+            c.value = polygon_to_polygon(cp, r) * area(cp) * inv_area;
+            c.error = 1e-12 * area(cp) * inv_area;
+        };
+        if (cls == ShaftClass::kHidden) {
+            whole_cell(-1.0);
+            return;
+        }
+        // Pieces that face the cell first: the shadows of the others (the back faces of a closed
+        // solid) then mostly vanish in the union.
+        cell_cand.clear();
+        const Vec3 mid = m.at(0.5 * (c.u0 + c.u1), 0.5 * (c.v0 + c.v1));
+        for (int pass = 0; pass < 2; ++pass)
+            for (int k : kept)
+                if ((blockers.piece(k).plane.signed_distance(mid) > 0.0) == (pass == 0))
+                    cell_cand.push_back(k);
+        double q2 = 0.0, q3 = 0.0, u3 = 0.0;
+        bool any_hidden = false, any_visible = false;
+        auto f = [&](double u, double v) {
+            ++out.points;
+            return evaluate_point(rc, m.at(u, v), ns, blockers, cell_cand.data(),
+                                  static_cast<int>(cell_cand.size()), eps, false);
+        };
+        // Tensor Gauss rules of orders 2, 3 and 4 (29 points): the order-4 value, the larger of
+        // the two differences its error estimate. Two low orders alone can agree by chance while
+        // both are off (seen: orders 2 and 3 within 4e-8 of each other and 1.75e-6 from the
+        // integral, which order 4 gets to 1.2e-7); three rules must all agree.
+        double q4 = 0.0;
+        auto rule = [&](const GaussRule& g, int order, double& q) {
+            for (int i = 0; i < order; ++i)
+                for (int j = 0; j < order; ++j) {
+                    const double u = c.u0 + du * g.x[static_cast<std::size_t>(i)];
+                    const double v = c.v0 + dv * g.x[static_cast<std::size_t>(j)];
+                    const PointResult pr = f(u, v);
+                    const double val = pr.hidden;
+                    any_hidden = any_hidden || pr.hidden > 0.0;
+                    any_visible = any_visible || !pr.all_hidden;
+                    q += g.w[static_cast<std::size_t>(i)] * g.w[static_cast<std::size_t>(j)] *
+                         m.jacobian(u, v) * val;
+                }
+        };
+        rule(rules.g2, kLowOrder, q2);
+        if (any_hidden && !any_visible &&
+            cell_hidden(rc, poly, np, ns, blockers, cell_cand.data(),
+                        static_cast<int>(cell_cand.size()), eps)) {
+            // The umbrae of the candidates cover the receiver from the whole cell (no gap of
+            // light between their shadows anywhere in it): a hidden cell after all.
+            ++out.proven_hidden;
+            whole_cell(q2);  // order 2 saw nothing: its hidden part was the whole
+            return;
+        }
+        if (any_hidden && !any_visible) {
+            // Orders 2 and 4 first where order 2's points see nothing of the receiver (in the
+            // shadow of several buildings together: most cells of a partly hidden pair in an
+            // urban array). Where order 4's see nothing either, the integrand at all 20 points
+            // is F(x → r), smooth, and order 3 is not needed; the 16 points of order 4 are the
+            // ones that find a gap of light between two shadows (13 points of orders 2 and 3
+            // were seen to miss such gaps).
+            rule(rules.g4, kHighOrder, q4);
+            if (!any_visible) {
+                c.value = q4 * scale;
+                c.error = std::abs(q4 - q2) * scale;
+                return;
+            }
+            rule(rules.g3, kMidOrder, q3);
+            c.value = q4 * scale;
+            c.error = std::max(std::abs(q4 - q3), std::abs(q3 - q2)) * scale;
+            return;
+        }
+        rule(rules.g3, kMidOrder, q3);
+        // Orders 2 and 3 agreeing kAgreement times better than the cell's share of the target:
+        // order 3 is taken with kAgreement × their difference as its error, without order 4's
+        // 16 points. Where the target is loose (--tolerance 1e-4) most smooth pieces end here.
+        const double e23 = std::abs(q3 - q2) * scale;
+        // Only where the points see both shadow and light: samples that all fall in the umbra
+        // (or all in the light) of a partly hidden cell agree whatever lies between them.
+        if (any_hidden && any_visible && kAgreement * e23 <= target * frac) {
+            c.value = q3 * scale;
+            c.error = kAgreement * e23;
+        } else if (e23 > target) {
+            // The cell alone exceeds the pair's target: it will be split whatever order 4
+            // says, and its estimate is at least this difference.
+            c.value = q3 * scale;
+            c.error = std::abs(q3 - q2) * scale;
+        } else {
+            rule(rules.g4, kHighOrder, q4);
+            c.value = q4 * scale;
+            c.error = std::max(std::abs(q4 - q3), std::abs(q3 - q2)) * scale;
+        }
+        // Partly hidden by its shaft, yet no sample point sees a shadow: the shadow may fall
+        // between the points; what it can hide is at most the cell's unobstructed part.
+        if (!any_hidden && c.level < kSuspiciousLevels) {
+            // Unless the exact test finds that no piece meets the cell's shaft after all.
+            // What a piece meeting the shaft can hide from a point x: the directions from x
+            // to it rise at most h/δ above the sender's plane (h the piece's largest height
+            // above it, δ ≤ |y − x| the distance from the cell to its part in front), the
+            // directions to r at least θ_r, and the cosine-weighted share of the directions
+            // between elevations θ_r and θ is sin²θ − sin²θ_r. For a piece hovering just above
+            // the sender (jittered contact) this is far below the cell's whole unobstructed
+            // part, and 0 once the piece is seen lower than any part of r.
+            bool meets = false;
+            double share = 0.0;  // bound on the hidden share of the hemisphere, summed
+            for (int k : cell_cand) {
+                const auto& pc = blockers.piece(k);
+                const Vec3* pv = blockers.vertices(k);
+                if (sh.piece_outside(pv, pc.count, pc.plane, true)) continue;
+                // The piece's part in front of the sender's plane, its height and its distance
+                // from the cell.
+                Poly3 whole, front;
+                whole.n = pc.count;
+                std::copy(pv, pv + pc.count, whole.v.begin());
+                clip3(whole, ns, ns.dot(poly[0]), front);
+                if (front.n == 0) continue;  // nothing in front: cannot block
+                meets = true;
+                double h = 0.0;
+                for (int q = 0; q < front.n; ++q)
+                    h = std::max(h, ns.dot(front.v[static_cast<std::size_t>(q)] - poly[0]));
+                const double gap = polygon_distance(poly, np, front.v.data(), front.n);
+                const double gap2 = gap * gap;
+                // The directions to it rise at most h/δ above the plane: the share between θ_r
+                // and that elevation.
+                share += std::max(0.0, (gap2 > h * h ? h * h / gap2 : 1.0) - sin2_receiver);
+                if (share >= 1.0) break;
+            }
+            if (meets && share > 0.0) {
+                // What the cell sees of the receiver: a bound on what a shadow can hide.
+                for (std::size_t i = 0; i < kMidOrder; ++i)
+                    for (std::size_t j = 0; j < kMidOrder; ++j) {
+                        const double u = c.u0 + du * rules.g3.x[i], v = c.v0 + dv * rules.g3.x[j];
+                        const PointResult pr =
+                            evaluate_point(rc, m.at(u, v), ns, blockers, nullptr, 0, eps, true);
+                        u3 += rules.g3.w[i] * rules.g3.w[j] * m.jacobian(u, v) * pr.unobstructed;
+                    }
+                double cell_area = 0.0;
+                if (share < 1.0)
+                    for (std::size_t i = 0; i < kMidOrder; ++i)
+                        for (std::size_t j = 0; j < kMidOrder; ++j)
+                            cell_area +=
+                                rules.g3.w[i] * rules.g3.w[j] *
+                                m.jacobian(c.u0 + du * rules.g3.x[i], c.v0 + dv * rules.g3.x[j]);
+                c.error = std::max(
+                    c.error, share < 1.0 ? std::min(u3, share * cell_area) * scale : u3 * scale);
+            }
+        }
+    };
+
+    auto worse = [](const Cell& a, const Cell& b) { return a.error < b.error; };
+    std::vector<Cell> heap;
+    double total_error = 0.0;
+    for (std::size_t k = 0; k < maps.size(); ++k) {
+        Cell c;
+        c.map = static_cast<int>(k);
+        process(c);
+        total_error += c.error;
+        heap.push_back(c);
+    }
+    std::make_heap(heap.begin(), heap.end(), worse);
+    constexpr std::size_t kMaxCells = 4096;
+    constexpr int kMaxLevel = 14;
+    std::vector<Cell> done;
+    while (total_error > target && !heap.empty()) {
+        std::pop_heap(heap.begin(), heap.end(), worse);
+        Cell c = heap.back();
+        heap.pop_back();
+        if (c.level >= kMaxLevel || heap.size() + done.size() + 4 > kMaxCells) {
+            out.capped = true;
+            done.push_back(c);
+            if (heap.size() + done.size() + 4 > kMaxCells) break;
+            continue;
+        }
+        total_error -= c.error;
+        const double um = 0.5 * (c.u0 + c.u1), vm = 0.5 * (c.v0 + c.v1);
+        const double us[3] = {c.u0, um, c.u1}, vs[3] = {c.v0, vm, c.v1};
+        for (int i = 0; i < 2; ++i)
+            for (int j = 0; j < 2; ++j) {
+                Cell ch;
+                ch.map = c.map;
+                ch.u0 = us[i];
+                ch.u1 = us[i + 1];
+                ch.v0 = vs[j];
+                ch.v1 = vs[j + 1];
+                ch.level = c.level + 1;
+                process(ch);
+                total_error += ch.error;
+                heap.push_back(ch);
+                std::push_heap(heap.begin(), heap.end(), worse);
+            }
+    }
+    for (const Cell& c : heap) done.push_back(c);
+    // Sum in a fixed order so that the result does not depend on the heap's history.
+    std::sort(done.begin(), done.end(), [](const Cell& a, const Cell& b) {
+        return std::tie(a.map, a.u0, a.v0) < std::tie(b.map, b.u0, b.v0);
+    });
+    double err = 0.0;
+    for (const Cell& c : done) {
+        out.hidden += c.value;
+        err += c.error;
+        out.max_level = std::max(out.max_level, c.level);
+    }
+    out.error = err + sliver_error;
+    out.cells = done.size();
+    return out;
+}
+
+}  // namespace detail
+
+// ----------------------------------------------------------------------------------------------
+// Public functions
+
+namespace {
+
+detail::BlockerSet make_blockers(const std::vector<Polygon>& blockers) {
+    detail::BlockerSet set;
+    for (std::size_t k = 0; k < blockers.size(); ++k) set.add(blockers[k], static_cast<int>(k));
+    set.build();
+    return set;
+}
+
+double pair_eps(const Polygon& a, const Polygon& b, const std::vector<Polygon>& blockers) {
+    Bounds3 box;
+    for (const Vec3& v : a.vertices) box.extend(v);
+    for (const Vec3& v : b.vertices) box.extend(v);
+    for (const Polygon& p : blockers)
+        for (const Vec3& v : p.vertices) box.extend(v);
+    return 1e-11 * box.diagonal().norm();
+}
+
+}  // namespace
+
+double point_to_polygon_obstructed(const Vec3& x, const Vec3& n, const Polygon& receiver,
+                                   const std::vector<Polygon>& blockers) {
+    const detail::BlockerSet set = make_blockers(blockers);
+    std::vector<int> all(set.size());
+    std::iota(all.begin(), all.end(), 0);
+    const double eps = pair_eps(receiver, receiver, blockers);
+    double total = 0.0;
+    for (const Polygon& r : detail::BlockerSet::convex_parts(receiver)) {
+        double unobs = 0.0;
+        const double hidden = detail::point_hidden(x, n, r, set, all.data(),
+                                                   static_cast<int>(all.size()), eps, &unobs);
+        total += std::max(0.0, unobs - hidden);
+    }
+    return total;
+}
+
+ObstructedFormFactor polygon_to_polygon_obstructed(const Polygon& a, const Polygon& b,
+                                                   const std::vector<Polygon>& blockers,
+                                                   double tolerance) {
+    ObstructedFormFactor out;
+    out.unobstructed = polygon_to_polygon(a, b);
+    out.value = out.unobstructed;
+    if (!(out.unobstructed > 0.0) || blockers.empty()) return out;
+    const detail::BlockerSet set = make_blockers(blockers);
+    const double eps = pair_eps(a, b, blockers);
+    std::vector<int> all(set.size());
+    std::iota(all.begin(), all.end(), 0);
+    double hidden = 0.0;
+    for (const Polygon& r : detail::BlockerSet::convex_parts(b)) {
+        const detail::HiddenIntegral h = detail::hidden_integral(
+            a, r, set, all.data(), static_cast<int>(all.size()), tolerance, eps);
+        hidden += h.hidden;
+        out.error_estimate += h.error;
+        out.max_level = std::max(out.max_level, h.max_level);
+        out.cells += h.cells;
+    }
+    out.value = std::clamp(out.unobstructed - hidden, 0.0, out.unobstructed);
+    return out;
+}
+
+}  // namespace formfactor

@@ -1,0 +1,60 @@
+#pragma once
+// What the integration over a sender shares (hidden_integral.cpp, umbrae.cpp): the tensor
+// Gauss–Legendre rules of a cell, the map of a convex sender piece from the unit square, a cell
+// of that square, and the umbra tests of a cell.
+
+#include <vector>
+
+#include "kernels/analytic_internal.h"
+#include "methods/analytic/obstructed_internal.h"
+#include "methods/analytic/shadow_clip.h"
+
+namespace formfactor::detail {
+
+// The tensor Gauss–Legendre rules of a cell: the result is the highest order's, the larger
+// difference between consecutive orders its error estimate.
+constexpr int kLowOrder = 2, kMidOrder = 3, kHighOrder = 4;
+// How much the difference of orders 2 and 3 is trusted on its own: the worst underestimate of
+// a cell's error by that difference seen in the tests was 44× (orders 2 and 3 within 4e-8 of
+// each other, 1.75e-6 from the integral), so a difference 50× below the target is taken as
+// enough, with 50× the difference as the estimate.
+constexpr double kAgreement = 50.0;
+struct CellRules {
+    const GaussRule& g2 = gauss_legendre01(kLowOrder);
+    const GaussRule& g3 = gauss_legendre01(kMidOrder);
+    const GaussRule& g4 = gauss_legendre01(kHighOrder);
+};
+
+// A convex piece of the sender mapped from the unit square: a quad by its bilinear map, a
+// triangle by the collapsed (Duffy) map.
+struct SenderMap {
+    Vec3 p0 = Vec3::Zero(), p1 = Vec3::Zero(), p2 = Vec3::Zero(), p3 = Vec3::Zero();
+    bool quad = false;
+    double tri_j = 0;  // |(B − A) × (C − B)| for the triangle map
+    Vec3 at(double u, double v) const {
+        if (quad) return (1 - u) * (1 - v) * p0 + u * (1 - v) * p1 + u * v * p2 + (1 - u) * v * p3;
+        return p0 + u * (p1 - p0) + u * v * (p2 - p1);
+    }
+    double jacobian(double u, double v) const {
+        if (quad) {
+            const Vec3 pu = (1 - v) * (p1 - p0) + v * (p2 - p3);
+            const Vec3 pv = (1 - u) * (p3 - p0) + u * (p2 - p1);
+            return pu.cross(pv).norm();
+        }
+        return tri_j * u;
+    }
+};
+
+struct Cell {
+    int map = 0;
+    double u0 = 0, u1 = 1, v0 = 0, v1 = 1;
+    int level = 0;
+    double value = 0, error = 0;
+};
+
+/// True when no point of the convex cell poly[0, np) (in the sender's plane, normal nx) sees any
+/// of the receiver: the umbrae of the occluders (from the cell's corners) cover it (umbrae.cpp).
+bool cell_hidden(const Receiver& rc, const Vec3* poly, int np, const Vec3& nx,
+                 const BlockerSet& blockers, const int* cand, int count, double eps);
+
+}  // namespace formfactor::detail
