@@ -59,10 +59,16 @@ std::string decode_bytes(const nlohmann::json& entry) {
                        reinterpret_cast<const Bytef*>(bytes.data()), bytes.size()) == Z_OK);
     REQUIRE(size == out.size());
     if (!entry.value("byte_planes", false)) return out;
-    const std::size_t n = entry["count"];
+    // Byte planes within each segment (the whole array: one segment).
+    std::vector<std::size_t> bounds{0, entry["count"].get<std::size_t>()};
+    if (entry.contains("segments")) bounds = entry["segments"].get<std::vector<std::size_t>>();
     std::string values(out.size(), '\0');
-    for (std::size_t k = 0; k < n; ++k)
-        for (std::size_t b = 0; b < size_of; ++b) values[k * size_of + b] = out[b * n + k];
+    for (std::size_t s = 0; s + 1 < bounds.size(); ++s) {
+        const std::size_t a = bounds[s], n = bounds[s + 1] - a;
+        for (std::size_t k = 0; k < n; ++k)
+            for (std::size_t b = 0; b < size_of; ++b)
+                values[(a + k) * size_of + b] = out[a * size_of + b * n + k];
+    }
     return values;
 }
 
@@ -107,7 +113,8 @@ TEST_CASE("page: names from input files cannot end the data block or become mark
     CHECK(data.find('<') == std::string::npos);
     CHECK(data.find('>') == std::string::npos);
     CHECK(data.find('&') == std::string::npos);
-    CHECK(count(html, "</script>") == 2);  // the data block's and the bundle's
+    // The data block's, the bundle's and that of F's entries.
+    CHECK(count(html, "</script>") == 3);
     const nlohmann::json j = nlohmann::json::parse(data);
     CHECK(j["surfaces"][0]["name"] == "</script><script>alert(1)</script>");
     CHECK(j["surfaces"][1]["name"] == "<img src=x onerror=alert(2)> & <!--");

@@ -14,9 +14,16 @@ import formfactor as ff
 
 
 def page_data(text):
+    """The page's data block, with F's entries (the block after the script) in its matrix."""
     m = re.search(r'<script type="application/json" id="ff-data">(.*?)</script>', text, re.S)
     assert m, "the page has its data block"
-    return json.loads(m.group(1))
+    d = json.loads(m.group(1))
+    if "matrix" in d:
+        block = d["matrix"].pop("entries_block")
+        e = re.search(r'<script type="application/json" id="%s">(.*?)</script>' % block, text, re.S)
+        assert e, "the page has the block of F's entries"
+        d["matrix"].update(json.loads(e.group(1)))
+    return d
 
 
 def array(entry):
@@ -25,8 +32,12 @@ def array(entry):
     if entry.get("compression") == "deflate":
         raw = zlib.decompress(raw)
     if entry.get("byte_planes"):
+        # Byte planes within each segment (the whole array: one segment).
         width = np.dtype(dtype).itemsize
-        raw = np.frombuffer(raw, dtype=np.uint8).reshape(width, -1).T.tobytes()
+        bounds = entry.get("segments", [0, entry["count"]])
+        raw = b"".join(
+            np.frombuffer(raw[a * width:b * width], dtype=np.uint8).reshape(width, -1).T.tobytes()
+            for a, b in zip(bounds[:-1], bounds[1:]))
     a = np.frombuffer(raw, dtype=dtype)
     assert a.size == entry["count"]
     return a
