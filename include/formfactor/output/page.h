@@ -59,6 +59,16 @@ struct PageContent {
     nlohmann::json report;
 };
 
+/// The default of PageOptions::max_entries: every nonzero of a 10,580-patch Monte-Carlo result
+/// (13.4 million) is stored.
+inline constexpr std::size_t kPageMaxEntries = 16'000'000;
+
+/// The budget of entries of F of a page shown inline, in a notebook's frame (Python's
+/// Result._repr_html_): that page is kept in the notebook file, as an attribute of the frame, so
+/// it stores at most this many entries (about 0.5 MB of F for a Monte-Carlo result); a page
+/// written to a file (to_html, `formfactor view`) keeps kPageMaxEntries.
+inline constexpr std::size_t kInlinePageMaxEntries = 200'000;
+
 /// How much of F a page stores.
 struct PageOptions {
     /// At most this many entries of F are stored: when F has more nonzeros, the page keeps
@@ -67,7 +77,7 @@ struct PageOptions {
     /// mass. The default stores every nonzero of a 10,580-patch Monte-Carlo result (13.4
     /// million): a row's mass lies mostly in its many small entries, so that any threshold drops
     /// much of it (a fifth of a row on average with 8 million entries, half with 1 million).
-    std::size_t max_entries = 16'000'000;
+    std::size_t max_entries = kPageMaxEntries;
     /// ≥ 0: keep exactly the entries F_ij > threshold (max_entries is then ignored).
     double threshold = -1.0;
 };
