@@ -183,6 +183,54 @@ TEST_CASE("page: rows keep the entries above the threshold, and each row's dropp
     CHECK_FALSE(d["patches"]["vertices"].value("byte_planes", false));
 }
 
+TEST_CASE("page: entries with few distinct (value, standard error) pairs are stored by a palette") {
+    // 726 patches, 526,350 entries taking 40 values (as Monte-Carlo hit counts do), each with its
+    // standard error: stored as the index of its pair, in segments of rows.
+    Scene scene = builtin_scene("cube");
+    SubdivisionOptions sub;
+    sub.n = 11;
+    subdivide(scene, sub);
+    const auto n = static_cast<Eigen::Index>(scene.patches.size());
+    REQUIRE(n == 726);
+    FormFactors ff;
+    ff.F = DenseMatrix::Zero(n, n);
+    DenseMatrix se = DenseMatrix::Zero(n, n);
+    for (Eigen::Index i = 0; i < n; ++i)
+        for (Eigen::Index j = 0; j < n; ++j)
+            if (i != j) {
+                ff.F(i, j) = double((i * 7 + j * 13) % 40 + 1) / 64.0;
+                se(i, j) = ff.F(i, j) / 10.0;
+            }
+    ff.standard_error = se;
+    for (const Patch& p : scene.patches) ff.areas.push_back(p.area);
+    PageContent content;
+    content.form_factors = &ff;
+    const nlohmann::json m = page_data(scene, content)["matrix"];
+    REQUIRE(m.contains("palette"));
+    CHECK_FALSE(m.contains("val"));
+    CHECK_FALSE(m.contains("standard_error"));
+    const auto pal_val = decode_f32(m["palette"]["val"]);
+    const auto pal_se = decode_f32(m["palette"]["standard_error"]);
+    CHECK(pal_val.size() == 40);
+    CHECK(pal_se.size() == 40);
+    const auto ptr = decode<std::uint32_t>(m["row_ptr"]);
+    const auto col = decode<std::uint16_t>(m["col"]);
+    const auto index = decode<std::uint16_t>(m["entry_index"]);
+    REQUIRE(index.size() == std::size_t(n * (n - 1)));
+    CHECK(m["entry_index"]["segments"].size() == (726 + 7) / 8 + 1);
+    std::size_t wrong = 0;
+    for (Eigen::Index i = 0; i < n; ++i) {
+        std::uint32_t j = 0;
+        for (std::uint32_t k = ptr[i]; k < ptr[i + 1]; ++k) {
+            j = k == ptr[i] ? col[k] : j + col[k];
+            if (pal_val[index[k]] != static_cast<float>(ff.F(i, j)) ||
+                pal_se[index[k]] != static_cast<float>(se(i, j)))
+                ++wrong;
+        }
+    }
+    CHECK(wrong == 0);
+}
+
 TEST_CASE(
     "page: the error-bound field is the row's entries times the bound per entry, or "
     "3 standard errors of the row sum") {

@@ -43,6 +43,13 @@ def array(entry):
     return a
 
 
+def values(m):
+    """The matrix's stored values (from its palette of pairs when it has one)."""
+    if "palette" in m:
+        return array(m["palette"]["val"])[array(m["entry_index"])]
+    return array(m["val"])
+
+
 def columns(m):
     """The matrix's column indices, each row's steps summed back."""
     ptr, col = array(m["row_ptr"]), array(m["col"]).astype(np.int64)
@@ -63,7 +70,7 @@ def test_to_html_writes_a_self_contained_page_whose_rows_are_the_matrix(tmp_path
     d = page_data(text)
     assert d["title"] == "Cornell from Python"
     n = r.matrix.shape[0]
-    ptr, col, val = array(d["matrix"]["row_ptr"]), columns(d["matrix"]), array(d["matrix"]["val"])
+    ptr, col, val = array(d["matrix"]["row_ptr"]), columns(d["matrix"]), values(d["matrix"])
     assert ptr.size == n + 1 and d["matrix"]["threshold"] == 0
     dense = np.zeros((n, n), dtype=np.float32)
     for i in range(n):
@@ -80,7 +87,7 @@ def test_a_budget_of_entries_keeps_the_largest_and_states_the_dropped_mass(tmp_p
     out = tmp_path / "small.html"
     r.to_html(str(out), max_entries=2000)
     m = page_data(out.read_text(encoding="utf-8"))["matrix"]
-    val, dropped, ptr = array(m["val"]), array(m["dropped"]), array(m["row_ptr"])
+    val, dropped, ptr = values(m), array(m["dropped"]), array(m["row_ptr"])
     assert 0 < m["stored_entries"] <= 2000 < m["nonzeros"]
     assert m["threshold"] > 0 and val.min() > m["threshold"]
     kept = np.add.reduceat(val.astype(np.float64), ptr[:-1]) * (np.diff(ptr) > 0)

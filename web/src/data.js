@@ -170,17 +170,24 @@ export async function decodeData(json) {
 
 /// The stored rows of F (CSR, columns ascending in each row), with the threshold below which
 /// entries were left out and each row's dropped mass, from the data block's matrix and its
-/// entries ({col, val, standard_error}). Entries stored in segments of rows are inflated when
-/// their rows are first asked for (loadRows, loadAll); until then they read as 0. Others are
-/// decoded at once.
+/// entries ({col, val, standard_error}, or {col, entry_index} with the matrix's palette of
+/// (value, standard error) pairs). Entries stored in segments of rows are inflated when their
+/// rows are first asked for (loadRows, loadAll); until then they read as 0. Others are decoded
+/// at once.
 export async function decodeMatrix(m, n, entries = m) {
     const [rowPtr, dropped, rowSum] = await Promise.all([m.row_ptr, m.dropped, m.row_sum].map(decodeArray));
     if (m.col_coding !== undefined && m.col_coding !== 'row-delta') throw new Error(`unknown column coding '${m.col_coding}'`);
-    const stored = { col: entries.col, val: entries.val, se: entries.standard_error ?? null };
-    if (rowPtr.length !== n + 1 || rowPtr[n] !== stored.col.count || stored.val.count !== stored.col.count)
+    const palette = m.palette ? {
+        val: await decodeArray(m.palette.val),
+        se: m.palette.standard_error ? await decodeArray(m.palette.standard_error) : null,
+    } : null;
+    const stored = palette ? { col: entries.col, index: entries.entry_index, palette }
+        : { col: entries.col, val: entries.val, se: entries.standard_error ?? null };
+    const valueCount = (palette ? stored.index : stored.val)?.count;
+    if (rowPtr.length !== n + 1 || rowPtr[n] !== stored.col.count || valueCount !== stored.col.count)
         throw new Error('matrix row pointers do not match its entries');
     const perSegment = m.rows_per_segment;
-    const lazy = perSegment > 0 && [stored.col, stored.val, stored.se].every((e) => !e || e.segment_bytes);
+    const lazy = perSegment > 0 && [stored.col, stored.val, stored.se, stored.index].every((e) => !e || e.segment_bytes);
     const matrix = {
         threshold: m.threshold,
         storedEntries: m.stored_entries,
@@ -197,16 +204,35 @@ export async function decodeMatrix(m, n, entries = m) {
     if (lazy) {
         const count = stored.col.count;
         matrix.col = new (typeOf(stored.col))(count);
-        matrix.val = new (typeOf(stored.val))(count);
-        matrix.se = stored.se ? new (typeOf(stored.se))(count) : null;
+        matrix.val = new Float32Array(count);
+        matrix.se = (palette ? palette.se : stored.se) ? new Float32Array(count) : null;
         matrix.loaded = new Uint8Array(Math.ceil(n / perSegment));
         return matrix;
     }
-    [matrix.col, matrix.val, matrix.se] = await Promise.all([stored.col, stored.val, stored.se].map((a) => (a ? decodeArray(a) : null)));
+    if (palette) {
+        const [col, index] = await Promise.all([stored.col, stored.index].map(decodeArray));
+        matrix.col = col;
+        matrix.val = new Float32Array(col.length);
+        matrix.se = palette.se ? new Float32Array(col.length) : null;
+        fromPalette(matrix, palette, index, 0);
+    } else {
+        [matrix.col, matrix.val, matrix.se] = await Promise.all([stored.col, stored.val, stored.se].map((a) => (a ? decodeArray(a) : null)));
+    }
     if (matrix.rowDelta) undoRowDelta(matrix.col, rowPtr, 0, n);
     matrix.loaded = new Uint8Array(1).fill(1);
     matrix.complete = Promise.resolve(matrix);
     return matrix;
+}
+
+// Entries [start, start + index.length) from their pairs' indices into the palette.
+function fromPalette(matrix, palette, index, start) {
+    const val = matrix.val, se = matrix.se, pv = palette.val, ps = palette.se;
+    for (let k = 0; k < index.length; ++k) {
+        const p = index[k];
+        if (p >= pv.length) throw new Error('an entry of F names a pair the palette does not have');
+        val[start + k] = pv[p];
+        if (ps) se[start + k] = ps[p];
+    }
 }
 
 // Each column after the first of its row is the step from the one before: rows [a, b) summed back.
@@ -219,12 +245,15 @@ function undoRowDelta(col, rowPtr, a, b) {
 function loadSegment(matrix, s) {
     if (matrix.loaded[s]) return Promise.resolve();
     matrix.segments[s] ??= (async () => {
-        const { col, val, se } = matrix.stored;
-        const parts = await Promise.all([col, val, se].map((e) => (e ? decodeSegment(e, s) : null)));
+        const { col, val, se, index, palette } = matrix.stored;
+        const parts = await Promise.all([col, val, se, index].map((e) => (e ? decodeSegment(e, s) : null)));
         const start = parts[0].start;
         matrix.col.set(parts[0].values, start);
-        matrix.val.set(parts[1].values, start);
-        if (parts[2]) matrix.se.set(parts[2].values, start);
+        if (palette) fromPalette(matrix, palette, parts[3].values, start);
+        else {
+            matrix.val.set(parts[1].values, start);
+            if (parts[2]) matrix.se.set(parts[2].values, start);
+        }
         const n = matrix.rowPtr.length - 1, R = matrix.rowsPerSegment;
         if (matrix.rowDelta) undoRowDelta(matrix.col, matrix.rowPtr, s * R, Math.min(n, (s + 1) * R));
         matrix.loaded[s] = 1;

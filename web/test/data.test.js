@@ -209,6 +209,33 @@ test('rows stored in segments are decoded when asked for, the rest as they come'
     assert.deepEqual([...denseColumn(m, 3, 0)], [0, 0.5, 0.125]);
 });
 
+test('entries stored as indices into a palette of (value, standard error) pairs read the same', async () => {
+    // Pairs: 0 (0.5, 0.05), 1 (0.25, 0.025), 2 (0.125, 0.0125), 3 (0.375, 0.0375).
+    const palette = { val: arr('f32', new Float32Array([0.5, 0.25, 0.125, 0.375])), standard_error: arr('f32', new Float32Array([0.05, 0.025, 0.0125, 0.0375])) };
+    const index = new Uint16Array([1, 0, 0, 2, 3]);
+    for (const lazy of [false, true]) {
+        const json = sample();
+        delete json.matrix.val;
+        json.matrix.palette = palette;
+        if (lazy) {
+            json.matrix.rows_per_segment = 2;
+            json.matrix.col = segmented('u16', new Uint16Array([1, 1, 0, 0, 1]), [0, 3, 5], true);
+            json.matrix.entry_index = segmented('u16', index, [0, 3, 5], true);
+        } else json.matrix.entry_index = planes('u16', index);
+        const model = await decodeData(json);
+        const m = await loadMatrix(model);
+        await loadAll(m);
+        const whole = await decoded(sample());
+        for (let i = 0; i < 3; ++i) assert.deepEqual([...denseRow(m, 3, i)], [...denseRow(whole.matrix, 3, i)], `row ${i}${lazy ? ', lazy' : ''}`);
+        assert.deepEqual([...m.se].map((x) => Math.round(x * 1e4)), [250, 500, 500, 125, 375]);
+        const bad = sample();
+        delete bad.matrix.val;
+        bad.matrix.palette = palette;
+        bad.matrix.entry_index = planes('u16', new Uint16Array([1, 0, 0, 2, 4]));
+        await assert.rejects(decoded(bad), /palette/);
+    }
+});
+
 test('columns stored as they are (no row-delta coding) read the same', async () => {
     const json = sample();
     json.matrix.col = arr('u16', new Uint16Array([1, 2, 0, 0, 1]));

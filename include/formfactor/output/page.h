@@ -15,7 +15,10 @@
 /// 65,536, else u32; "col_coding": "row-delta": the first column of a row as it is, each next one
 /// as the step from the one before), f32 values, f32 standard errors when the method has them, each
 /// row's dropped mass (f32) and its exact row sum (f64, over every entry). Values are stored
-/// exactly as float32. F's columns, values and standard errors are stored in segments of
+/// exactly as float32; when the entries (65,536 or more) hold few distinct (value, standard
+/// error) pairs (a sixteenth of them at most, as Monte-Carlo hit counts do), "palette" holds the
+/// pairs ({val, standard_error}, f32) and "entry_index" (u16) each entry's pair, instead of
+/// "val" and "standard_error". F's columns, values and standard errors are stored in segments of
 /// "rows_per_segment" rows ("segments": value offsets; "segment_bytes": offsets in the deflated
 /// stream, which is fully flushed after each segment; byte planes within each segment), so that
 /// the page inflates only the rows it shows; page_html() writes them in a second JSON block
