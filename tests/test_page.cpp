@@ -59,10 +59,16 @@ std::string decode_bytes(const nlohmann::json& entry) {
                        reinterpret_cast<const Bytef*>(bytes.data()), bytes.size()) == Z_OK);
     REQUIRE(size == out.size());
     if (!entry.value("byte_planes", false)) return out;
-    const std::size_t n = entry["count"];
+    // Byte planes within each segment (the whole array: one segment).
+    std::vector<std::size_t> bounds{0, entry["count"].get<std::size_t>()};
+    if (entry.contains("segments")) bounds = entry["segments"].get<std::vector<std::size_t>>();
     std::string values(out.size(), '\0');
-    for (std::size_t k = 0; k < n; ++k)
-        for (std::size_t b = 0; b < size_of; ++b) values[k * size_of + b] = out[b * n + k];
+    for (std::size_t s = 0; s + 1 < bounds.size(); ++s) {
+        const std::size_t a = bounds[s], n = bounds[s + 1] - a;
+        for (std::size_t k = 0; k < n; ++k)
+            for (std::size_t b = 0; b < size_of; ++b)
+                values[(a + k) * size_of + b] = out[a * size_of + b * n + k];
+    }
     return values;
 }
 
@@ -107,7 +113,8 @@ TEST_CASE("page: names from input files cannot end the data block or become mark
     CHECK(data.find('<') == std::string::npos);
     CHECK(data.find('>') == std::string::npos);
     CHECK(data.find('&') == std::string::npos);
-    CHECK(count(html, "</script>") == 2);  // the data block's and the bundle's
+    // The data block's, the bundle's and that of F's entries.
+    CHECK(count(html, "</script>") == 3);
     const nlohmann::json j = nlohmann::json::parse(data);
     CHECK(j["surfaces"][0]["name"] == "</script><script>alert(1)</script>");
     CHECK(j["surfaces"][1]["name"] == "<img src=x onerror=alert(2)> & <!--");
@@ -174,6 +181,58 @@ TEST_CASE("page: rows keep the entries above the threshold, and each row's dropp
     CHECK(d["matrix"]["row_ptr"].value("byte_planes", false));
     CHECK(d["patches"]["triangles"].value("byte_planes", false));
     CHECK_FALSE(d["patches"]["vertices"].value("byte_planes", false));
+}
+
+TEST_CASE("page: entries with few distinct (value, standard error) pairs are stored by a palette") {
+    // 726 patches, 525,625 entries taking 40 values (as Monte-Carlo hit counts do), each with its
+    // standard error: stored as the index of its pair, in segments of rows; rows 8 to 15 (the
+    // second segment) are empty.
+    Scene scene = builtin_scene("cube");
+    SubdivisionOptions sub;
+    sub.n = 11;
+    subdivide(scene, sub);
+    const auto n = static_cast<Eigen::Index>(scene.patches.size());
+    REQUIRE(n == 726);
+    FormFactors ff;
+    ff.F = DenseMatrix::Zero(n, n);
+    DenseMatrix se = DenseMatrix::Zero(n, n);
+    for (Eigen::Index i = 0; i < n; ++i)
+        for (Eigen::Index j = 0; j < n; ++j)
+            if (i != j && (i < 8 || i >= 16)) {
+                ff.F(i, j) = double((i * 7 + j * 13) % 40 + 1) / 64.0;
+                se(i, j) = ff.F(i, j) / 10.0;
+            }
+    ff.standard_error = se;
+    for (const Patch& p : scene.patches) ff.areas.push_back(p.area);
+    PageContent content;
+    content.form_factors = &ff;
+    const nlohmann::json m = page_data(scene, content)["matrix"];
+    REQUIRE(m.contains("palette"));
+    CHECK_FALSE(m.contains("val"));
+    CHECK_FALSE(m.contains("standard_error"));
+    const auto pal_val = decode_f32(m["palette"]["val"]);
+    const auto pal_se = decode_f32(m["palette"]["standard_error"]);
+    CHECK(pal_val.size() == 40);
+    CHECK(pal_se.size() == 40);
+    const auto ptr = decode<std::uint32_t>(m["row_ptr"]);
+    const auto col = decode<std::uint16_t>(m["col"]);
+    const auto index = decode<std::uint16_t>(m["entry_index"]);
+    REQUIRE(index.size() == std::size_t((n - 8) * (n - 1)));
+    const auto segments = m["entry_index"]["segments"].get<std::vector<std::size_t>>();
+    REQUIRE(segments.size() == (726 + 7) / 8 + 1);
+    CHECK(segments[1] == segments[2]);
+    CHECK(m["entry_index"]["segment_bytes"].size() == segments.size());
+    std::size_t wrong = 0;
+    for (Eigen::Index i = 0; i < n; ++i) {
+        std::uint32_t j = 0;
+        for (std::uint32_t k = ptr[i]; k < ptr[i + 1]; ++k) {
+            j = k == ptr[i] ? col[k] : j + col[k];
+            if (pal_val[index[k]] != static_cast<float>(ff.F(i, j)) ||
+                pal_se[index[k]] != static_cast<float>(se(i, j)))
+                ++wrong;
+        }
+    }
+    CHECK(wrong == 0);
 }
 
 TEST_CASE(

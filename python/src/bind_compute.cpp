@@ -468,9 +468,14 @@ For a row block (``rows=(b, e)``) it holds rows b..e-1 and every column.
                 return "<iframe sandbox=\"allow-scripts\" "
                        "style=\"width:100%;height:640px;border:0\" "
                        "title=\"formfactor result\" srcdoc=\"" +
-                       attribute_text(page_of(r, py::none(), "", 200'000)) + "\"></iframe>";
+                       attribute_text(page_of(r, py::none(), "",
+                                              static_cast<long long>(kInlinePageMaxEntries))) +
+                       "\"></iframe>";
             },
-            "The result page in a sandboxed iframe, for Jupyter (at most 200,000 entries of F).");
+            fmt::format("The result page in a sandboxed iframe, for Jupyter: at most {} entries "
+                        "of F (the page is kept in the notebook; to_html keeps {} by default).",
+                        kInlinePageMaxEntries, kPageMaxEntries)
+                .c_str());
 
     auto scene = py::reinterpret_borrow<py::class_<PyScene>>(m.attr("Scene"));
     bind_with_keywords(

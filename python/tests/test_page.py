@@ -14,9 +14,16 @@ import formfactor as ff
 
 
 def page_data(text):
+    """The page's data block, with F's entries (the block after the script) in its matrix."""
     m = re.search(r'<script type="application/json" id="ff-data">(.*?)</script>', text, re.S)
     assert m, "the page has its data block"
-    return json.loads(m.group(1))
+    d = json.loads(m.group(1))
+    if "matrix" in d:
+        block = d["matrix"].pop("entries_block")
+        e = re.search(r'<script type="application/json" id="%s">(.*?)</script>' % block, text, re.S)
+        assert e, "the page has the block of F's entries"
+        d["matrix"].update(json.loads(e.group(1)))
+    return d
 
 
 def array(entry):
@@ -25,11 +32,22 @@ def array(entry):
     if entry.get("compression") == "deflate":
         raw = zlib.decompress(raw)
     if entry.get("byte_planes"):
+        # Byte planes within each segment (the whole array: one segment).
         width = np.dtype(dtype).itemsize
-        raw = np.frombuffer(raw, dtype=np.uint8).reshape(width, -1).T.tobytes()
+        bounds = entry.get("segments", [0, entry["count"]])
+        raw = b"".join(
+            np.frombuffer(raw[a * width:b * width], dtype=np.uint8).reshape(width, -1).T.tobytes()
+            for a, b in zip(bounds[:-1], bounds[1:]))
     a = np.frombuffer(raw, dtype=dtype)
     assert a.size == entry["count"]
     return a
+
+
+def values(m):
+    """The matrix's stored values (from its palette of pairs when it has one)."""
+    if "palette" in m:
+        return array(m["palette"]["val"])[array(m["entry_index"])]
+    return array(m["val"])
 
 
 def columns(m):
@@ -52,7 +70,7 @@ def test_to_html_writes_a_self_contained_page_whose_rows_are_the_matrix(tmp_path
     d = page_data(text)
     assert d["title"] == "Cornell from Python"
     n = r.matrix.shape[0]
-    ptr, col, val = array(d["matrix"]["row_ptr"]), columns(d["matrix"]), array(d["matrix"]["val"])
+    ptr, col, val = array(d["matrix"]["row_ptr"]), columns(d["matrix"]), values(d["matrix"])
     assert ptr.size == n + 1 and d["matrix"]["threshold"] == 0
     dense = np.zeros((n, n), dtype=np.float32)
     for i in range(n):
@@ -69,7 +87,7 @@ def test_a_budget_of_entries_keeps_the_largest_and_states_the_dropped_mass(tmp_p
     out = tmp_path / "small.html"
     r.to_html(str(out), max_entries=2000)
     m = page_data(out.read_text(encoding="utf-8"))["matrix"]
-    val, dropped, ptr = array(m["val"]), array(m["dropped"]), array(m["row_ptr"])
+    val, dropped, ptr = values(m), array(m["dropped"]), array(m["row_ptr"])
     assert 0 < m["stored_entries"] <= 2000 < m["nonzeros"]
     assert m["threshold"] > 0 and val.min() > m["threshold"]
     kept = np.add.reduceat(val.astype(np.float64), ptr[:-1]) * (np.diff(ptr) > 0)

@@ -11,8 +11,10 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <numeric>
 #include <optional>
 #include <ostream>
+#include <unordered_map>
 
 #include "formfactor/core/atomic_file.h"
 #include "formfactor/core/error.h"
@@ -69,45 +71,157 @@ std::string deflate(const void* data, std::size_t bytes) {
 // their planes). Chosen by what the array holds, so that each array is deflated once.
 enum class Bytes { planes, as_is };
 
+// Deflates `bytes` in zlib's format with a full flush after each segment: the compressed offset
+// where each segment starts (and where the last one ends) goes to `starts`. After a full flush
+// the compressor keeps no history and the stream is byte-aligned, so the page inflates one
+// segment alone (raw deflate from its start, closed by an empty final block) and the whole
+// stream still inflates as one.
+std::string deflate_segments(const char* data, const std::vector<std::size_t>& segment_bytes,
+                             std::vector<std::size_t>& starts) {
+    z_stream z{};
+    if (deflateInit(&z, Z_DEFAULT_COMPRESSION) != Z_OK)
+        throw Error("the page's data could not be compressed (zlib)");
+    std::string out(deflateBound(&z, segment_bytes.back()) + 16 * segment_bytes.size() + 64, '\0');
+    z.next_out = reinterpret_cast<Bytef*>(out.data());
+    z.avail_out = static_cast<uInt>(out.size());
+    const auto produced = [&] { return out.size() - z.avail_out; };
+    // The zlib header (2 bytes) comes first; a flush with nothing new to flush (an empty
+    // segment) is no progress (Z_BUF_ERROR), not an error.
+    int status = Z_OK;
+    starts.push_back(2);
+    for (std::size_t k = 0; k + 1 < segment_bytes.size() && status == Z_OK; ++k) {
+        z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(data + segment_bytes[k]));
+        z.avail_in = static_cast<uInt>(segment_bytes[k + 1] - segment_bytes[k]);
+        status = deflate(&z, Z_FULL_FLUSH);
+        if (status == Z_BUF_ERROR && z.avail_in == 0) status = Z_OK;
+        starts.push_back(produced());
+    }
+    if (status == Z_OK) status = deflate(&z, Z_FINISH);
+    deflateEnd(&z);
+    if (status != Z_STREAM_END || z.avail_in != 0)
+        throw Error("the page's data could not be compressed (zlib)");
+    out.resize(produced());
+    return out;
+}
+
 // The page's typed arrays: {dtype, count, compression, base64} of little-endian values (x86 and
-// ARM are), deflated: the file is what the browser reads before the page can start.
+// ARM are), deflated: the file is what the browser reads before the page can start. With
+// `segments` (value offsets, first 0, last the count), the array is stored in those segments
+// ("segments" and the compressed offsets "segment_bytes" in the entry): byte planes are laid
+// out segment by segment and the page can inflate a segment alone (deflate_segments).
 template <class T>
-nlohmann::json typed(const std::vector<T>& v, const char* dtype, Bytes layout = Bytes::planes) {
+nlohmann::json typed(const std::vector<T>& v, const char* dtype, Bytes layout = Bytes::planes,
+                     const std::vector<std::size_t>* segments = nullptr) {
     const std::size_t bytes = v.size() * sizeof(T);
-    std::string packed;
+    std::vector<std::size_t> bounds = segments ? *segments : std::vector<std::size_t>{0, v.size()};
+    std::string laid_out;
+    const char* p = reinterpret_cast<const char*>(v.data());
     if (layout == Bytes::planes) {
-        std::string planes(bytes, '\0');
-        const auto* p = reinterpret_cast<const char*>(v.data());
-        for (std::size_t k = 0; k < v.size(); ++k)
-            for (std::size_t b = 0; b < sizeof(T); ++b)
-                planes[b * v.size() + k] = p[k * sizeof(T) + b];
-        packed = deflate(planes.data(), bytes);
+        laid_out.assign(bytes, '\0');
+        for (std::size_t s = 0; s + 1 < bounds.size(); ++s) {
+            const std::size_t a = bounds[s], count = bounds[s + 1] - a;
+            char* plane = laid_out.data() + a * sizeof(T);
+            for (std::size_t k = 0; k < count; ++k)
+                for (std::size_t b = 0; b < sizeof(T); ++b)
+                    plane[b * count + k] = p[(a + k) * sizeof(T) + b];
+        }
+        p = laid_out.data();
+    }
+    std::string packed;
+    std::vector<std::size_t> starts;
+    if (segments) {
+        std::vector<std::size_t> segment_bytes(bounds.size());
+        for (std::size_t s = 0; s < bounds.size(); ++s) segment_bytes[s] = bounds[s] * sizeof(T);
+        packed = deflate_segments(p, segment_bytes, starts);
     } else {
-        packed = deflate(v.data(), bytes);
+        packed = deflate(p, bytes);
     }
     nlohmann::json j = {{"dtype", dtype},
                         {"count", v.size()},
                         {"compression", "deflate"},
                         {"base64", base64(packed.data(), packed.size())}};
     if (layout == Bytes::planes) j["byte_planes"] = true;
+    if (segments) {
+        j["segments"] = bounds;
+        j["segment_bytes"] = starts;
+    }
     return j;
 }
-nlohmann::json f32(const std::vector<float>& v, Bytes layout = Bytes::planes) {
-    return typed(v, "f32", layout);
+nlohmann::json f32(const std::vector<float>& v, Bytes layout = Bytes::planes,
+                   const std::vector<std::size_t>* segments = nullptr) {
+    return typed(v, "f32", layout, segments);
 }
 nlohmann::json f64(const std::vector<double>& v) { return typed(v, "f64"); }
 nlohmann::json u32(const std::vector<std::uint32_t>& v) { return typed(v, "u32"); }
 // Column indices in 2 bytes each when every index fits (N ≤ 65,536), else 4; each after the
 // first of its row as the step from the one before, which deflates a fifth smaller.
 nlohmann::json row_delta_indices(const std::vector<std::uint32_t>& row_ptr,
-                                 const std::vector<std::uint32_t>& col, std::size_t n) {
+                                 const std::vector<std::uint32_t>& col, std::size_t n,
+                                 const std::vector<std::size_t>& segments) {
     std::vector<std::uint32_t> steps(col.size());
     for (std::size_t i = 0; i + 1 < row_ptr.size(); ++i)
         for (std::uint32_t k = row_ptr[i]; k < row_ptr[i + 1]; ++k)
             steps[k] = k > row_ptr[i] ? col[k] - col[k - 1] : col[k];
-    if (n > 65536) return u32(steps);
-    return typed(std::vector<std::uint16_t>(steps.begin(), steps.end()), "u16");
+    if (n > 65536) return typed(steps, "u32", Bytes::planes, &segments);
+    return typed(std::vector<std::uint16_t>(steps.begin(), steps.end()), "u16", Bytes::planes,
+                 &segments);
 }
+
+// The distinct (value, standard error) pairs of F's stored entries, most frequent first, and
+// each entry's pair as a u16 index: a Monte-Carlo estimate is a hit count over the samples (the
+// 10,580-patch Cornell box has 7,055 pairs among 13.4 million entries), and the indices deflate
+// to about half of the two float32s. Used when there are at least 65,536 entries and at most a
+// sixteenth as many pairs (and at most 65,536); nullopt otherwise.
+struct Palette {
+    std::vector<float> val, se;
+    std::vector<std::uint16_t> index;
+};
+std::optional<Palette> palette_of(const std::vector<float>& val, const std::vector<float>& se) {
+    if (val.size() < 65536) return std::nullopt;
+    const std::size_t limit = std::min<std::size_t>(65536, val.size() / 16);
+    const bool has_se = !se.empty();
+    std::unordered_map<std::uint64_t, std::uint32_t> id;
+    std::vector<std::uint64_t> keys;
+    std::vector<std::size_t> count;
+    std::vector<std::uint32_t> first(val.size());
+    for (std::size_t k = 0; k < val.size(); ++k) {
+        std::uint32_t v = 0, e = 0;
+        std::memcpy(&v, &val[k], sizeof v);
+        if (has_se) std::memcpy(&e, &se[k], sizeof e);
+        const std::uint64_t key = (std::uint64_t{v} << 32) | e;
+        const auto [at, fresh] = id.try_emplace(key, static_cast<std::uint32_t>(keys.size()));
+        if (fresh) {
+            if (keys.size() == limit) return std::nullopt;
+            keys.push_back(key);
+            count.push_back(0);
+        }
+        ++count[at->second];
+        first[k] = at->second;
+    }
+    std::vector<std::uint32_t> order(keys.size()), rank(keys.size());
+    std::iota(order.begin(), order.end(), 0u);
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::uint32_t a, std::uint32_t b) { return count[a] > count[b]; });
+    Palette p;
+    for (std::size_t r = 0; r < order.size(); ++r) {
+        rank[order[r]] = static_cast<std::uint32_t>(r);
+        const std::uint64_t key = keys[order[r]];
+        const auto v = static_cast<std::uint32_t>(key >> 32), e = static_cast<std::uint32_t>(key);
+        float fv = 0.0f, fe = 0.0f;
+        std::memcpy(&fv, &v, sizeof fv);
+        std::memcpy(&fe, &e, sizeof fe);
+        p.val.push_back(fv);
+        if (has_se) p.se.push_back(fe);
+    }
+    p.index.resize(val.size());
+    for (std::size_t k = 0; k < val.size(); ++k)
+        p.index[k] = static_cast<std::uint16_t>(rank[first[k]]);
+    return p;
+}
+
+// F's entries are stored in segments of this many rows, each inflated alone by the page when
+// one of its rows is first asked for (a click), so that the page reads only what it shows.
+constexpr std::size_t kRowsPerSegment = 8;
 
 std::vector<float> to_f32(const std::vector<double>& v) { return {v.begin(), v.end()}; }
 
@@ -231,18 +345,28 @@ nlohmann::json matrix_json(const Scene& scene, const Rows& m, const PageOptions&
                                                           : 3.0 * std::sqrt(variance));
         row_ptr.push_back(static_cast<std::uint32_t>(col.size()));
     }
+    std::vector<std::size_t> segments;
+    for (std::size_t i = 0; i < n; i += kRowsPerSegment) segments.push_back(row_ptr[i]);
+    segments.push_back(val.size());
     nlohmann::json j = {{"threshold", threshold},
+                        {"rows_per_segment", kRowsPerSegment},
                         {"stored_entries", val.size()},
                         {"nonzeros", nonzeros},
                         {"dropped_share_mean", n > 0 ? share_sum / double(n) : 0.0},
                         {"dropped_share_max", share_max},
                         {"row_ptr", u32(row_ptr)},
-                        {"col", row_delta_indices(row_ptr, col, n)},
+                        {"col", row_delta_indices(row_ptr, col, n, segments)},
                         {"col_coding", "row-delta"},
-                        {"val", f32(val)},
                         {"dropped", f32(dropped)},
                         {"row_sum", f64(row_sum)}};
-    if (m.standard_errors()) j["standard_error"] = f32(se, Bytes::as_is);
+    if (const std::optional<Palette> p = palette_of(val, se)) {
+        j["palette"] = {{"val", f32(p->val)}};
+        if (m.standard_errors()) j["palette"]["standard_error"] = f32(p->se);
+        j["entry_index"] = typed(p->index, "u16", Bytes::planes, &segments);
+    } else {
+        j["val"] = f32(val, Bytes::planes, &segments);
+        if (m.standard_errors()) j["standard_error"] = f32(se, Bytes::as_is, &segments);
+    }
     std::vector<float> sky(n);
     for (std::size_t i = 0; i < n; ++i)
         sky[i] = static_cast<float>(std::max(0.0, 1.0 - row_sum[i]));
@@ -424,9 +548,27 @@ nlohmann::json page_data(const Scene& scene, const PageContent& content,
 }
 
 std::string page_html(const Scene& scene, const PageContent& content, const PageOptions& options) {
-    const std::string data = script_safe_json(page_data(scene, content, options));
+    nlohmann::json j = page_data(scene, content, options);
+    // F's entries (most of the file) go in a second block after the script, so that the browser
+    // runs the script and draws the scene before it has read them; the page finds them by the
+    // block's id.
+    nlohmann::json entries = nlohmann::json::object();
+    const bool has_matrix = j.contains("matrix");
+    if (has_matrix) {
+        nlohmann::json& m = j["matrix"];
+        for (const char* key : {"col", "val", "standard_error", "entry_index"})
+            if (m.contains(key)) {
+                entries[key] = std::move(m[key]);
+                m.erase(key);
+            }
+        m["entries_block"] = "ff-matrix";
+    }
+    const std::string data = script_safe_json(j);
+    j = nullptr;
+    const std::string matrix = script_safe_json(entries);
+    entries = nullptr;
     std::string html;
-    html.reserve(data.size() + std::strlen(detail::kPageScript) + 4096);
+    html.reserve(data.size() + matrix.size() + std::strlen(detail::kPageScript) + 4096);
     html += "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n";
     // Every request is forbidden; only the inlined script and style (by hash) run.
     html += fmt::format(
@@ -444,7 +586,13 @@ std::string page_html(const Scene& scene, const PageContent& content, const Page
     html += data;
     html += "</script>\n<script>";
     html += detail::kPageScript;
-    html += "</script>\n</body>\n</html>\n";
+    html += "</script>\n";
+    if (has_matrix) {
+        html += "<script type=\"application/json\" id=\"ff-matrix\">";
+        html += matrix;
+        html += "</script>\n";
+    }
+    html += "</body>\n</html>\n";
     return html;
 }
 

@@ -47,34 +47,93 @@ const kArrayTypes = { f32: Float32Array, f64: Float64Array, u16: Uint16Array, u3
 /// The bytes of a zlib stream (RFC 1950), by the browser's (or node's) DecompressionStream: no
 /// library, no request. Rejects on a stream that is not zlib's or is cut short.
 export async function inflate(bytes) {
-    const stream = new Blob([bytes]).stream().pipeThrough(new DecompressionStream('deflate'));
-    return new Uint8Array(await new Response(stream).arrayBuffer());
+    return pipe(bytes, new DecompressionStream('deflate'));
+}
+
+// The bytes out of a transform stream fed `bytes` (written straight to it: a Blob's stream
+// costs several times as much per call, which tells when a click inflates a few dozen segments).
+async function pipe(bytes, transform) {
+    const writer = transform.writable.getWriter();
+    // A broken stream rejects both sides: the reading side tells.
+    writer.write(bytes).then(() => writer.close()).catch(() => {});
+    return new Uint8Array(await new Response(transform.readable).arrayBuffer());
+}
+
+/// The bytes of a raw deflate stream (RFC 1951) that may end without its final block (a segment
+/// cut at a full flush): an empty final block is added.
+async function inflateRaw(bytes) {
+    const closed = new Uint8Array(bytes.length + 2);
+    closed.set(bytes);
+    closed.set([3, 0], bytes.length);
+    return pipe(closed, new DecompressionStream('deflate-raw'));
+}
+
+// The value offsets of an entry's segments: [0, ..., count] ([0, count]: one segment).
+function segmentsOf(entry) {
+    const s = entry.segments ?? [0, entry.count];
+    if (s[0] !== 0 || s[s.length - 1] !== entry.count) throw new Error('array segments do not cover its values');
+    return s;
+}
+
+// Byte planes (every value's first byte, then every second byte, ... within each segment) back
+// to values; `bounds` are the segments' value offsets relative to bytes.
+function unplane(bytes, width, bounds) {
+    const out = new Uint8Array(bytes.length);
+    for (let s = 0; s + 1 < bounds.length; ++s) {
+        const a = bounds[s] - bounds[0], n = bounds[s + 1] - bounds[s], base = a * width;
+        for (let b = 0; b < width; ++b) {
+            const plane = bytes.subarray(base + b * n, base + (b + 1) * n);
+            for (let k = 0, o = base + b; k < n; ++k, o += width) out[o] = plane[k];
+        }
+    }
+    return out;
+}
+
+function typeOf(entry) {
+    const Type = kArrayTypes[entry.dtype];
+    if (!Type) throw new Error(`unknown dtype '${entry.dtype}'`);
+    return Type;
+}
+
+// A typed array on bytes (a copy when they do not start on an aligned offset).
+function view(Type, bytes, count) {
+    if (bytes.byteOffset % Type.BYTES_PER_ELEMENT !== 0) bytes = bytes.slice();
+    return new Type(bytes.buffer, bytes.byteOffset, count);
 }
 
 /// A typed array from {dtype, count, base64} (little-endian, as the writer stores it), the bytes
 /// deflated when the entry says compression: 'deflate', and stored by byte planes (every value's
-/// first byte, then every second byte, ...) when it says byte_planes. Rejects on an unknown dtype or
-/// compression, or a length that does not match count.
+/// first byte, then every second byte, ...; within each of its segments when it has them) when
+/// it says byte_planes. Rejects on an unknown dtype or compression, or a length that does not
+/// match count.
 export async function decodeArray(entry) {
-    const Type = kArrayTypes[entry.dtype];
-    if (!Type) throw new Error(`unknown dtype '${entry.dtype}'`);
+    const Type = typeOf(entry);
     let bytes = base64ToBytes(entry.base64);
     if (entry.compression === 'deflate') bytes = await inflate(bytes);
     else if (entry.compression !== undefined) throw new Error(`unknown compression '${entry.compression}'`);
     if (bytes.length !== entry.count * Type.BYTES_PER_ELEMENT)
         throw new Error(`array of ${entry.count} ${entry.dtype} has ${bytes.length} bytes`);
-    if (entry.byte_planes) {
-        // Every value's first byte, then every second byte, ...: back to values.
-        const w = Type.BYTES_PER_ELEMENT, n = entry.count, out = new Uint8Array(bytes.length);
-        for (let b = 0; b < w; ++b) {
-            const plane = bytes.subarray(b * n, (b + 1) * n);
-            for (let k = 0, o = b; k < n; ++k, o += w) out[o] = plane[k];
-        }
-        bytes = out;
-    }
-    // A view needs an aligned offset; a copy when the bytes do not start on one.
-    if (bytes.byteOffset % Type.BYTES_PER_ELEMENT !== 0) bytes = bytes.slice();
-    return new Type(bytes.buffer, bytes.byteOffset, entry.count);
+    if (entry.byte_planes) bytes = unplane(bytes, Type.BYTES_PER_ELEMENT, segmentsOf(entry));
+    return view(Type, bytes, entry.count);
+}
+
+/// Segment k of an array stored in segments ({segments, segment_bytes}: a full flush of the
+/// deflate stream after each), inflated alone: {start, values} (start: the offset of its first
+/// value in the whole array).
+export async function decodeSegment(entry, k) {
+    const Type = typeOf(entry), bounds = segmentsOf(entry), at = entry.segment_bytes;
+    if (entry.compression !== 'deflate' || !at || at.length !== bounds.length)
+        throw new Error('array is not stored in segments');
+    const a = at[k], b = at[k + 1];
+    // The base64 characters that hold bytes [a, b): whole groups of 4 characters for 3 bytes.
+    const text = entry.base64.slice(Math.floor(a / 3) * 4, Math.ceil(b / 3) * 4);
+    const skip = a % 3;
+    let bytes = await inflateRaw(base64ToBytes(text).subarray(skip, skip + (b - a)));
+    const count = bounds[k + 1] - bounds[k];
+    if (bytes.length !== count * Type.BYTES_PER_ELEMENT)
+        throw new Error(`segment ${k} of ${count} ${entry.dtype} has ${bytes.length} bytes`);
+    if (entry.byte_planes) bytes = unplane(bytes, Type.BYTES_PER_ELEMENT, [bounds[k], bounds[k + 1]]);
+    return { start: bounds[k], values: view(Type, bytes, count) };
 }
 
 /// The decoded model, what drawing the scene needs: patches (areas, surfaces, polygon
@@ -110,24 +169,134 @@ export async function decodeData(json) {
 }
 
 /// The stored rows of F (CSR, columns ascending in each row), with the threshold below which
-/// entries were left out and each row's dropped mass, from the data block's matrix.
-export async function decodeMatrix(m, n) {
-    const [rowPtr, col, val, se, dropped, rowSum] = await Promise.all(
-        [m.row_ptr, m.col, m.val, m.standard_error, m.dropped, m.row_sum].map((a) => (a ? decodeArray(a) : null)));
-    if (rowPtr.length !== n + 1 || rowPtr[n] !== col.length || val.length !== col.length)
+/// entries were left out and each row's dropped mass, from the data block's matrix and its
+/// entries ({col, val, standard_error}, or {col, entry_index} with the matrix's palette of
+/// (value, standard error) pairs). Entries stored in segments of rows are inflated when their
+/// rows are first asked for (loadRows, loadAll); until then they read as 0. Others are decoded
+/// at once.
+export async function decodeMatrix(m, n, entries = m) {
+    const [rowPtr, dropped, rowSum] = await Promise.all([m.row_ptr, m.dropped, m.row_sum].map(decodeArray));
+    if (m.col_coding !== undefined && m.col_coding !== 'row-delta') throw new Error(`unknown column coding '${m.col_coding}'`);
+    const palette = m.palette ? {
+        val: await decodeArray(m.palette.val),
+        se: m.palette.standard_error ? await decodeArray(m.palette.standard_error) : null,
+    } : null;
+    const stored = palette ? { col: entries.col, index: entries.entry_index, palette }
+        : { col: entries.col, val: entries.val, se: entries.standard_error ?? null };
+    const valueCount = (palette ? stored.index : stored.val)?.count;
+    if (rowPtr.length !== n + 1 || rowPtr[n] !== stored.col.count || valueCount !== stored.col.count)
         throw new Error('matrix row pointers do not match its entries');
-    if (m.col_coding === 'row-delta') {
-        // Each column after the first of its row is the step from the one before.
-        for (let i = 0; i < n; ++i)
-            for (let k = rowPtr[i] + 1; k < rowPtr[i + 1]; ++k) col[k] += col[k - 1];
-    } else if (m.col_coding !== undefined) throw new Error(`unknown column coding '${m.col_coding}'`);
-    return {
+    const perSegment = m.rows_per_segment;
+    const lazy = perSegment > 0 && [stored.col, stored.val, stored.se, stored.index].every((e) => !e || e.segment_bytes);
+    const matrix = {
         threshold: m.threshold,
         storedEntries: m.stored_entries,
         nonzeros: m.nonzeros,
-        rowPtr, col, val, se, dropped, rowSum,
+        rowPtr, dropped, rowSum,
+        col: null, val: null, se: null,
         columns: null,
+        stored, rowDelta: m.col_coding === 'row-delta',
+        rowsPerSegment: lazy ? perSegment : n,
+        segments: [],  // a promise per segment once asked for
+        asked: 0,  // calls of loadRows under way
+        complete: null,  // the promise of every segment
     };
+    if (lazy) {
+        const count = stored.col.count;
+        matrix.col = new (typeOf(stored.col))(count);
+        matrix.val = new Float32Array(count);
+        matrix.se = (palette ? palette.se : stored.se) ? new Float32Array(count) : null;
+        matrix.loaded = new Uint8Array(Math.ceil(n / perSegment));
+        return matrix;
+    }
+    if (palette) {
+        const [col, index] = await Promise.all([stored.col, stored.index].map(decodeArray));
+        matrix.col = col;
+        matrix.val = new Float32Array(col.length);
+        matrix.se = palette.se ? new Float32Array(col.length) : null;
+        fromPalette(matrix, palette, index, 0);
+    } else {
+        [matrix.col, matrix.val, matrix.se] = await Promise.all([stored.col, stored.val, stored.se].map((a) => (a ? decodeArray(a) : null)));
+    }
+    if (matrix.rowDelta) undoRowDelta(matrix.col, rowPtr, 0, n);
+    matrix.loaded = new Uint8Array(1).fill(1);
+    matrix.complete = Promise.resolve(matrix);
+    return matrix;
+}
+
+// Entries [start, start + index.length) from their pairs' indices into the palette.
+function fromPalette(matrix, palette, index, start) {
+    const val = matrix.val, se = matrix.se, pv = palette.val, ps = palette.se;
+    for (let k = 0; k < index.length; ++k) {
+        const p = index[k];
+        if (p >= pv.length) throw new Error('an entry of F names a pair the palette does not have');
+        val[start + k] = pv[p];
+        if (ps) se[start + k] = ps[p];
+    }
+}
+
+// Each column after the first of its row is the step from the one before: rows [a, b) summed back.
+function undoRowDelta(col, rowPtr, a, b) {
+    for (let i = a; i < b; ++i)
+        for (let k = rowPtr[i] + 1; k < rowPtr[i + 1]; ++k) col[k] += col[k - 1];
+}
+
+// Inflates segment s of F's entries (rows [s R, (s + 1) R)) into the matrix, once.
+function loadSegment(matrix, s) {
+    if (matrix.loaded[s]) return Promise.resolve();
+    matrix.segments[s] ??= (async () => {
+        const { col, val, se, index, palette } = matrix.stored;
+        const parts = await Promise.all([col, val, se, index].map((e) => (e ? decodeSegment(e, s) : null)));
+        const start = parts[0].start;
+        matrix.col.set(parts[0].values, start);
+        if (palette) fromPalette(matrix, palette, parts[3].values, start);
+        else {
+            matrix.val.set(parts[1].values, start);
+            if (parts[2]) matrix.se.set(parts[2].values, start);
+        }
+        const n = matrix.rowPtr.length - 1, R = matrix.rowsPerSegment;
+        if (matrix.rowDelta) undoRowDelta(matrix.col, matrix.rowPtr, s * R, Math.min(n, (s + 1) * R));
+        matrix.loaded[s] = 1;
+    })();
+    return matrix.segments[s];
+}
+
+/// Whether rows i of F are decoded (every one of `rows`).
+export function rowsLoaded(matrix, rows) {
+    return rows.every((i) => matrix.loaded[Math.floor(i / matrix.rowsPerSegment)] === 1);
+}
+
+/// Decodes the rows `rows` of F (their segments) when they are not yet.
+export async function loadRows(matrix, rows) {
+    const segments = new Set(rows.map((i) => Math.floor(i / matrix.rowsPerSegment)));
+    ++matrix.asked;
+    try {
+        await Promise.all([...segments].map((s) => loadSegment(matrix, s)));
+    } finally {
+        --matrix.asked;
+    }
+    return matrix;
+}
+
+/// Decodes every row of F, one segment after the other, pausing while rows asked for by
+/// loadRows (a click) are being decoded so that they come first; later calls share it.
+export function loadAll(matrix) {
+    const pause = (ms) => new Promise((resolve) => setTimeout(resolve, ms));
+    matrix.complete ??= (async () => {
+        for (let s = 0; s < matrix.loaded.length; ++s) {
+            while (matrix.asked > 0) await pause(10);
+            if (matrix.loaded[s]) continue;
+            await loadSegment(matrix, s);
+            await pause(0);
+        }
+        return matrix;
+    })();
+    return matrix.complete;
+}
+
+/// Whether every row of F is decoded.
+export function allLoaded(matrix) {
+    return matrix.loaded.every((x) => x === 1);
 }
 
 /// What the page says of the F it stores (the data block's matrix, before it is decoded): how
@@ -141,11 +310,24 @@ export function storageText(m) {
         `${percent(m.dropped_share_mean)} of its mass on average, ${percent(m.dropped_share_max)} at most`;
 }
 
-/// The model's rows of F, decoded on the first call (later calls share it); null when the page
-/// has none.
+/// The model's F (its row sums, dropped mass and row pointers decoded; its entries as they are
+/// asked for, decodeMatrix), on the first call (later calls share it); null when the page has
+/// none. The entries are in the matrix block itself or in the page's block named by its
+/// entries_block (read once the document is parsed).
 export function loadMatrix(model) {
     if (!model.hasMatrix) return Promise.resolve(null);
-    model.matrixLoading ??= decodeMatrix(model.matrixBlock, model.n).then((m) => (model.matrix = m));
+    model.matrixLoading ??= (async () => {
+        const m = model.matrixBlock;
+        let entries = m;
+        if (m.entries_block) {
+            if (document.readyState === 'loading')
+                await new Promise((resolve) => document.addEventListener('DOMContentLoaded', resolve, { once: true }));
+            const block = document.getElementById(m.entries_block);
+            if (!block) throw new Error(`no block '${m.entries_block}' with the entries of F`);
+            entries = JSON.parse(block.textContent);
+        }
+        return (model.matrix = await decodeMatrix(m, model.n, entries));
+    })();
     return model.matrixLoading;
 }
 

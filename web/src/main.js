@@ -5,7 +5,7 @@
 
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
-import { decodeData, loadMatrix, storageText, colourModes, denseRow, denseColumn, topEntries, reciprocity, surfaceRow, surfaceColumn, entry } from './data.js';
+import { decodeData, loadMatrix, loadRows, loadAll, rowsLoaded, allLoaded, storageText, colourModes, denseRow, denseColumn, topEntries, reciprocity, surfaceRow, surfaceColumn, entry } from './data.js';
 import { inferno, toneMap, makeScale, ticks, formatNumber, valueRange, categorical } from './colour.js';
 
 const kTopEntries = 12;
@@ -216,8 +216,8 @@ class Page {
             this.render();
         });
         if (this.model.hasMatrix) {
-            check('ff-column', 'column: who sees it', (v) => ((this.state.column = v), this.refreshSelection()));
-            check('ff-surface', 'per surface', (v) => ((this.state.perSurface = v), this.refreshSelection()));
+            check('ff-column', 'column: who sees it', (v) => ((this.state.column = v), this.reselect()));
+            check('ff-surface', 'per surface', (v) => ((this.state.perSurface = v), this.reselect()));
         }
     }
 
@@ -266,7 +266,7 @@ class Page {
     currentValues() {
         const m = this.model, s = this.state;
         if (s.mode === 'row') {
-            if (s.selected < 0 || !m.matrix) return { values: new Float32Array(m.n).fill(NaN), label: 'row of F (click a patch)', unit: '' };
+            if (s.selected < 0 || !this.answerable(s.selected)) return { values: new Float32Array(m.n).fill(NaN), label: 'row of F (click a patch)', unit: '' };
             if (s.perSurface) {
                 const sel = m.surface[s.selected];
                 const perSurf = s.column ? surfaceColumn(m, sel) : surfaceRow(m, sel);
@@ -362,8 +362,25 @@ class Page {
         b.append(el('div', `${scale.log ? 'log' : 'linear'} scale, ${formatNumber(scale.min)} … ${formatNumber(scale.max)}`, 'ff-bar-note'));
     }
 
-    /// Selects patch i: outlined at once, its row drawn and listed when F's rows are decoded
-    /// (the first click may wait for them).
+    /// Whether the rows of F that selecting patch i shows are decoded: its row and those of its
+    /// listed partners (reciprocity), or every row for a column or per-surface factors.
+    answerable(i) {
+        const mx = this.model.matrix, s = this.state;
+        if (!mx) return false;
+        if (s.column || s.perSurface) return allLoaded(mx);
+        return rowsLoaded(mx, [i]) && rowsLoaded(mx, topEntries(mx, i, kTopEntries).map((t) => t.j));
+    }
+
+    /// Decodes what selecting patch i shows (answerable).
+    async loadFor(i) {
+        const mx = await loadMatrix(this.model);
+        if (this.state.column || this.state.perSurface) return loadAll(mx);
+        await loadRows(mx, [i]);
+        return loadRows(mx, topEntries(mx, i, kTopEntries).map((t) => t.j));
+    }
+
+    /// Selects patch i: outlined at once, its row drawn and listed when the rows of F it needs
+    /// are decoded (a click may wait for them).
     async select(i) {
         const m = this.model;
         if (i < 0 || i >= m.n) return;
@@ -373,13 +390,19 @@ class Page {
         this.scene3.add(this.outline);
         if (m.hasMatrix) this.state.mode = 'row';
         this.modeSelect.value = this.state.mode;
-        if (m.hasMatrix && !m.matrix) {
+        if (m.hasMatrix && !this.answerable(i)) {
             this.refreshSelection();
-            await loadMatrix(m);
+            await this.loadFor(i);
             if (this.state.selected !== i) return;  // a later click answers for itself
         }
         this.refreshSelection();
         ++this.state.answered;
+    }
+
+    /// The selection again, after a toggle (column, per surface) that may need more rows.
+    reselect() {
+        if (this.state.selected >= 0) this.select(this.state.selected);
+        else this.refreshSelection();
     }
 
     refreshSelection() {
@@ -396,7 +419,7 @@ class Page {
         box.append(el('p', `surface ${surf}: ${surfaceName(m, surf)}`, 'ff-surface-name'));
         box.append(el('p', `area ${formatNumber(m.area[i], 6)}`));
         if (!m.hasMatrix) return;
-        if (!m.matrix) return box.append(el('p', 'reading the rows of F…', 'ff-hint'));
+        if (!this.answerable(i)) return box.append(el('p', 'reading the rows of F…', 'ff-hint'));
         const mx = m.matrix;
         if (s.perSurface) return this.surfaceSelection(surf);
         const info = el('dl', null, 'ff-rowinfo');
@@ -492,17 +515,23 @@ async function start() {
             state: () => ({ ...page.state }),
             colourOf: (v) => (page.scale ? inferno(page.scale.map(v)) : null),
             // Milliseconds: script start (since navigation), JSON parse, decoding the scene, first
-            // draw; matrix: decoding F's rows, which starts after the first draw.
-            timings: { start: t0, parse: t1 - t0, decode: t2 - t1, draw: t3 - t2, matrix: null },
+            // draw; firstFrame: the first frame (since navigation); after it: matrix, reading F's
+            // row pointers and sums (and the block of its entries), allRows, decoding every row.
+            timings: { start: t0, parse: t1 - t0, decode: t2 - t1, draw: t3 - t2, firstFrame: null, matrix: null, allRows: null },
         };
         document.body.dataset.ready = '1';
         // F's rows (most of the data) are decoded once the scene is on screen (after the next
-        // frame), not before.
+        // frame), a segment of rows at a time so that a click is answered in between (it
+        // decodes the rows it shows first).
+        const timings = window.formfactorPage.timings;
+        requestAnimationFrame(() => (timings.firstFrame = performance.now()));
         if (model.hasMatrix)
             requestAnimationFrame(() => setTimeout(() => {
                 const t4 = performance.now();
-                loadMatrix(model).then(() => (window.formfactorPage.timings.matrix = performance.now() - t4),
-                    (e) => showError(root, e));
+                loadMatrix(model).then((mx) => {
+                    timings.matrix = performance.now() - t4;
+                    return loadAll(mx);
+                }).then(() => (timings.allRows = performance.now() - t4), (e) => showError(root, e));
             }, 0));
     } catch (e) {
         showError(root, e);

@@ -2,7 +2,7 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import zlib from 'node:zlib';
-import { base64ToBytes, colourModes, decodeArray, decodeData, loadMatrix, row, denseRow, denseColumn, entry, topEntries, reciprocity, surfaceRow, surfaceColumn } from '../src/data.js';
+import { base64ToBytes, colourModes, decodeArray, decodeSegment, decodeData, loadMatrix, loadRows, loadAll, rowsLoaded, allLoaded, row, denseRow, denseColumn, entry, topEntries, reciprocity, surfaceRow, surfaceColumn } from '../src/data.js';
 
 const bytesOf = (typed) => Buffer.from(typed.buffer, typed.byteOffset, typed.byteLength);
 const b64 = (typed) => bytesOf(typed).toString('base64');
@@ -140,6 +140,100 @@ test('the rows of F are decoded when first asked for, once', async () => {
     const n = await decodeData(noMatrix);
     assert.equal(n.hasMatrix, false);
     assert.equal(await loadMatrix(n), null);
+});
+
+// Stored in segments as the writer does: each segment's bytes (by byte planes within it, or as
+// they are) deflated with a full flush after it, in one zlib stream; the offset of each segment
+// in the stream.
+function segmented(dtype, typed, bounds, bytePlanes) {
+    const w = typed.BYTES_PER_ELEMENT, all = bytesOf(typed), parts = [], at = [2];
+    let length = 2;
+    const laidOut = Buffer.alloc(all.length);
+    for (let s = 0; s + 1 < bounds.length; ++s) {
+        const a = bounds[s], n = bounds[s + 1] - a, seg = all.subarray(a * w, (a + n) * w);
+        for (let k = 0; k < n; ++k)
+            for (let b = 0; b < w; ++b) laidOut[a * w + (bytePlanes ? b * n + k : k * w + b)] = seg[k * w + b];
+        const part = zlib.deflateRawSync(laidOut.subarray(a * w, (a + n) * w), { finishFlush: zlib.constants.Z_FULL_FLUSH });
+        parts.push(part);
+        at.push((length += part.length));
+    }
+    let s1 = 1, s2 = 0;  // Adler-32 of the laid-out bytes
+    for (const byte of laidOut) {
+        s1 = (s1 + byte) % 65521;
+        s2 = (s2 + s1) % 65521;
+    }
+    const tail = Buffer.alloc(6);
+    tail.set([3, 0]);
+    tail.writeUInt32BE(((s2 << 16) | s1) >>> 0, 2);
+    const stream = Buffer.concat([Buffer.from([0x78, 0x9c]), ...parts, tail]);
+    assert.deepEqual(zlib.inflateSync(stream), laidOut);  // one zlib stream, as a whole
+    return { dtype, count: typed.length, compression: 'deflate', ...(bytePlanes ? { byte_planes: true } : {}),
+        segments: bounds, segment_bytes: at, base64: stream.toString('base64') };
+}
+
+test('an array stored in segments decodes whole and a segment at a time', async () => {
+    const values = new Float32Array(50).map((_, k) => k / 7);
+    for (const planes of [true, false]) {
+        const e = segmented('f32', values, [0, 11, 11, 30, 50], planes);
+        assert.deepEqual([...(await decodeArray(e))], [...values]);
+        for (const [k, a, b] of [[0, 0, 11], [1, 11, 11], [2, 11, 30], [3, 30, 50]]) {
+            const s = await decodeSegment(e, k);
+            assert.equal(s.start, a);
+            assert.deepEqual([...s.values], [...values.subarray(a, b)], `segment ${k}`);
+        }
+    }
+});
+
+test('rows stored in segments are decoded when asked for, the rest as they come', async () => {
+    // Segments of two rows: rows 0-1 (entries 0-2), row 2 (entries 3-4).
+    const json = sample();
+    const bounds = [0, 3, 5];
+    json.matrix.rows_per_segment = 2;
+    json.matrix.col = segmented('u16', new Uint16Array([1, 1, 0, 0, 1]), bounds, true);
+    json.matrix.val = segmented('f32', new Float32Array([0.25, 0.5, 0.5, 0.125, 0.375]), bounds, true);
+    json.matrix.standard_error = segmented('f32', new Float32Array([0.01, 0.02, 0.03, 0.04, 0.05]), bounds, false);
+    const model = await decodeData(json);
+    const m = await loadMatrix(model);
+    assert.equal(rowsLoaded(m, [0]), false);
+    await loadRows(m, [2]);
+    assert.equal(rowsLoaded(m, [2]), true);
+    assert.equal(rowsLoaded(m, [1, 2]), false);
+    assert.deepEqual([...denseRow(m, 3, 2)], [0.125, 0.375, 0]);
+    assert.deepEqual([...row(m, 2).se].map((x) => Math.round(x * 100)), [4, 5]);
+    assert.deepEqual([...denseRow(m, 3, 0)], [0, 0, 0]);  // not yet decoded
+    assert.equal(allLoaded(m), false);
+    await loadAll(m);
+    assert.equal(allLoaded(m), true);
+    const whole = await decoded(sample());
+    for (let i = 0; i < 3; ++i) assert.deepEqual([...denseRow(m, 3, i)], [...denseRow(whole.matrix, 3, i)], `row ${i}`);
+    assert.deepEqual([...denseColumn(m, 3, 0)], [0, 0.5, 0.125]);
+});
+
+test('entries stored as indices into a palette of (value, standard error) pairs read the same', async () => {
+    // Pairs: 0 (0.5, 0.05), 1 (0.25, 0.025), 2 (0.125, 0.0125), 3 (0.375, 0.0375).
+    const palette = { val: arr('f32', new Float32Array([0.5, 0.25, 0.125, 0.375])), standard_error: arr('f32', new Float32Array([0.05, 0.025, 0.0125, 0.0375])) };
+    const index = new Uint16Array([1, 0, 0, 2, 3]);
+    for (const lazy of [false, true]) {
+        const json = sample();
+        delete json.matrix.val;
+        json.matrix.palette = palette;
+        if (lazy) {
+            json.matrix.rows_per_segment = 2;
+            json.matrix.col = segmented('u16', new Uint16Array([1, 1, 0, 0, 1]), [0, 3, 5], true);
+            json.matrix.entry_index = segmented('u16', index, [0, 3, 5], true);
+        } else json.matrix.entry_index = planes('u16', index);
+        const model = await decodeData(json);
+        const m = await loadMatrix(model);
+        await loadAll(m);
+        const whole = await decoded(sample());
+        for (let i = 0; i < 3; ++i) assert.deepEqual([...denseRow(m, 3, i)], [...denseRow(whole.matrix, 3, i)], `row ${i}${lazy ? ', lazy' : ''}`);
+        assert.deepEqual([...m.se].map((x) => Math.round(x * 1e4)), [250, 500, 500, 125, 375]);
+        const bad = sample();
+        delete bad.matrix.val;
+        bad.matrix.palette = palette;
+        bad.matrix.entry_index = planes('u16', new Uint16Array([1, 0, 0, 2, 4]));
+        await assert.rejects(decoded(bad), /palette/);
+    }
 });
 
 test('columns stored as they are (no row-delta coding) read the same', async () => {

@@ -15,7 +15,15 @@
 /// 65,536, else u32; "col_coding": "row-delta": the first column of a row as it is, each next one
 /// as the step from the one before), f32 values, f32 standard errors when the method has them, each
 /// row's dropped mass (f32) and its exact row sum (f64, over every entry). Values are stored
-/// exactly as float32.
+/// exactly as float32; when the entries (65,536 or more) hold few distinct (value, standard
+/// error) pairs (a sixteenth of them at most, as Monte-Carlo hit counts do), "palette" holds the
+/// pairs ({val, standard_error}, f32) and "entry_index" (u16) each entry's pair, instead of
+/// "val" and "standard_error". F's columns, values and standard errors are stored in segments of
+/// "rows_per_segment" rows ("segments": value offsets; "segment_bytes": offsets in the deflated
+/// stream, which is fully flushed after each segment; byte planes within each segment), so that
+/// the page inflates only the rows it shows; page_html() writes them in a second JSON block
+/// (id "ff-matrix", named by the matrix's "entries_block") after the script, which then draws
+/// the scene before the browser has read them.
 
 #include <cstddef>
 #include <nlohmann/json.hpp>
@@ -54,6 +62,16 @@ struct PageContent {
     nlohmann::json report;
 };
 
+/// The default of PageOptions::max_entries: every nonzero of a 10,580-patch Monte-Carlo result
+/// (13.4 million) is stored.
+inline constexpr std::size_t kPageMaxEntries = 16'000'000;
+
+/// The budget of entries of F of a page shown inline, in a notebook's frame (Python's
+/// Result._repr_html_): that page is kept in the notebook file, as an attribute of the frame, so
+/// it stores at most this many entries (about 0.5 MB of F for a Monte-Carlo result); a page
+/// written to a file (to_html, `formfactor view`) keeps kPageMaxEntries.
+inline constexpr std::size_t kInlinePageMaxEntries = 200'000;
+
 /// How much of F a page stores.
 struct PageOptions {
     /// At most this many entries of F are stored: when F has more nonzeros, the page keeps
@@ -62,7 +80,7 @@ struct PageOptions {
     /// mass. The default stores every nonzero of a 10,580-patch Monte-Carlo result (13.4
     /// million): a row's mass lies mostly in its many small entries, so that any threshold drops
     /// much of it (a fifth of a row on average with 8 million entries, half with 1 million).
-    std::size_t max_entries = 16'000'000;
+    std::size_t max_entries = kPageMaxEntries;
     /// ≥ 0: keep exactly the entries F_ij > threshold (max_entries is then ignored).
     double threshold = -1.0;
 };

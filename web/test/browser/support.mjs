@@ -33,7 +33,9 @@ export function runCli(args, cwd) {
 
 /// Headless Chromium (Debian's) with the throw-away profile `profileDir`, and a page on `file` whose requests,
 /// console errors and page errors are recorded. Returns {browser, page, log, close}.
-export async function openPage(file, profileDir, viewport = { width: 1100, height: 700 }) {
+/// waitUntil: when navigation counts as done before waiting for the page's ready flag ('load':
+/// the whole file read; 'commit': as soon as the browser starts reading it).
+export async function openPage(file, profileDir, viewport = { width: 1100, height: 700 }, waitUntil = 'load') {
     // A persistent context: Chromium's --user-data-dir is the throw-away profile.
     const browser = await chromium.launchPersistentContext(profileDir, {
         executablePath: chromiumPath,
@@ -54,18 +56,26 @@ export async function openPage(file, profileDir, viewport = { width: 1100, heigh
     });
     page.on('pageerror', (e) => log.pageErrors.push(String(e)));
     const t0 = performance.now();
-    await page.goto(url);
-    await page.waitForFunction(() => document.body.dataset.ready, null, { timeout: 60000 });
+    await page.goto(url, { waitUntil });
+    await waitReady(page);
     const openMs = performance.now() - t0;
     return { browser, page, log, openMs, close: () => browser.close() };
 }
 
-/// The data block of a page file, parsed (the \u003c escapes are JSON).
+/// The data block of a page file, parsed (the \u003c escapes are JSON), with F's entries (the
+/// block after the script) in its matrix.
 export function pageData(file) {
     const html = readFileSync(file, 'utf8');
-    const m = html.match(/<script type="application\/json" id="ff-data">([^]*?)<\/script>/);
+    const block = (id) => html.match(new RegExp(`<script type="application/json" id="${id}">([^]*?)</script>`));
+    const m = block('ff-data');
     if (!m) throw new Error('no data block');
-    return JSON.parse(m[1]);
+    const data = JSON.parse(m[1]);
+    if (data.matrix?.entries_block) {
+        const e = block(data.matrix.entries_block);
+        if (!e) throw new Error('no block of the entries of F');
+        Object.assign(data.matrix, JSON.parse(e[1]));
+    }
+    return data;
 }
 
 /// A little-endian float64 NPY file (C order, 2-D) as {rows, cols, data: Float64Array}.
@@ -145,9 +155,13 @@ export function dataArray(entry) {
     let bytes = Buffer.from(entry.base64, 'base64');
     if (entry.compression === 'deflate') bytes = zlib.inflateSync(bytes);
     if (entry.byte_planes) {
-        const w = Type.BYTES_PER_ELEMENT, n = entry.count, planes = bytes;
+        // Byte planes within each segment (the whole array: one segment).
+        const w = Type.BYTES_PER_ELEMENT, bounds = entry.segments ?? [0, entry.count], planes = bytes;
         bytes = Buffer.alloc(planes.length);
-        for (let k = 0; k < n; ++k) for (let b = 0; b < w; ++b) bytes[k * w + b] = planes[b * n + k];
+        for (let s = 0; s + 1 < bounds.length; ++s) {
+            const a = bounds[s], n = bounds[s + 1] - a;
+            for (let k = 0; k < n; ++k) for (let b = 0; b < w; ++b) bytes[(a + k) * w + b] = planes[a * w + b * n + k];
+        }
     }
     const a = new Type(new Uint8Array(bytes).buffer);
     if (a.length !== entry.count) throw new Error('array length');
@@ -159,5 +173,26 @@ export function dataArray(entry) {
 export async function clickAndWait(page, x, y) {
     const before = await page.evaluate(() => window.formfactorPage.state().answered);
     await page.mouse.click(x, y);
-    await page.waitForFunction((k) => window.formfactorPage.state().answered > k, before, { timeout: 60000 });
+    await waitAnswered(page, before);
+}
+
+// Polled in the page itself, by a function given whole to evaluate: playwright's
+// waitForFunction evaluates a string when it polls, which the page's Content-Security-Policy
+// refuses. Each resolves false after a minute.
+async function waitReady(page) {
+    const ok = await page.evaluate(() => new Promise((resolve) => {
+        const until = performance.now() + 60000;
+        const check = () => (document.body?.dataset.ready ? resolve(true) : performance.now() > until ? resolve(false) : setTimeout(check, 1));
+        check();
+    }));
+    if (!ok) throw new Error('the page did not get ready in a minute');
+}
+
+async function waitAnswered(page, before) {
+    const ok = await page.evaluate((k) => new Promise((resolve) => {
+        const until = performance.now() + 60000;
+        const check = () => (window.formfactorPage.state().answered > k ? resolve(true) : performance.now() > until ? resolve(false) : setTimeout(check, 1));
+        check();
+    }), before);
+    if (!ok) throw new Error('the page did not answer the click in a minute');
 }
