@@ -537,6 +537,13 @@ TEST_CASE("energyplus: an interzone surface that names a zone makes its facing s
         CHECK((centroid(window.polygon) - Vec3(4, 1.75, 1.3)).norm() < 1e-12);
         check_enclosure_rows(tight_analytic(sb));
     }
+    // The model also draws the wall that EnergyPlus generates: refused, not counted twice.
+    const std::string twice = detailed + surface("B west", "B", "4,3,2.5, 4,3,0, 4,0,0, 4,0,2.5");
+    CHECK(load_energyplus_text(twice, "two.idf", "A").surfaces.size() == 7);
+    CHECK(input_error([&] { load_energyplus_text(twice, "two.idf", "B"); }) ==
+          "two.idf:10: BuildingSurface:Detailed 'A east' names zone 'B' as its outside, where "
+          "EnergyPlus generates 'iz-A east'; but that zone's surface 'B west' already covers it "
+          "(name the surface, not the zone, as the Outside Boundary Condition Object)");
     // A condition Zone whose object is not a zone of the model.
     CHECK(input_error([&] {
               load_energyplus_text(replaced(detailed, "Zone, B,", "Zone, C,"), "two.idf", "A");

@@ -69,6 +69,7 @@ struct SurfaceInfo {
     std::string outside;
     bool outside_is_zone = false;
     int outside_line = 0;
+    std::string generated_from;  // a surface EnergyPlus generates: the surface it faces
 };
 
 const char* const kDetailedSurfaces[] = {"buildingsurface:detailed", "wall:detailed",
@@ -247,6 +248,33 @@ class ModelBuilder {
         }
         if (scene.surfaces.empty())
             throw InputError(path_, 0, "zone '" + zone->name + "' has no surfaces");
+        // A generated surface where the zone already has one: the zone would count that area
+        // twice (the model names the zone where it means the facing surface).
+        for (const SurfaceInfo* sp : order) {
+            if (sp->generated_from.empty() || sp->fenestration) continue;
+            const Surface& g = scene.surfaces[static_cast<std::size_t>(index.at(lower(sp->name)))];
+            const Plane pl = plane_of(g.polygon);
+            for (const SurfaceInfo* op : order) {
+                auto o = index.find(lower(op->name));
+                if (op->fenestration || op == sp || o == index.end()) continue;
+                const Surface& other = scene.surfaces[static_cast<std::size_t>(o->second)];
+                double off = 0.0;
+                for (const Vec3& v : other.polygon.vertices)
+                    off = std::max(off, std::abs(pl.signed_distance(v)));
+                if (off > 1e-6 * diameter(g.polygon) ||
+                    std::abs(normal(other.polygon).dot(pl.n)) < 0.999)
+                    continue;
+                if (overlap_area(g.polygon, other.polygon) > 1e-9 * area(g.polygon))
+                    throw InputError(
+                        path_, sp->outside_line,
+                        fmt::format("{} '{}' names zone '{}' as its outside, where EnergyPlus "
+                                    "generates '{}'; but that zone's surface '{}' already covers "
+                                    "it (name the surface, not the zone, as the Outside Boundary "
+                                    "Condition Object)",
+                                    sp->type_as_written, sp->generated_from, zone->name, sp->name,
+                                    other.name));
+            }
+        }
         // Fenestration: holes of its base, checked to lie in it.
         for (const SurfaceInfo* sp : order) {
             const SurfaceInfo& s = *sp;
@@ -377,6 +405,7 @@ class ModelBuilder {
             g.rect.reset();
             g.outside.clear();
             g.outside_is_zone = false;
+            g.generated_from = s.name;
             generated.push_back(std::move(g));
             for (const SurfaceInfo& f : all) {
                 if (!f.fenestration || lower(f.base) != lower(s.name)) continue;
