@@ -552,6 +552,60 @@ TEST_CASE("energyplus: an interzone surface that names a zone makes its facing s
           "'C' is not a zone of the model (the condition is Zone)");
 }
 
+TEST_CASE(
+    "energyplus: the two zones as epJSON: a window on a detailed wall, its zone's facing "
+    "surfaces") {
+    // A's east wall (condition Zone, object B) with a Window:Interzone, and B's five surfaces,
+    // as epJSON writes them (objects grouped by class, vertices in "vertices" arrays).
+    auto surface = [](const std::string& name, const std::string& zone, const std::vector<Vec3>& v,
+                      const std::string& outside) {
+        std::string s = "\"" + name +
+                        "\": {\"surface_type\": \"Wall\", \"construction_name\": "
+                        "\"C\", \"zone_name\": \"" +
+                        zone + "\", " + outside + "\"vertices\": [";
+        for (std::size_t k = 0; k < v.size(); ++k)
+            s += (k ? ", " : "") + std::string("{\"vertex_x_coordinate\": ") +
+                 std::to_string(v[k].x()) +
+                 ", \"vertex_y_coordinate\": " + std::to_string(v[k].y()) +
+                 ", \"vertex_z_coordinate\": " + std::to_string(v[k].z()) + "}";
+        return s + "]}";
+    };
+    const std::string out = "\"outside_boundary_condition\": \"Outdoors\", ";
+    const std::string text =
+        "{\"Version\": {\"Version 1\": {\"version_identifier\": \"23.2\"}},\n"
+        "\"Zone\": {\"A\": {}, \"B\": {}},\n"
+        "\"BuildingSurface:Detailed\": {\n" +
+        surface("A east", "A", {{4, 0, 2.5}, {4, 0, 0}, {4, 3, 0}, {4, 3, 2.5}},
+                "\"outside_boundary_condition\": \"Zone\", "
+                "\"outside_boundary_condition_object\": \"B\", ") +
+        ",\n" + surface("B south", "B", {{4, 0, 2.5}, {4, 0, 0}, {8, 0, 0}, {8, 0, 2.5}}, out) +
+        ",\n" + surface("B east", "B", {{8, 0, 2.5}, {8, 0, 0}, {8, 3, 0}, {8, 3, 2.5}}, out) +
+        ",\n" + surface("B north", "B", {{8, 3, 2.5}, {8, 3, 0}, {4, 3, 0}, {4, 3, 2.5}}, out) +
+        ",\n" + surface("B floor", "B", {{8, 3, 0}, {8, 0, 0}, {4, 0, 0}, {4, 3, 0}}, out) + ",\n" +
+        surface("B roof", "B", {{4, 3, 2.5}, {4, 0, 2.5}, {8, 0, 2.5}, {8, 3, 2.5}}, out) +
+        "},\n"
+        "\"Window:Interzone\": {\"AB window\": {\"construction_name\": \"G\", "
+        "\"building_surface_name\": \"A east\", \"outside_boundary_condition_object\": \"B\", "
+        "\"multiplier\": 1, \"starting_x_coordinate\": 1, \"starting_z_coordinate\": 0.8, "
+        "\"length\": 1.5, \"height\": 1}}}\n";
+    const Scene b = load_energyplus_text(text, "two.epJSON", "B");
+    REQUIRE(b.surfaces.size() == 7);
+    CHECK(b.surfaces[5].name == "iz-A east");
+    CHECK(b.surfaces[6].name == "iz-AB window");
+    CHECK((centroid(b.surfaces[6].polygon) - Vec3(4, 1.75, 1.3)).norm() < 1e-12);
+    CHECK((normal(b.surfaces[5].polygon) - Vec3(1, 0, 0)).norm() < 1e-12);
+    CHECK(std::abs(surface_area(b.surfaces[5]) - 6.0) < 1e-12);
+    check_enclosure_rows(tight_analytic(b));
+    CHECK(input_error([&] {
+              load_energyplus_text(
+                  replaced(text, "\"outside_boundary_condition_object\": \"B\", \"v",
+                           "\"outside_boundary_condition_object\": \"C\", \"v"),
+                  "two.epJSON", "B");
+          }) ==
+          "two.epJSON: BuildingSurface:Detailed 'A east': Outside Boundary Condition Object "
+          "'C' is not a zone of the model (the condition is Zone)");
+}
+
 TEST_CASE("energyplus: a simplified wall's azimuth turns with the building and the zone north") {
     // The south wall's outward normal points to azimuth 180 + 15 + 30 = 225 (south-west); the
     // room's surfaces face inward, so its normal points to azimuth 45: (sin 45°, cos 45°, 0).
