@@ -456,8 +456,8 @@ TEST_CASE(
     check_enclosure_rows(fa);
 
     // A skylight on the detailed roof (horizontal: X runs along the edge from vertex 2 to 3),
-    // and a window on a wall entered clockwise (EnergyPlus keeps vertex 1 and reverses the rest,
-    // so its vertex 2 is the last one entered), in world coordinates.
+    // and a window on a wall entered clockwise (the order turned round from vertex 1, so that
+    // vertex 2 is the last one entered: the lower left corner), in world coordinates.
     const std::string head =
         "Version, 9.3;\nZone, ROOM;\n"
         "GlobalGeometryRules, UpperLeftCorner, Clockwise, World;\n";

@@ -424,8 +424,10 @@ class ModelBuilder {
     }
 
     // A surface's vertices in world coordinates, counter-clockwise seen from outside, in the
-    // order EnergyPlus keeps them (clockwise entry turned round from the first vertex on:
-    // 1, n, n−1, ..., 2). `z` is the zone its coordinates are relative to.
+    // order EnergyPlus keeps them as entered counter-clockwise; clockwise entry is turned round
+    // from the first vertex on (1, n, n−1, ..., 2), so that a wall entered clockwise from its
+    // upper left corner has its lower left corner second, as it has counter-clockwise. `z` is
+    // the zone its coordinates are relative to.
     std::vector<Vec3> outward_world(const SurfaceInfo& s, const ZoneInfo& z) const {
         if (s.placed) return s.vertices;
         std::vector<Vec3> v;
