@@ -225,6 +225,14 @@ int main(int argc, char** argv) {
               "Zone,Z,30,1,2,3;GlobalGeometryRules,LowerLeftCorner,Clockwise,Relative;\n"
               "Floor:Detailed,F,C,Z,,Ground,,NoSun,NoWind,,3,0,0,0,1,0,0,0,1,0;\n"
               "Wall:Detailed,W,C,Z,,Outdoors,,SunExposed,WindExposed,,3,0,0,0,0,1,0,0,0,1;\n");
+    // Simplified windows placed on detailed walls and roofs (entered clockwise).
+    seeds.add("idf", "window_on_detailed.idf",
+              "Version,9.3;Zone,Z;GlobalGeometryRules,UpperLeftCorner,Clockwise,World;\n"
+              "BuildingSurface:Detailed,S,Wall,C,Z,Outdoors,,,,,4,0,0,2,4,0,2,4,0,0,0,0,0;\n"
+              "Window,SW,G,S,,1,1,0.5,1,1;\n"
+              "BuildingSurface:Detailed,R,Roof,C,Z,Outdoors,,,,,4,0,3,2,4,3,2,4,0,2,0,0,2;\n"
+              "Door,RD,D,R,1,1,1,1,0.5;\n"
+              "BuildingSurface:Detailed,F,Floor,C,Z,Ground,,,,,4,4,3,0,0,3,0,0,0,0,4,0,0;\n");
     {
         std::ostringstream dat;
         DenseMatrix F(3, 3);

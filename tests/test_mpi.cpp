@@ -275,6 +275,68 @@ TEST_CASE("mpi: every zone of a model (one job per zone) gives the same EnergyPl
         model + second);
 }
 
+TEST_CASE("mpi: solve --all-zones writes one process's files for every zone on 2 and 3 ranks" *
+          doctest::test_suite("mpi")) {
+    // Two zones (the room of the EnergyPlus test under two names), each with a hot floor; each
+    // zone is solved over the ranks in turn (gmres: rows kept on their ranks) or gathered on
+    // rank 0 (the direct solve), and its files are written with the others after the last zone.
+    const std::string model =
+        read_text(std::string(FF_TEST_DATA_DIR) + "/energyplus/1ZoneUncontrolled_win_1.idf");
+    std::string second = model.substr(model.find("  Zone,"));
+    second = second.substr(0, second.find("  GlobalGeometryRules,")) +
+             second.substr(second.find("  BuildingSurface:Detailed,"));
+    for (const auto& [from, to] :
+         {std::pair<std::string, std::string>{"ZONE ONE", "ZONE TWO"}, {"Zn001", "Zn002"}})
+        for (std::size_t at = 0; (at = second.find(from, at)) != std::string::npos; at += to.size())
+            second.replace(at, from.size(), to);
+    for (const std::string solver : {"gmres", "direct"}) {
+        CAPTURE(solver);
+        TempDir dir;
+        write_text(dir.file("two.idf"), model + second);
+        write_text(dir.file("T_ZONE_ONE.csv"),
+                   "surface,emissivity,temperature\nZn001:Flr001,0.9,350\n");
+        write_text(dir.file("T_ZONE_TWO.csv"),
+                   "surface,emissivity,temperature\nZn002:Flr001,0.8,400\n");
+        const std::string args =
+            "solve two.idf --all-zones --subdivide 2 --thermal --properties T.csv --solver " +
+            solver + " --threads 1 -o J{}.csv";
+        const Run one = run(dir, 0, tagged(args, "1"));
+        INFO(said(one));
+        REQUIRE(one.code == 0);
+        for (int ranks : {2, 3}) {
+            CAPTURE(ranks);
+            const std::string tag = std::to_string(ranks);
+            const Run r = run(dir, ranks, tagged(args, tag));
+            INFO(said(r));
+            REQUIRE(r.code == 0);
+            CHECK(r.out.find("wrote      2 files for 2 zones\n") != std::string::npos);
+            for (const std::string zone : {"_ZONE_ONE.csv", "_ZONE_TWO.csv"}) {
+                CAPTURE(zone);
+                const std::string expected = read_text(dir.file("J1" + zone));
+                REQUIRE(!expected.empty());
+                CHECK(read_text(dir.file("J" + tag + zone)) == expected);
+            }
+        }
+    }
+    // The second zone fails (its properties name a surface of the first) after the first was
+    // solved over the ranks: one message, exit 1, no file written.
+    TempDir dir;
+    write_text(dir.file("two.idf"), model + second);
+    write_text(dir.file("T_ZONE_ONE.csv"),
+               "surface,emissivity,temperature\nZn001:Flr001,0.9,350\n");
+    write_text(dir.file("T_ZONE_TWO.csv"),
+               "surface,emissivity,temperature\nZn001:Flr001,0.8,400\n");
+    const Run r = run(dir, 2,
+                      "solve two.idf --all-zones --subdivide 2 --thermal --properties T.csv "
+                      "--solver gmres --threads 1 -o J.csv");
+    INFO(said(r));
+    CHECK(r.code == 1);
+    CHECK(r.out.find("zone       ZONE TWO\n") != std::string::npos);
+    CHECK(r.err.find("formfactor: T_ZONE_TWO.csv:2: unknown surface 'Zn001:Flr001'\n") !=
+          std::string::npos);
+    CHECK(dir.entries() == 3);  // the model and the two property files
+}
+
 TEST_CASE(
     "mpi: sparse .h5 from mc-hemisphere holds the same CSR on 2 and 3 ranks as on one process" *
     doctest::test_suite("mpi")) {

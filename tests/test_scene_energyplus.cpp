@@ -417,6 +417,195 @@ TEST_CASE("energyplus: simplified objects give the patches of the same room draw
     check_enclosure_rows(fa);
 }
 
+TEST_CASE(
+    "energyplus: simplified windows and doors on detailed walls are cut where EnergyPlus puts "
+    "them") {
+    // The detailed room with its window and door written as Window and Door on the detailed
+    // walls (Starting X and Z from the wall's second vertex, its lower left corner): the same
+    // holes, so the same patches and the same matrix, in a zone turned and moved.
+    const std::string window_detailed =
+        "FenestrationSurface:Detailed, South window, Window, G, South, , , , 1, 4, "
+        "1,0,1.8, 1,0,0.8, 2.5,0,0.8, 2.5,0,1.8;";
+    const std::string door_detailed =
+        "FenestrationSurface:Detailed, East door, Door, D, East, , , , 1, 4, "
+        "4,0.5,2, 4,0.5,0, 4,1.5,0, 4,1.5,2;";
+    REQUIRE(kRoomDetailed.find(window_detailed) != std::string::npos);
+    REQUIRE(kRoomDetailed.find(door_detailed) != std::string::npos);
+    const std::string openings =
+        replaced(replaced(kRoomDetailed, window_detailed,
+                          "Window, South window, G, South, , 1, 1, 0.8, 1.5, 1;"),
+                 door_detailed, "Door, East door, D, East, 1, 0.5, 0, 1, 2;");
+    const Scene simple = load_energyplus_text(kRoomHead + openings, "simple.idf");
+    const Scene detailed = load_energyplus_text(kRoomHead + kRoomDetailed, "detailed.idf");
+    REQUIRE(simple.surfaces.size() == 8);
+    for (std::size_t k = 0; k < 8; ++k) {
+        const Surface& a = simple.surfaces[k];
+        const Surface& b = detailed.surfaces[k];
+        INFO(a.name);
+        CHECK(a.name == b.name);
+        CHECK(a.base == b.base);
+        REQUIRE(a.polygon.size() == b.polygon.size());
+        for (std::size_t v = 0; v < a.polygon.size(); ++v)
+            CHECK((a.polygon[v] - b.polygon[v]).norm() < 1e-12);
+        CHECK(std::abs(surface_area(a) - surface_area(b)) < 1e-12);
+    }
+    CHECK(std::abs(surface_area(named(simple, "South")) - (4 * 2.5 - 1.5)) < 1e-12);
+    CHECK(std::abs(surface_area(named(simple, "East")) - (3 * 2.5 - 2)) < 1e-12);
+    const FormFactors fa = tight_analytic(simple), fb = tight_analytic(detailed);
+    CHECK((fa.F - fb.F).cwiseAbs().maxCoeff() <= 1e-12);
+    check_enclosure_rows(fa);
+
+    // A skylight on the detailed roof (horizontal: X runs along the edge from vertex 2 to 3),
+    // and a window on a wall entered clockwise (the order turned round from vertex 1, so that
+    // vertex 2 is the last one entered: the lower left corner), in world coordinates.
+    const std::string head =
+        "Version, 9.3;\nZone, ROOM;\n"
+        "GlobalGeometryRules, UpperLeftCorner, Clockwise, World;\n";
+    auto wall = [](const std::string& name, const std::string& coords) {
+        return "BuildingSurface:Detailed, " + name + ", Wall, C, ROOM, Outdoors, , , , , 4, " +
+               coords + ";\n";
+    };
+    const std::string room = wall("South", "0,0,2.5, 4,0,2.5, 4,0,0, 0,0,0") +
+                             "Window, SW, G, South, , 1, 1, 0.8, 1.5, 1;\n" +
+                             wall("East", "4,0,2.5, 4,3,2.5, 4,3,0, 4,0,0") +
+                             wall("North", "4,3,2.5, 0,3,2.5, 0,3,0, 4,3,0") +
+                             wall("West", "0,3,2.5, 0,0,2.5, 0,0,0, 0,3,0") +
+                             wall("Floor", "4,3,0, 0,3,0, 0,0,0, 4,0,0") +
+                             wall("Roof", "0,3,2.5, 4,3,2.5, 4,0,2.5, 0,0,2.5") +
+                             "Window, Skylight, G, Roof, , 1, 1, 1, 1, 0.5;\n";
+    const Scene c = load_energyplus_text(head + room, "cw.idf");
+    REQUIRE(c.surfaces.size() == 8);
+    const Surface& sky = named(c, "Skylight");
+    REQUIRE(named(c, "Roof").holes.size() == 1);
+    CHECK(std::abs(surface_area(named(c, "Roof")) - (12 - 0.5)) < 1e-12);
+    CHECK((centroid(sky.polygon) - Vec3(1.5, 1.25, 2.5)).norm() < 1e-12);
+    CHECK(normal(sky.polygon).z() < -1 + 1e-12);  // faces into the room, like its roof
+    const Surface& sw = named(c, "SW");
+    CHECK(std::abs(surface_area(sw) - 1.5) < 1e-12);
+    CHECK((centroid(sw.polygon) - Vec3(1.75, 0, 1.3)).norm() < 1e-12);
+    CHECK(std::abs(surface_area(named(c, "South")) - (10 - 1.5)) < 1e-12);
+    check_enclosure_rows(tight_analytic(c));
+}
+
+TEST_CASE("energyplus: an interzone surface that names a zone makes its facing surface there") {
+    // Two rooms side by side, 4 × 3 × 2.5 m each; A's east wall (x = 4) names zone B as its
+    // outside, with a window in it; B draws no west wall: EnergyPlus makes "iz-" surfaces in B,
+    // the vertices reversed, and so does formfactor, so that B is closed.
+    const std::string head =
+        "Version, 9.3;\nZone, A;\nZone, B;\n"
+        "GlobalGeometryRules, UpperLeftCorner, Counterclockwise, Relative;\n";
+    auto surface = [](const std::string& name, const std::string& zone, const std::string& coords,
+                      const std::string& outside = "Outdoors, ") {
+        return "BuildingSurface:Detailed, " + name + ", Wall, C, " + zone + ", " + outside +
+               ", , , , 4, " + coords + ";\n";
+    };
+    const std::string a = surface("A south", "A", "0,0,2.5, 0,0,0, 4,0,0, 4,0,2.5") +
+                          surface("A north", "A", "4,3,2.5, 4,3,0, 0,3,0, 0,3,2.5") +
+                          surface("A west", "A", "0,3,2.5, 0,3,0, 0,0,0, 0,0,2.5") +
+                          surface("A floor", "A", "4,3,0, 4,0,0, 0,0,0, 0,3,0") +
+                          surface("A roof", "A", "0,3,2.5, 0,0,2.5, 4,0,2.5, 4,3,2.5");
+    const std::string b = surface("B south", "B", "4,0,2.5, 4,0,0, 8,0,0, 8,0,2.5") +
+                          surface("B east", "B", "8,0,2.5, 8,0,0, 8,3,0, 8,3,2.5") +
+                          surface("B north", "B", "8,3,2.5, 8,3,0, 4,3,0, 4,3,2.5") +
+                          surface("B floor", "B", "8,3,0, 8,0,0, 4,0,0, 4,3,0") +
+                          surface("B roof", "B", "4,3,2.5, 4,0,2.5, 8,0,2.5, 8,3,2.5");
+    const std::string detailed =
+        head + a + surface("A east", "A", "4,0,2.5, 4,0,0, 4,3,0, 4,3,2.5", "Zone, B") +
+        "Window:Interzone, AB window, G, A east, B, 1, 1, 0.8, 1.5, 1;\n" + b;
+    const std::string simplified =
+        head + a + "Wall:Interzone, A east, C, A, B, 90, 90, 4, 0, 0, 3, 2.5;\n" +
+        "Window:Interzone, AB window, G, A east, B, 1, 1, 0.8, 1.5, 1;\n" + b;
+    for (const std::string& text : {detailed, simplified}) {
+        const Scene sa = load_energyplus_text(text, "two.idf", "A");
+        REQUIRE(sa.surfaces.size() == 7);
+        check_enclosure_rows(tight_analytic(sa));
+        const Scene sb = load_energyplus_text(text, "two.idf", "B");
+        REQUIRE(sb.surfaces.size() == 7);
+        CHECK(sb.surfaces[5].name == "iz-A east");
+        CHECK(sb.surfaces[6].name == "iz-AB window");
+        CHECK(sb.surfaces[6].base == 5);
+        const Surface& wall = named(sb, "iz-A east");
+        const Surface& facing = named(sa, "A east");
+        CHECK(std::abs(surface_area(wall) - (7.5 - 1.5)) < 1e-12);
+        // The same rectangle as A's wall, facing the other way: into B (+x).
+        CHECK((normal(wall.polygon) - Vec3(1, 0, 0)).norm() < 1e-12);
+        CHECK((normal(facing.polygon) + Vec3(1, 0, 0)).norm() < 1e-12);
+        CHECK((centroid(wall.polygon) - centroid(facing.polygon)).norm() < 1e-12);
+        const Surface& window = named(sb, "iz-AB window");
+        CHECK(std::abs(surface_area(window) - 1.5) < 1e-12);
+        CHECK((centroid(window.polygon) - centroid(named(sa, "AB window").polygon)).norm() < 1e-12);
+        CHECK((centroid(window.polygon) - Vec3(4, 1.75, 1.3)).norm() < 1e-12);
+        check_enclosure_rows(tight_analytic(sb));
+    }
+    // The model also draws the wall that EnergyPlus generates: refused, not counted twice.
+    const std::string twice = detailed + surface("B west", "B", "4,3,2.5, 4,3,0, 4,0,0, 4,0,2.5");
+    CHECK(load_energyplus_text(twice, "two.idf", "A").surfaces.size() == 7);
+    CHECK(input_error([&] { load_energyplus_text(twice, "two.idf", "B"); }) ==
+          "two.idf:10: BuildingSurface:Detailed 'A east' names zone 'B' as its outside, where "
+          "EnergyPlus generates 'iz-A east'; but that zone's surface 'B west' already covers it "
+          "(name the surface, not the zone, as the Outside Boundary Condition Object)");
+    // A condition Zone whose object is not a zone of the model.
+    CHECK(input_error([&] {
+              load_energyplus_text(replaced(detailed, "Zone, B,", "Zone, C,"), "two.idf", "A");
+          }) ==
+          "two.idf:10: BuildingSurface:Detailed 'A east': Outside Boundary Condition Object "
+          "'C' is not a zone of the model (the condition is Zone)");
+}
+
+TEST_CASE(
+    "energyplus: the two zones as epJSON: a window on a detailed wall, its zone's facing "
+    "surfaces") {
+    // A's east wall (condition Zone, object B) with a Window:Interzone, and B's five surfaces,
+    // as epJSON writes them (objects grouped by class, vertices in "vertices" arrays).
+    auto surface = [](const std::string& name, const std::string& zone, const std::vector<Vec3>& v,
+                      const std::string& outside) {
+        std::string s = "\"" + name +
+                        "\": {\"surface_type\": \"Wall\", \"construction_name\": "
+                        "\"C\", \"zone_name\": \"" +
+                        zone + "\", " + outside + "\"vertices\": [";
+        for (std::size_t k = 0; k < v.size(); ++k)
+            s += (k ? ", " : "") + std::string("{\"vertex_x_coordinate\": ") +
+                 std::to_string(v[k].x()) +
+                 ", \"vertex_y_coordinate\": " + std::to_string(v[k].y()) +
+                 ", \"vertex_z_coordinate\": " + std::to_string(v[k].z()) + "}";
+        return s + "]}";
+    };
+    const std::string out = "\"outside_boundary_condition\": \"Outdoors\", ";
+    const std::string text =
+        "{\"Version\": {\"Version 1\": {\"version_identifier\": \"23.2\"}},\n"
+        "\"Zone\": {\"A\": {}, \"B\": {}},\n"
+        "\"BuildingSurface:Detailed\": {\n" +
+        surface("A east", "A", {{4, 0, 2.5}, {4, 0, 0}, {4, 3, 0}, {4, 3, 2.5}},
+                "\"outside_boundary_condition\": \"Zone\", "
+                "\"outside_boundary_condition_object\": \"B\", ") +
+        ",\n" + surface("B south", "B", {{4, 0, 2.5}, {4, 0, 0}, {8, 0, 0}, {8, 0, 2.5}}, out) +
+        ",\n" + surface("B east", "B", {{8, 0, 2.5}, {8, 0, 0}, {8, 3, 0}, {8, 3, 2.5}}, out) +
+        ",\n" + surface("B north", "B", {{8, 3, 2.5}, {8, 3, 0}, {4, 3, 0}, {4, 3, 2.5}}, out) +
+        ",\n" + surface("B floor", "B", {{8, 3, 0}, {8, 0, 0}, {4, 0, 0}, {4, 3, 0}}, out) + ",\n" +
+        surface("B roof", "B", {{4, 3, 2.5}, {4, 0, 2.5}, {8, 0, 2.5}, {8, 3, 2.5}}, out) +
+        "},\n"
+        "\"Window:Interzone\": {\"AB window\": {\"construction_name\": \"G\", "
+        "\"building_surface_name\": \"A east\", \"outside_boundary_condition_object\": \"B\", "
+        "\"multiplier\": 1, \"starting_x_coordinate\": 1, \"starting_z_coordinate\": 0.8, "
+        "\"length\": 1.5, \"height\": 1}}}\n";
+    const Scene b = load_energyplus_text(text, "two.epJSON", "B");
+    REQUIRE(b.surfaces.size() == 7);
+    CHECK(b.surfaces[5].name == "iz-A east");
+    CHECK(b.surfaces[6].name == "iz-AB window");
+    CHECK((centroid(b.surfaces[6].polygon) - Vec3(4, 1.75, 1.3)).norm() < 1e-12);
+    CHECK((normal(b.surfaces[5].polygon) - Vec3(1, 0, 0)).norm() < 1e-12);
+    CHECK(std::abs(surface_area(b.surfaces[5]) - 6.0) < 1e-12);
+    check_enclosure_rows(tight_analytic(b));
+    CHECK(input_error([&] {
+              load_energyplus_text(
+                  replaced(text, "\"outside_boundary_condition_object\": \"B\", \"v",
+                           "\"outside_boundary_condition_object\": \"C\", \"v"),
+                  "two.epJSON", "B");
+          }) ==
+          "two.epJSON: BuildingSurface:Detailed 'A east': Outside Boundary Condition Object "
+          "'C' is not a zone of the model (the condition is Zone)");
+}
+
 TEST_CASE("energyplus: a simplified wall's azimuth turns with the building and the zone north") {
     // The south wall's outward normal points to azimuth 180 + 15 + 30 = 225 (south-west); the
     // room's surfaces face inward, so its normal points to azimuth 45: (sin 45°, cos 45°, 0).
@@ -533,15 +722,11 @@ TEST_CASE("energyplus: bad simplified objects name the file and line and the obj
               load_energyplus_text(replaced(room, "1, 1, 0.8, 1.5, 1;", "1, 3, 0.8, 1.5, 1;"),
                                    "m.idf");
           }).find("m.idf:6: Window 'South window' is not within its base surface 'South'") == 0);
-    // A simplified window on a detailed wall: its corner is defined on rectangles only.
+    // A simplified window on a detailed wall that reaches past its top.
     CHECK(input_error([&] {
               load_energyplus_text(
-                  kRoomHead + kRoomDetailed + "Window, W2, G, North, , 1, 1, 0.8, 1, 1;\n",
-                  "m.idf");
-          }) ==
-          "m.idf:13: Window 'W2': its base surface 'North' is not a simplified surface "
-          "(Wall:Exterior, Roof, ...), whose lower left corner and sides place it; "
-          "describe it with FenestrationSurface:Detailed");
+                  kRoomHead + kRoomDetailed + "Window, W2, G, North, , 1, 1, 2, 1, 1;\n", "m.idf");
+          }).find("m.idf:13: Window 'W2' is not within its base surface 'North'") == 0);
     const std::string json = read_text(data("energyplus/4ZoneWithShading_Simple_1.epJSON"));
     CHECK(input_error([&] {
               load_energyplus_text(replaced(json, "\"height\": 10", "\"height\": \"tall\""),
@@ -572,10 +757,22 @@ TEST_CASE(
               ":353: Door:Interzone 'Zn003:Wall004:Door001' overlaps another subsurface of "
               "'Zn003:Wall004'");
     // Zone 4's west wall is the one EnergyPlus generates from zone 3's Wall:Interzone (whose
-    // outside boundary condition object names the zone); formfactor reads what is written, so
-    // the zone is open.
-    const Scene four = load_energyplus(path, "ZONE 4");
-    CHECK(four.surfaces.size() == 6);
-    const FormFactors f = tight_analytic(four);
-    for (Eigen::Index i = 0; i < f.F.rows(); ++i) CHECK(f.F.row(i).sum() < 1.0 - 1e-3);
+    // outside boundary condition object names the zone), with the same door and glass door.
+    CHECK(input_error([&] { load_energyplus(path, "ZONE 4"); }) ==
+          path +
+              ":353: Door:Interzone 'iz-Zn003:Wall004:Door001' overlaps another subsurface of "
+              "'iz-Zn003:Wall004'");
+    // Without the door, zone 4 is closed by the generated wall and its two openings.
+    const std::string text = read_text(path);
+    const std::size_t door = text.find("  Door:Interzone,\n    Zn003:Wall004:Door001");
+    REQUIRE(door != std::string::npos);
+    const std::string without =
+        text.substr(0, door) + text.substr(text.find("Floor:Interzone,", door) - 2);
+    const Scene four = load_energyplus_text(without, "m.idf", "ZONE 4");
+    CHECK(four.surfaces.size() == 9);
+    CHECK(named(four, "iz-Zn003:Wall004").holes.size() == 2);
+    CHECK(std::abs(surface_area(named(four, "iz-Zn003:Wall004")) -
+                   surface_area(named(load_energyplus_text(without, "m.idf", "ZONE 3"),
+                                      "Zn003:Wall004"))) < 1e-9);
+    check_enclosure_rows(tight_analytic(four));
 }

@@ -324,10 +324,6 @@ void solve_sparse_scene(const SolveArgs& args, Scene& scene, StepTimes& times, S
 // (dense, or `sparse` CSR rows above --threshold), the iteration exchanging the solution vector.
 void solve_distributed_scene(const SolveArgs& args, Scene& scene, StepTimes& times,
                              Stopwatch& total, bool sparse, const SolverOptions& solver_options) {
-    if (args.outer)
-        throw OptionError("--all-zones",
-                          "solves the zones one after another in one process; under mpirun "
-                          "solve one zone (--zone NAME)");
     const int threads = effective_threads(args.method.options.threads);
     warn_single_patch(scene);
     PatchProperties props = properties_from_scene(scene);

@@ -63,6 +63,13 @@ struct SurfaceInfo {
     bool fenestration = false;
     std::optional<Rect> rect;  // a simplified object: vertices made from it in build()
     bool placed = false;       // vertices are world coordinates, counter-clockwise from outside
+    // A base surface's Outside Boundary Condition Object (interzone objects, and detailed surfaces
+    // whose condition is Zone or Surface); when it names a zone, EnergyPlus makes the facing
+    // surface in that zone. `outside_is_zone`: the condition is Zone, so it must name one.
+    std::string outside;
+    bool outside_is_zone = false;
+    int outside_line = 0;
+    std::string generated_from;  // a surface EnergyPlus generates: the surface it faces
 };
 
 const char* const kDetailedSurfaces[] = {"buildingsurface:detailed", "wall:detailed",
@@ -241,6 +248,33 @@ class ModelBuilder {
         }
         if (scene.surfaces.empty())
             throw InputError(path_, 0, "zone '" + zone->name + "' has no surfaces");
+        // A generated surface where the zone already has one: the zone would count that area
+        // twice (the model names the zone where it means the facing surface).
+        for (const SurfaceInfo* sp : order) {
+            if (sp->generated_from.empty() || sp->fenestration) continue;
+            const Surface& g = scene.surfaces[static_cast<std::size_t>(index.at(lower(sp->name)))];
+            const Plane pl = plane_of(g.polygon);
+            for (const SurfaceInfo* op : order) {
+                auto o = index.find(lower(op->name));
+                if (op->fenestration || op == sp || o == index.end()) continue;
+                const Surface& other = scene.surfaces[static_cast<std::size_t>(o->second)];
+                double off = 0.0;
+                for (const Vec3& v : other.polygon.vertices)
+                    off = std::max(off, std::abs(pl.signed_distance(v)));
+                if (off > 1e-6 * diameter(g.polygon) ||
+                    std::abs(normal(other.polygon).dot(pl.n)) < 0.999)
+                    continue;
+                if (overlap_area(g.polygon, other.polygon) > 1e-9 * area(g.polygon))
+                    throw InputError(
+                        path_, sp->outside_line,
+                        fmt::format("{} '{}' names zone '{}' as its outside, where EnergyPlus "
+                                    "generates '{}'; but that zone's surface '{}' already covers "
+                                    "it (name the surface, not the zone, as the Outside Boundary "
+                                    "Condition Object)",
+                                    sp->type_as_written, sp->generated_from, zone->name, sp->name,
+                                    other.name));
+            }
+        }
         // Fenestration: holes of its base, checked to lie in it.
         for (const SurfaceInfo* sp : order) {
             const SurfaceInfo& s = *sp;
@@ -296,18 +330,30 @@ class ModelBuilder {
     // relative coordinates (`Coordinate System`), its starting corner is moved into the zone by
     // `Rectangular Surface Coordinate System`; a subsurface starts at its base surface's lower
     // left corner moved by its X along the base's length and its Z up the base, and takes the
-    // base's azimuth and tilt. Also refuses a base surface whose zone does not exist. Subsurfaces
-    // are made for the zone `zkey` (lower case) only, whose errors build() reports.
+    // base's azimuth and tilt. Then the surfaces EnergyPlus generates in zone `zkey` (lower case)
+    // for base surfaces of other zones whose outside boundary condition object names it.
+    // Also refuses a base surface whose zone, or the zone its condition names, does not exist.
+    // Subsurfaces are made for the bases seen from zone `zkey` only, whose errors build() reports.
     std::vector<SurfaceInfo> with_rectangles(const std::string& zkey) const {
         std::vector<SurfaceInfo> all = surfaces_;
         std::map<std::string, std::size_t> index;  // lower-case name → first surface of that name
         for (std::size_t k = 0; k < all.size(); ++k) index.emplace(lower(all[k].name), k);
+        // Whether zone `zkey` sees a base surface: its own, or one that names it outside.
+        auto seen = [&](const SurfaceInfo& base) {
+            return lower(base.zone) == zkey ||
+                   (!base.outside.empty() && lower(base.outside) == zkey &&
+                    find_zone(base.outside));
+        };
         for (SurfaceInfo& s : all) {
             if (s.fenestration) continue;
             const ZoneInfo* z = find_zone(s.zone);
             if (!z)
                 throw InputError(path_, s.line,
                                  where(s) + ": its zone '" + s.zone + "' does not exist");
+            if (s.outside_is_zone && !find_zone(s.outside))
+                throw InputError(path_, s.outside_line,
+                                 where(s) + ": Outside Boundary Condition Object '" + s.outside +
+                                     "' is not a zone of the model (the condition is Zone)");
             if (!s.rect) continue;
             Rect& r = *s.rect;
             if (relative_) r.azimuth += building_north_ + z->north;
@@ -322,20 +368,89 @@ class ModelBuilder {
             // A missing base, or one that is a subsurface, is refused by build() with its line.
             if (b == index.end() || all[b->second].fenestration) continue;
             const SurfaceInfo& base = all[b->second];
-            if (lower(base.zone) != zkey) continue;
-            if (!base.rect)
-                throw InputError(path_, s.line,
-                                 where(s) + ": its base surface '" + base.name +
-                                     "' is not a simplified surface (Wall:Exterior, Roof, ...), "
-                                     "whose lower left corner and sides place it; describe it "
-                                     "with FenestrationSurface:Detailed");
-            const Rect& br = *base.rect;
-            const Vec3 corner = base.vertices[1] + s.rect->x * length_direction(br.azimuth) +
-                                s.rect->z * up_direction(br.azimuth, br.tilt);
-            s.vertices = rectangle(corner, br.azimuth, br.tilt, s.rect->length, s.rect->height);
+            if (!seen(base)) continue;
+            double azimuth = 0.0, tilt = 0.0;
+            Vec3 corner;
+            if (base.rect) {
+                azimuth = base.rect->azimuth;
+                tilt = base.rect->tilt;
+                corner = base.vertices[1];
+            } else {
+                // A detailed base: EnergyPlus's vertex 2 and the azimuth and tilt of its outward
+                // normal (SurfaceGeometry's MakeRelativeRectangularVertices).
+                const std::vector<Vec3> v = outward_world(base, *find_zone(base.zone));
+                if (v.size() < 3) continue;  // build() refuses the base
+                azimuth_and_tilt(v, azimuth, tilt);
+                corner = v[1];
+            }
+            corner +=
+                s.rect->x * length_direction(azimuth) + s.rect->z * up_direction(azimuth, tilt);
+            s.vertices = rectangle(corner, azimuth, tilt, s.rect->length, s.rect->height);
             s.placed = true;
         }
+        // The facing surfaces EnergyPlus generates: "iz-" and the name, the vertices reversed, in
+        // the zone named; each subsurface of the base likewise, a subsurface of the new base.
+        std::vector<SurfaceInfo> generated;
+        for (const SurfaceInfo& s : all) {
+            if (s.fenestration || s.outside.empty() || lower(s.zone) == zkey) continue;
+            const ZoneInfo* there = find_zone(s.outside);
+            if (!there || lower(there->name) != zkey) continue;
+            const ZoneInfo& here = *find_zone(s.zone);
+            SurfaceInfo g = s;
+            g.name = "iz-" + s.name;
+            g.zone = there->name;
+            g.vertices = outward_world(s, here);
+            std::reverse(g.vertices.begin(), g.vertices.end());
+            g.placed = true;
+            g.rect.reset();
+            g.outside.clear();
+            g.outside_is_zone = false;
+            g.generated_from = s.name;
+            generated.push_back(std::move(g));
+            for (const SurfaceInfo& f : all) {
+                if (!f.fenestration || lower(f.base) != lower(s.name)) continue;
+                SurfaceInfo h = f;
+                h.name = "iz-" + f.name;
+                h.base = "iz-" + s.name;
+                h.vertices = outward_world(f, here);
+                std::reverse(h.vertices.begin(), h.vertices.end());
+                h.placed = true;
+                h.rect.reset();
+                generated.push_back(std::move(h));
+            }
+        }
+        all.insert(all.end(), generated.begin(), generated.end());
         return all;
+    }
+
+    // A surface's vertices in world coordinates, counter-clockwise seen from outside, in the
+    // order EnergyPlus keeps them as entered counter-clockwise; clockwise entry is turned round
+    // from the first vertex on (1, n, n−1, ..., 2), so that a wall entered clockwise from its
+    // upper left corner has its lower left corner second, as it has counter-clockwise. `z` is
+    // the zone its coordinates are relative to.
+    std::vector<Vec3> outward_world(const SurfaceInfo& s, const ZoneInfo& z) const {
+        if (s.placed) return s.vertices;
+        std::vector<Vec3> v;
+        for (const Vec3& p : s.vertices) v.push_back(place(p, z));
+        if (clockwise_ && v.size() > 2) std::reverse(v.begin() + 1, v.end());
+        return v;
+    }
+
+    // EnergyPlus's azimuth and tilt of a surface (Vectors' DetermineAzimuthAndTilt), in degrees,
+    // from its vertices counter-clockwise seen from outside: the azimuth of the outward normal
+    // clockwise from north, or for a horizontal surface that of its edge from vertex 2 to 3.
+    static void azimuth_and_tilt(const std::vector<Vec3>& v, double& azimuth, double& tilt) {
+        Polygon p;
+        p.vertices = v;
+        const Vec3 n = normal(p);
+        const Vec3 x = (v[2] - v[1]).normalized();
+        const double deg = 180.0 / std::numbers::pi;
+        const double angle =
+            std::abs(n.z()) < 1.0 - 1.12e-16 ? std::atan2(n.x(), -n.y()) : std::atan2(x.y(), x.x());
+        tilt = std::acos(std::clamp(n.z(), -1.0, 1.0)) * deg;
+        azimuth = std::fmod(450.0 - angle * deg, 360.0) + 90.0;
+        if (azimuth < 0.0) azimuth += 360.0;
+        azimuth = std::fmod(azimuth, 360.0);
     }
 
     // EnergyPlus's rectangle axes: along the length (to the right seen from outside) and up the
@@ -608,6 +723,13 @@ class ModelBuilder {
         s.zone = text_field(o, zone_index, "zone_name");
         if (s.zone.empty())
             throw InputError(path_, line_of(o, zone_index), where(s) + " names no zone");
+        const std::size_t condition =
+            zone_index + (o.json || !has_space_field(o, zone_index) ? 1 : 2);
+        if (lower(text_field(o, condition, "outside_boundary_condition")) == "zone") {
+            s.outside = text_field(o, condition + 1, "outside_boundary_condition_object");
+            s.outside_is_zone = true;
+            s.outside_line = line_of(o, condition + 1);
+        }
         if (!o.json) {
             // Name, [type], construction, zone, [space], condition, condition object, sun, wind,
             // view factor to ground, number of vertices, then the coordinates.
@@ -684,6 +806,10 @@ class ModelBuilder {
             const std::size_t with_space = c.interzone ? 12 : 11;
             const bool space = version_ > 0 ? version_ >= 906 : o.fields.size() >= with_space;
             const std::size_t k = 3 + (space ? 1 : 0) + (c.interzone ? 1 : 0);
+            if (c.interzone) {
+                s.outside = text_field(o, k - 1, "outside_boundary_condition_object");
+                s.outside_line = line_of(o, k - 1);
+            }
             r.azimuth = number(o, k, "azimuth_angle", "Azimuth Angle", 0.0);
             r.tilt = number(o, k + 1, "tilt_angle", "Tilt Angle", c.tilt);
             r.x = number(o, k + 2, "starting_x_coordinate", "Starting X Coordinate", 0.0);
