@@ -331,3 +331,92 @@ TEST_CASE("cli interrupt: thresholding sparse rows stops within a second of SIGT
                            "threshold", std::chrono::milliseconds(0)),
         "threshold");
 }
+
+namespace {
+
+// The analytic method on a 104,761-patch city, sparse rows: its setup (plane groups, merged
+// blockers, closed solids) takes seconds, its classification minutes.
+const std::vector<std::string> kLargeCityAnalytic = {"compute",   "city-60", "--method", "analytic",
+                                                     "--threads", "2",       "-o",       "F.mtx"};
+
+// A room of 1,536 patches around a box at a tight tolerance: the setup and the classification
+// take a fraction of a second, the partly hidden pairs seconds.
+std::vector<std::string> obstructed_room(const std::string& storage, const std::string& out) {
+    return {"compute",     "room-16-obstruction",
+            "--method",    "analytic",
+            "--tolerance", "1e-7",
+            "--storage",   storage,
+            "--threads",   "2",
+            "-o",          out};
+}
+
+}  // namespace
+
+TEST_CASE("cli interrupt: the analytic setup of a large city stops within a second of SIGTERM" *
+          doctest::test_suite("slow")) {
+    TempDir work, capture;
+    check_prompt_stop(interrupt_in_phase(work, capture, kLargeCityAnalytic, "analytic setup",
+                                         std::chrono::milliseconds(0)),
+                      "analytic setup");
+}
+
+TEST_CASE(
+    "cli interrupt: the analytic classification of a large city stops within a second of "
+    "SIGTERM" *
+    doctest::test_suite("slow")) {
+    TempDir work, capture;
+    check_prompt_stop(interrupt_in_phase(work, capture, kLargeCityAnalytic,
+                                         "analytic classification", std::chrono::milliseconds(0)),
+                      "analytic classification");
+}
+
+TEST_CASE(
+    "cli interrupt: the analytic partly hidden pass (dense) stops within a second of SIGTERM" *
+    doctest::test_suite("slow")) {
+    TempDir work, capture;
+    check_prompt_stop(
+        interrupt_in_phase(work, capture, obstructed_room("dense", "F.npy"),
+                           "analytic partly hidden pairs", std::chrono::milliseconds(0)),
+        "analytic partly hidden pairs");
+}
+
+TEST_CASE(
+    "cli interrupt: the analytic partly hidden pass (sparse rows) stops within a second of "
+    "SIGTERM" *
+    doctest::test_suite("slow")) {
+    TempDir work, capture;
+    check_prompt_stop(
+        interrupt_in_phase(work, capture, obstructed_room("sparse", "F.mtx"),
+                           "analytic partly hidden pairs", std::chrono::milliseconds(0)),
+        "analytic partly hidden pairs");
+}
+
+TEST_CASE("cli interrupt: the analytic visible pairs of a city stop within a second of SIGTERM" *
+          doctest::test_suite("slow")) {
+    // A 1,905-patch city, sparse rows: 13 s of classification (on a loaded 2-core machine),
+    // then the exact values of the pairs that see each other whole, tenths of a second.
+    TempDir work, capture;
+    check_prompt_stop(interrupt_in_phase(work, capture,
+                                         {"compute", "city-8", "--method", "analytic",
+                                          "--tolerance", "1e-9", "--threads", "2", "-o", "F.mtx"},
+                                         "analytic visible pairs", std::chrono::milliseconds(0)),
+                      "analytic visible pairs");
+}
+
+TEST_CASE(
+    "cli interrupt: the late phases of a 10^5-patch Monte-Carlo solve stop within a second of "
+    "SIGTERM" *
+    doctest::test_suite("slow")) {
+    // city-60 (104,761 patches), mc-hemisphere rows into sparse storage in 13 blocks: the rows
+    // take seconds, then each block's threshold into CSR and the diagnosis tenths of a second
+    // each, so the signal goes as the phase begins.
+    for (const std::string phase : {"threshold", "diagnose"}) {
+        CAPTURE(phase);
+        TempDir work, capture;
+        check_prompt_stop(interrupt_in_phase(work, capture,
+                                             {"solve", "city-60", "--method", "mc-hemisphere",
+                                              "--samples", "100", "--threads", "2", "-o", "B.csv"},
+                                             phase, std::chrono::milliseconds(0)),
+                          phase);
+    }
+}

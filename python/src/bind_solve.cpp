@@ -338,29 +338,71 @@ const HierarchicalFormFactors* operator_of(const PyScene& s, const py::object& F
     return h.op.get();
 }
 
-/// The solver when none is given: gmres for an operator; for a sparse F gauss-seidel where a
-/// matrix's default is an iterative one, gmres where it is direct; else the matrix's default.
-SolverKind default_solver(bool op, bool sparse, SolverKind dense_default) {
-    if (op) return SolverKind::gmres;
-    if (sparse)
-        return dense_default == SolverKind::direct ? SolverKind::gmres : SolverKind::gauss_seidel;
-    return dense_default;
-}
+/// What solve_radiosity() and solve_thermal() begin with: the communicator opened for the call
+/// and F as the solvers take it, exactly one of the hierarchical operator, a sparse F (any
+/// scipy.sparse matrix) or a dense one (a Result or an array), checked against the scene. On a
+/// rank other than 0 the constructor serves rank 0's solve and holds no F (on_rank0() false:
+/// the call returns None).
+class SolveInput {
+  public:
+    SolveInput(const py::object& scene_arg_value, const py::object& F,
+               const py::object& comm_arg_value)
+        : scene(scene_arg(scene_arg_value)) {
+        open_communicator(comm_arg_value, comm_);
+        if (comm_ && distributed::rank() != 0) {
+            serve_rank0();
+            return;
+        }
+        rank0_ = true;
+        op_ = operator_of(scene, F);
+        sparse_ = op_ ? std::nullopt : sparse_of(scene, F);
+        if (!op_ && !sparse_) dense_ = form_factors_of(scene, F);
+        n = op_ ? op_->size() : sparse_ ? sparse_->n : dense_.size();
+    }
+    SolveInput(const SolveInput&) = delete;
+    SolveInput& operator=(const SolveInput&) = delete;
+
+    /// False on a rank other than 0 (it has served rank 0's solve).
+    bool on_rank0() const { return rank0_; }
+
+    /// The solver when none is given: gmres for an operator; for a sparse F gauss-seidel where
+    /// a matrix's default is an iterative one, gmres where it is direct; else the matrix's
+    /// default.
+    SolverKind default_solver(SolverKind dense_default) const {
+        if (op_) return SolverKind::gmres;
+        if (sparse_)
+            return dense_default == SolverKind::direct ? SolverKind::gmres
+                                                       : SolverKind::gauss_seidel;
+        return dense_default;
+    }
+
+    /// solve(F) with the F given, or over_ranks(rows) with F's rows spread over the
+    /// communicator's ranks when there is one and solver `o` iterates on a matrix (distributes()).
+    template <class Solve, class SolveOverRanks>
+    auto run(const SolverOptions& o, const Solve& solve, const SolveOverRanks& over_ranks) const {
+        if (comm_ && !op_ && distributes(o))
+            return over_ranks(sparse_ ? distributed::distribute_rows(*sparse_)
+                                      : distributed::distribute_rows(dense_));
+        return op_ ? solve(*op_) : sparse_ ? solve(*sparse_) : solve(dense_);
+    }
+
+    const PyScene& scene;
+    std::size_t n = 0;  ///< patches: F is n × n
+
+  private:
+    std::optional<distributed::Communicator> comm_;
+    bool rank0_ = false;
+    const HierarchicalFormFactors* op_ = nullptr;
+    std::optional<SparseFormFactors> sparse_;
+    FormFactors dense_;
+};
 
 py::object radiosity(const SolveArgs& a, const std::vector<py::object>& values) {
     const auto value = [&](const char* name) { return value_of(kSolveRadiosity, values, name); };
-    const PyScene& s = scene_arg(value("scene"));
-    const py::object& F = value("F");
-    std::optional<distributed::Communicator> comm;
-    open_communicator(value("comm"), comm);
-    if (comm && distributed::rank() != 0) {
-        serve_rank0();
-        return py::none();
-    }
-    const HierarchicalFormFactors* op = operator_of(s, F);
-    const std::optional<SparseFormFactors> sp = op ? std::nullopt : sparse_of(s, F);
-    const FormFactors ff = op || sp ? FormFactors{} : form_factors_of(s, F);
-    const std::size_t n = op ? op->size() : sp ? sp->n : ff.size();
+    const SolveInput in(value("scene"), value("F"), value("comm"));
+    if (!in.on_rank0()) return py::none();
+    const PyScene& s = in.scene;
+    const std::size_t n = in.n;
     PatchProperties props = properties_from_scene(*s.scene);
     if (!value("reflectance").is_none())
         props.reflectance = per_patch_rgb(value("reflectance"), "reflectance", n);
@@ -368,19 +410,14 @@ py::object radiosity(const SolveArgs& a, const std::vector<py::object>& values) 
         props.emission = per_patch_rgb(value("emission"), "emission", n);
     validate_properties(props);
     SolverOptions o = a.solver;
-    o.solver = a.kind.value_or(default_solver(op, sp.has_value(), SolverKind::gauss_seidel));
-    const bool over_ranks = comm && !op && distributes(o);
+    o.solver = a.kind.value_or(in.default_solver(SolverKind::gauss_seidel));
     const RadiosityResult r = run_released(
         [&](CancellationFlag&, ProgressSink* sink) {
             SolverOptions run = o;
             run.progress = sink;
-            if (over_ranks)
-                return distributed::solve_radiosity(
-                    sp ? distributed::distribute_rows(*sp) : distributed::distribute_rows(ff),
-                    props, run);
-            return op   ? solve_radiosity(*op, props, run)
-                   : sp ? solve_radiosity(*sp, props, run)
-                        : solve_radiosity(ff, props, run);
+            return in.run(
+                run, [&](const auto& F) { return solve_radiosity(F, props, run); },
+                [&](const auto& rows) { return distributed::solve_radiosity(rows, props, run); });
         },
         value("progress"));
     py::dict b;
@@ -395,18 +432,10 @@ py::object radiosity(const SolveArgs& a, const std::vector<py::object>& values) 
 
 py::object thermal(const SolveArgs& a, const std::vector<py::object>& values) {
     const auto value = [&](const char* name) { return value_of(kSolveThermal, values, name); };
-    const PyScene& s = scene_arg(value("scene"));
-    const py::object& F = value("F");
-    std::optional<distributed::Communicator> comm;
-    open_communicator(value("comm"), comm);
-    if (comm && distributed::rank() != 0) {
-        serve_rank0();
-        return py::none();
-    }
-    const HierarchicalFormFactors* op = operator_of(s, F);
-    const std::optional<SparseFormFactors> sp = op ? std::nullopt : sparse_of(s, F);
-    const FormFactors ff = op || sp ? FormFactors{} : form_factors_of(s, F);
-    const std::size_t n = op ? op->size() : sp ? sp->n : ff.size();
+    const SolveInput in(value("scene"), value("F"), value("comm"));
+    if (!in.on_rank0()) return py::none();
+    const PyScene& s = in.scene;
+    const std::size_t n = in.n;
     PatchProperties props = properties_from_scene(*s.scene);
     if (!value("emissivity").is_none())
         props.emissivity = per_patch(value("emissivity"), "emissivity", n);
@@ -434,21 +463,16 @@ py::object thermal(const SolveArgs& a, const std::vector<py::object>& values) {
     validate_properties(props);
     ThermalOptions o;
     o.solver = a.solver;
-    o.solver.solver = a.kind.value_or(default_solver(op, sp.has_value(), SolverKind::direct));
+    o.solver.solver = a.kind.value_or(in.default_solver(SolverKind::direct));
     o.ambient_temperature = a.ambient_temperature;
     o.closed = check_closure(*s.scene).closed;
-    const bool over_ranks = comm && !op && distributes(o.solver);
     const ThermalResult r = run_released(
         [&](CancellationFlag&, ProgressSink* sink) {
             ThermalOptions run = o;
             run.solver.progress = sink;
-            if (over_ranks)
-                return distributed::solve_thermal(
-                    sp ? distributed::distribute_rows(*sp) : distributed::distribute_rows(ff),
-                    props, run);
-            return op   ? solve_thermal(*op, props, run)
-                   : sp ? solve_thermal(*sp, props, run)
-                        : solve_thermal(ff, props, run);
+            return in.run(
+                run.solver, [&](const auto& F) { return solve_thermal(F, props, run); },
+                [&](const auto& rows) { return distributed::solve_thermal(rows, props, run); });
         },
         value("progress"));
     py::dict d;

@@ -12,6 +12,7 @@
 #include <numeric>
 #include <vector>
 
+#include "formfactor/core/cancel.h"
 #include "formfactor/geometry/polygon.h"
 #include "methods/analytic/obstructed_internal.h"
 
@@ -64,6 +65,8 @@ void BlockerSet::build() {
 void BlockerSet::mark_closed_solids(const std::vector<std::pair<Bounds3, int>>& patches,
                                     double tol) {
     const std::size_t np = pieces_.size();
+    // Serial over every piece of a 10⁵-patch city (a second and more): a signal must not wait.
+    const CancellationFlag& cancel = current_cancellation();
     auto key = [&](const Vec3& v) {
         return std::array<long long, 3>{std::llround(v.x() / tol), std::llround(v.y() / tol),
                                         std::llround(v.z() / tol)};
@@ -71,6 +74,7 @@ void BlockerSet::mark_closed_solids(const std::vector<std::pair<Bounds3, int>>& 
     using EdgeKey = std::array<long long, 6>;
     std::map<EdgeKey, std::vector<int>> edges;  // directed edge → pieces
     for (std::size_t p = 0; p < np; ++p) {
+        if (p % 1024 == 0) cancel.throw_if_requested();
         const Piece& pc = pieces_[p];
         for (int k = 0; k < pc.count; ++k) {
             const auto a = key(verts_[static_cast<std::size_t>(pc.first + k)]);
@@ -88,6 +92,7 @@ void BlockerSet::mark_closed_solids(const std::vector<std::pair<Bounds3, int>>& 
         return x;
     };
     std::vector<char> open(np, 0);
+    cancel.throw_if_requested();
     for (const auto& [e, ps] : edges) {
         const EdgeKey rev = {e[3], e[4], e[5], e[0], e[1], e[2]};
         const auto it = edges.find(rev);
@@ -183,8 +188,10 @@ void BlockerSet::mark_closed_solids(const std::vector<std::pair<Bounds3, int>>& 
         solids_.push_back(std::move(so));
         for (int p : ps) pieces_[static_cast<std::size_t>(p)].solid = id;
     };
+    cancel.throw_if_requested();
     for (const auto& [root, ps] : comps) {
         (void)root;
+        cancel.throw_if_requested();
         if (ps.size() >= 2 && ps.size() <= kMaxSolidPieces) add_convex_solid(ps);
         bool closed = ps.size() >= 4;
         double volume = 0.0;
@@ -220,6 +227,7 @@ void BlockerSet::mark_closed_solids(const std::vector<std::pair<Bounds3, int>>& 
     // The convex solids culled point by point need the neighbours too (inner edges).
     for (const auto& [root, ps] : comps) {
         (void)root;
+        cancel.throw_if_requested();
         const Piece& pc = pieces_[static_cast<std::size_t>(ps.front())];
         if (pc.solid >= 0) set_neighbors(ps);
     }

@@ -254,10 +254,12 @@ void prepare_obstructions(const MethodContext& ctx, bool record_visible, Obstruc
     // Blockers: for each group, the largest tree nodes whose polygons tile their hull (one
     // convex piece each), else single polygons.
     std::size_t& merged_pieces = S.merged_pieces;
+    const CancellationFlag& setup_cancel = current_cancellation();  // serial: polled per node
     for (std::size_t t = 0; t < trees.size() + otrees.size(); ++t) {
         const ClusterTree& T = t < trees.size() ? trees[t] : otrees[t - trees.size()];
         std::vector<int> stack = {0};
         while (!stack.empty()) {
+            setup_cancel.throw_if_requested();
             const auto& nd = T.nodes[static_cast<std::size_t>(stack.back())];
             stack.pop_back();
             double sum = 0.0;
