@@ -3,16 +3,22 @@
 // cancellation flag, errors that name option fields.
 
 #include <doctest/doctest.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iterator>
 #include <string>
 #include <thread>
 
 #include "formfactor/core/error.h"
+#include "formfactor/core/progress.h"
 #include "formfactor/pipeline.h"
 #include "formfactor/scene/scene.h"
 #include "support/cli_runner.h"
+#include "support/temp_dir.h"
 
 using namespace formfactor;
 
@@ -235,7 +241,7 @@ TEST_CASE("pipeline: the CLI sets the ray tracer's options and maps fields to it
 TEST_CASE("pipeline: every step of the CLI is an entry point with field-named errors") {
     StepTimes times;
     int seen_patches = -1;
-    const Scene s = prepare_scene({"cube", {2, 0.0}}, &times, [&](const Scene& loaded) {
+    const Scene s = prepare_scene({"cube", {2, 0.0}, "", false}, &times, [&](const Scene& loaded) {
         seen_patches = static_cast<int>(loaded.patches.size());
     });
     CHECK(seen_patches == 6);  // the hook runs before subdividing: one patch per face
@@ -304,4 +310,34 @@ TEST_CASE("pipeline: every step of the CLI is an entry point with field-named er
     bad = v;
     bad.point = Vec3(0, 0, INFINITY);
     CHECK(field_of(bad) == "point");
+}
+
+TEST_CASE("progress: a terminal bar's notes pass through its front end's words") {
+    // The library names options in backquotes; the CLI's bar gives them as flags (cli_text()).
+    testing::TempDir dir;
+    const std::string path = (dir.path() / "stderr.txt").string();
+    std::fflush(stderr);
+    const int saved = ::dup(STDERR_FILENO);
+    REQUIRE(saved >= 0);
+    std::FILE* f = std::fopen(path.c_str(), "w");
+    REQUIRE(f != nullptr);
+    ::dup2(::fileno(f), STDERR_FILENO);
+    {
+        TerminalProgress words([](const std::string& t) {
+            std::string out = t;
+            for (std::size_t at; (at = out.find("`tolerance`")) != std::string::npos;)
+                out.replace(at, 11, "--tolerance");
+            return out;
+        });
+        words.note("a looser `tolerance`");
+        TerminalProgress plain;
+        plain.note("as `given`");
+    }
+    std::fflush(stderr);
+    ::dup2(saved, STDERR_FILENO);
+    ::close(saved);
+    std::fclose(f);
+    std::ifstream in(path);
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    CHECK(text == "formfactor: a looser --tolerance\nformfactor: as `given`\n");
 }

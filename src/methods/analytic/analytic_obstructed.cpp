@@ -310,11 +310,11 @@ void partly_hidden_pass(std::size_t count, const MethodContext& ctx, double tol,
         const int threads = effective_threads(options.threads);
         std::string text = fmt::format(
             "analytic: {} partly hidden pairs, about {} on {} thread{} (from {} of them). "
-            "Less: a looser --tolerance (now {:g}), --method mc-hemisphere --samples 100000 "
+            "Less: a looser `tolerance` (now {:g}), `method` mc-hemisphere with `samples` 100000 "
             "(standard error <= 1.6e-3 per entry)",
             count, duration_text(estimate), threads, threads == 1 ? "" : "s", sampled, tol);
         if (ctx.scene.patches.size() >= 20000 && !ctx.sparse_rows)
-            text += ", -o F.h5 (sparse: only the entries that are not 0)";
+            text += ", `output` F.h5 (sparse: only the entries that are not 0)";
         ctx.progress->note(text);
     }
     parallel_for(count - sampled, options.threads, [&](std::size_t j) {
@@ -447,7 +447,7 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
         if (available > 0.0 && need > available)
             throw ResourceError(fmt::format(
                 "analytic sparse rows: {} pairs see each other ({} of them partly hidden), "
-                "which needs about {} for the pair lists; {} is available. Use --storage "
+                "which needs about {} for the pair lists; {} is available. Use `storage` "
                 "hierarchical for a closed scene, a Monte-Carlo method (mc-hemisphere) for a "
                 "large open one, or a coarser subdivision",
                 pairs, partial_pairs, format_bytes(need), format_bytes(available)));
