@@ -20,6 +20,7 @@
 #include <string>
 
 #include "../tests/support/method_runner.h"
+#include "../tests/support/temp_dir.h"
 #include "formfactor/matrix/form_factors.h"
 #include "formfactor/methods/method.h"
 #include "formfactor/scene/room.h"
@@ -48,10 +49,11 @@ void BM_Room(benchmark::State& state) {
     const bool vs3_obstruction = state.range(1) != 0;
     Scene scene = room_scene(n, vs3_obstruction ? RoomBox::kObstruction : RoomBox::kPatches);
     if (vs3_obstruction) {
-        const std::string path = "/tmp/formfactor_bench_room.vs3";
+        // A folder of its own: two benchmark runs at once must not read each other's file.
+        const testing::TempDir dir;
+        const std::string path = dir.file("room.vs3");
         save_vs3(scene, path);
         scene = load_scene(path);
-        std::remove(path.c_str());
     }
     const auto method = make_method("analytic");
     MethodOptions opt;
@@ -90,7 +92,7 @@ BENCHMARK(BM_Room)
     ->Iterations(1)
     ->UseRealTime();
 
-// Curved geometry (issue 9): the room n × n without its box, with a faceted UV sphere (centre
+// Curved geometry: the room n × n without its box, with a faceted UV sphere (centre
 // (0.35, 0.5, 0.45), radius 0.2, `seg` segments, seg/2 rings, triangles) and a closed faceted
 // cylinder (centre (0.72, 0.5), radius 0.12, z 0.15…0.75, `seg` sides, fan caps), every facet a
 // radiating surface: args {n, seg}; {4, 16} is 368 patches, {8, 40} is 2,024.

@@ -1,8 +1,8 @@
 // Matrix writers: the exact form factors of `cube --subdivide 32` (N = 6,144, a third of the
-// entries zero, the others 1e-7 … 1e-2) written to /tmp in each format through write_matrix
-// (the atomic temporary-and-rename path the CLI uses), and the patch table. Figures: seconds per
-// file and MB/s of output; BM_FormatMatrix: the same text into a stream that only counts
-// bytes (the formatting alone, without the file system).
+// entries zero, the others 1e-7 … 1e-2) written to a temporary folder in each format through
+// write_matrix (the atomic temporary-and-rename path the CLI uses), and the patch table.
+// Figures: seconds per file and MB/s of output; BM_FormatMatrix: the same text into a stream
+// that only counts bytes (the formatting alone, without the file system).
 #include <benchmark/benchmark.h>
 
 #include <cstdio>
@@ -12,6 +12,7 @@
 #include <string>
 
 #include "../tests/support/method_runner.h"
+#include "../tests/support/temp_dir.h"
 #include "formfactor/methods/method.h"
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/patch_table.h"
@@ -51,7 +52,8 @@ void report(benchmark::State& state, const std::string& path) {
 
 void BM_WriteMatrix(benchmark::State& state, const std::string& ext) {
     const FormFactors& ff = matrix();
-    const std::string path = "/tmp/ff_bench_output." + ext;
+    const testing::TempDir dir;
+    const std::string path = dir.file("F." + ext);
     for (auto _ : state) write_matrix(path, ff);
     report(state, path);
     state.counters["N"] = static_cast<double>(ff.size());
@@ -90,7 +92,8 @@ void BM_FormatMatrix(benchmark::State& state, MatrixFormat format) {
 }
 
 void BM_WritePatchTable(benchmark::State& state) {
-    const std::string path = "/tmp/ff_bench_output_patches.csv";
+    const testing::TempDir dir;
+    const std::string path = dir.file("patches.csv");
     for (auto _ : state) write_patch_table(path, cube());
     report(state, path);
 }

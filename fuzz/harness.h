@@ -48,6 +48,7 @@ enum class Target {
     solution,    ///< read_solution_csv (radiosity and thermal tables)
     points,      ///< parse_points_csv (the point elements of `formfactor point --points`)
     idf,         ///< load_energyplus_text of an EnergyPlus IDF model (its only zone)
+    epjson,      ///< load_energyplus_text of an EnergyPlus epJSON model (its only zone)
     matrix_dat,  ///< read_elmer_view_factors (Elmer's view-factor file)
     msh,         ///< load_msh (Gmsh, any version and encoding the bytes claim)
     mesh,        ///< load_mesh: the first byte picks the extension (kMeshExtensions), the rest
@@ -60,7 +61,7 @@ struct TargetName {
 };
 
 /// Every target with the name of its fuzzer (`fuzz_NAME`) and corpus folder.
-inline constexpr std::array<TargetName, 13> kTargets = {{
+inline constexpr std::array<TargetName, 14> kTargets = {{
     {"obj", Target::obj},
     {"vs3", Target::vs3},
     {"properties", Target::properties},
@@ -71,6 +72,7 @@ inline constexpr std::array<TargetName, 13> kTargets = {{
     {"solution", Target::solution},
     {"points", Target::points},
     {"idf", Target::idf},
+    {"epjson", Target::epjson},
     {"matrix_dat", Target::matrix_dat},
     {"msh", Target::msh},
     {"mesh", Target::mesh},
@@ -276,6 +278,13 @@ inline bool run(Target target, const std::uint8_t* data, std::size_t size) {
             }
             case Target::idf: {
                 Scene scene = load_energyplus_text(std::string(bytes), "fuzz.idf");
+                require(scene.enclosure && !scene.surfaces.empty(), "a zone with surfaces");
+                exercise_scene(scene);
+                break;
+            }
+            case Target::epjson: {
+                // The extension picks the JSON grammar; its objects are read by code of their own.
+                Scene scene = load_energyplus_text(std::string(bytes), "fuzz.epJSON");
                 require(scene.enclosure && !scene.surfaces.empty(), "a zone with surfaces");
                 exercise_scene(scene);
                 break;

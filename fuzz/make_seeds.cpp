@@ -221,10 +221,21 @@ int main(int argc, char** argv) {
     for (const auto& e : fs::directory_iterator(data / "energyplus"))
         if (e.path().extension() == ".idf")
             seeds.add("idf", e.path().filename().string(), read_file(e.path()));
+        else if (e.path().extension() == ".epJSON")
+            seeds.add("epjson", e.path().filename().string(), read_file(e.path()));
     seeds.add("idf", "relative.idf",
               "Zone,Z,30,1,2,3;GlobalGeometryRules,LowerLeftCorner,Clockwise,Relative;\n"
               "Floor:Detailed,F,C,Z,,Ground,,NoSun,NoWind,,3,0,0,0,1,0,0,0,1,0;\n"
               "Wall:Detailed,W,C,Z,,Outdoors,,SunExposed,WindExposed,,3,0,0,0,0,1,0,0,0,1;\n");
+    seeds.add(
+        "epjson", "two_surfaces.epJSON",
+        R"({"Zone": {"Z": {}}, "GlobalGeometryRules": {"G": {"starting_vertex_position": )"
+        R"("UpperLeftCorner", "vertex_entry_direction": "Counterclockwise", )"
+        R"("coordinate_system": "World"}}, "BuildingSurface:Detailed": {"F": {"surface_type": )"
+        R"("Floor", "zone_name": "Z", "vertices": [{"vertex_x_coordinate": 0, )"
+        R"("vertex_y_coordinate": 0, "vertex_z_coordinate": 0}, {"vertex_x_coordinate": 0, )"
+        R"("vertex_y_coordinate": 1, "vertex_z_coordinate": 0}, {"vertex_x_coordinate": 1, )"
+        R"("vertex_y_coordinate": 0, "vertex_z_coordinate": 0}]}}})");
     // Simplified windows placed on detailed walls and roofs (entered clockwise).
     seeds.add("idf", "window_on_detailed.idf",
               "Version,9.3;Zone,Z;GlobalGeometryRules,UpperLeftCorner,Clockwise,World;\n"

@@ -15,7 +15,7 @@ data="$here/../tests/data"
 targets=("$@")
 if [ ${#targets[@]} -eq 0 ]; then
     targets=(obj vs3 properties matrix_csv matrix_npy matrix_txt matrix_mtx solution points msh idf
-        matrix_dat mesh)
+        epjson matrix_dat mesh)
 fi
 
 "$build/fuzz/fuzz_seeds" "$data" "$build/fuzz-seeds" || exit 1

@@ -85,6 +85,20 @@ TEST_CASE("fuzz regressions: the seeds of every target are accepted") {
                     "Floor:Detailed,F,C,Z,,Ground,,NoSun,NoWind,,3,0,0,0,0,1,0,1,0,0;\n"
                     "Wall:Detailed,W,C,Z,,Outdoors,,SunExposed,WindExposed,,3,0,0,0,1,0,0,0,0,1;"));
     CHECK_FALSE(run_bytes(fuzz::Target::idf, "Zone,Z;Floor:Detailed,F,C,Z,,Ground"));
+    const std::string epjson =
+        R"({"Zone": {"Z": {}}, "GlobalGeometryRules": {"G": {"starting_vertex_position": )"
+        R"("UpperLeftCorner", "vertex_entry_direction": "Counterclockwise", "coordinate_system": )"
+        R"("World"}}, "BuildingSurface:Detailed": {"F": {"surface_type": "Floor", "zone_name": )"
+        R"("Z", "vertices": [{"vertex_x_coordinate": 0, "vertex_y_coordinate": 0, )"
+        R"("vertex_z_coordinate": 0}, {"vertex_x_coordinate": 0, "vertex_y_coordinate": 1, )"
+        R"("vertex_z_coordinate": 0}, {"vertex_x_coordinate": 1, "vertex_y_coordinate": 0, )"
+        R"("vertex_z_coordinate": 0}]}}})";
+    CHECK(run_bytes(fuzz::Target::epjson, epjson));
+    // Cut short, and a model the IDF grammar would read: both refused by the JSON reader.
+    CHECK_FALSE(run_bytes(fuzz::Target::epjson, epjson.substr(0, epjson.size() / 2)));
+    CHECK_FALSE(run_bytes(fuzz::Target::epjson,
+                          "Zone,Z;Floor:Detailed,F,C,Z,,Ground,,,,,3,0,0,0,"
+                          "0,1,0,1,0,0;"));
     CHECK(run_bytes(fuzz::Target::msh,
                     "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n3\n1 0 0 0\n"
                     "2 1 0 0\n3 0 1 0\n$EndNodes\n$Elements\n1\n1 2 0 1 2 3\n"

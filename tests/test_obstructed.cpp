@@ -27,6 +27,7 @@
 #include "kernels/analytic_internal.h"
 #include "support/files.h"
 #include "support/method_runner.h"
+#include "support/scenes.h"
 
 using formfactor::testing::run_method;
 
@@ -280,21 +281,10 @@ namespace {
 
 // Two unit squares (bottom facing up, top facing down) split n×n, plus obstruction-only plates.
 Scene plates_scene(int n, const std::vector<Plate>& plates) {
-    Scene s;
-    s.name = "plates";
-    s.materials.push_back(Material{});
-    auto add = [&](const Polygon& p, const std::string& name, bool ob) {
-        Surface f;
-        f.name = name;
-        f.polygon = p;
-        f.obstruction = ob;
-        s.surfaces.push_back(f);
-    };
-    add(rect({0, 1, 0, 1}, 0, true), "bottom", false);
-    add(rect({0, 1, 0, 1}, 1, false), "top", false);
-    for (const Plate& p : plates) add(rect(p.r, p.h, true), "plate", true);
-    subdivide(s, SubdivisionOptions{n, 0.0});
-    return s;
+    std::vector<Polygon> blockers;
+    for (const Plate& p : plates) blockers.push_back(rect(p.r, p.h, true));
+    return testing::scene_of({rect({0, 1, 0, 1}, 0, true), rect({0, 1, 0, 1}, 1, false)}, blockers,
+                             n);
 }
 
 Rect patch_rect(const Patch& p) {

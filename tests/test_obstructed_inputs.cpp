@@ -244,7 +244,8 @@ TEST_SUITE("obstructed-references") {
                                   << mc.F(0, 1) << " ± " << mc.se(0, 1));
         CHECK(mc.F(0, 1) == 0.0);  // every ray blocked
         // No single facet of the sphere hides the pair: it is integrated, to 0 within the
-        // quadrature's rounding (an earlier version gave 6.4e-4 under a 1e-7 estimate).
+        // quadrature's rounding; an integration that misses the closed sphere gives ~6e-4
+        // while it reports a 1e-7 estimate.
         CHECK(a.ff.F(0, 1) <= 1e-10);
         CHECK(a.ff.F(1, 0) <= 1e-10);
         // Whatever the value, the reported bound must cover it.

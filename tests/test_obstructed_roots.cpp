@@ -15,8 +15,10 @@
 #include "formfactor/scene/scene.h"
 #include "methods/analytic/obstructed_internal.h"
 #include "support/method_runner.h"
+#include "support/scenes.h"
 
 using formfactor::testing::run_method;
+using formfactor::testing::scene_of;
 
 using namespace formfactor;
 using namespace formfactor::detail;
@@ -63,15 +65,6 @@ std::vector<Polygon> floor_and_ceiling() {
                                     Vec3(x0 + d, y0, 1)}));
         }
     return patches;
-}
-
-// Appends p to the scene as surface "s<k>" (an obstruction-only one when asked).
-void add_surface(Scene& scene, const Polygon& p, bool obstruction) {
-    Surface sf;
-    sf.name = "s" + std::to_string(scene.surfaces.size());
-    sf.polygon = p;
-    sf.obstruction = obstruction;
-    scene.surfaces.push_back(std::move(sf));
 }
 
 // 1/A_s ∫ hidden by an n × n midpoint rule over the axis-aligned sender rectangle.
@@ -214,19 +207,15 @@ TEST_CASE("obstructed roots: a patch in contact with a closed solid does not see
     BlockerSet faces;
     int id = 0;
     add_box(faces, Vec3(.25, .25, 0), Vec3(.75, .75, .5), 1, id);
-    Scene scene;
-    scene.name = "box on the floor";
-    scene.materials.push_back(Material{});
-    auto add = [&](const Polygon& p, bool obstruction) { add_surface(scene, p, obstruction); };
-    for (const Polygon& p : patches) add(p, false);
+    std::vector<Polygon> box;
     for (std::size_t k = 0; k < faces.size(); ++k) {
         Polygon p;
         p.vertices.assign(
             faces.vertices(static_cast<int>(k)),
             faces.vertices(static_cast<int>(k)) + faces.piece(static_cast<int>(k)).count);
-        add(p, true);
+        box.push_back(p);
     }
-    subdivide(scene, SubdivisionOptions{});
+    const Scene scene = scene_of(patches, box);
     MethodOptions opt;
     nlohmann::json details;
     const FormFactors F = run_method(*make_method("analytic"), scene, opt, details);
@@ -343,17 +332,13 @@ TEST_CASE("obstructed roots: an open box on a floor hides as much as rays find")
     add_box(faces, Vec3(.2, .3, 0), Vec3(.6, .8, .4), 1, id);
     for (bool as_patches : {false, true}) {
         CAPTURE(as_patches);
-        Scene scene;
-        scene.name = "open box on the floor";
-        scene.materials.push_back(Material{});
-        auto add = [&](const Polygon& p, bool obstruction) { add_surface(scene, p, obstruction); };
-        for (const Polygon& p : patches) add(p, false);
+        std::vector<Polygon> radiating = patches, box;
         for (int k = 1; k < 6; ++k) {  // no bottom face
             Polygon p;
             p.vertices.assign(faces.vertices(k), faces.vertices(k) + faces.piece(k).count);
-            add(p, !as_patches);
+            (as_patches ? radiating : box).push_back(p);
         }
-        subdivide(scene, SubdivisionOptions{});
+        const Scene scene = scene_of(radiating, box);
         MethodOptions opt;
         opt.tolerance = 1e-6;
         nlohmann::json d1, d2;
@@ -382,22 +367,12 @@ TEST_CASE("obstructed roots: a face split 16 x 16 blocks as one piece") {
     // the trapezoid's edges are collinear only up to rounding. Its tiles must still merge into
     // one convex blocker piece (as the plates' do), not fall apart into many (which made the
     // Cornell box 12 × 12 block as 100 pieces instead of 16 and cost 50× the time).
-    Scene scene;
-    scene.name = "plates and a trapezoid";
-    scene.materials.push_back(Material{});
-    auto add = [&](std::vector<Vec3> v) {
-        Surface sf;
-        sf.name = "s" + std::to_string(scene.surfaces.size());
-        sf.polygon = poly(std::move(v));
-        scene.surfaces.push_back(std::move(sf));
-    };
-    add({Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0)});  // facing up
-    add({Vec3(0, 0, 1), Vec3(0, 1, 1), Vec3(1, 1, 1), Vec3(1, 0, 1)});  // facing down
     auto tilted = [](double x, double y) { return Vec3(x, y, 0.5 + 0.05 * x - 0.03 * y); };
-    add({tilted(0.13, 0.21), tilted(0.71, 0.17), tilted(0.66, 0.83), tilted(0.29, 0.69)});
-    SubdivisionOptions sub;
-    sub.n = 16;
-    subdivide(scene, sub);
+    const Scene scene = scene_of(
+        {poly({Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0)}),  // facing up
+         poly({Vec3(0, 0, 1), Vec3(0, 1, 1), Vec3(1, 1, 1), Vec3(1, 0, 1)}),  // facing down
+         poly({tilted(0.13, 0.21), tilted(0.71, 0.17), tilted(0.66, 0.83), tilted(0.29, 0.69)})},
+        {}, 16);
     MethodOptions opt;
     nlohmann::json details;
     const FormFactors F = run_method(*make_method("analytic"), scene, opt, details);
@@ -446,13 +421,7 @@ TEST_CASE("obstructed roots: a faceted sphere is one convex solid, and hides wha
     for (std::size_t k = 0; k < bs.size(); ++k) CHECK(bs.piece(k).solid == solid);
     CHECK(bs.piece(0).cull_back);
 
-    Scene scene;
-    scene.name = "faceted sphere between floor and ceiling";
-    scene.materials.push_back(Material{});
-    auto add = [&](const Polygon& p, bool obstruction) { add_surface(scene, p, obstruction); };
-    for (const Polygon& p : floor_and_ceiling()) add(p, false);
-    for (const Polygon& p : sphere) add(p, true);
-    subdivide(scene, SubdivisionOptions{});
+    const Scene scene = scene_of(floor_and_ceiling(), sphere);
     MethodOptions opt;
     nlohmann::json d1, d2, d3;
     const FormFactors a = run_method(*make_method("analytic"), scene, opt, d1);

@@ -3,9 +3,12 @@
 #include <filesystem>
 #include <string>
 
+#include "formfactor/pipeline.h"
 #include "formfactor/scene/scene.h"
 #include "formfactor/scene/scene_io.h"
 #include "support/files.h"
+#include "support/matrix_checks.h"
+#include "support/scenes.h"
 
 using namespace formfactor;
 using formfactor::testing::data;
@@ -42,6 +45,13 @@ TEST_CASE("scene: VS3 cube from View3D's manual") {
     }
     CHECK(s.surfaces[0].name == "zeq0");
     CHECK(s.surfaces[3].where.line == 17);
+}
+
+TEST_CASE("scene: VS3 cube gives the matrix of the same cube built in memory, to 1e-12") {
+    const Scene s = load_scene(data("cube.vs3"));
+    const Scene cube = testing::unit_cube(1);
+    testing::check_same_matrix_up_to_order(s, compute_form_factors(s).form_factors.F, cube,
+                                           compute_form_factors(cube).form_factors.F, 1e-12);
 }
 
 TEST_CASE("scene: VS3 with comments, obstructions, a subsurface and text after the end") {

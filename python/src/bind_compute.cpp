@@ -431,8 +431,8 @@ For a row block (``rows=(b, e)``) it holds rows b..e-1 and every column.
              })
         .def(
             "sparse",
-            [](const PyResult& r, double threshold) {
-                return csr(r.result.form_factors.F, threshold);
+            [](const PyResult& r, const py::object& threshold) {
+                return csr(r.result.form_factors.F, arg<double>(threshold, "threshold"));
             },
             py::arg("threshold") = 0.0,
             "F as a scipy.sparse.csr_matrix holding the entries with |F_ij| > threshold.")
@@ -449,10 +449,12 @@ For a row block (``rows=(b, e)``) it holds rows b..e-1 and every column.
             "merges surfaces with cmb), rows = surfaces.")
         .def(
             "to_html",
-            [](const PyResult& r, const std::string& path, const py::object& solution,
-               const std::string& title, long long max_entries) {
-                const std::string html = page_of(r, solution, title, max_entries);
-                write_file_atomically(path, [&](std::ostream& out) { out << html; });
+            [](const PyResult& r, const py::object& path, const py::object& solution,
+               const py::object& title, const py::object& max_entries) {
+                const std::string file = path_arg(path, "path");
+                const std::string html = page_of(r, solution, arg<std::string>(title, "title"),
+                                                 arg<long long>(max_entries, "max_entries"));
+                write_file_atomically(file, [&](std::ostream& out) { out << html; });
             },
             py::arg("path"), py::arg("solution") = py::none(), py::arg("title") = "",
             py::arg("max_entries") = static_cast<long long>(PageOptions{}.max_entries),

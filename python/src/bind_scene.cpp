@@ -68,8 +68,11 @@ std::vector<std::vector<long long>> face_lists(const py::handle& faces) {
 }
 
 PyScene from_arrays(const py::object& vertices, const py::object& faces,
-                    const py::object& obstruction, const py::object& names, bool enclosure,
-                    const std::string& name, const py::object& n, const py::object& max_edge) {
+                    const py::object& obstruction, const py::object& names,
+                    const py::object& enclosure_arg, const py::object& name_arg,
+                    const py::object& n, const py::object& max_edge) {
+    const bool enclosure = arg<bool>(enclosure_arg, "enclosure");
+    const std::string name = arg<std::string>(name_arg, "name");
     const auto v = as_doubles(vertices, "vertices", 2);
     if (v.shape(1) != 3) {
         throw OptionError("vertices",
@@ -220,7 +223,8 @@ valid planar polygon.
             "(quads; triangles into subdivide²), or until every edge is at most max_edge.")
         .def(
             "to_arrays",
-            [](const PyScene& self, bool patches) {
+            [](const PyScene& self, const py::object& patches_arg) {
+                const bool patches = arg<bool>(patches_arg, "patches");
                 // (vertices, faces, obstruction, names) that from_arrays() takes back.
                 const Scene& s = get(self);
                 std::vector<const Polygon*> polys;

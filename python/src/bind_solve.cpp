@@ -640,8 +640,8 @@ vectors without forming it (docs/hierarchical.md). ``op @ x`` or ``op.matvec(x)`
             "What the build made: blocks by kind, ranks, entries computed, bytes, seconds")
         .def(
             "matvec",
-            [](const PyHierarchical& h, const py::object& x, int threads) {
-                return product(h, x, threads, false);
+            [](const PyHierarchical& h, const py::object& x, const py::object& threads) {
+                return product(h, x, arg<int>(threads, "threads"), false);
             },
             py::arg("x"), py::arg("threads") = 0, "F x for x of shape (N,) or (N, k)")
         .def(
@@ -667,7 +667,8 @@ vectors without forming it (docs/hierarchical.md). ``op @ x`` or ``op.matvec(x)`
             "(reciprocity, which the operator satisfies by construction).")
         .def(
             "row_sums",
-            [](const PyHierarchical& h, int threads) {
+            [](const PyHierarchical& h, const py::object& threads_arg) {
+                const int threads = arg<int>(threads_arg, "threads");
                 std::vector<double> r;
                 {
                     py::gil_scoped_release nogil;
@@ -678,7 +679,8 @@ vectors without forming it (docs/hierarchical.md). ``op @ x`` or ``op.matvec(x)`
             py::arg("threads") = 0, "Σ_j F_ij per patch (N,)")
         .def(
             "per_surface",
-            [](const PyHierarchical& h, int threads) {
+            [](const PyHierarchical& h, const py::object& threads_arg) {
+                const int threads = arg<int>(threads_arg, "threads");
                 std::vector<int> group;
                 for (const Patch& p : h.scene->patches) group.push_back(p.surface);
                 const std::size_t g = h.scene->surfaces.size();
@@ -695,7 +697,8 @@ vectors without forming it (docs/hierarchical.md). ``op @ x`` or ``op.matvec(x)`
             "Per-surface factors (S, S) from S products (surfaces few): area-weighted rows")
         .def(
             "to_dense",
-            [](const PyHierarchical& h, int threads) {
+            [](const PyHierarchical& h, const py::object& threads_arg) {
+                const int threads = arg<int>(threads_arg, "threads");
                 DenseMatrix F;
                 {
                     py::gil_scoped_release nogil;

@@ -110,3 +110,8 @@ def test_a_row_block_or_a_bad_solution_is_refused(tmp_path):
     with pytest.raises(ff.OptionError, match="shape"):
         scene.form_factors().to_html(str(tmp_path / "x.html"), solution=np.zeros((3, 3)))
     assert not (tmp_path / "x.html").exists()
+
+
+def test_to_html_takes_a_path_object_as_load_does(tmp_path):
+    ff.load("plates").form_factors().to_html(tmp_path / "plates.html")
+    assert (tmp_path / "plates.html").read_text().startswith("<!DOCTYPE html>")

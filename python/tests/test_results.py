@@ -136,7 +136,7 @@ def test_methods_lists_what_form_factors_accepts():
         assert s.form_factors(name, **kwargs).method == name
 
 
-def test_every_function_rejects_a_bool_for_a_number_with_an_option_error():
+def test_every_function_rejects_a_bool_for_a_number_with_an_option_error(tmp_path):
     s = ff.load("plates")
     r = s.form_factors()
     pts, up = [[0.0, 0.0, 0.5]], [0.0, 0.0, 1.0]
@@ -151,15 +151,23 @@ def test_every_function_rejects_a_bool_for_a_number_with_an_option_error():
         ("leaf_size", lambda: ff.load("cube", subdivide=2).hierarchical(leaf_size=True)),
         ("width", lambda: ff.render(s, width=True)),
         ("threads", lambda: s.form_factors(threads=True)),
+        ("threshold", lambda: r.sparse(threshold=True)),
+        ("max_entries", lambda: r.to_html(tmp_path / "x.html", max_entries=True)),
+        ("threads", lambda: ff.load("cube", subdivide=2).hierarchical().row_sums(threads=True)),
+        ("threads", lambda: ff.load("cube", subdivide=2).hierarchical().to_dense(threads=True)),
+        ("threads", lambda: ff.load("cube", subdivide=2).hierarchical().per_surface(True)),
+        ("threads", lambda: ff.load("cube", subdivide=2).hierarchical().matvec(
+            np.ones(24), threads=True)),
     ]
     for option, call in calls:
         with pytest.raises(ff.OptionError) as e:
             call()
         assert e.value.option == option
         assert str(e.value).startswith(option + ":")
+    assert not (tmp_path / "x.html").exists()
 
 
-def test_arguments_of_the_wrong_type_are_option_errors_everywhere():
+def test_arguments_of_the_wrong_type_are_option_errors_everywhere(tmp_path):
     s = ff.load("plates")
     r = s.form_factors()
     calls = [
@@ -171,11 +179,17 @@ def test_arguments_of_the_wrong_type_are_option_errors_everywhere():
         ("enclosure", lambda: ff.repair(r.matrix, r.areas, enclosure=None)),
         ("label", lambda: ff.render(s, np.ones(len(s)), label=3)),
         ("camera", lambda: ff.render(s, camera=[0, 0, 1])),
+        ("patches", lambda: s.to_arrays(patches=1)),
+        ("enclosure", lambda: ff.Scene.from_arrays(*s.to_arrays()[:2], enclosure="yes")),
+        ("name", lambda: ff.Scene.from_arrays(*s.to_arrays()[:2], name=3)),
+        ("path", lambda: r.to_html(3)),
+        ("title", lambda: r.to_html(tmp_path / "x.html", title=3)),
     ]
     for option, call in calls:
         with pytest.raises(ff.OptionError) as e:
             call()
         assert e.value.option == option
+    assert not (tmp_path / "x.html").exists()
 
 
 def test_numpy_scalars_are_numbers():

@@ -332,51 +332,178 @@ void fill_dense(const Builder& b, Block& blk, std::size_t& computed) {
     computed += static_cast<std::size_t>(blk.m) * blk.n;
 }
 
+// One block's adaptive cross approximation (fill_low_rank()): the crosses so far (U and V
+// column-major, a column of each per cross), the rows and columns used as pivots, and the
+// running ‖U Vᵀ‖_F².
+class CrossApproximation {
+  public:
+    CrossApproximation(const Builder& b, const Block& blk, std::size_t& computed)
+        : b_(b),
+          p_(blk.p),
+          q_(blk.q),
+          m_(blk.m),
+          n_(blk.n),
+          computed_(computed),
+          row_used_(m_, 0),
+          col_used_(n_, 0),
+          row_(n_),
+          col_(m_),
+          rng_(0x9E3779B97F4A7C15ull ^ (static_cast<std::uint64_t>(blk.p) << 32) ^ blk.q) {}
+
+    std::uint32_t rank() const { return rank_; }
+
+    // Row i of the residual A − U Vᵀ, i then used; its largest unused column (n when none is
+    // non-zero).
+    std::uint32_t residual_row(std::uint32_t i) {
+        for (std::uint32_t j = 0; j < n_; ++j) row_[j] = b_.entry(p_ + i, q_ + j);
+        computed_ += n_;
+        for (std::uint32_t l = 0; l < rank_; ++l) {
+            const double ui = U_[static_cast<std::size_t>(l) * m_ + i];
+            const double* vl = V_.data() + static_cast<std::size_t>(l) * n_;
+            for (std::uint32_t j = 0; j < n_; ++j) row_[j] -= ui * vl[j];
+        }
+        row_used_[i] = 1;
+        std::uint32_t j_star = n_;
+        double best = 0.0;
+        for (std::uint32_t j = 0; j < n_; ++j)
+            if (!col_used_[j] && std::abs(row_[j]) > best) {
+                best = std::abs(row_[j]);
+                j_star = j;
+            }
+        return j_star;
+    }
+
+    // The cross through column j of the last residual row: the residual's column j and the row
+    // divided by its pivot, appended to U and V; true when the cross is within tol of the
+    // approximation (ACA's stopping rule, with ‖U Vᵀ‖_F² updated by the cross's products).
+    bool add_cross(std::uint32_t j, double tol) {
+        const double pivot = row_[j];
+        for (std::uint32_t i = 0; i < m_; ++i) col_[i] = b_.entry(p_ + i, q_ + j);
+        computed_ += m_;
+        for (std::uint32_t l = 0; l < rank_; ++l) {
+            const double vj = V_[static_cast<std::size_t>(l) * n_ + j];
+            const double* ul = U_.data() + static_cast<std::size_t>(l) * m_;
+            for (std::uint32_t i = 0; i < m_; ++i) col_[i] -= ul[i] * vj;
+        }
+        col_used_[j] = 1;
+        double uu = 0.0, vv = 0.0, cross = 0.0;
+        for (std::uint32_t i = 0; i < m_; ++i) uu += col_[i] * col_[i];
+        for (std::uint32_t k = 0; k < n_; ++k) {
+            row_[k] /= pivot;
+            vv += row_[k] * row_[k];
+        }
+        for (std::uint32_t l = 0; l < rank_; ++l) {
+            double a = 0.0, c = 0.0;
+            const double* ul = U_.data() + static_cast<std::size_t>(l) * m_;
+            const double* vl = V_.data() + static_cast<std::size_t>(l) * n_;
+            for (std::uint32_t i = 0; i < m_; ++i) a += ul[i] * col_[i];
+            for (std::uint32_t k = 0; k < n_; ++k) c += vl[k] * row_[k];
+            cross += a * c;
+        }
+        norm2_ += 2.0 * cross + uu * vv;
+        U_.insert(U_.end(), col_.begin(), col_.end());
+        V_.insert(V_.end(), row_.begin(), row_.end());
+        ++rank_;
+        return std::sqrt(uu * vv) <= tol * std::sqrt(std::max(norm2_, 0.0));
+    }
+
+    // The sampled check after ACA's rule is met (it sees only the pivots' rows and columns): 16
+    // entries at random, unless `checks` (of 8) are spent; the unused row of the sample whose
+    // residual, scaled to the block, is furthest above the target, or m when none is.
+    std::uint32_t sampled_row(double tol, int checks) {
+        const double allowed = tol * std::sqrt(std::max(norm2_, 0.0) / (double(m_) * n_));
+        double worst = 0.0;
+        std::uint32_t next = m_;
+        for (int s = 0; s < 16 && checks < 8; ++s) {
+            const auto i = static_cast<std::uint32_t>(next_random() % m_);
+            const auto j = static_cast<std::uint32_t>(next_random() % n_);
+            const double r = std::abs(residual_at(i, j));
+            ++computed_;
+            if (r > allowed && r > worst && !row_used_[i]) {
+                worst = r;
+                next = i;
+            }
+        }
+        return next;
+    }
+
+    // The unused row with the largest residual in the last cross's column (m when none).
+    std::uint32_t pivot_row() const {
+        std::uint32_t next = m_;
+        double bu = -1.0;
+        for (std::uint32_t i = 0; i < m_; ++i)
+            if (!row_used_[i] && std::abs(col_[i]) > bu) {
+                bu = std::abs(col_[i]);
+                next = i;
+            }
+        return next;
+    }
+
+    // After row i had no residual: an unused row spread over the block from i, else the first
+    // unused row (m when every row is used).
+    std::uint32_t unused_row_after(std::uint32_t i) const {
+        for (std::uint32_t k = 1; k <= m_; ++k) {
+            const std::uint32_t r = (i + k * (m_ / 3 + 1)) % m_;
+            if (!row_used_[r]) return r;
+        }
+        for (std::uint32_t r = 0; r < m_; ++r)
+            if (!row_used_[r]) return r;
+        return m_;
+    }
+
+    // The crosses into blk; a block with no residual anywhere sampled is kept as rank 1 of
+    // zeros (rare; exact zeros are the zero blocks).
+    void store(Block& blk) {
+        blk.rank = rank_;
+        if (rank_ == 0) {
+            U_.assign(m_, 0.0);
+            V_.assign(n_, 0.0);
+            blk.rank = 1;
+        }
+        blk.u = std::move(U_);
+        blk.v = std::move(V_);
+    }
+
+  private:
+    std::uint64_t next_random() {
+        rng_ ^= rng_ << 13;
+        rng_ ^= rng_ >> 7;
+        rng_ ^= rng_ << 17;
+        return rng_;
+    }
+    double residual_at(std::uint32_t i, std::uint32_t j) const {
+        double s = b_.entry(p_ + i, q_ + j);
+        for (std::uint32_t l = 0; l < rank_; ++l)
+            s -=
+                U_[static_cast<std::size_t>(l) * m_ + i] * V_[static_cast<std::size_t>(l) * n_ + j];
+        return s;
+    }
+
+    const Builder& b_;
+    std::uint32_t p_, q_, m_, n_;
+    std::size_t& computed_;
+    std::vector<double> U_, V_;
+    std::vector<char> row_used_, col_used_;
+    std::vector<double> row_, col_;
+    double norm2_ = 0.0;
+    std::uint32_t rank_ = 0;
+    std::uint64_t rng_;
+};
+
 // Adaptive cross approximation with partial pivoting to the relative Frobenius error tol, then
 // a check of the residual at sampled entries (ACA's stopping rule only sees the pivots' rows and
 // columns): a sample above the tolerance's share restarts the crosses at its row. Falls back to
-// dense when the rank stops paying.
+// dense (false) when the rank stops paying.
 bool fill_low_rank(const Builder& b, Block& blk, double tol, std::size_t& computed) {
     const std::uint32_t m = blk.m, n = blk.n;
     const auto max_rank =
         static_cast<std::uint32_t>((std::uint64_t{m} * n) / (std::uint64_t{m} + n));
-    std::vector<double> U, V;  // column-major, grown by a column at a time
-    std::vector<char> row_used(m, 0), col_used(n, 0);
-    std::vector<double> row(n), col(m);
-    double norm2 = 0.0;
-    std::uint32_t rank = 0, i_star = 0, zero_rows = 0;
-    std::uint64_t rng = 0x9E3779B97F4A7C15ull ^ (static_cast<std::uint64_t>(blk.p) << 32) ^ blk.q;
-    auto next_random = [&] {
-        rng ^= rng << 13;
-        rng ^= rng >> 7;
-        rng ^= rng << 17;
-        return rng;
-    };
-    auto residual_at = [&](std::uint32_t i, std::uint32_t j) {
-        double s = b.entry(blk.p + i, blk.q + j);
-        for (std::uint32_t l = 0; l < rank; ++l)
-            s -= U[static_cast<std::size_t>(l) * m + i] * V[static_cast<std::size_t>(l) * n + j];
-        return s;
-    };
+    CrossApproximation aca(b, blk, computed);
+    std::uint32_t i_star = 0, zero_rows = 0;
     int checks = 0;
     while (true) {
-        if (rank >= max_rank) return false;
-        // Row i*.
-        for (std::uint32_t j = 0; j < n; ++j) row[j] = b.entry(blk.p + i_star, blk.q + j);
-        computed += n;
-        for (std::uint32_t l = 0; l < rank; ++l) {
-            const double ui = U[static_cast<std::size_t>(l) * m + i_star];
-            const double* vl = V.data() + static_cast<std::size_t>(l) * n;
-            for (std::uint32_t j = 0; j < n; ++j) row[j] -= ui * vl[j];
-        }
-        row_used[i_star] = 1;
-        std::uint32_t j_star = n;
-        double best = 0.0;
-        for (std::uint32_t j = 0; j < n; ++j)
-            if (!col_used[j] && std::abs(row[j]) > best) {
-                best = std::abs(row[j]);
-                j_star = j;
-            }
+        if (aca.rank() >= max_rank) return false;
+        const std::uint32_t j_star = aca.residual_row(i_star);
         bool converged = false;
         if (j_star == n) {
             // A row without residual: try another unused row (spread over the block); the
@@ -385,89 +512,23 @@ bool fill_low_rank(const Builder& b, Block& blk, double tol, std::size_t& comput
             converged = zero_rows >= m;
         } else {
             zero_rows = 0;
-            const double pivot = row[j_star];
-            for (std::uint32_t i = 0; i < m; ++i) col[i] = b.entry(blk.p + i, blk.q + j_star);
-            computed += m;
-            for (std::uint32_t l = 0; l < rank; ++l) {
-                const double vj = V[static_cast<std::size_t>(l) * n + j_star];
-                const double* ul = U.data() + static_cast<std::size_t>(l) * m;
-                for (std::uint32_t i = 0; i < m; ++i) col[i] -= ul[i] * vj;
-            }
-            col_used[j_star] = 1;
-            double uu = 0.0, vv = 0.0, cross = 0.0;
-            for (std::uint32_t i = 0; i < m; ++i) uu += col[i] * col[i];
-            for (std::uint32_t j = 0; j < n; ++j) {
-                row[j] /= pivot;
-                vv += row[j] * row[j];
-            }
-            for (std::uint32_t l = 0; l < rank; ++l) {
-                double a = 0.0, c = 0.0;
-                const double* ul = U.data() + static_cast<std::size_t>(l) * m;
-                const double* vl = V.data() + static_cast<std::size_t>(l) * n;
-                for (std::uint32_t i = 0; i < m; ++i) a += ul[i] * col[i];
-                for (std::uint32_t j = 0; j < n; ++j) c += vl[j] * row[j];
-                cross += a * c;
-            }
-            norm2 += 2.0 * cross + uu * vv;
-            U.insert(U.end(), col.begin(), col.end());
-            V.insert(V.end(), row.begin(), row.end());
-            ++rank;
-            converged = std::sqrt(uu * vv) <= tol * std::sqrt(std::max(norm2, 0.0));
+            converged = aca.add_cross(j_star, tol);
         }
         std::uint32_t next = m;
         if (converged) {
-            // Sampled check: 16 entries at random; their residual, scaled to the block, must be
-            // within the target.
-            const double allowed = tol * std::sqrt(std::max(norm2, 0.0) / (double(m) * n));
-            double worst = 0.0;
-            for (int s = 0; s < 16 && checks < 8; ++s) {
-                const auto i = static_cast<std::uint32_t>(next_random() % m);
-                const auto j = static_cast<std::uint32_t>(next_random() % n);
-                const double r = std::abs(residual_at(i, j));
-                ++computed;
-                if (r > allowed && r > worst && !row_used[i]) {
-                    worst = r;
-                    next = i;
-                }
-            }
+            next = aca.sampled_row(tol, checks);
             if (next == m) break;
             ++checks;
             zero_rows = 0;
         } else if (j_star != n) {
-            double bu = -1.0;
-            for (std::uint32_t i = 0; i < m; ++i)
-                if (!row_used[i] && std::abs(col[i]) > bu) {
-                    bu = std::abs(col[i]);
-                    next = i;
-                }
+            next = aca.pivot_row();
         } else {
-            for (std::uint32_t k = 1; k <= m; ++k) {
-                const std::uint32_t i = (i_star + k * (m / 3 + 1)) % m;
-                if (!row_used[i]) {
-                    next = i;
-                    break;
-                }
-            }
-            if (next == m)
-                for (std::uint32_t i = 0; i < m; ++i)
-                    if (!row_used[i]) {
-                        next = i;
-                        break;
-                    }
+            next = aca.unused_row_after(i_star);
         }
         if (next == m) break;  // every row used: exact
         i_star = next;
     }
-    blk.rank = rank;
-    if (rank == 0) {
-        // A block with no residual anywhere sampled: keep it as rank 1 of zeros (rare; exact
-        // zeros are the zero blocks).
-        U.assign(m, 0.0);
-        V.assign(n, 0.0);
-        blk.rank = 1;
-    }
-    blk.u = std::move(U);
-    blk.v = std::move(V);
+    aca.store(blk);
     return true;
 }
 

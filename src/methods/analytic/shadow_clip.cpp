@@ -1,6 +1,6 @@
 // The clipping and Lambert's formula of shadow_clip.h, out of line: the point kernel calls
-// them from several places, and inlining them there made it slower (more code, fewer
-// instructions, more cycles).
+// them from several places, and inlined copies make it larger and slower (fewer instructions,
+// more cycles, as measured).
 
 #include "methods/analytic/shadow_clip.h"
 
