@@ -132,6 +132,29 @@ TEST_CASE("cli: compute on cube: every row sums to 1, View3D .txt output") {
     CHECK(report["scene"]["enclosure"] == true);
 }
 
+TEST_CASE("cli: a cube whose faces point outwards computes zero rows with a warning") {
+    // The unit cube as a CAD tool writes a solid: every face's front outwards.
+    constexpr const char* kOutwardCube =
+        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
+        "f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
+    constexpr const char* kInwardCube =
+        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
+        "f 1 2 3 4\nf 5 8 7 6\nf 1 5 6 2\nf 2 6 7 3\nf 3 7 8 4\nf 4 8 5 1\n";
+    Cli cli;
+    cli.write("out.obj", kOutwardCube);
+    cli.write("in.obj", kInwardCube);
+    for (const std::string out : {"F.npy", "F.mtx"}) {
+        CAPTURE(out);
+        CliResult r = cli.run("compute out.obj -o " + out);
+        INFO(describe(r));
+        CHECK(r.code == 0);
+        CHECK(r.err.find("no patch sees any other") != std::string::npos);
+        r = cli.run("compute in.obj -o G" + out);
+        CHECK(r.code == 0);
+        CHECK(r.err.find("no patch sees any other") == std::string::npos);
+    }
+}
+
 TEST_CASE("cli: point gives Howell B-3 for a square with the normal through a corner") {
     Cli cli;
     // 1×1 square at height 1, facing down (CCW seen from below), corner above the origin.

@@ -229,7 +229,7 @@ void run_compute_sparse(const ComputeArgs& args, const std::string& why, OutputT
                format_count(double(scene.patches.size())));
     fmt::print("method     {} ({} thread{})\n", to_string(method), threads,
                threads == 1 ? "" : "s");
-    print_sparse_summary(r, why, args.threshold, args.repair.mode);
+    print_sparse_summary(scene, r, why, args.threshold, args.repair.mode);
     fmt::print("time       {}\n", format_timings(times, total.seconds()));
     std::string wrote = fmt::format(
         "{} (sparse, {}×{}{}, {} entries)", args.output, format_count(n), format_count(n),

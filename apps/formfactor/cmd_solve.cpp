@@ -313,7 +313,7 @@ void solve_sparse_scene(const SolveArgs& args, Scene& scene, StepTimes& times, S
     fmt::print("scene      {}: N = {} patches, F from {} ({} thread{})\n", scene.name,
                format_count(double(scene.patches.size())), read ? args.matrix : method_name,
                threads, threads == 1 ? "" : "s");
-    print_sparse_summary(r, why, F.threshold, args.repair.mode);
+    print_sparse_summary(scene, r, why, F.threshold, args.repair.mode);
     fmt::print("time       {}\n", format_timings(times, total.seconds()));
     std::string wrote = args.output;
     if (!args.report.empty()) wrote += ", " + args.report;

@@ -267,6 +267,27 @@ void warn_single_patch(Scene& scene) {
     fmt::print(stderr, "formfactor: warning: {}\n", w);
 }
 
+void warn_if_nothing_seen(const Scene& scene, double row_sum_max) {
+    const auto& patches = scene.patches;
+    if (patches.size() < 2 || row_sum_max > 0.0) return;
+    // Patches in one plane facing one way (a subdivided wall) see nothing of each other: no
+    // sign of anything wrong.
+    const Vec3 n0 = patches[0].normal, c0 = patches[0].centroid;
+    double extent = 0.0;
+    for (const auto& p : patches) extent = std::max(extent, (p.centroid - c0).norm());
+    bool one_plane = true;
+    for (std::size_t i = 1; i < patches.size() && one_plane; ++i)
+        one_plane = (patches[i].normal - n0).norm() <= 1e-9 &&
+                    std::abs(n0.dot(patches[i].centroid - c0)) <= 1e-9 * extent;
+    if (one_plane) return;
+    std::fflush(stdout);
+    fmt::print(stderr,
+               "formfactor: warning: no patch sees any other (every row of F sums to 0): their "
+               "fronts face away from each other. A closed solid from a CAD tool or Gmsh faces "
+               "outwards; reverse its faces' vertex order to compute its inside (`formfactor "
+               "info` names the shells that face outwards)\n");
+}
+
 std::vector<double> patch_emissivities(const Scene& scene) {
     std::vector<double> e;
     e.reserve(scene.patches.size());
@@ -311,6 +332,7 @@ void print_matrix_summary(const Scene& scene, const std::string& method, int thr
     fmt::print("row sums   min {:.10g}, max {:.10g}, mean {:.10g}\n", d.row_sum_min, d.row_sum_max,
                d.row_sum_mean);
     print_reciprocity(d, promise);
+    warn_if_nothing_seen(scene, d.row_sum_max);
     if (ff.standard_error && ff.standard_error->size() > 0) {
         fmt::print("std error  max {:.3g}, mean {:.3g} (per entry)\n",
                    ff.standard_error->maxCoeff(), ff.standard_error->mean());

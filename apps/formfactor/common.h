@@ -104,6 +104,9 @@ void stage_report(OutputTransaction& tx, const std::string& path, const nlohmann
 /// has one patch, prints that as a warning on stderr and adds it to scene.warnings (the report's
 /// scene block).
 void warn_single_patch(Scene& scene);
+/// A warning on stderr when no row of F has anything in it although the patches are not all in
+/// one plane: fronts that all face away from each other (a closed solid that faces outwards).
+void warn_if_nothing_seen(const Scene& scene, double row_sum_max);
 
 /// Per-patch emissivities from the scene's materials (for View3D's .txt).
 std::vector<double> patch_emissivities(const Scene& scene);

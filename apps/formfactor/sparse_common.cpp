@@ -89,8 +89,8 @@ nlohmann::json sparse_report_sections(const SparseComputeResult& r, const std::s
     return j;
 }
 
-void print_sparse_summary(const SparseComputeResult& r, const std::string& why, double threshold,
-                          const std::string& repair_mode) {
+void print_sparse_summary(const Scene& scene, const SparseComputeResult& r, const std::string& why,
+                          double threshold, const std::string& repair_mode) {
     const SparseFormFactors& F = r.form_factors;
     const SparseDiagnostics& d = r.repair ? r.repair->after : r.diagnostics;
     const double n = static_cast<double>(F.n);
@@ -111,6 +111,7 @@ void print_sparse_summary(const SparseComputeResult& r, const std::string& why, 
         d.row_sum_min, d.row_sum_max, d.row_sum_mean, d.sky_min, d.sky_max);
     fmt::print("reciprocity max defect {:.3g}, {} entries without their reverse\n",
                d.max_reciprocity_defect, d.asymmetric_entries);
+    warn_if_nothing_seen(scene, d.row_sum_max);
     if (r.repair)
         fmt::print(
             "repair     {}: {} reverse entries restored, {} rows lowered, closure residual "

@@ -23,7 +23,7 @@ nlohmann::json sparse_report_sections(const SparseComputeResult& r, const std::s
                                       double threshold, const std::string& repair_mode);
 
 /// Prints the storage, matrix, dropped-mass, row-sum, reciprocity, repair and memory lines.
-void print_sparse_summary(const SparseComputeResult& r, const std::string& why, double threshold,
-                          const std::string& repair_mode);
+void print_sparse_summary(const Scene& scene, const SparseComputeResult& r, const std::string& why,
+                          double threshold, const std::string& repair_mode);
 
 }  // namespace formfactor::cli
