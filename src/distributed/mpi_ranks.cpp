@@ -488,6 +488,7 @@ std::unique_ptr<PartlyHiddenPairs> run_pair_stage(const Job& job, const Scene& s
             WireWriter w;
             w.put<std::uint8_t>(1);
             put_values(w, all);
+            message_size(w.bytes());  // a message MPI cannot send fails here, not in the sends
             message = std::move(w.bytes());
             pairs->set_values(std::move(all));
         } catch (...) {
