@@ -2,7 +2,11 @@
 // (classification.cpp), every partly hidden pair is settled, the cheapest way that meets the
 // tolerance first: its bracket [0, unobstructed], the umbrae of its occluders (umbrae.cpp), or
 // the adaptive integration of its hidden part (hidden_integral.cpp); in the dense matrix, in a
-// block of rows, or in sparse rows. See docs/analytic.md, "Obstructed scenes".
+// block of rows, or in sparse rows; and the partly hidden pairs computed apart from the rows
+// (formfactor/methods/partly_hidden.h). See docs/analytic.md, "Obstructed scenes".
+//
+// The file is long (over 600 lines) because those four paths share the settling of one pair
+// (integrate_partial()) and its statistics, which are private to it.
 
 #include <fmt/format.h>
 #include <tbb/enumerable_thread_specific.h>
