@@ -145,9 +145,13 @@ ComputeResult compute_form_factors(const Scene& scene, const ComputeOptions& opt
         vis = visibility.get();
         result.timings.add("visibility", sw.lap());
     }
-    MethodContext ctx{scene, options.method_options,
-                      vis,   options.progress,
-                      rows,  emit_sparse ? options.sparse_rows : nullptr};
+    MethodContext ctx{scene,
+                      options.method_options,
+                      vis,
+                      options.progress,
+                      rows,
+                      emit_sparse ? options.sparse_rows : nullptr,
+                      options.partly_hidden};
     announce_phase("rows");
     MethodResult computed = method->compute(ctx);
     result.timings.add("compute", sw.lap());

@@ -113,6 +113,93 @@ TEST_CASE(
         {"F{}.npy", "P{}.csv"});
 }
 
+namespace {
+
+// The number after the first `"key": ` of a JSON text (-1 when absent).
+double json_number(const std::string& text, const std::string& key) {
+    const auto at = text.find("\"" + key + "\":");
+    if (at == std::string::npos) return -1.0;
+    return std::stod(text.substr(at + key.size() + 3));
+}
+
+// The numbers of "partly hidden pairs A / B / ... in" of a run's ranks line.
+std::vector<double> pairs_per_rank(const std::string& out) {
+    std::vector<double> got;
+    auto at = out.find("partly hidden pairs ");
+    if (at == std::string::npos) return got;
+    std::istringstream in(out.substr(at + 20));
+    std::string word;
+    while (in >> word && word != "in")
+        if (word != "/") got.push_back(std::stod(word));
+    return got;
+}
+
+}  // namespace
+
+TEST_CASE(
+    "mpi: the analytic method integrates each partly hidden pair once over 2 and 3 ranks with "
+    "one process's F dense and sparse" *
+    doctest::test_suite("mpi")) {
+    TempDir dir;
+    const std::string scene = "compute room-6-obstruction --method analytic --threads 1 ";
+    const Run one = run(dir, 0, scene + "-o F1.npy --report R1.json");
+    INFO(said(one));
+    REQUIRE(one.code == 0);
+    const Run one_sparse = run(dir, 0, scene + "-o S1.h5");
+    INFO(said(one_sparse));
+    REQUIRE(one_sparse.code == 0);
+    const std::string report = read_text(dir.file("R1.json"));
+    const double pairs = json_number(report, "patch_pairs_partly_hidden");
+    const double points = json_number(report, "point_evaluations");
+    REQUIRE(pairs > 100);
+    REQUIRE(points > 0);
+    const SparseFormFactors expected = read_sparse_matrix(dir.file("S1.h5"));
+    REQUIRE(expected.nonzeros() > 0);
+    for (int ranks : {2, 3}) {
+        CAPTURE(ranks);
+        const std::string tag = std::to_string(ranks);
+        const Run r = run(dir, ranks, scene + "-o F" + tag + ".npy --report R" + tag + ".json");
+        INFO(said(r));
+        REQUIRE(r.code == 0);
+        CHECK(read_text(dir.file("F" + tag + ".npy")) == read_text(dir.file("F1.npy")));
+        // Every pair once over the ranks: the pairs each rank did add up to the scene's, and
+        // the point evaluations of the integration are one process's.
+        const std::vector<double> shares = pairs_per_rank(r.out);
+        CHECK(shares.size() == static_cast<std::size_t>(ranks));
+        double sum = 0.0;
+        for (double v : shares) sum += v;
+        CHECK(sum == pairs);
+        const std::string got = read_text(dir.file("R" + tag + ".json"));
+        CHECK(json_number(got, "patch_pairs_partly_hidden") == pairs);
+        CHECK(json_number(got, "point_evaluations") == points);
+
+        const Run rs = run(dir, ranks, scene + "-o S" + tag + ".h5");
+        INFO(said(rs));
+        REQUIRE(rs.code == 0);
+        CHECK(pairs_per_rank(rs.out).size() == static_cast<std::size_t>(ranks));
+        // HDF5 stamps objects with times: the arrays are compared, not the bytes.
+        const SparseFormFactors sparse = read_sparse_matrix(dir.file("S" + tag + ".h5"));
+        CHECK(sparse.indptr == expected.indptr);
+        CHECK(sparse.indices == expected.indices);
+        CHECK(sparse.values == expected.values);
+        CHECK(sparse.areas == expected.areas);
+    }
+}
+
+TEST_CASE(
+    "mpi: an analytic solve of an obstructed scene over the ranks writes one process's solution "
+    "from dense and sparse rows" *
+    doctest::test_suite("mpi")) {
+    // Rows kept on their ranks (the pairs' values go to every rank first), GMRES over the ranks.
+    check_same_files_on_any_rank_count(
+        "solve cornell --subdivide 2 --method analytic --solver gmres --threads 1 -o B{}.csv",
+        {"B{}.csv"});
+    check_same_files_on_any_rank_count(
+        "solve cornell --subdivide 2 --method analytic --storage sparse --solver gmres --threads 1 "
+        "-o B{}.csv",
+        {"B{}.csv"});
+}
+
 TEST_CASE(
     "mpi: mc-hemisphere F and its standard errors are bit-identical on 2 and 3 ranks as on one "
     "process" *

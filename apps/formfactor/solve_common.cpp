@@ -77,9 +77,14 @@ void print_rank_shares(int threads) {
         rows += fmt::format("{}{:.0f}", r ? " / " : "", shares.rows[r]);
         busy += fmt::format("{}{:.2f}", r ? " / " : "", shares.busy_seconds[r]);
     }
-    fmt::print("ranks      {} × {} thread{}: rows {}, busy {} s, imbalance {:.1f} %, {} blocks\n",
+    std::string pairs;
+    for (std::size_t r = 0; r < shares.pairs.size(); ++r)
+        pairs += fmt::format("{}{:.0f}", r ? " / " : "", shares.pairs[r]);
+    if (!pairs.empty())
+        pairs = fmt::format("; partly hidden pairs {} in {} parts", pairs, shares.pair_blocks);
+    fmt::print("ranks      {} × {} thread{}: rows {}, busy {} s, imbalance {:.1f} %, {} blocks{}\n",
                shares.rows.size(), threads, threads == 1 ? "" : "s", rows, busy,
-               100.0 * shares.imbalance(), shares.blocks);
+               100.0 * shares.imbalance(), shares.blocks, pairs);
 }
 
 ComputedMatrix compute_matrix(const Scene& scene, const MethodArgs& method,

@@ -31,6 +31,7 @@
 #include "formfactor/methods/hierarchical_build.h"
 #include "formfactor/methods/method.h"
 #include "formfactor/methods/obstructed.h"
+#include "formfactor/methods/partly_hidden.h"
 #include "formfactor/methods/point_factors.h"
 #include "formfactor/methods/traits.h"
 #include "formfactor/output/energyplus_view_factors.h"

@@ -76,6 +76,8 @@ struct ComputeOptions {
     /// (0 × N); no rows × N block is made. compute_sparse_form_factors() uses it; null (the
     /// default): dense rows.
     SparseRows* sparse_rows = nullptr;
+    /// analytic: MethodContext::partly_hidden (null by default).
+    const PartlyHiddenPairs* partly_hidden = nullptr;
     /// The rows of F to compute (every row by default).
     RowRange rows;
     /// Repair of F after the method (whole matrices only); RepairMode::none by default. The

@@ -5,6 +5,12 @@
 // or none (the job is over for it). Waits poll with short sleeps: a blocking MPI receive spins
 // a core that the computation needs.
 //
+// The analytic method in a scene that may obstruct runs a job in two stages: first the partly
+// hidden pairs (classified on every rank, the same list everywhere) are handed out in parts of
+// the list and integrated once over the ranks; rank 0 sends every rank all their values, and
+// the rows then take them (formfactor/methods/partly_hidden.h). By rows alone, a pair between
+// two blocks would be integrated for each block.
+//
 // A solve of kept rows (compute_distributed_rows()) is a command of its own: rank 0 sends the
 // system, and every rank iterates on its rows with one all-gather per product (row_solve.h);
 // before it, blocks of kept rows move between ranks to even out a product's work.
@@ -25,6 +31,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <exception>
+#include <functional>
 #include <limits>
 #include <map>
 #include <memory>
@@ -39,6 +46,8 @@
 #include "formfactor/core/timing.h"
 #include "formfactor/distributed/distributed.h"
 #include "formfactor/matrix/memory.h"
+#include "formfactor/methods/partly_hidden.h"
+#include "formfactor/scene/obstruction.h"
 #include "row_solve.h"
 #include "wire.h"
 
@@ -46,7 +55,7 @@ namespace formfactor::distributed {
 
 namespace {
 
-constexpr int kTagCommand = 1, kTagResult = 2, kTagAssign = 3, kTagMove = 4;
+constexpr int kTagCommand = 1, kTagResult = 2, kTagAssign = 3, kTagMove = 4, kTagValues = 5;
 constexpr std::int64_t kCommandJob = 1, kCommandFinish = 2, kCommandSolve = 3, kCommandMove = 4,
                        kCommandScatter = 5;
 // dense, sparse: the rows go to rank 0; kept_dense, kept_sparse: each rank keeps its rows
@@ -128,7 +137,15 @@ struct Job {
     VisibilityOptions visibility;
     double threshold = 0.0;  // kept_sparse
     std::uint64_t kept = 0;  // kept_*: the id of the rows
+    // The partly hidden pairs first, over the ranks (uses_pair_stage()).
+    bool pairs_first = false;
 };
+
+// The analytic method's partly hidden pairs are worth a stage of their own (the header).
+bool uses_pair_stage(MethodKind method, const Scene& scene) {
+    return method == MethodKind::analytic && !scene.patches.empty() &&
+           formfactor::may_obstruct(scene);
+}
 
 bool keeps_rows(JobKind kind) {
     return kind == JobKind::kept_dense || kind == JobKind::kept_sparse;
@@ -143,6 +160,7 @@ std::vector<char> job_bytes(const Job& job, const Scene& scene) {
     w.put(job.visibility);
     w.put(job.threshold);
     w.put(job.kept);
+    w.put<std::uint8_t>(job.pairs_first);
     put_scene(w, scene);
     return std::move(w.bytes());
 }
@@ -177,17 +195,31 @@ std::vector<char> receive_job() {
 class Schedule {
   public:
     /// `coarse`: at most two blocks per rank, for a method whose every call prepares the whole
-    /// scene (the analytic method classifies every pair of the scene's clusters per call).
+    /// scene (mc-target).
     Schedule(std::size_t n, int ranks, std::size_t max_rows, bool coarse)
-        : n_(n),
-          ranks_(static_cast<std::size_t>(ranks)),
-          max_rows_(std::max<std::size_t>(1, max_rows)),
-          min_rows_(std::clamp<std::size_t>(
-              coarse ? (n + 2 * ranks_ - 1) / (2 * ranks_) : n / (64 * ranks_), 1, max_rows_)) {}
+        : ranks_(static_cast<std::size_t>(ranks)) {
+        open(n, max_rows, coarse);
+    }
+    /// A schedule whose rows are not known yet: not ready() until open() (or stop()).
+    explicit Schedule(int ranks) : ranks_(static_cast<std::size_t>(ranks)), open_(false) {}
+
+    void open(std::size_t n, std::size_t max_rows, bool coarse) {
+        const std::lock_guard lock(mutex_);
+        n_ = n;
+        max_rows_ = std::max<std::size_t>(1, max_rows);
+        min_rows_ = std::clamp<std::size_t>(
+            coarse ? (n + 2 * ranks_ - 1) / (2 * ranks_) : n / (64 * ranks_), 1, max_rows_);
+        open_ = true;
+    }
+    /// True when take() can answer.
+    bool ready() {
+        const std::lock_guard lock(mutex_);
+        return open_ || stopped_;
+    }
 
     std::optional<RowRange> take() {
         const std::lock_guard lock(mutex_);
-        if (stopped_ || next_ >= n_) return std::nullopt;
+        if (stopped_ || !open_ || next_ >= n_) return std::nullopt;
         const std::size_t rows =
             std::clamp<std::size_t>((n_ - next_) / (4 * ranks_), min_rows_, max_rows_);
         const RowRange block{next_, std::min(n_, next_ + rows)};
@@ -205,8 +237,8 @@ class Schedule {
 
   private:
     std::mutex mutex_;
-    std::size_t n_, ranks_, max_rows_, min_rows_, next_ = 0, blocks_ = 0, largest_ = 0;
-    bool stopped_ = false;
+    std::size_t n_ = 0, ranks_, max_rows_ = 1, min_rows_ = 1, next_ = 0, blocks_ = 0, largest_ = 0;
+    bool stopped_ = false, open_ = true;
 };
 
 // Where rank 0 puts what the blocks give.
@@ -217,6 +249,8 @@ class BlockSink {
     virtual void local(const RowRange& rows) = 0;
     /// Rank `from`'s rows as it sent them (dispatcher thread).
     virtual void remote(int from, const RowRange& rows, WireReader& r) = 0;
+    /// For local(): the partly hidden pairs of a job with a pair stage (run_job() sets it).
+    const PartlyHiddenPairs* partly_hidden = nullptr;
 };
 
 // The first failure of a job, wherever it happened.
@@ -257,7 +291,21 @@ void dispatch(Schedule& schedule, BlockSink& sink, Failure& failure, Cancellatio
     int active = g_size - 1;
     auto pause = std::chrono::microseconds(20);
     std::optional<std::chrono::steady_clock::time_point> interrupted;
+    // Every message is answered by an assignment: at once, or once the schedule is ready.
+    std::vector<int> waiting;
+    auto answer = [&](int to) {
+        const std::optional<RowRange> next = schedule.take();
+        const std::int64_t assign[2] = {next ? std::int64_t(next->begin) : 0,
+                                        next ? std::int64_t(next->end) : 0};
+        MPI_Send(assign, 2, MPI_INT64_T, to, kTagAssign, g_comm);
+        if (!next) --active;
+    };
     while (active > 0) {
+        if (!waiting.empty() && schedule.ready()) {
+            for (int to : waiting) answer(to);
+            waiting.clear();
+            continue;
+        }
         if (process_cancellation().requested() && !interrupted) {
             interrupted = std::chrono::steady_clock::now();
             schedule.stop();
@@ -298,29 +346,29 @@ void dispatch(Schedule& schedule, BlockSink& sink, Failure& failure, Cancellatio
                 job_cancel.request();
             }
         }
-        const std::optional<RowRange> next = schedule.take();
-        const std::int64_t assign[2] = {next ? std::int64_t(next->begin) : 0,
-                                        next ? std::int64_t(next->end) : 0};
-        MPI_Send(assign, 2, MPI_INT64_T, from, kTagAssign, g_comm);
-        if (!next) --active;
+        if (schedule.ready())
+            answer(from);
+        else
+            waiting.push_back(from);
     }
 }
 
-// Rank 0: broadcasts the job, then computes blocks beside the dispatcher until the rows run
-// out; rethrows the first failure of any rank.
-void run_job(const Job& job, const Scene& scene, std::size_t max_rows, BlockSink& sink,
-             CancellationFlag& job_cancel, ProgressSink* progress_sink) {
-    broadcast_job(job_bytes(job, scene));
-    const std::size_t n = scene.patches.size();
-    Schedule schedule(n, g_size, max_rows,
-                      job.method == MethodKind::analytic || job.method == MethodKind::mc_target);
-    Failure failure;
-    std::vector<double> rows(static_cast<std::size_t>(g_size), 0.0), busy = rows;
-    Progress progress("rows", n, progress_sink);
-    // Rank 0's first block before any other: it gives the areas.
-    std::optional<RowRange> block = schedule.take();
+// Rank 0's side of one stage of a job: computes blocks beside the dispatcher until the schedule
+// runs out, and answers every worker until each has been told the stage is over.
+// `prepare`, when set, runs first on rank 0's main thread (the dispatcher already answering)
+// and opens the schedule.
+void run_stage(Schedule& schedule, BlockSink& sink, Failure& failure, CancellationFlag& job_cancel,
+               Progress& progress, std::vector<double>& rows, std::vector<double>& busy,
+               const std::function<void()>& prepare = {}) {
+    // Rank 0's first block before any other: it gives the areas (the rows' stage).
+    std::optional<RowRange> block;
+    if (!prepare) block = schedule.take();
     auto compute_local = [&](bool only_first) {
         try {
+            if (prepare) {
+                prepare();
+                block = schedule.take();
+            }
             for (; block; block = only_first ? std::nullopt : schedule.take()) {
                 Stopwatch sw;
                 sink.local(*block);
@@ -342,11 +390,152 @@ void run_job(const Job& job, const Scene& scene, std::size_t max_rows, BlockSink
         compute_local(true);
         dispatch(schedule, sink, failure, job_cancel, progress, rows, busy);
     }
+}
+
+void put_values(WireWriter& w, const PartlyHiddenValues& v) {
+    w.put_vector(v.f);
+    w.put_vector(v.back);
+    w.put_vector(v.integrated);
+    w.put(v.stats);
+}
+
+PartlyHiddenValues get_values(WireReader& r) {
+    PartlyHiddenValues v;
+    v.f = r.get_vector<double>();
+    v.back = r.get_vector<double>();
+    v.integrated = r.get_vector<std::uint8_t>();
+    v.stats = r.get<PartlyHiddenStats>();
+    if (v.back.size() != v.f.size() || v.integrated.size() != v.f.size())
+        throw Error("distributed: partly hidden pairs of the wrong size");
+    return v;
+}
+
+// The first stage's parts of the partly hidden pairs, by their first position.
+class PairSink final : public BlockSink {
+  public:
+    PairSink(const PartlyHiddenPairs* pairs, const CancellationFlag& cancel)
+        : pairs_(pairs), cancel_(cancel) {}
+    void set_pairs(const PartlyHiddenPairs* pairs) { pairs_ = pairs; }
+    void local(const RowRange& part) override {
+        const CancellationScope scope(cancel_);
+        PartlyHiddenValues v = pairs_->integrate(part);
+        const std::lock_guard lock(mutex_);
+        parts_[part.begin] = std::move(v);
+    }
+    void remote(int from, const RowRange& part, WireReader& r) override {
+        (void)from;
+        PartlyHiddenValues v = get_values(r);
+        if (v.f.size() != part.size()) throw Error("distributed: a part of the wrong size");
+        const std::lock_guard lock(mutex_);
+        parts_[part.begin] = std::move(v);
+    }
+    /// Every part, in order (once every part is in).
+    PartlyHiddenValues all() {
+        PartlyHiddenValues out;
+        for (auto& [first, v] : parts_) {
+            if (first != out.f.size()) throw Error("distributed: a part of the pairs is missing");
+            out.f.insert(out.f.end(), v.f.begin(), v.f.end());
+            out.back.insert(out.back.end(), v.back.begin(), v.back.end());
+            out.integrated.insert(out.integrated.end(), v.integrated.begin(), v.integrated.end());
+            out.stats.add(v.stats);
+            v = PartlyHiddenValues{};
+        }
+        return out;
+    }
+
+  private:
+    const PartlyHiddenPairs* pairs_;
+    const CancellationFlag& cancel_;
+    std::mutex mutex_;
+    std::map<std::size_t, PartlyHiddenValues> parts_;
+};
+
+// Rank 0: the pair stage of a job (uses_pair_stage()). Every rank classifies; the parts of the
+// list go out as rows do; then every worker gets every value (or, when a rank failed, word to
+// stop) and `pairs` holds them. Returns the pairs, null after a failure (recorded in `failure`).
+std::unique_ptr<PartlyHiddenPairs> run_pair_stage(const Job& job, const Scene& scene,
+                                                  Failure& failure, CancellationFlag& job_cancel,
+                                                  ProgressSink* progress_sink) {
+    std::unique_ptr<PartlyHiddenPairs> pairs;
+    // Parts shrink as the pairs run out; each is a sample of the list (partly_hidden.h), so
+    // its cost follows its size.
+    Schedule schedule(g_size);
+    PairSink sink(nullptr, job_cancel);
+    std::vector<double> done(static_cast<std::size_t>(g_size), 0.0), busy = done;
+    // Made again once the count is known; the dispatcher advances it only after that (it
+    // answers no worker before the schedule opens).
+    std::optional<Progress> progress;
+    progress.emplace("partly hidden pairs", 0, nullptr);
+    // Rank 0 classifies while the dispatcher takes the workers' first word (a failure stops
+    // it through job_cancel).
+    auto classify = [&] {
+        {
+            const CancellationScope scope(job_cancel);
+            pairs = std::make_unique<PartlyHiddenPairs>(scene, job.method_options,
+                                                        sparse_job(job.kind));
+        }
+        sink.set_pairs(pairs.get());
+        progress.emplace("partly hidden pairs", pairs->count(), progress_sink);
+        schedule.open(pairs->count(), pairs->count(), false);
+    };
+    run_stage(schedule, sink, failure, job_cancel, *progress, done, busy, classify);
+    if (!failure.any()) progress->finish();
+    progress.reset();
+    std::vector<char> message(1, 0);  // 0: stop
+    if (!failure.any() && !process_cancellation().requested()) {
+        try {
+            PartlyHiddenValues all = sink.all();
+            WireWriter w;
+            w.put<std::uint8_t>(1);
+            put_values(w, all);
+            message_size(w.bytes());  // a message MPI cannot send fails here, not in the sends
+            message = std::move(w.bytes());
+            pairs->set_values(std::move(all));
+        } catch (...) {
+            failure.record_local(std::current_exception());
+            message.assign(1, 0);
+        }
+    }
+    for (int r = 1; r < g_size; ++r) send_bytes(message, r, kTagValues);
+    g_shares.pairs = done;
+    g_shares.pair_blocks = schedule.blocks();
+    g_shares.busy_seconds = busy;
+    if (message[0] == 0) return nullptr;
+    return pairs;
+}
+
+// Rank 0: broadcasts the job, (its pair stage,) then computes blocks beside the dispatcher
+// until the rows run out; rethrows the first failure of any rank.
+void run_job(Job job, const Scene& scene, std::size_t max_rows, BlockSink& sink,
+             CancellationFlag& job_cancel, ProgressSink* progress_sink) {
+    job.pairs_first = uses_pair_stage(job.method, scene);
+    broadcast_job(job_bytes(job, scene));
+    const std::size_t n = scene.patches.size();
+    Failure failure;
+    g_shares = RankShares{};
+    g_shares.busy_seconds.assign(static_cast<std::size_t>(g_size), 0.0);
+    std::unique_ptr<PartlyHiddenPairs> pairs;
+    if (job.pairs_first) {
+        pairs = run_pair_stage(job, scene, failure, job_cancel, progress_sink);
+        if (!pairs) {
+            if (failure.any()) failure.rethrow();
+            process_cancellation().throw_if_requested();
+            throw Cancelled();
+        }
+        sink.partly_hidden = pairs.get();
+    }
+    // The analytic method's blocks take the classification of the pair stage: fine blocks.
+    const bool coarse = job.method == MethodKind::mc_target;
+    Schedule schedule(n, g_size, max_rows, coarse);
+    std::vector<double> rows(static_cast<std::size_t>(g_size), 0.0), busy = rows;
+    Progress progress("rows", n, progress_sink);
+    run_stage(schedule, sink, failure, job_cancel, progress, rows, busy);
+    sink.partly_hidden = nullptr;
     if (failure.any()) failure.rethrow();
     process_cancellation().throw_if_requested();
     progress.finish();
     g_shares.rows = rows;
-    g_shares.busy_seconds = busy;
+    for (std::size_t r = 0; r < busy.size(); ++r) g_shares.busy_seconds[r] += busy[r];
     g_shares.blocks = schedule.blocks();
 }
 
@@ -360,12 +549,18 @@ void add_shares(MethodReport& report) {
     mpi["rows_per_rank"] = g_shares.rows;
     mpi["busy_seconds_per_rank"] = g_shares.busy_seconds;
     mpi["imbalance"] = g_shares.imbalance();
+    if (!g_shares.pairs.empty()) {
+        mpi["partly_hidden_pairs_per_rank"] = g_shares.pairs;
+        mpi["partly_hidden_pair_parts"] = g_shares.pair_blocks;
+    }
 }
 
 // The options of one block of a job.
 ComputeOptions block_options(const Job& job, const Visibility* visibility, RowRange rows,
-                             const CancellationFlag* cancel) {
+                             const CancellationFlag* cancel,
+                             const PartlyHiddenPairs* partly_hidden) {
     ComputeOptions o;
+    o.partly_hidden = partly_hidden;
     o.method = job.method;
     o.method_options = job.method_options;
     o.visibility = job.visibility;
@@ -408,8 +603,9 @@ std::vector<double> keep_block(const Job& job, const Scene& scene, ComputeOption
 
 // The rows of one block as a worker sends them (after status, rows and busy seconds).
 void put_block(WireWriter& w, const Job& job, const Scene& scene, const Visibility* visibility,
-               bool emit_sparse, RowRange rows, MethodReport& report) {
-    ComputeOptions o = block_options(job, visibility, rows, &process_cancellation());
+               const PartlyHiddenPairs* partly_hidden, bool emit_sparse, RowRange rows,
+               MethodReport& report) {
+    ComputeOptions o = block_options(job, visibility, rows, &process_cancellation(), partly_hidden);
     if (keeps_rows(job.kind)) {
         w.put_vector(keep_block(job, scene, o, emit_sparse, report));
         return;
@@ -435,12 +631,20 @@ void put_block(WireWriter& w, const Job& job, const Scene& scene, const Visibili
     }
 }
 
-// A worker's part of one job: ready, then a block per assignment until none is left. A
-// failure is sent in place of the next result, and the job then ends for this rank.
+std::vector<char> ready() {
+    WireWriter w;
+    w.put(Status::ready);
+    return std::move(w.bytes());
+}
+
+// A worker's part of one job: ready, then a block per assignment until none is left (for a job
+// with a pair stage: parts of the pairs, their values from rank 0, then rows). A failure is
+// sent in place of the next result, and the job then ends for this rank.
 void work_on_job(const std::vector<char>& bytes) {
     Job job;
     Scene scene;
     std::unique_ptr<Visibility> visibility;
+    std::unique_ptr<PartlyHiddenPairs> pairs;
     bool emit_sparse = false;
     // The message that answers work(): its own, or the failure it threw.
     auto answer = [](const auto& work) -> std::vector<char> {
@@ -468,6 +672,7 @@ void work_on_job(const std::vector<char>& bytes) {
         job.visibility = r.get<VisibilityOptions>();
         job.threshold = r.get<double>();
         job.kept = r.get<std::uint64_t>();
+        job.pairs_first = r.get<std::uint8_t>() != 0;
         scene = get_scene(r);
         if (keeps_rows(job.kind)) {
             kept_rows() = KeptRows{};
@@ -484,32 +689,56 @@ void work_on_job(const std::vector<char>& bytes) {
         emit_sparse = sparse_job(job.kind) && method->emits_sparse_rows(scene);
         if (method->needs_visibility() && !scene.patches.empty())
             visibility = make_visibility(scene, job.visibility);
-        WireWriter w;
-        w.put(Status::ready);
-        return std::move(w.bytes());
+        if (job.pairs_first)
+            pairs = std::make_unique<PartlyHiddenPairs>(scene, job.method_options,
+                                                        sparse_job(job.kind));
+        return ready();
     });
-    for (;;) {
-        send_bytes(message, 0, kTagResult);
-        wait_for(0, kTagAssign, nullptr);
-        std::int64_t assign[2];
-        MPI_Recv(assign, 2, MPI_INT64_T, 0, kTagAssign, g_comm, MPI_STATUS_IGNORE);
-        if (assign[1] <= assign[0]) return;
-        const RowRange rows{std::size_t(assign[0]), std::size_t(assign[1])};
+    // Sends `message`, then a block per assignment (body(block) the message that answers it)
+    // until none is left.
+    auto serve_blocks = [&](const auto& body) {
+        for (;;) {
+            send_bytes(message, 0, kTagResult);
+            wait_for(0, kTagAssign, nullptr);
+            std::int64_t assign[2];
+            MPI_Recv(assign, 2, MPI_INT64_T, 0, kTagAssign, g_comm, MPI_STATUS_IGNORE);
+            if (assign[1] <= assign[0]) return;
+            const RowRange block{std::size_t(assign[0]), std::size_t(assign[1])};
+            message = answer([&] {
+                Stopwatch sw;
+                WireWriter out;
+                body(block, out);
+                WireWriter w;
+                w.put(Status::rows);
+                w.put<std::uint64_t>(block.begin);
+                w.put<std::uint64_t>(block.end);
+                w.put(sw.seconds());
+                w.bytes().insert(w.bytes().end(), out.bytes().begin(), out.bytes().end());
+                return std::move(w.bytes());
+            });
+        }
+    };
+    if (job.pairs_first) {
+        serve_blocks([&](RowRange part, WireWriter& out) {
+            if (!pairs) throw Error("distributed: the partly hidden pairs are not classified");
+            put_values(out, pairs->integrate(part));
+        });
+        // Every pair's values from rank 0, or word that the job is over.
+        const std::vector<char> got = receive_bytes(wait_for(0, kTagValues, nullptr));
+        if (got.empty() || got[0] == 0) return;
         message = answer([&] {
-            Stopwatch sw;
-            WireWriter body;
-            MethodReport report;
-            put_block(body, job, scene, visibility.get(), emit_sparse, rows, report);
-            WireWriter w;
-            w.put(Status::rows);
-            w.put<std::uint64_t>(rows.begin);
-            w.put<std::uint64_t>(rows.end);
-            w.put(sw.seconds());
-            put_report(w, report);
-            w.bytes().insert(w.bytes().end(), body.bytes().begin(), body.bytes().end());
-            return std::move(w.bytes());
+            WireReader r(got.data() + 1, got.size() - 1);
+            pairs->set_values(get_values(r));
+            return ready();
         });
     }
+    serve_blocks([&](RowRange rows, WireWriter& out) {
+        WireWriter body;
+        MethodReport report;
+        put_block(body, job, scene, visibility.get(), pairs.get(), emit_sparse, rows, report);
+        put_report(out, report);
+        out.bytes().insert(out.bytes().end(), body.bytes().begin(), body.bytes().end());
+    });
 }
 
 // Rows per block so that a block's buffers stay near 64 MB (`per_row` bytes a row).
@@ -545,7 +774,7 @@ class DenseSink final : public BlockSink {
     }
     void local(const RowRange& rows) override {
         ComputeResult r = formfactor::compute_form_factors(
-            scene_, block_options(job_, visibility_, rows, &cancel_));
+            scene_, block_options(job_, visibility_, rows, &cancel_, partly_hidden));
         if (ff.areas.empty()) ff.areas = r.form_factors.areas;
         place(rows, r.form_factors.F.data(), static_cast<std::size_t>(r.form_factors.F.size()),
               ff.F);
@@ -594,7 +823,7 @@ class SparseSink final : public BlockSink {
           cancel_(cancel),
           emit_sparse_(emit_sparse) {}
     void local(const RowRange& rows) override {
-        ComputeOptions o = block_options(job_, visibility_, rows, &cancel_);
+        ComputeOptions o = block_options(job_, visibility_, rows, &cancel_, partly_hidden);
         SparseRows emitted;
         if (emit_sparse_) o.sparse_rows = &emitted;
         ComputeResult r = formfactor::compute_form_factors(scene_, o);
@@ -642,7 +871,7 @@ class KeptSink final : public BlockSink {
         row_sums.assign(scene.patches.size(), 0.0);
     }
     void local(const RowRange& rows) override {
-        const ComputeOptions o = block_options(job_, visibility_, rows, &cancel_);
+        const ComputeOptions o = block_options(job_, visibility_, rows, &cancel_, partly_hidden);
         MethodReport block_report;
         const std::vector<double> got =
             keep_block(job_, scene_, o, emit_sparse_, block_report, &areas);

@@ -88,8 +88,12 @@ void finish();
 /// per rank, and the blocks handed out. Empty on a single rank.
 struct RankShares {
     std::vector<double> rows;
-    std::vector<double> busy_seconds;
+    std::vector<double> busy_seconds;  ///< rows and partly hidden pairs
     std::size_t blocks = 0;
+    /// The analytic method in a scene that may obstruct: partly hidden pairs integrated per
+    /// rank (before the rows), and the parts of the list they were handed out in; else empty.
+    std::vector<double> pairs;
+    std::size_t pair_blocks = 0;
     /// (largest busy time − mean) / mean: 0 when the ranks were equally busy.
     double imbalance() const;
 };

@@ -23,6 +23,7 @@ namespace formfactor {
 
 class ProgressSink;
 class Visibility;
+class PartlyHiddenPairs;
 
 /// The estimators of F.
 enum class MethodKind {
@@ -79,6 +80,11 @@ struct MethodContext {
     /// and first_row set). Null (the default), or a method that does not emit sparse rows:
     /// the dense rows × N block as always.
     SparseRows* sparse_rows = nullptr;
+    /// analytic, in a scene that may obstruct: the classification of the scene and every
+    /// partly hidden pair's value, computed beforehand (formfactor/methods/partly_hidden.h;
+    /// an MPI run integrates each pair once over the ranks), for this scene, with values set
+    /// and made sparse exactly when sparse_rows is set. Null (the default): computed here.
+    const PartlyHiddenPairs* partly_hidden = nullptr;
 };
 
 /// How the method classified patch pairs (methods that classify them: analytic, mc-target).

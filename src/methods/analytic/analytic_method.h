@@ -17,9 +17,10 @@ class AnalyticMethod final : public Method {
   public:
     MethodKind kind() const override { return MethodKind::analytic; }
     void check(const Scene& scene) const override;
-    /// A row range [b, e) costs its rows and the b × (e − b) pairs before them (plus the
-    /// classification of the whole scene when it may obstruct), and is bit-identical to the
-    /// same rows of the whole matrix.
+    /// A row range [b, e) costs its rows and the b × (e − b) pairs before them (plus, when the
+    /// scene may obstruct, the classification of the whole scene and the integration of every
+    /// partly hidden pair with a patch in the range, unless ctx.partly_hidden gives them), and
+    /// is bit-identical to the same rows of the whole matrix.
     MethodResult compute(const MethodContext& ctx) const override;
     /// In a scene that may obstruct: the rows go sparse (ctx.sparse_rows), computed only for
     /// the pairs the classification finds visible or partly hidden (no N² work, no rows × N

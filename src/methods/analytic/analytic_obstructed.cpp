@@ -2,7 +2,11 @@
 // (classification.cpp), every partly hidden pair is settled, the cheapest way that meets the
 // tolerance first: its bracket [0, unobstructed], the umbrae of its occluders (umbrae.cpp), or
 // the adaptive integration of its hidden part (hidden_integral.cpp); in the dense matrix, in a
-// block of rows, or in sparse rows. See docs/analytic.md, "Obstructed scenes".
+// block of rows, or in sparse rows; and the partly hidden pairs computed apart from the rows
+// (formfactor/methods/partly_hidden.h). See docs/analytic.md, "Obstructed scenes".
+//
+// The file is long (over 600 lines) because those four paths share the settling of one pair
+// (integrate_partial()) and its statistics, which are private to it.
 
 #include <fmt/format.h>
 #include <tbb/enumerable_thread_specific.h>
@@ -12,9 +16,13 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <map>
+#include <memory>
 #include <string>
+#include <tuple>
+#include <utility>
 #include <vector>
 
 #include "formfactor/core/error.h"
@@ -22,6 +30,7 @@
 #include "formfactor/core/phase.h"
 #include "formfactor/core/progress.h"
 #include "formfactor/matrix/memory.h"
+#include "formfactor/methods/partly_hidden.h"
 #include "methods/analytic/analytic_method.h"
 #include "methods/analytic/classification.h"
 #include "methods/analytic/obstructed_internal.h"
@@ -58,38 +67,21 @@ struct PairStats {
 
 // The same summed over pairs (per thread, then over threads: sums, maxima and counts, the same
 // whatever the order).
-constexpr int kLevels = 16;
-struct PartialStats {
-    std::array<std::size_t, kLevels + 1> levels{};
-    double max_error = 0;
-    std::size_t points = 0, cells = 0, closed_forms = 0, proven_hidden = 0, capped = 0, changed = 0,
-                bracketed = 0, settled_by_umbrae = 0;
-    void add(const PairStats& p) {
-        points += p.points;
-        cells += p.cells;
-        closed_forms += p.closed_forms;
-        proven_hidden += p.proven_hidden;
-        capped += static_cast<std::size_t>(p.capped);
-        bracketed += p.bracketed ? 1 : 0;
-        settled_by_umbrae += p.settled_by_umbrae ? 1 : 0;
-        if (!p.integrated) return;
-        changed += p.changed ? 1 : 0;
-        max_error = std::max(max_error, p.error);
-        ++levels[static_cast<std::size_t>(std::min(p.level, kLevels))];
-    }
-    void add(const PartialStats& o) {
-        for (std::size_t l = 0; l < levels.size(); ++l) levels[l] += o.levels[l];
-        max_error = std::max(max_error, o.max_error);
-        points += o.points;
-        cells += o.cells;
-        closed_forms += o.closed_forms;
-        proven_hidden += o.proven_hidden;
-        capped += o.capped;
-        changed += o.changed;
-        bracketed += o.bracketed;
-        settled_by_umbrae += o.settled_by_umbrae;
-    }
-};
+using PartialStats = PartlyHiddenStats;
+constexpr int kLevels = PartlyHiddenStats::kLevels;
+void add_pair(PartialStats& total, const PairStats& p) {
+    total.points += p.points;
+    total.cells += p.cells;
+    total.closed_forms += p.closed_forms;
+    total.proven_hidden += p.proven_hidden;
+    total.capped += static_cast<std::size_t>(p.capped);
+    total.bracketed += p.bracketed ? 1 : 0;
+    total.settled_by_umbrae += p.settled_by_umbrae ? 1 : 0;
+    if (!p.integrated) return;
+    total.changed += p.changed ? 1 : 0;
+    total.max_error = std::max(total.max_error, p.error);
+    ++total.levels[static_cast<std::size_t>(std::min(p.level, kLevels))];
+}
 
 // A partly hidden pair's entries: F_sr = f (s the smaller patch), F_rs = back.
 struct PartialValue {
@@ -147,14 +139,21 @@ constexpr double kQuartersReach = 16.0;
 // The unobstructed value less the integrated hidden part, over the smaller patch of the pair
 // (reciprocity gives the other entry, with a smaller error). unobstructed(s, r): the exact
 // unobstructed F_sr. One code path for the dense matrix, a block of rows and sparse rows.
+// The sender s (the smaller patch; the lower index of two equal ones) and the receiver r of a
+// partly hidden pair.
+std::pair<std::size_t, std::size_t> sender_receiver(const Scene& scene, const PartialPair& pp) {
+    std::size_t s = static_cast<std::size_t>(pp.i), r = static_cast<std::size_t>(pp.j);
+    const double as = scene.patches[s].area, ar = scene.patches[r].area;
+    if (ar < as || (ar == as && r < s)) std::swap(s, r);
+    return {s, r};
+}
+
 template <class Unobstructed>
 PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const PartialPair& pp,
                                const std::vector<int>& cand, double tol,
                                const Unobstructed& unobstructed) {
     PartialValue v;
-    std::size_t s = static_cast<std::size_t>(pp.i), r = static_cast<std::size_t>(pp.j);
-    const double as = scene.patches[s].area, ar = scene.patches[r].area;
-    if (ar < as || (ar == as && r < s)) std::swap(s, r);
+    const auto [s, r] = sender_receiver(scene, pp);
     v.s = s;
     v.r = r;
     const double a_s = scene.patches[s].area, a_r = scene.patches[r].area;
@@ -326,14 +325,160 @@ void partly_hidden_pass(std::size_t count, const MethodContext& ctx, double tol,
 
 }  // namespace
 
+void PartlyHiddenStats::add(const PartlyHiddenStats& o) {
+    for (std::size_t l = 0; l < levels.size(); ++l) levels[l] += o.levels[l];
+    max_error = std::max(max_error, o.max_error);
+    points += o.points;
+    cells += o.cells;
+    closed_forms += o.closed_forms;
+    proven_hidden += o.proven_hidden;
+    capped += o.capped;
+    changed += o.changed;
+    bracketed += o.bracketed;
+    settled_by_umbrae += o.settled_by_umbrae;
+}
+
+struct PartlyHiddenPairs::Impl {
+    Impl(const Scene& sc, const MethodOptions& o) : scene(sc), options(o) {}
+    const Scene& scene;
+    MethodOptions options;
+    bool sparse = false;
+    double tol = 0, visible_tol = 0;
+    Obstructions S;
+    // Every partly hidden pair in the classification's order (the order apply_obstructions()
+    // and sparse_obstructed_rows() list them in), with the output holding its candidates.
+    std::vector<PartialPair> partial;
+    std::vector<std::size_t> cand_task;
+    std::vector<std::size_t> order;  // integrate()'s positions → pairs
+    PartlyHiddenValues values;       // by pair, once set
+    bool has_values = false;
+
+    // values as integrate_partial() gives them, for pair k.
+    PartialValue value(std::size_t k) const {
+        PartialValue v;
+        std::tie(v.s, v.r) = sender_receiver(scene, partial[k]);
+        v.f = values.f[k];
+        v.back = values.back[k];
+        v.integrated = values.integrated[k] != 0;
+        return v;
+    }
+};
+
+PartlyHiddenPairs::PartlyHiddenPairs(const Scene& scene, const MethodOptions& options, bool sparse)
+    : impl_(std::make_unique<Impl>(scene, options)) {
+    Impl& m = *impl_;
+    if (!(options.tolerance > 0.0) || !std::isfinite(options.tolerance))
+        throw OptionError("tolerance", "must be a positive number (absolute error per entry)");
+    m.sparse = sparse;
+    m.tol = checked_tolerance(options);
+    m.visible_tol = std::min(options.tolerance, AnalyticMethod::kVisibleTolerance);
+    const MethodContext ctx{scene, options, nullptr, nullptr, RowRange{}, nullptr, nullptr};
+    prepare_obstructions(ctx, sparse, m.S);
+    for (std::size_t k = 0; k < m.S.outputs.size(); ++k)
+        for (const PartialPair& p : m.S.outputs[k].partial) {
+            m.partial.push_back(p);
+            m.cand_task.push_back(k);
+        }
+    // Neighbouring pairs in the list often share their blockers and cost alike (the pairs of
+    // two surfaces); a part of every stride-th pair is a sample of the whole list.
+    const std::size_t count = m.partial.size();
+    const std::size_t stride = std::max<std::size_t>(1, count / kSampledPairs);
+    m.order.reserve(count);
+    for (std::size_t r = 0; r < stride; ++r)
+        for (std::size_t k = r; k < count; k += stride) m.order.push_back(k);
+}
+
+PartlyHiddenPairs::~PartlyHiddenPairs() = default;
+
+std::size_t PartlyHiddenPairs::count() const { return impl_->partial.size(); }
+
+bool PartlyHiddenPairs::has_values() const { return impl_->has_values; }
+
+PartlyHiddenValues PartlyHiddenPairs::integrate(RowRange part) const {
+    const Impl& m = *impl_;
+    const Scene& scene = m.scene;
+    const std::size_t n = scene.patches.size();
+    part = part.clamped(m.partial.size());
+    // The part's unobstructed values, bit for bit the ones of the rows (kernels/unobstructed.h).
+    std::vector<std::vector<std::int32_t>> cols(n);
+    for (std::size_t q = part.begin; q < part.end; ++q) {
+        const PartialPair& p = m.partial[m.order[q]];
+        cols[static_cast<std::size_t>(std::min(p.i, p.j))].push_back(std::max(p.i, p.j));
+    }
+    parallel_for(n, m.options.threads, [&](std::size_t a) {
+        std::sort(cols[a].begin(), cols[a].end());
+        cols[a].erase(std::unique(cols[a].begin(), cols[a].end()), cols[a].end());
+    });
+    std::vector<const Polygon*> polys(n);
+    for (std::size_t p = 0; p < n; ++p) polys[p] = &scene.patches[p].polygon;
+    std::vector<std::vector<double>> upper;
+    std::vector<double> areas;
+    detail::unobstructed_pairs(polys, m.visible_tol, m.options.threads, nullptr, cols, upper,
+                               areas);
+    auto at = [&](std::size_t a, std::size_t c) {
+        const auto it =
+            std::lower_bound(cols[a].begin(), cols[a].end(), static_cast<std::int32_t>(c));
+        FF_ASSERT(it != cols[a].end() && *it == static_cast<std::int32_t>(c));
+        return upper[a][static_cast<std::size_t>(it - cols[a].begin())];
+    };
+    PartlyHiddenValues out;
+    out.f.assign(part.size(), 0.0);
+    out.back.assign(part.size(), 0.0);
+    out.integrated.assign(part.size(), 0);
+    ThreadStats stats;
+    parallel_for(part.size(), m.options.threads, [&](std::size_t q) {
+        const std::size_t k = m.order[part.begin + q];
+        const PartialValue v = integrate_partial(
+            scene, m.S, m.partial[k], m.S.outputs[m.cand_task[k]].cand, m.tol,
+            [&](std::size_t s, std::size_t r) {
+                return s < r ? at(s, r) : detail::reciprocal_entry(at(r, s), areas[r], areas[s]);
+            });
+        out.f[q] = v.f;
+        out.back[q] = v.back;
+        out.integrated[q] = v.integrated ? 1 : 0;
+        add_pair(stats.local(), v.stats);
+    });
+    out.stats = combined(stats);
+    return out;
+}
+
+void PartlyHiddenPairs::set_values(PartlyHiddenValues all) {
+    Impl& m = *impl_;
+    const std::size_t count = m.partial.size();
+    if (all.f.size() != count || all.back.size() != count || all.integrated.size() != count)
+        throw Error("analytic: the values of the wrong number of partly hidden pairs");
+    PartlyHiddenValues& v = m.values;
+    v.f.resize(count);
+    v.back.resize(count);
+    v.integrated.resize(count);
+    for (std::size_t q = 0; q < count; ++q) {
+        v.f[m.order[q]] = all.f[q];
+        v.back[m.order[q]] = all.back[q];
+        v.integrated[m.order[q]] = all.integrated[q];
+    }
+    v.stats = all.stats;
+    m.has_values = true;
+}
+
+// The partly hidden pairs given beforehand (ctx.partly_hidden), checked against the run; null
+// when they are to be computed here.
+static const PartlyHiddenPairs::Impl* given_pairs(const MethodContext& ctx, bool sparse) {
+    if (!ctx.partly_hidden) return nullptr;
+    const PartlyHiddenPairs::Impl& m = ctx.partly_hidden->impl();
+    FF_ASSERT(&m.scene == &ctx.scene && m.has_values && m.sparse == sparse);
+    return &m;
+}
+
 void AnalyticMethod::apply_obstructions(const MethodContext& ctx, FormFactors& out, Fields& details,
                                         detail::UnobstructedBlock* block) {
     const Scene& scene = ctx.scene;
     const MethodOptions& options = ctx.options;
     const double tol = checked_tolerance(options);
     const std::size_t n = scene.patches.size();
-    Obstructions S;
-    prepare_obstructions(ctx, false, S);
+    const PartlyHiddenPairs::Impl* given = given_pairs(ctx, false);
+    Obstructions own;
+    if (!given) prepare_obstructions(ctx, false, own);
+    const Obstructions& S = given ? given->S : own;
     const std::vector<ClusterTree>& trees = S.trees;
     const std::vector<PairOutput>& outputs = S.outputs;
     const auto t_classified = Clock::now();
@@ -341,11 +486,12 @@ void AnalyticMethod::apply_obstructions(const MethodContext& ctx, FormFactors& o
     double* F = out.F.data();
     std::vector<NodePair> hidden;
     std::vector<PartialPair> partial;
-    std::vector<std::size_t> cand_task;
+    std::vector<std::size_t> cand_task, index;  // index: the pair's place in the whole list
     std::size_t node_pairs = 0, vis = 0, hid = 0;
     for (std::size_t k = 0; k < outputs.size(); ++k) {
         hidden.insert(hidden.end(), outputs[k].hidden.begin(), outputs[k].hidden.end());
         for (const PartialPair& p : outputs[k].partial) {
+            index.push_back(partial.size());
             partial.push_back(p);
             cand_task.push_back(k);
         }
@@ -376,19 +522,24 @@ void AnalyticMethod::apply_obstructions(const MethodContext& ctx, FormFactors& o
             if (!block->rows.contains(i) && !block->rows.contains(j)) continue;
             partial[kept] = partial[k];
             cand_task[kept] = cand_task[k];
+            index[kept] = index[k];
             ++kept;
         }
         partial.resize(kept);
         cand_task.resize(kept);
+        index.resize(kept);
     }
     ThreadStats stats;
     Fields& o = details["obstructions"];
-    partly_hidden_pass(partial.size(), ctx, tol, o, [&](std::size_t k) {
-        const PartialValue v =
-            integrate_partial(scene, S, partial[k], outputs[cand_task[k]].cand, tol,
-                              [&](std::size_t s, std::size_t r) {
-                                  return block ? block->unobstructed(s, r) : F[s * n + r];
-                              });
+    auto pair_value = [&](std::size_t k) {
+        if (given) return given->value(index[k]);
+        return integrate_partial(scene, S, partial[k], outputs[cand_task[k]].cand, tol,
+                                 [&](std::size_t s, std::size_t r) {
+                                     return block ? block->unobstructed(s, r) : F[s * n + r];
+                                 });
+    };
+    auto body = [&](std::size_t k) {
+        const PartialValue v = pair_value(k);
         if (v.integrated) {
             if (block) {
                 block->set(v.s, v.r, v.f);
@@ -398,10 +549,16 @@ void AnalyticMethod::apply_obstructions(const MethodContext& ctx, FormFactors& o
                 F[v.r * n + v.s] = v.back;
             }
         }
-        stats.local().add(v.stats);
-    });
+        add_pair(stats.local(), v.stats);
+    };
+    if (given)
+        parallel_for(partial.size(), options.threads, body);
+    else
+        partly_hidden_pass(partial.size(), ctx, tol, o, body);
     const auto t_done = Clock::now();
-    report_obstructions(S, combined(stats), node_pairs, vis, hid, partial.size(), tol,
+    // Given pairs: the integration of every pair of the scene, wherever it ran.
+    report_obstructions(S, given ? given->values.stats : combined(stats), node_pairs, vis, hid,
+                        given ? given->partial.size() : partial.size(), tol,
                         effective_threads(options.threads), o);
     o["seconds_partly_hidden"] = seconds(t_classified, t_done);
 }
@@ -420,8 +577,10 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
     ff.F = DenseMatrix::Zero(0, static_cast<Eigen::Index>(n));
     MethodReport& report = result.report;
 
-    Obstructions S;
-    prepare_obstructions(ctx, true, S);
+    const PartlyHiddenPairs::Impl* given = given_pairs(ctx, true);
+    Obstructions own;
+    if (!given) prepare_obstructions(ctx, true, own);
+    const Obstructions& S = given ? given->S : own;
     const auto t_classified = Clock::now();
     const std::vector<ClusterTree>& trees = S.trees;
     auto touches = [&](std::size_t i, std::size_t j) {
@@ -465,11 +624,16 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
             });
     }
     std::vector<PartialPair> partial;
-    std::vector<std::size_t> cand_task;
+    std::vector<std::size_t> cand_task, index;  // index: the pair's place in the whole list
+    std::size_t listed = 0;
     for (std::size_t k = 0; k < S.outputs.size(); ++k)
         for (const PartialPair& p : S.outputs[k].partial) {
             const auto i = static_cast<std::size_t>(p.i), j = static_cast<std::size_t>(p.j);
-            if (!touches(i, j)) continue;
+            if (!touches(i, j)) {
+                ++listed;
+                continue;
+            }
+            index.push_back(listed++);
             partial.push_back(p);
             cand_task.push_back(k);
             cols[std::min(i, j)].push_back(static_cast<std::int32_t>(std::max(i, j)));
@@ -505,14 +669,19 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
     ThreadStats stats;
     std::vector<PartialValue> values(partial.size());
     Fields& obs = report.details["obstructions"];
-    partly_hidden_pass(partial.size(), ctx, tol, obs, [&](std::size_t k) {
-        values[k] =
-            integrate_partial(scene, S, partial[k], S.outputs[cand_task[k]].cand, tol,
-                              [&](std::size_t s, std::size_t r) {
-                                  return s < r ? upper[s][slot(s, r)] : lower[r][slot(r, s)];
-                              });
-        stats.local().add(values[k].stats);
-    });
+    if (given) {
+        parallel_for(partial.size(), options.threads,
+                     [&](std::size_t k) { values[k] = given->value(index[k]); });
+    } else {
+        partly_hidden_pass(partial.size(), ctx, tol, obs, [&](std::size_t k) {
+            values[k] =
+                integrate_partial(scene, S, partial[k], S.outputs[cand_task[k]].cand, tol,
+                                  [&](std::size_t s, std::size_t r) {
+                                      return s < r ? upper[s][slot(s, r)] : lower[r][slot(r, s)];
+                                  });
+            add_pair(stats.local(), values[k].stats);
+        });
+    }
     for (const PartialValue& v : values) {
         if (!v.integrated) continue;
         if (v.s < v.r) {
@@ -557,7 +726,8 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
     details["far_field_kernel_evaluations"] = ust.points;
     details["unobstructed_pairs_computed"] = ust.zero + ust.exact + ust.far;
     Fields& o = details["obstructions"];
-    report_obstructions(S, combined(stats), node_pairs, vis, hid, partial.size(), tol,
+    report_obstructions(S, given ? given->values.stats : combined(stats), node_pairs, vis, hid,
+                        given ? given->partial.size() : partial.size(), tol,
                         effective_threads(options.threads), o);
     o["seconds_partly_hidden"] = seconds(t_classified, t_done);
     report.error_bound_per_entry =
