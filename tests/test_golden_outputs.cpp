@@ -108,8 +108,7 @@ void strip_volatile(nlohmann::json& j) {
         for (auto it = j.begin(); it != j.end();) {
             const std::string& k = it.key();
             if (k == "timestamp" || k == "timings" || k == "formfactor_version" ||
-                k == "rechecked_segments" ||
-                k.find("seconds") != std::string::npos ||
+                k == "rechecked_segments" || k.find("seconds") != std::string::npos ||
                 k.find("per_second") != std::string::npos || k == "peak_memory_bytes" ||
                 k == "memory") {
                 it = j.erase(it);

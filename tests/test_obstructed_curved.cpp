@@ -114,9 +114,10 @@ TEST_SUITE("obstructed-references") {
         REQUIRE(ref.value > 0);
         REQUIRE(ref.value < ref.unobstructed - 1e-4);  // partly hidden
         for (double tol : {1e-4, 1e-5, 1e-6}) {
-            const ObstructedFormFactor f = polygon_to_polygon_obstructed(wall, floor, blockers, tol);
-            MESSAGE("tolerance " << tol << ": " << f.value << " against " << ref.value
-                                 << ", bound " << f.error_estimate);
+            const ObstructedFormFactor f =
+                polygon_to_polygon_obstructed(wall, floor, blockers, tol);
+            MESSAGE("tolerance " << tol << ": " << f.value << " against " << ref.value << ", bound "
+                                 << f.error_estimate);
             CHECK(f.error_estimate <= tol);
             CHECK(std::abs(f.value - ref.value) <= f.error_estimate + ref.error_estimate);
         }
