@@ -24,19 +24,22 @@ void AnalyticMethod::check(const Scene&) const {
     // Every scene: obstructed ones go through the obstruction pass of compute().
 }
 
+double AnalyticMethod::visible_tolerance(const MethodOptions& options, bool obstructed) {
+    if (!(options.tolerance > 0.0) || !std::isfinite(options.tolerance))
+        throw OptionError("tolerance", "must be a positive number (absolute error per entry)");
+    return obstructed ? std::min(options.tolerance, kVisibleTolerance) : options.tolerance;
+}
+
 MethodResult AnalyticMethod::compute(const MethodContext& ctx) const {
     const Scene& scene = ctx.scene;
     const MethodOptions& options = ctx.options;
-    if (!(options.tolerance > 0.0) || !std::isfinite(options.tolerance))
-        throw OptionError("tolerance", "must be a positive number (absolute error per entry)");
     const std::size_t n = scene.patches.size();
     const RowRange rows = ctx.rows.clamped(n);
     // In an obstructed scene the unobstructed values (kept for the fully visible pairs, the
     // reference of the partly hidden ones) stay at ≤ 1e-10: they are cheap, and the closure of
     // the rows rests on them; options.obstructed_tolerance governs the partly hidden pairs.
     const bool obstructed = formfactor::may_obstruct(scene);
-    const double tol =
-        obstructed ? std::min(options.tolerance, kVisibleTolerance) : options.tolerance;
+    const double tol = visible_tolerance(options, obstructed);
     MethodResult result;
     MethodReport& report = result.report;
     report.method = kind();

@@ -33,6 +33,9 @@ class AnalyticMethod final : public Method {
 
     /// Largest tolerance of the unobstructed values in an obstructed scene (see compute()).
     static constexpr double kVisibleTolerance = 1e-10;
+    /// The tolerance of the unobstructed values: options.tolerance, at most kVisibleTolerance
+    /// where the scene may obstruct; an OptionError unless options.tolerance is a positive number.
+    static double visible_tolerance(const MethodOptions& options, bool obstructed);
 
   private:
     /// The obstruction pass over an unobstructed matrix (analytic_obstructed.cpp): corrects

@@ -136,9 +136,6 @@ constexpr double kUmbraShare = 0.3;
 // trying every sender costs more than it settles).
 constexpr double kQuartersReach = 16.0;
 
-// The unobstructed value less the integrated hidden part, over the smaller patch of the pair
-// (reciprocity gives the other entry, with a smaller error). unobstructed(s, r): the exact
-// unobstructed F_sr. One code path for the dense matrix, a block of rows and sparse rows.
 // The sender s (the smaller patch; the lower index of two equal ones) and the receiver r of a
 // partly hidden pair.
 std::pair<std::size_t, std::size_t> sender_receiver(const Scene& scene, const PartialPair& pp) {
@@ -147,6 +144,10 @@ std::pair<std::size_t, std::size_t> sender_receiver(const Scene& scene, const Pa
     if (ar < as || (ar == as && r < s)) std::swap(s, r);
     return {s, r};
 }
+
+// The unobstructed value less the integrated hidden part, over the smaller patch of the pair
+// (reciprocity gives the other entry, with a smaller error). unobstructed(s, r): the exact
+// unobstructed F_sr. One code path for the dense matrix, a block of rows and sparse rows.
 
 template <class Unobstructed>
 PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const PartialPair& pp,
@@ -367,11 +368,9 @@ struct PartlyHiddenPairs::Impl {
 PartlyHiddenPairs::PartlyHiddenPairs(const Scene& scene, const MethodOptions& options, bool sparse)
     : impl_(std::make_unique<Impl>(scene, options)) {
     Impl& m = *impl_;
-    if (!(options.tolerance > 0.0) || !std::isfinite(options.tolerance))
-        throw OptionError("tolerance", "must be a positive number (absolute error per entry)");
+    m.visible_tol = AnalyticMethod::visible_tolerance(options, true);
     m.sparse = sparse;
     m.tol = checked_tolerance(options);
-    m.visible_tol = std::min(options.tolerance, AnalyticMethod::kVisibleTolerance);
     const MethodContext ctx{scene, options, nullptr, nullptr, RowRange{}, nullptr, nullptr};
     prepare_obstructions(ctx, sparse, m.S);
     for (std::size_t k = 0; k < m.S.outputs.size(); ++k)
