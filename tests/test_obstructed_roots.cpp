@@ -14,11 +14,13 @@
 #include "formfactor/scene/room.h"
 #include "formfactor/scene/scene.h"
 #include "methods/analytic/obstructed_internal.h"
+#include "support/closed_rooms.h"
 #include "support/method_runner.h"
 #include "support/scenes.h"
 
 using formfactor::testing::run_method;
 using formfactor::testing::scene_of;
+using formfactor::testing::sphere_faces;
 
 using namespace formfactor;
 using namespace formfactor::detail;
@@ -489,4 +491,85 @@ TEST_CASE("obstructed roots: the umbra bound is never below what the sender sees
     CHECK(settled >= 20);
     CHECK(hidden_whole >= 3);
     CHECK(partial >= 3);
+}
+
+TEST_CASE(
+    "obstructed roots: a faceted sphere hides a segment exactly when its face planes say so") {
+    // solid_hides() decides most segments by two balls about the solid's centre (outside every
+    // vertex: missed; inside every face plane: crossed). Against the face planes alone (the
+    // Cyrus–Beck test with the same rules, written out here) on segments from all around that
+    // pass near both balls' surfaces, where a wrong margin would show.
+    const Vec3 c(0.3, -0.2, 0.5);
+    const double radius = 0.7, tol = 1e-9;
+    const std::vector<Polygon> faces = sphere_faces(c, radius, 12, 24);
+    BlockerSet bs;
+    for (std::size_t k = 0; k < faces.size(); ++k) bs.add(faces[k], static_cast<int>(k));
+    bs.build();
+    bs.mark_closed_solids({}, tol);
+    const int solid = bs.piece(0).solid;
+    REQUIRE(solid >= 0);
+    std::vector<Plane> planes;
+    for (const Polygon& f : faces) planes.push_back(Plane{normal(f), normal(f).dot(f[0])});
+    auto crosses = [&](const Vec3& p, const Vec3& q) {
+        double t0 = 0.0, t1 = 1.0;
+        for (const Plane& f : planes) {
+            const double dp = f.signed_distance(p), dq = f.signed_distance(q);
+            if (dp > 0.0 && dq > 0.0) return false;
+            if (dp <= 0.0 && dq <= 0.0) continue;
+            const double t = dp / (dp - dq);
+            if (dp > 0.0)
+                t0 = std::max(t0, t);
+            else
+                t1 = std::min(t1, t);
+            if (t0 > t1) return false;
+        }
+        return t1 - t0 > 1e-12;
+    };
+    auto outside = [&](const Vec3* v, int n) {
+        for (const Plane& f : planes) {
+            bool front = true;
+            for (int k = 0; k < n && front; ++k) front = f.signed_distance(v[k]) >= -tol;
+            if (front) return true;
+        }
+        return false;
+    };
+    auto by_planes = [&](const Vec3* a, int na, const Vec3* b, int nb) {
+        if (!outside(a, na) || !outside(b, nb)) return false;
+        for (int i = 0; i < na; ++i)
+            for (int j = 0; j < nb; ++j)
+                if (!crosses(a[i], b[j])) return false;
+        return true;
+    };
+    std::mt19937_64 rng(11);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    auto direction = [&] {
+        Vec3 d;
+        do d = Vec3(u(rng), u(rng), u(rng));
+        while (d.squaredNorm() > 1.0 || d.squaredNorm() < 1e-6);
+        return Vec3(d.normalized());
+    };
+    int hidden = 0, seen = 0, near_surface = 0;
+    for (int trial = 0; trial < 20000; ++trial) {
+        // x on one side, a small triangle on the other, the line between them passing the
+        // centre at a distance from 0.8 to 1.1 of the radius (the faceted surface lies between
+        // cos(pi / 12) = 0.966 of it and the radius itself).
+        const Vec3 d = direction();
+        Vec3 side = direction();
+        side = (side - side.dot(d) * d).normalized();
+        const double offset = radius * (0.8 + 0.3 * (0.5 + 0.5 * u(rng)));
+        if (offset > 0.95 * radius && offset < 1.0 * radius) ++near_surface;
+        const Vec3 x = c + offset * side - (1.5 + u(rng)) * radius * d;
+        const Vec3 y = c + offset * side + (2.0 + u(rng)) * radius * d;
+        const double size = 0.01 * radius * (1.0 + u(rng));
+        const Vec3 w = d.cross(side);
+        const Vec3 tri[3] = {y, y + size * side, y + size * w};
+        const bool fast = bs.solid_hides(solid, &x, 1, tri, 3);
+        CHECK(fast == by_planes(&x, 1, tri, 3));
+        CHECK(bs.solid_hides(solid, tri, 3, &x, 1) == fast);
+        (fast ? hidden : seen) += 1;
+    }
+    // Both answers, and many segments between the two balls, where only the planes decide.
+    CHECK(hidden > 5000);
+    CHECK(seen > 5000);
+    CHECK(near_surface > 2000);
 }

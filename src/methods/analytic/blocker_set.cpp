@@ -184,6 +184,23 @@ void BlockerSet::mark_closed_solids(const std::vector<std::pair<Bounds3, int>>& 
             }
         }
         if (!solid_inside) return;
+        std::size_t nv = 0;
+        for (int p : ps) {
+            const Piece& pc = pieces_[static_cast<std::size_t>(p)];
+            for (int k = 0; k < pc.count; ++k, ++nv)
+                so.centre += verts_[static_cast<std::size_t>(pc.first + k)];
+        }
+        so.centre /= static_cast<double>(nv);
+        for (int p : ps) {
+            const Piece& pc = pieces_[static_cast<std::size_t>(p)];
+            for (int k = 0; k < pc.count; ++k)
+                so.r_out = std::max(
+                    so.r_out, (verts_[static_cast<std::size_t>(pc.first + k)] - so.centre).norm());
+        }
+        so.r_in = INFINITY;
+        for (const Plane& f : so.faces) so.r_in = std::min(so.r_in, -f.signed_distance(so.centre));
+        if (so.open) so.r_in = std::min(so.r_in, -so.opening.signed_distance(so.centre));
+        so.r_in = std::max(0.0, so.r_in);
         const int id = static_cast<int>(solids_.size());
         solids_.push_back(std::move(so));
         for (int p : ps) pieces_[static_cast<std::size_t>(p)].solid = id;
@@ -275,7 +292,38 @@ bool BlockerSet::solid_hides(int solid, const Vec3* a, int na, const Vec3* b, in
             if (in_front(f)) return true;
         return false;
     };
-    if (!separated(a, na) || !separated(b, nb)) return false;
+    // The balls about the solid's centre first (a faceted sphere has thousands of faces): a
+    // segment farther from the centre than every vertex misses the solid, and one that passes
+    // through the ball inside every face plane goes through it — each by a margin far above the
+    // rounding of the plane tests below, so that they answer as those would.
+    const double margin = so.tol + 1e-9 * so.r_out;
+    auto ball_test = [&](const Vec3& p, const Vec3& q) {  // −1 misses, 1 through, 0 undecided
+        const Vec3 d = q - p;
+        const double len2 = d.squaredNorm();
+        const double t = len2 > 0.0 ? std::clamp(d.dot(so.centre - p) / len2, 0.0, 1.0) : 0.0;
+        const double dist = (p + t * d - so.centre).norm();
+        if (dist > so.r_out + margin) return -1;
+        const double r = so.r_in - margin;
+        if (r > 0.0 && dist < r && len2 > 0.0 && t > 0.0 && t < 1.0 &&
+            2.0 * std::sqrt(r * r - dist * dist) > 1e-9 * std::sqrt(len2))
+            return 1;
+        return 0;
+    };
+    thread_local std::vector<signed char> decided;
+    decided.resize(static_cast<std::size_t>(na * nb));
+    for (int i = 0; i < na; ++i)
+        for (int j = 0; j < nb; ++j) {
+            const int bt = ball_test(a[i], b[j]);
+            if (bt < 0) return false;
+            decided[static_cast<std::size_t>(i * nb + j)] = static_cast<signed char>(bt);
+        }
+    // A point farther from the centre than every vertex is outside the solid, so in front of
+    // one of its planes.
+    auto outside_ball = [&](const Vec3* v, int n) {
+        return n == 1 && (v[0] - so.centre).norm() > so.r_out + margin;
+    };
+    if (!(outside_ball(a, na) || separated(a, na)) || !(outside_ball(b, nb) || separated(b, nb)))
+        return false;
     // Cyrus–Beck: whether the segment meets the closed solid (behind or on every plane). A
     // segment that only touches it there (grazing an edge) is one of a set of measure zero unless
     // a and b lie in one plane with it, where they do not see each other.
@@ -301,7 +349,8 @@ bool BlockerSet::solid_hides(int solid, const Vec3* a, int na, const Vec3* b, in
     };
     for (int i = 0; i < na; ++i)
         for (int j = 0; j < nb; ++j)
-            if (!through(a[i], b[j])) return false;
+            if (decided[static_cast<std::size_t>(i * nb + j)] == 0 && !through(a[i], b[j]))
+                return false;
     return true;
 }
 

@@ -121,6 +121,10 @@ class BlockerSet {
         bool open = false;
         Plane opening;
         double tol = 0;
+        // Balls about the vertices' centroid: every vertex within r_out of it, every face plane
+        // (and the opening's) at least r_in from it (see solid_hides()).
+        Vec3 centre = Vec3::Zero();
+        double r_out = 0, r_in = 0;
     };
     std::vector<Solid> solids_;
     BoxTree tree_;  // over the pieces' boxes
