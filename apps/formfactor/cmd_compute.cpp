@@ -18,7 +18,6 @@
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
 #include "formfactor/core/progress.h"
-#include "formfactor/matrix/aggregate.h"
 #include "formfactor/matrix/hierarchical.h"
 #include "formfactor/matrix/memory.h"
 #include "formfactor/methods/traits.h"
@@ -28,6 +27,7 @@
 #include "formfactor/output/report.h"
 #include "formfactor/output/sparse_io.h"
 #include "formfactor/output/vtu.h"
+#include "formfactor/pipeline_solve.h"
 #include "formfactor/pipeline_sparse.h"
 #include "formfactor/scene/energyplus.h"
 #include "solve_common.h"
@@ -70,6 +70,15 @@ bool rows_per_surface(const ComputeArgs& args) {
     return ext == ".vs3";
 }
 
+// The emissivity of each group's own surface (its first), as the per-surface matrix files say.
+std::vector<double> group_emissivities(const Scene& scene, const PatchGroups& groups) {
+    std::vector<double> emissivities;
+    for (const auto& members : groups.surfaces)
+        emissivities.push_back(
+            scene.material_of_surface(static_cast<std::size_t>(members.front())).emissivity);
+    return emissivities;
+}
+
 // Hierarchical storage (formfactor/matrix/hierarchical.h): the per-surface matrix from the
 // operator's products (one per surface), F never formed.
 void run_compute_hierarchical(const ComputeArgs& args, OutputTransaction* outer) {
@@ -95,20 +104,16 @@ void run_compute_hierarchical(const ComputeArgs& args, OutputTransaction* outer)
     StepTimes times;
     Scene scene = prepare_scene(args.scene, times);
     warn_single_patch(scene);
-    const HierarchicalFormFactors H = build_hierarchical(scene, args.error_target, threads, times);
+    const HierarchicalFormFactors H =
+        hierarchical_operator(scene, args.error_target, threads, times);
     Stopwatch sw;
-    const PatchGroups groups = surface_groups(scene);
-    FormFactors written;
-    written.F = H.per_group(groups.group_of_patch, groups.size(), threads);
-    written.areas.assign(groups.size(), 0.0);
-    for (std::size_t i = 0; i < scene.patches.size(); ++i)
-        written.areas[static_cast<std::size_t>(groups.group_of_patch[i])] += scene.patches[i].area;
+    const SurfaceFormFactors<FormFactors> surfaces = per_surface(scene, H, threads);
+    const PatchGroups& groups = surfaces.groups;
+    const FormFactors& written = *surfaces.aggregated;
     times.add("per-surface products", sw.lap());
     MatrixFileInfo info;
     info.areas = written.areas;
-    for (const auto& members : groups.surfaces)
-        info.emissivities.push_back(
-            scene.material_of_surface(static_cast<std::size_t>(members.front())).emissivity);
+    info.emissivities = group_emissivities(scene, groups);
     info.enclosure = scene.enclosure;
     OutputTransaction tx;
     tx.stage(args.output, [&](std::ostream& out) {
@@ -163,13 +168,12 @@ void run_compute_sparse(const ComputeArgs& args, const std::string& why, OutputT
     Stopwatch sw;
     // --per-surface: the surfaces' matrix, aggregated on the CSR (rows are surfaces; the .h5
     // file then has no patch table).
-    std::optional<SparseFormFactors> per_surface;
+    std::optional<SurfaceFormFactors<SparseFormFactors>> surfaces;
     if (args.per_surface) {
-        const PatchGroups groups = surface_groups(scene);
-        if (!is_identity(groups)) per_surface = aggregate(r.form_factors, groups);
+        surfaces = per_surface(scene, r.form_factors);
         times.add("per surface", sw.lap());
     }
-    const SparseFormFactors& F = per_surface ? *per_surface : r.form_factors;
+    const SparseFormFactors& F = surfaces ? surfaces->of(r.form_factors) : r.form_factors;
 
     // The report and the patch table are staged first, the matrix written, then both renamed.
     OutputTransaction tx;
@@ -195,7 +199,7 @@ void run_compute_sparse(const ComputeArgs& args, const std::string& why, OutputT
     info.scene = scene.name;
     info.method = to_string(method);
     info.repair = args.repair.mode;
-    info.patches = per_surface ? nullptr : &scene.patches;
+    info.patches = surfaces && surfaces->aggregated ? nullptr : &scene.patches;
     // --stderr: the standard error of each stored entry, in F's pattern (a matrix of its own,
     // .mtx or .h5).
     if (!args.standard_error.empty()) {
@@ -265,14 +269,13 @@ void run_compute_all_zones_energyplus(const ComputeArgs& args, EnergyPlusSyntax 
         one.zone = zone;
         const Scene scene = prepare_scene(one, times);
         const ComputedMatrix computed = compute_matrix(scene, args.method, args.repair, times);
-        const PatchGroups groups = surface_groups(scene);
-        const FormFactors per_surface =
-            is_identity(groups) ? computed.ff : aggregate(computed.ff, groups);
-        const Diagnostics d = diagnose(per_surface);
+        const SurfaceFormFactors<FormFactors> surfaces = per_surface(scene, computed.ff);
+        const FormFactors& by_surface = surfaces.of(computed.ff);
+        const Diagnostics d = diagnose(by_surface);
         fmt::print("zone       {}: {} surfaces, {} patches; rows sum to {:.10g} .. {:.10g}\n",
-                   scene.title, per_surface.size(), scene.patches.size(), d.row_sum_min,
+                   scene.title, by_surface.size(), scene.patches.size(), d.row_sum_min,
                    d.row_sum_max);
-        zones.push_back({scene.title, groups.names, per_surface.F});
+        zones.push_back({scene.title, surfaces.groups.names, by_surface.F});
     }
     write_file_atomically(
         args.output, [&](std::ostream& out) { write_energyplus_view_factors(out, syntax, zones); });
@@ -488,23 +491,15 @@ void run_compute(const ComputeArgs& args, OutputTransaction* outer) {
 
     // What -o and --stderr hold: the patch matrix, or the per-surface one (rows = surfaces). A
     // .vtu file holds the patches.
-    const bool per_surface = energyplus || (!vtu && rows_per_surface(args));
-    PatchGroups groups;
-    FormFactors per_surface_ff;
-    std::vector<double> emissivities = patch_emissivities(scene);
-    // Every surface one patch, in order: the per-surface matrix is the patch matrix (no copy).
-    bool aggregated = false;
-    if (per_surface) {
-        groups = surface_groups(scene);
-        aggregated = !is_identity(groups);
-        if (aggregated) per_surface_ff = aggregate(ff, groups);
-        emissivities.clear();
-        for (const auto& members : groups.surfaces)
-            emissivities.push_back(
-                scene.material_of_surface(static_cast<std::size_t>(members.front())).emissivity);
-        times.add("aggregate", sw.lap());
-    }
-    const FormFactors& written = aggregated ? per_surface_ff : ff;
+    const bool by_surface = energyplus || (!vtu && rows_per_surface(args));
+    // The surfaces' matrix, for -o or --pairs: every surface one patch, in order, is the patch
+    // matrix (no copy).
+    std::optional<SurfaceFormFactors<FormFactors>> surfaces;
+    if (by_surface || !args.pairs.empty()) surfaces = per_surface(scene, ff);
+    if (by_surface) times.add("aggregate", sw.lap());
+    const FormFactors& written = by_surface ? surfaces->of(ff) : ff;
+    const std::vector<double> emissivities =
+        by_surface ? group_emissivities(scene, surfaces->groups) : patch_emissivities(scene);
 
     OutputTransaction tx;
     MatrixFileInfo info;
@@ -526,19 +521,16 @@ void run_compute(const ComputeArgs& args, OutputTransaction* outer) {
         const std::string zone =
             !scene.title.empty() ? scene.title : std::filesystem::path(scene.name).stem().string();
         tx.stage(args.output, [&](std::ostream& out) {
-            write_energyplus_view_factors(out, ep_syntax, zone, groups.names, written.F);
+            write_energyplus_view_factors(out, ep_syntax, zone, surfaces->groups.names, written.F);
         });
     } else {
         stage_matrix(args.output, written.F);
     }
     if (!args.pairs.empty()) {
         // The per-surface matrix whatever -o holds: names are the surfaces'.
-        const PatchGroups pair_groups = per_surface ? groups : surface_groups(scene);
-        const FormFactors by_surface = per_surface                ? written
-                                       : is_identity(pair_groups) ? ff
-                                                                  : aggregate(ff, pair_groups);
-        tx.stage(args.pairs,
-                 [&](std::ostream& out) { write_pairs_csv(out, pair_groups.names, by_surface.F); });
+        tx.stage(args.pairs, [&](std::ostream& out) {
+            write_pairs_csv(out, surfaces->groups.names, surfaces->of(ff).F);
+        });
     }
     if (!args.standard_error.empty()) {
         if (!written.standard_error) {
@@ -576,12 +568,13 @@ void run_compute(const ComputeArgs& args, OutputTransaction* outer) {
         ctx.options["standard_error"] = args.standard_error.empty()
                                             ? nlohmann::json(nullptr)
                                             : nlohmann::json(args.standard_error);
-        ctx.options["per_surface"] = per_surface;
+        ctx.options["per_surface"] = by_surface;
         ctx.outputs["report"] = args.report;
         ctx.options["repair"] = args.repair.mode;
         nlohmann::json report = make_report(scene, ff, ctx);
         if (repaired) report["repair"] = to_json(*repaired);
-        if (per_surface) {
+        if (by_surface) {
+            const PatchGroups& groups = surfaces->groups;
             // The report describes the patch computation; this block the matrix in -o.
             nlohmann::json rows = nlohmann::json::array();
             for (std::size_t g = 0; g < groups.size(); ++g) {
@@ -601,7 +594,7 @@ void run_compute(const ComputeArgs& args, OutputTransaction* outer) {
 
     print_matrix_summary(scene, to_string(method), threads, ff, d, traits.reciprocity, times,
                          total.seconds());
-    if (per_surface) {
+    if (by_surface) {
         const Diagnostics ds = diagnose(written);
         fmt::print(
             "per surface {} rows (surfaces, subsurfaces cut out, cmb combined); row sums "
@@ -610,7 +603,7 @@ void run_compute(const ComputeArgs& args, OutputTransaction* outer) {
     }
     std::string wrote = vtu ? fmt::format("{} ({} cells)", args.output, scene.patches.size())
                             : fmt::format("{} ({}×{}{})", args.output, written.F.rows(),
-                                          written.F.cols(), per_surface ? ", per surface" : "");
+                                          written.F.cols(), by_surface ? ", per surface" : "");
     if (!args.pairs.empty()) wrote += ", " + args.pairs;
     if (!args.standard_error.empty()) wrote += ", " + args.standard_error;
     if (!args.patches.empty()) wrote += ", " + args.patches;

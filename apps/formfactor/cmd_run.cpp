@@ -21,7 +21,7 @@
 #include "formfactor/output/render.h"
 #include "formfactor/output/report.h"
 #include "formfactor/output/solution_io.h"
-#include "formfactor/solve/radiosity.h"
+#include "formfactor/pipeline_solve.h"
 #include "solve_common.h"
 
 namespace formfactor::cli {
@@ -63,7 +63,7 @@ void run_run(RunArgs args) {
         throw OptionError("--out-dir", "'" + args.out_dir + "' exists and is not a directory");
     }
     const int threads = effective_threads(args.method.options.threads);
-    const SolverOptions solver_options = args.solver.options(SolverKind::gauss_seidel, threads);
+    const SolverOptions solver_options = args.solver.options(Storage::dense, false, threads);
     parse_repair_mode(args.repair.mode);
 
     StepTimes times;
@@ -111,11 +111,12 @@ void run_run(RunArgs args) {
     const nlohmann::json& details = computed.details;
     const Diagnostics& raw = computed.raw;
     const std::optional<RepairReport>& repaired = computed.repaired;
+    SolveOptions solve_options;
+    solve_options.solver = solver_options;
+    const SolveResult solved = solve(scene, ff, properties_from_scene(scene), solve_options);
+    times.add(solved.timings);
+    const RadiosityResult& solution = *solved.radiosity;
     Stopwatch sw;
-
-    const RadiosityResult solution =
-        solve_radiosity(ff, properties_from_scene(scene), solver_options);
-    times.add("solve", sw.lap());
 
     RenderOptions ro;
     ro.width = ro.height = args.image_size;

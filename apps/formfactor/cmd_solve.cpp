@@ -17,7 +17,6 @@
 #include "formfactor/core/progress.h"
 #include "formfactor/distributed/distributed.h"
 #include "formfactor/matrix/memory.h"
-#include "formfactor/methods/hierarchical_build.h"
 #include "formfactor/methods/traits.h"
 #include "formfactor/output/matrix_io.h"
 #include "formfactor/output/report.h"
@@ -120,6 +119,46 @@ std::string auto_sparse(const SolveArgs& args, const Scene& loaded, std::size_t 
                                                         : "F's entries are needed (--repair)");
 }
 
+// The patches' properties: the scene's materials, then --properties; validated.
+PatchProperties patch_properties(const SolveArgs& args, const Scene& scene) {
+    PatchProperties props = properties_from_scene(scene);
+    if (!args.properties.empty()) apply_properties_csv(args.properties, scene, props);
+    validate_properties(props);
+    return props;
+}
+
+// The least, the largest and the mean row sum of F: a report's diagnostics.row_sum where F's
+// entries are not at hand.
+struct RowSumRange {
+    double min = 0.0, max = 0.0, mean = 0.0;
+};
+
+RowSumRange row_sum_range(const std::vector<double>& sums) {
+    RowSumRange r;
+    if (sums.empty()) return r;
+    r.min = r.max = sums[0];
+    for (double v : sums) {
+        r.min = std::min(r.min, v);
+        r.max = std::max(r.max, v);
+        r.mean += v;
+    }
+    r.mean /= static_cast<double>(sums.size());
+    return r;
+}
+
+nlohmann::json row_sum_json(const RowSumRange& r) {
+    return {{"min", r.min}, {"max", r.max}, {"mean", r.mean}};
+}
+
+// What the pipeline's solve reads: the problem and its solver.
+SolveOptions solve_options(const SolveArgs& args, const SolverOptions& solver_options) {
+    SolveOptions o;
+    o.thermal = args.thermal;
+    o.solver = solver_options;
+    o.ambient_temperature = args.ambient_temperature;
+    return o;
+}
+
 // The solve's own options in a report's "options": every path's report has them.
 void add_solve_options(const SolveArgs& args, const SolverOptions& solver_options,
                        nlohmann::json& options) {
@@ -180,7 +219,8 @@ void run_solve_hierarchical(const SolveArgs& args, Stopwatch& total) {
     if (!(args.error_target > 0.0 && args.error_target <= 0.1))
         throw OptionError("--error-target", "must be in (0, 0.1]");
     const int threads = effective_threads(args.method.options.threads);
-    SolverOptions solver_options = args.solver.options(SolverKind::gmres, threads);
+    SolverOptions solver_options =
+        args.solver.options(Storage::hierarchical, args.thermal, threads);
     if (solver_options.solver != SolverKind::gmres && solver_options.solver != SolverKind::jacobi)
         throw OptionError("--solver",
                           "with --storage hierarchical: gmres (default) or jacobi "
@@ -194,30 +234,21 @@ void run_solve_hierarchical(const SolveArgs& args, Stopwatch& total) {
 void solve_hierarchical_scene(const SolveArgs& args, Scene& scene, StepTimes& times,
                               Stopwatch& total, const std::string& why) {
     const int threads = effective_threads(args.method.options.threads);
-    const SolverOptions solver_options = args.solver.options(SolverKind::gmres, threads);
+    const SolverOptions solver_options =
+        args.solver.options(Storage::hierarchical, args.thermal, threads);
     warn_single_patch(scene);
     Stopwatch sw;
-    PatchProperties props = properties_from_scene(scene);
-    if (!args.properties.empty()) apply_properties_csv(args.properties, scene, props);
-    validate_properties(props);
+    const PatchProperties props = patch_properties(args, scene);
 
-    const HierarchicalFormFactors H = build_hierarchical(scene, args.error_target, threads, times);
+    const HierarchicalFormFactors H =
+        hierarchical_operator(scene, args.error_target, threads, times);
     sw.lap();
     const HierarchicalStats& hs = H.stats();
     OutputTransaction tx;
-    const nlohmann::json solve_json =
-        solve_and_stage(H, props, args.thermal, args.ambient_temperature, solver_options,
-                        args.output, times, sw, tx, scene);
+    const nlohmann::json solve_json = solve_and_stage(H, props, solve_options(args, solver_options),
+                                                      args.output, times, sw, tx, scene);
     times.add("write", sw.lap());
     if (!args.report.empty()) {
-        const std::vector<double> sums = H.row_sums(threads);
-        double lo = sums.empty() ? 0.0 : sums[0], hi = lo, mean = 0.0;
-        for (double v : sums) {
-            lo = std::min(lo, v);
-            hi = std::max(hi, v);
-            mean += v;
-        }
-        if (!sums.empty()) mean /= static_cast<double>(sums.size());
         nlohmann::json options = args.method.to_json("analytic");
         options["storage"] = "hierarchical";
         options["error_target"] = args.error_target;
@@ -225,7 +256,7 @@ void solve_hierarchical_scene(const SolveArgs& args, Scene& scene, StepTimes& ti
             solve_report(args, scene, "analytic (hierarchical operator)", options, solver_options,
                          threads, times, total, solve_json);
         report["diagnostics"] = {
-            {"row_sum", {{"min", lo}, {"max", hi}, {"mean", mean}}},
+            {"row_sum", row_sum_json(row_sum_range(H.row_sums(threads)))},
             {"reciprocity", "exact by construction (one block per unordered cluster pair)"}};
         report["details"] = {{"hierarchical", to_json(hs)}};
         report["storage"] = {{"kind", "hierarchical"}, {"why", why}, {"operator_bytes", hs.bytes}};
@@ -270,15 +301,13 @@ void solve_sparse_scene(const SolveArgs& args, Scene& scene, StepTimes& times, S
                         const std::string& why) {
     const int threads = effective_threads(args.method.options.threads);
     const SolverOptions solver_options =
-        args.solver.options(args.thermal ? SolverKind::gmres : SolverKind::gauss_seidel, threads);
+        args.solver.options(Storage::sparse, args.thermal, threads);
     if (solve_on_ranks(args, solver_options.solver)) {
         solve_distributed_scene(args, scene, times, total, true, solver_options);
         return;
     }
     warn_single_patch(scene);
-    PatchProperties props = properties_from_scene(scene);
-    if (!args.properties.empty()) apply_properties_csv(args.properties, scene, props);
-    validate_properties(props);
+    const PatchProperties props = patch_properties(args, scene);
     const bool read = !args.matrix.empty();
     const MethodKind method = args.method.resolved_kind(scene);
     const std::string method_name = read ? "matrix file" : to_string(method);
@@ -296,9 +325,8 @@ void solve_sparse_scene(const SolveArgs& args, Scene& scene, StepTimes& times, S
     const SparseFormFactors& F = r.form_factors;
     Stopwatch sw;
     OutputTransaction tx;
-    const nlohmann::json solve_json =
-        solve_and_stage(F, props, args.thermal, args.ambient_temperature, solver_options,
-                        args.output, times, sw, tx, scene);
+    const nlohmann::json solve_json = solve_and_stage(F, props, solve_options(args, solver_options),
+                                                      args.output, times, sw, tx, scene);
     times.add("write", sw.lap());
     if (!args.report.empty()) {
         const nlohmann::json options =
@@ -326,9 +354,7 @@ void solve_distributed_scene(const SolveArgs& args, Scene& scene, StepTimes& tim
                              Stopwatch& total, bool sparse, const SolverOptions& solver_options) {
     const int threads = effective_threads(args.method.options.threads);
     warn_single_patch(scene);
-    PatchProperties props = properties_from_scene(scene);
-    if (!args.properties.empty()) apply_properties_csv(args.properties, scene, props);
-    validate_properties(props);
+    const PatchProperties props = patch_properties(args, scene);
     const MethodKind method = args.method.resolved_kind(scene);
     const std::string method_name = to_string(method);
     ComputeOptions o = args.method.compute_options();
@@ -344,24 +370,17 @@ void solve_distributed_scene(const SolveArgs& args, Scene& scene, StepTimes& tim
     print_method_warnings(F.report);
     Stopwatch sw;
     OutputTransaction tx;
-    const nlohmann::json solve_json =
-        solve_and_stage(F, props, args.thermal, args.ambient_temperature, solver_options,
-                        args.output, times, sw, tx, scene);
+    const nlohmann::json solve_json = solve_and_stage(F, props, solve_options(args, solver_options),
+                                                      args.output, times, sw, tx, scene);
     times.add("write", sw.lap());
-    double lo = F.row_sums.empty() ? 0.0 : F.row_sums[0], hi = lo, mean = 0.0;
-    for (double v : F.row_sums) {
-        lo = std::min(lo, v);
-        hi = std::max(hi, v);
-        mean += v;
-    }
-    if (!F.row_sums.empty()) mean /= static_cast<double>(F.row_sums.size());
+    const RowSumRange sums = row_sum_range(F.row_sums);
     const std::string kind = sparse ? "sparse" : "dense";
     if (!args.report.empty()) {
         const nlohmann::json options = stored_options(args, method_name, "", kind);
         nlohmann::json report = solve_report(args, scene, method_name, options, solver_options,
                                              threads, times, total, solve_json);
         report["diagnostics"] = {
-            {"row_sum", {{"min", lo}, {"max", hi}, {"mean", mean}}},
+            {"row_sum", row_sum_json(sums)},
             {"reciprocity", "not checked: the rows of F stay on the ranks that computed them"}};
         report["details"] = to_json(to_fields(F.report));
         report["storage"] = {{"kind", kind},
@@ -383,7 +402,7 @@ void solve_distributed_scene(const SolveArgs& args, Scene& scene, StepTimes& tim
     fmt::print(
         "storage    {} rows kept on {} ranks ({} rows, {} entries), solved over the ranks; row "
         "sums [{:.10g}, {:.10g}]\n",
-        kind, distributed::size(), shares, format_count(F.entries), lo, hi);
+        kind, distributed::size(), shares, format_count(F.entries), sums.min, sums.max);
     fmt::print("time       {}\n", format_timings(times, total.seconds()));
     std::string wrote = args.output;
     if (!args.report.empty()) wrote += ", " + args.report;
@@ -487,8 +506,7 @@ void run_solve(const SolveArgs& args) {
     if (!args.matrix.empty()) matrix_format_for(args.matrix, "--matrix");
     if (!args.solver.solver.empty()) parse_solver(args.solver.solver);
     const int threads = effective_threads(args.method.options.threads);
-    const SolverOptions solver_options =
-        args.solver.options(args.thermal ? SolverKind::direct : SolverKind::gauss_seidel, threads);
+    const SolverOptions solver_options = args.solver.options(Storage::dense, args.thermal, threads);
 
     StepTimes times;
     std::string hierarchical_why;  // set when --storage auto takes the operator
@@ -535,9 +553,7 @@ void run_solve(const SolveArgs& args) {
     warn_single_patch(scene);
     Stopwatch sw;
     // Properties first: a bad CSV fails before the expensive part.
-    PatchProperties props = properties_from_scene(scene);
-    if (!args.properties.empty()) apply_properties_csv(args.properties, scene, props);
-    validate_properties(props);
+    const PatchProperties props = patch_properties(args, scene);
 
     std::string method_name;
     ReciprocityPromise promise;  // unknown for a matrix read from a file
@@ -561,9 +577,8 @@ void run_solve(const SolveArgs& args) {
     const std::optional<RepairReport>& repaired = computed.repaired;
 
     OutputTransaction tx;
-    const nlohmann::json solve_json =
-        solve_and_stage(ff, props, args.thermal, args.ambient_temperature, solver_options,
-                        args.output, times, sw, tx, scene);
+    const nlohmann::json solve_json = solve_and_stage(
+        ff, props, solve_options(args, solver_options), args.output, times, sw, tx, scene);
     if (!args.exchange.empty()) {
         const DenseMatrix X = total_exchange_factors(ff.F, props.emissivity);
         times.add("exchange factors", sw.lap());

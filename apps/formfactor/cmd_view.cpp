@@ -17,8 +17,8 @@
 #include "formfactor/output/page.h"
 #include "formfactor/output/solution_io.h"
 #include "formfactor/output/sparse_io.h"
+#include "formfactor/pipeline_solve.h"
 #include "formfactor/solve/properties.h"
-#include "formfactor/solve/radiosity.h"
 #include "solve_common.h"
 
 namespace formfactor::cli {
@@ -170,17 +170,17 @@ void run_view(const ViewArgs& args) {
 
     // Without a table, radiosity solved on F when the scene has light.
     nlohmann::json solve_json;
-    Stopwatch sw;
     if (table_path.empty() && !args.no_solve && content.form_factors && emits(scene)) {
-        SolverOptions so;
-        so.solver = SolverKind::gauss_seidel;
-        so.threads = threads;
-        const RadiosityResult solution =
-            solve_radiosity(*content.form_factors, properties_from_scene(scene), so);
-        content.radiosity = solution.radiosity;
-        solve_json = to_json(solution);
-        times.add("solve", sw.lap());
+        SolveOptions so;
+        so.solver.solver = default_solver(Storage::dense, so.thermal);
+        so.solver.threads = threads;
+        const SolveResult solved =
+            solve(scene, *content.form_factors, properties_from_scene(scene), so);
+        content.radiosity = solved.radiosity->radiosity;
+        solve_json = to_json(*solved.radiosity);
+        times.add(solved.timings);
     }
+    Stopwatch sw;
 
     ReportContext ctx = report_context(
         "view", method_name, args.scene, times, total, threads,

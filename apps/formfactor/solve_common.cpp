@@ -14,6 +14,7 @@
 #include "formfactor/output/solution_io.h"
 #include "formfactor/output/vtu.h"
 #include "formfactor/pipeline.h"
+#include "formfactor/pipeline_solve.h"
 #include "formfactor/scene/closure.h"
 
 namespace formfactor::cli {
@@ -129,9 +130,9 @@ void SolverArgs::add_to(CLI::App* cmd) {
                   "an error)");
 }
 
-SolverOptions SolverArgs::options(SolverKind default_kind, int threads) const {
+SolverOptions SolverArgs::options(Storage storage, bool thermal, int threads) const {
     SolverOptions o;
-    o.solver = solver.empty() ? default_kind : parse_solver(solver);
+    o.solver = solver.empty() ? default_solver(storage, thermal) : parse_solver(solver);
     if (!(residual > 0.0) || !std::isfinite(residual))
         throw OptionError("--residual", "must be a positive number");
     if (max_iterations < 0) throw OptionError("--max-iterations", "must be >= 0");
@@ -142,18 +143,16 @@ SolverOptions SolverArgs::options(SolverKind default_kind, int threads) const {
     return o;
 }
 
-HierarchicalFormFactors build_hierarchical(const Scene& scene, double error_target, int threads,
-                                           StepTimes& times) {
+HierarchicalFormFactors hierarchical_operator(const Scene& scene, double error_target, int threads,
+                                              StepTimes& times) {
     if (!(error_target > 0.0 && error_target <= 0.1))
         throw OptionError("--error-target", "must be in (0, 0.1]");
-    Stopwatch sw;
     HierarchicalOptions ho;
     ho.tolerance = error_target;
     ho.threads = threads;
     TerminalProgress bar(cli_text);
     ho.progress = &bar;
-    HierarchicalFormFactors H = formfactor::build_hierarchical(scene, ho);
-    times.add("hierarchical operator", sw.lap());
+    HierarchicalFormFactors H = compute_hierarchical_operator(scene, ho, &times);
     const HierarchicalStats& hs = H.stats();
     fmt::print(
         "operator   hierarchical, error target {:g}: {} low-rank blocks (rank mean {:.1f}, max "
@@ -216,61 +215,50 @@ std::vector<VtuField> matrix_fields(const Matrix& F) {
 }  // namespace
 
 template <class Matrix>
-nlohmann::json solve_and_stage(const Matrix& F, const PatchProperties& props, bool thermal,
-                               double ambient_temperature, const SolverOptions& options,
-                               const std::string& output, StepTimes& times, Stopwatch& sw,
-                               OutputTransaction& tx, const Scene& scene) {
+nlohmann::json solve_and_stage(const Matrix& F, const PatchProperties& props,
+                               const SolveOptions& options, const std::string& output,
+                               StepTimes& times, Stopwatch& sw, OutputTransaction& tx,
+                               const Scene& scene) {
+    // The pipeline's solve, or over the MPI ranks for rows kept on them (distributed::solve).
+    const SolveResult r = solve(scene, F, props, options);
+    times.add(r.timings);
+    sw.lap();
     nlohmann::json out;
-    std::string text;
     const bool vtu = has_extension(output, ".vtu");
     std::vector<VtuField> fields;
     if (vtu) fields = matrix_fields(F);
-    if (thermal) {
-        ThermalOptions to;
-        to.solver = options;
-        to.ambient_temperature = ambient_temperature;
-        // A closed model loses nothing: a row deficit is the estimate's error, not an opening.
-        to.closed = check_closure(scene).closed;
-        const ThermalResult r = solve_thermal(F, props, to);
-        times.add("solve", sw.lap());
-        print_thermal_summary(r);
-        out = to_json(r);
-        if (vtu)
-            append_solution_fields(fields, r);
-        else
-            text = thermal_csv_text(r);
+    if (r.thermal) {
+        print_thermal_summary(*r.thermal);
+        out = to_json(*r.thermal);
+        if (vtu) append_solution_fields(fields, *r.thermal);
     } else {
-        const RadiosityResult r = solve_radiosity(F, props, options);
-        times.add("solve", sw.lap());
-        print_radiosity_summary(r);
-        out = to_json(r);
-        if (vtu)
-            append_solution_fields(fields, r);
-        else
-            text = radiosity_csv_text(r.radiosity);
+        print_radiosity_summary(*r.radiosity);
+        out = to_json(*r.radiosity);
+        if (vtu) append_solution_fields(fields, *r.radiosity);
     }
-    if (vtu)
+    if (vtu) {
         tx.stage(output, [&](std::ostream& o) { write_vtu(o, scene, fields); });
-    else
+    } else {
+        const std::string text =
+            r.thermal ? thermal_csv_text(*r.thermal) : radiosity_csv_text(r.radiosity->radiosity);
         tx.stage(output, [text](std::ostream& o) { o << text; });
+    }
     return out;
 }
 
 template nlohmann::json solve_and_stage<FormFactors>(const FormFactors&, const PatchProperties&,
-                                                     bool, double, const SolverOptions&,
-                                                     const std::string&, StepTimes&, Stopwatch&,
-                                                     OutputTransaction&, const Scene&);
+                                                     const SolveOptions&, const std::string&,
+                                                     StepTimes&, Stopwatch&, OutputTransaction&,
+                                                     const Scene&);
 template nlohmann::json solve_and_stage<HierarchicalFormFactors>(
-    const HierarchicalFormFactors&, const PatchProperties&, bool, double, const SolverOptions&,
-    const std::string&, StepTimes&, Stopwatch&, OutputTransaction&, const Scene&);
-
+    const HierarchicalFormFactors&, const PatchProperties&, const SolveOptions&, const std::string&,
+    StepTimes&, Stopwatch&, OutputTransaction&, const Scene&);
 template nlohmann::json solve_and_stage<distributed::DistributedRows>(
-    const distributed::DistributedRows&, const PatchProperties&, bool, double, const SolverOptions&,
+    const distributed::DistributedRows&, const PatchProperties&, const SolveOptions&,
     const std::string&, StepTimes&, Stopwatch&, OutputTransaction&, const Scene&);
-
 template nlohmann::json solve_and_stage<SparseFormFactors>(const SparseFormFactors&,
-                                                           const PatchProperties&, bool, double,
-                                                           const SolverOptions&, const std::string&,
+                                                           const PatchProperties&,
+                                                           const SolveOptions&, const std::string&,
                                                            StepTimes&, Stopwatch&,
                                                            OutputTransaction&, const Scene&);
 

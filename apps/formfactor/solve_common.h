@@ -11,8 +11,8 @@
 #include "formfactor/core/atomic_file.h"
 #include "formfactor/distributed/distributed.h"
 #include "formfactor/matrix/repair.h"
-#include "formfactor/methods/hierarchical_build.h"
 #include "formfactor/output/render.h"
+#include "formfactor/pipeline_solve.h"
 #include "formfactor/scene/scene.h"
 #include "formfactor/solve/properties.h"
 #include "formfactor/solve/radiosity.h"
@@ -63,27 +63,28 @@ struct SolverArgs {
     bool allow_unconverged = false;
 
     void add_to(CLI::App* cmd);
-    /// Throws OptionError for a bad value.
-    SolverOptions options(SolverKind default_kind, int threads) const;
+    /// The solver asked for, else the pipeline's default for F held as `storage` and the
+    /// problem (default_solver()). Throws OptionError for a bad value.
+    SolverOptions options(Storage storage, bool thermal, int threads) const;
 };
 
-/// The hierarchical operator of `scene` at `error_target` (--error-target, checked here),
-/// progress on the terminal; adds its step to `times` and prints the operator line.
-HierarchicalFormFactors build_hierarchical(const Scene& scene, double error_target, int threads,
-                                           StepTimes& times);
+/// The hierarchical operator of `scene` at `error_target` (--error-target, checked here) through
+/// the pipeline, progress on the terminal; adds its step to `times` and prints the operator line.
+HierarchicalFormFactors hierarchical_operator(const Scene& scene, double error_target, int threads,
+                                              StepTimes& times);
 /// The operator's statistics for a report (details.hierarchical / storage).
 nlohmann::json to_json(const HierarchicalStats& s);
 
-/// Solves the radiosity or (thermal) the thermal problem on F (a FormFactors, a sparse F, the
-/// hierarchical operator, or rows spread over MPI ranks), prints the summary, stages the result at
-/// `output` (the table, or for a `.vtu` path the patches of `scene` with the solution, area, row
-/// sum and sky factor) and returns the report's "solve" section; `options` as for solve_thermal /
-/// solve_radiosity.
+/// Solves the problem of `options` on F (a FormFactors, a sparse F, the hierarchical operator,
+/// or rows spread over MPI ranks) through the pipeline (solve(), formfactor/pipeline_solve.h),
+/// prints the summary, stages the result at `output` (the table, or for a `.vtu` path the
+/// patches of `scene` with the solution, area, row sum and sky factor) and returns the report's
+/// "solve" section. Adds the solve's step to `times` and restarts `sw` after it.
 template <class Matrix>
-nlohmann::json solve_and_stage(const Matrix& F, const PatchProperties& props, bool thermal,
-                               double ambient_temperature, const SolverOptions& options,
-                               const std::string& output, StepTimes& times, Stopwatch& sw,
-                               OutputTransaction& tx, const Scene& scene);
+nlohmann::json solve_and_stage(const Matrix& F, const PatchProperties& props,
+                               const SolveOptions& options, const std::string& output,
+                               StepTimes& times, Stopwatch& sw, OutputTransaction& tx,
+                               const Scene& scene);
 
 /// Patches whose material emits (left out of the automatic exposure).
 std::vector<bool> emitting_patches(const Scene& scene);

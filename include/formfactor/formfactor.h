@@ -46,6 +46,7 @@
 #include "formfactor/output/view_image.h"
 #include "formfactor/output/vtu.h"
 #include "formfactor/pipeline.h"
+#include "formfactor/pipeline_solve.h"
 #include "formfactor/pipeline_sparse.h"
 #include "formfactor/scene/city.h"
 #include "formfactor/scene/closure.h"

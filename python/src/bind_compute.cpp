@@ -11,9 +11,9 @@
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
 #include "formfactor/distributed/distributed.h"
-#include "formfactor/matrix/aggregate.h"
 #include "formfactor/output/page.h"
 #include "formfactor/output/report.h"
+#include "formfactor/pipeline_solve.h"
 #include "formfactor/scene/closure.h"
 #include "keywords.h"
 
@@ -441,9 +441,11 @@ For a row block (``rows=(b, e)``) it holds rows b..e-1 and every column.
             [](const PyResult& r) {
                 if (r.result.form_factors.is_block())
                     throw OptionError("rows", "per-surface factors need the whole matrix");
-                FormFactors agg = aggregate_per_surface(*r.scene, r.result.form_factors);
-                const PatchGroups groups = surface_groups(*r.scene);
-                return py::make_tuple(adopt(std::move(agg.F)), groups.names);
+                SurfaceFormFactors<FormFactors> surfaces =
+                    per_surface(*r.scene, r.result.form_factors);
+                DenseMatrix G = surfaces.aggregated ? std::move(surfaces.aggregated->F)
+                                                    : r.result.form_factors.F;
+                return py::make_tuple(adopt(std::move(G)), surfaces.groups.names);
             },
             "(F_surfaces, names): the area-weighted per-surface matrix (View3D's Combine "
             "merges surfaces with cmb), rows = surfaces.")

@@ -12,10 +12,8 @@
 #include "formfactor/matrix/repair.h"
 #include "formfactor/matrix/sparse.h"
 #include "formfactor/output/report.h"
-#include "formfactor/scene/closure.h"
+#include "formfactor/pipeline_solve.h"
 #include "formfactor/solve/properties.h"
-#include "formfactor/solve/radiosity.h"
-#include "formfactor/solve/thermal.h"
 #include "keywords.h"
 
 namespace formfactor::python {
@@ -365,25 +363,29 @@ class SolveInput {
     /// False on a rank other than 0 (it has served rank 0's solve).
     bool on_rank0() const { return rank0_; }
 
-    /// The solver when none is given: gmres for an operator; for a sparse F gauss-seidel where
-    /// a matrix's default is an iterative one, gmres where it is direct; else the matrix's
-    /// default.
-    SolverKind default_solver(SolverKind dense_default) const {
-        if (op_) return SolverKind::gmres;
-        if (sparse_)
-            return dense_default == SolverKind::direct ? SolverKind::gmres
-                                                       : SolverKind::gauss_seidel;
-        return dense_default;
+    /// How the F given is held.
+    Storage storage() const {
+        return op_ ? Storage::hierarchical : sparse_ ? Storage::sparse : Storage::dense;
     }
 
-    /// solve(F) with the F given, or over_ranks(rows) with F's rows spread over the
-    /// communicator's ranks when there is one and solver `o` iterates on a matrix (distributes()).
-    template <class Solve, class SolveOverRanks>
-    auto run(const SolverOptions& o, const Solve& solve, const SolveOverRanks& over_ranks) const {
-        if (comm_ && !op_ && distributes(o))
-            return over_ranks(sparse_ ? distributed::distribute_rows(*sparse_)
-                                      : distributed::distribute_rows(dense_));
-        return op_ ? solve(*op_) : sparse_ ? solve(*sparse_) : solve(dense_);
+    /// The pipeline's solve of `o` on the F given, or with F's rows spread over the
+    /// communicator's ranks when there is one and the solver iterates on a matrix
+    /// (distributes()).
+    SolveResult solve(const PatchProperties& props, const SolveOptions& o) const {
+        const Scene& s = *scene.scene;
+        if (comm_ && !op_ && distributes(o.solver))
+            return distributed::solve(s,
+                                      sparse_ ? distributed::distribute_rows(*sparse_)
+                                              : distributed::distribute_rows(dense_),
+                                      props, o);
+        return op_       ? formfactor::solve(s, *op_, props, o)
+               : sparse_ ? formfactor::solve(s, *sparse_, props, o)
+                         : formfactor::solve(s, dense_, props, o);
+    }
+
+    /// The solver asked for, else the pipeline's default for F as given and the problem.
+    SolverKind solver(const SolveArgs& a, bool thermal) const {
+        return a.kind.value_or(default_solver(storage(), thermal));
     }
 
     const PyScene& scene;
@@ -397,6 +399,24 @@ class SolveInput {
     FormFactors dense_;
 };
 
+/// The pipeline's solve of the radiosity or (thermal) the thermal problem on the F of `in`, the
+/// GIL released, progress to `progress`.
+SolveResult solved(const SolveInput& in, const PatchProperties& props, const SolveArgs& a,
+                   bool thermal, const py::object& progress) {
+    SolveOptions o;
+    o.thermal = thermal;
+    o.solver = a.solver;
+    o.solver.solver = in.solver(a, thermal);
+    o.ambient_temperature = a.ambient_temperature;
+    return run_released(
+        [&](CancellationFlag&, ProgressSink* sink) {
+            SolveOptions run = o;
+            run.solver.progress = sink;
+            return in.solve(props, run);
+        },
+        progress);
+}
+
 py::object radiosity(const SolveArgs& a, const std::vector<py::object>& values) {
     const auto value = [&](const char* name) { return value_of(kSolveRadiosity, values, name); };
     const SolveInput in(value("scene"), value("F"), value("comm"));
@@ -409,17 +429,7 @@ py::object radiosity(const SolveArgs& a, const std::vector<py::object>& values) 
     if (!value("emission").is_none())
         props.emission = per_patch_rgb(value("emission"), "emission", n);
     validate_properties(props);
-    SolverOptions o = a.solver;
-    o.solver = a.kind.value_or(in.default_solver(SolverKind::gauss_seidel));
-    const RadiosityResult r = run_released(
-        [&](CancellationFlag&, ProgressSink* sink) {
-            SolverOptions run = o;
-            run.progress = sink;
-            return in.run(
-                run, [&](const auto& F) { return solve_radiosity(F, props, run); },
-                [&](const auto& rows) { return distributed::solve_radiosity(rows, props, run); });
-        },
-        value("progress"));
+    const RadiosityResult r = *solved(in, props, a, false, value("progress")).radiosity;
     py::dict b;
     b["emitted"] = array_of(std::vector<Rgb>{r.balance.emitted}).attr("reshape")(3);
     b["absorbed"] = array_of(std::vector<Rgb>{r.balance.absorbed}).attr("reshape")(3);
@@ -461,20 +471,7 @@ py::object thermal(const SolveArgs& a, const std::vector<py::object>& values) {
         }
     }
     validate_properties(props);
-    ThermalOptions o;
-    o.solver = a.solver;
-    o.solver.solver = a.kind.value_or(in.default_solver(SolverKind::direct));
-    o.ambient_temperature = a.ambient_temperature;
-    o.closed = check_closure(*s.scene).closed;
-    const ThermalResult r = run_released(
-        [&](CancellationFlag&, ProgressSink* sink) {
-            ThermalOptions run = o;
-            run.solver.progress = sink;
-            return in.run(
-                run.solver, [&](const auto& F) { return solve_thermal(F, props, run); },
-                [&](const auto& rows) { return distributed::solve_thermal(rows, props, run); });
-        },
-        value("progress"));
+    const ThermalResult r = *solved(in, props, a, true, value("progress")).thermal;
     py::dict d;
     d["area"] = array_of(r.area);
     d["emissivity"] = array_of(r.emissivity);
@@ -720,7 +717,7 @@ vectors without forming it (docs/hierarchical.md). ``op @ x`` or ``op.matvec(x)`
                     HierarchicalOptions run = o;
                     run.progress = sink;
                     return std::make_shared<const HierarchicalFormFactors>(
-                        build_hierarchical(*s.scene, run));
+                        compute_hierarchical_operator(*s.scene, run));
                 },
                 value_of(kHierarchical, values, "progress"));
             return PyHierarchical{s.scene, std::move(op)};

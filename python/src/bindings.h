@@ -22,7 +22,7 @@
 #include "formfactor/core/progress.h"
 #include "formfactor/core/types.h"
 #include "formfactor/distributed/distributed.h"
-#include "formfactor/methods/hierarchical_build.h"
+#include "formfactor/matrix/hierarchical.h"
 #include "formfactor/pipeline.h"
 #include "formfactor/scene/scene.h"
 

@@ -89,4 +89,9 @@ RadiosityResult solve_radiosity(const DistributedRows& rows, const PatchProperti
     return res;
 }
 
+SolveResult solve(const Scene& scene, const DistributedRows& rows, const PatchProperties& props,
+                  const SolveOptions& options) {
+    return formfactor::detail::solve_problem(scene, rows, props, options);
+}
+
 }  // namespace formfactor::distributed

@@ -29,6 +29,7 @@
 #include <vector>
 
 #include "formfactor/pipeline.h"
+#include "formfactor/pipeline_solve.h"
 #include "formfactor/pipeline_sparse.h"
 #include "formfactor/solve/radiosity.h"
 #include "formfactor/solve/thermal.h"
@@ -165,5 +166,10 @@ ThermalResult solve_thermal(const DistributedRows& rows, const PatchProperties& 
 /// solve_radiosity() on rows spread over the ranks, as solve_thermal() above.
 RadiosityResult solve_radiosity(const DistributedRows& rows, const PatchProperties& props,
                                 const SolverOptions& options);
+
+/// The pipeline's solve() (formfactor/pipeline_solve.h) on rows spread over the ranks, called
+/// on rank 0: solve_radiosity() or solve_thermal() above, as options asks.
+SolveResult solve(const Scene& scene, const DistributedRows& rows, const PatchProperties& props,
+                  const SolveOptions& options);
 
 }  // namespace formfactor::distributed
