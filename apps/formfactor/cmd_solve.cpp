@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include <memory>
+#include <optional>
 
 #include "all_zones.h"
 #include "commands.h"
@@ -201,16 +202,25 @@ void solve_hierarchical_scene(const SolveArgs& args, Scene& scene, StepTimes& ti
     if (!args.properties.empty()) apply_properties_csv(args.properties, scene, props);
     validate_properties(props);
 
-    const HierarchicalFormFactors H = build_hierarchical(scene, args.error_target, threads, times);
+    // Under mpirun the blocks are built and applied over the ranks (the same bits as one
+    // process); else the operator is this process's.
+    std::optional<HierarchicalFormFactors> whole;
+    std::optional<distributed::DistributedHierarchical> spread;
+    if (distributed::size() > 1)
+        spread = build_hierarchical_on_ranks(scene, args.error_target, threads, times);
+    else
+        whole.emplace(build_hierarchical(scene, args.error_target, threads, times));
     sw.lap();
-    const HierarchicalStats& hs = H.stats();
+    const HierarchicalStats hs = spread ? spread->stats : whole->stats();
     OutputTransaction tx;
     const nlohmann::json solve_json =
-        solve_and_stage(H, props, args.thermal, args.ambient_temperature, solver_options,
-                        args.output, times, sw, tx, scene);
+        spread ? solve_and_stage(*spread, props, args.thermal, args.ambient_temperature,
+                                 solver_options, args.output, times, sw, tx, scene)
+               : solve_and_stage(*whole, props, args.thermal, args.ambient_temperature,
+                                 solver_options, args.output, times, sw, tx, scene);
     times.add("write", sw.lap());
     if (!args.report.empty()) {
-        const std::vector<double> sums = H.row_sums(threads);
+        const std::vector<double> sums = spread ? spread->row_sums : whole->row_sums(threads);
         double lo = sums.empty() ? 0.0 : sums[0], hi = lo, mean = 0.0;
         for (double v : sums) {
             lo = std::min(lo, v);
@@ -228,6 +238,7 @@ void solve_hierarchical_scene(const SolveArgs& args, Scene& scene, StepTimes& ti
             {"row_sum", {{"min", lo}, {"max", hi}, {"mean", mean}}},
             {"reciprocity", "exact by construction (one block per unordered cluster pair)"}};
         report["details"] = {{"hierarchical", to_json(hs)}};
+        if (spread) report["details"]["mpi"] = to_json(*spread);
         report["storage"] = {{"kind", "hierarchical"}, {"why", why}, {"operator_bytes", hs.bytes}};
         report["memory"] = {{"peak_bytes", peak_memory_bytes()}};
         stage_report(tx, args.report, report);

@@ -71,8 +71,15 @@ struct SolverArgs {
 /// progress on the terminal; adds its step to `times` and prints the operator line.
 HierarchicalFormFactors build_hierarchical(const Scene& scene, double error_target, int threads,
                                            StepTimes& times);
+/// build_hierarchical() over the MPI ranks (formfactor/distributed/distributed.h): the blocks
+/// stay on the ranks; prints the operator line and a line of what the ranks did.
+distributed::DistributedHierarchical build_hierarchical_on_ranks(const Scene& scene,
+                                                                 double error_target, int threads,
+                                                                 StepTimes& times);
 /// The operator's statistics for a report (details.hierarchical / storage).
 nlohmann::json to_json(const HierarchicalStats& s);
+/// What the ranks did for the operator (details.mpi of a report).
+nlohmann::json to_json(const distributed::DistributedHierarchical& H);
 
 /// Solves the radiosity or (thermal) the thermal problem on F (a FormFactors, a sparse F, the
 /// hierarchical operator, or rows spread over MPI ranks), prints the summary, stages the result at
