@@ -319,7 +319,7 @@ TEST_CASE(
         const Run r = run(dir, ranks, args + name);
         INFO(said(r));
         REQUIRE(r.code == 0);
-        CHECK(r.out.find("ranks      " + std::to_string(ranks) + " × 2 threads: blocks computed") !=
+        CHECK(r.out.find("ranks      " + std::to_string(ranks) + " × 2 threads: partition ") !=
               std::string::npos);
         CHECK(read_text(dir.file(name)) == expected);
     }

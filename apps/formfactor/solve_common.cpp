@@ -196,12 +196,13 @@ distributed::DistributedHierarchical build_hierarchical_on_ranks(const Scene& sc
     times.add("hierarchical operator", sw.lap());
     print_operator_line(H.stats);
     fmt::print(
-        "ranks      {} × {} thread{}: blocks computed {}, busy {} s, imbalance {:.1f} %; held {} "
-        "blocks in {} chunks ({} MB moved)\n",
+        "ranks      {} × {} thread{}: partition {} s; blocks computed {}, busy {} s, imbalance "
+        "{:.1f} %; held {} blocks in {} chunks ({} MB moved)\n",
         H.build_seconds.size(), threads, threads == 1 ? "" : "s",
-        per_rank(H.blocks_built, "{:.0f}"), per_rank(H.build_seconds, "{:.2f}"),
-        100.0 * H.build_imbalance(), per_rank(H.blocks_held, "{:.0f}"),
-        per_rank(H.chunks_held, "{:.0f}"), fmt::format("{:.1f}", H.moved_bytes / 1e6));
+        per_rank(H.partition_seconds, "{:.2f}"), per_rank(H.blocks_built, "{:.0f}"),
+        per_rank(H.build_seconds, "{:.2f}"), 100.0 * H.build_imbalance(),
+        per_rank(H.blocks_held, "{:.0f}"), per_rank(H.chunks_held, "{:.0f}"),
+        fmt::format("{:.1f}", H.moved_bytes / 1e6));
     return H;
 }
 

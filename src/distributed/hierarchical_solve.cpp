@@ -142,6 +142,7 @@ DistributedHierarchical build_operator_here(const Scene& scene,
     out.stats = H->stats();
     out.row_sums = H->row_sums(options.threads);
     out.blocks_built = {double(out.stats.dense_blocks + out.stats.low_rank_blocks)};
+    out.partition_seconds = {0.0};
     out.build_seconds = {out.stats.seconds};
     out.blocks_held = {double(H->blocks())};
     out.chunks_held = {double(H->chunks())};

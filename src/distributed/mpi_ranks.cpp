@@ -1499,13 +1499,16 @@ DistributedHierarchical build_on_ranks(const Scene& scene, const HierarchicalOpt
     std::string failure;
     bool cancelled = false;
     std::optional<HierarchicalPlan> plan;
+    double partition = 0.0;
     guarded_step(
         [&] {
             if (const char* fail = std::getenv("FORMFACTOR_TEST_FAIL_RANK");
                 fail && std::atoi(fail) == g_rank)
                 throw Error(fmt::format("a failure injected on rank {} (FORMFACTOR_TEST_FAIL_RANK)",
                                         g_rank));
+            Stopwatch sw;
             plan.emplace(scene, options);
+            partition = sw.seconds();
         },
         failure, cancelled);
     if (!agree(failure, cancelled)) return out;
@@ -1544,15 +1547,15 @@ DistributedHierarchical build_on_ranks(const Scene& scene, const HierarchicalOpt
         failure, cancelled);
     if (!agree(failure, cancelled)) return out;
 
-    // Every rank's counts and every block's rank, values and work: one all-gather.
+    // Every rank's times and counts, and every block's rank, values and work: one all-gather.
     std::vector<int> sizes(ranks), displs(ranks);
     std::size_t total = 0;
     for (std::size_t r = 0; r < ranks; ++r) {
-        sizes[r] = static_cast<int>(3 + 3 * built_by[r].size());
+        sizes[r] = static_cast<int>(4 + 3 * built_by[r].size());
         displs[r] = static_cast<int>(total);
         total += static_cast<std::size_t>(sizes[r]);
     }
-    std::vector<double> mine_sent{busy, double(counts.entries_computed),
+    std::vector<double> mine_sent{partition, busy, double(counts.entries_computed),
                                   double(counts.low_rank_fallbacks)};
     for (const Block& b : built) {
         mine_sent.push_back(double(b.rank));
@@ -1570,15 +1573,17 @@ DistributedHierarchical build_on_ranks(const Scene& scene, const HierarchicalOpt
     std::vector<std::uint32_t> block_rank(count);
     std::vector<std::size_t> block_values(count);
     std::vector<double> work(count);
+    out.partition_seconds.assign(ranks, 0.0);
     out.build_seconds.assign(ranks, 0.0);
     out.blocks_built.assign(ranks, 0.0);
     for (std::size_t r = 0; r < ranks; ++r) {
         const double* p = got.data() + displs[r];
-        out.build_seconds[r] = p[0];
+        out.partition_seconds[r] = p[0];
+        out.build_seconds[r] = p[1];
         out.blocks_built[r] = double(built_by[r].size());
-        st.entries_computed += static_cast<std::size_t>(p[1]);
-        st.low_rank_fallbacks += static_cast<std::size_t>(p[2]);
-        p += 3;
+        st.entries_computed += static_cast<std::size_t>(p[2]);
+        st.low_rank_fallbacks += static_cast<std::size_t>(p[3]);
+        p += 4;
         for (std::size_t k : built_by[r]) {
             block_rank[k] = static_cast<std::uint32_t>(p[0]);
             block_values[k] = static_cast<std::size_t>(p[1]);

@@ -176,9 +176,11 @@ struct DistributedHierarchical {
     std::vector<double> areas;     ///< A_i
     std::vector<double> row_sums;  ///< Σ_j F_ij per row (F·1 over the ranks, one process's bits)
     HierarchicalStats stats;       ///< the whole operator's (bytes: over every rank)
-    /// Per rank: blocks computed, seconds busy computing them, and the blocks, chunks and
-    /// share of a product's work (values, rows and columns of its blocks) it holds.
-    std::vector<double> blocks_built, build_seconds, blocks_held, chunks_held, product_work;
+    /// Per rank: seconds making the partition (every rank makes all of it), blocks computed,
+    /// seconds busy computing them, and the blocks, chunks and share of a product's work
+    /// (values, rows and columns of its blocks) it holds.
+    std::vector<double> partition_seconds, blocks_built, build_seconds, blocks_held, chunks_held,
+        product_work;
     double moved_bytes = 0.0;  ///< block values sent between ranks after the build
     std::uint64_t id = 0;      ///< which build (a solve of an older one is an Error)
     /// (largest build seconds − mean) / mean.
