@@ -124,6 +124,60 @@ TEST_CASE("hierarchical: products are bit-identical for any thread count") {
     CHECK(Y1 == Y3);
 }
 
+TEST_CASE(
+    "hierarchical: blocks computed in shares and held in runs of chunks give the whole "
+    "operator's product bit for bit") {
+    // What MPI ranks do (distributed/distributed.h): each computes some blocks, each holds a run
+    // of the fixed chunks, and the partial sums go from part to part in chunk order.
+    const Scene s = room_scene(8, RoomBox::kNone);
+    HierarchicalOptions o;
+    o.leaf_size = 8;
+    o.threads = 2;
+    const HierarchicalFormFactors H = build_hierarchical(s, o);
+    const HierarchicalPlan plan(s, o);
+    REQUIRE(plan.blocks() == H.blocks());
+    REQUIRE(H.chunks() == HierarchicalFormFactors::kChunks);
+    // Computed in three interleaved shares, in any order.
+    std::vector<HierarchicalFormFactors::Block> blocks(plan.blocks());
+    HierarchicalStats counts;
+    for (std::size_t share = 0; share < 3; ++share) {
+        std::vector<std::size_t> which;
+        for (std::size_t k = 2 - share; k < plan.blocks(); k += 3) which.push_back(k);
+        std::vector<HierarchicalFormFactors::Block> got = plan.compute(which, counts);
+        for (std::size_t i = 0; i < which.size(); ++i) blocks[which[i]] = std::move(got[i]);
+    }
+    CHECK(counts.entries_computed == H.stats().entries_computed);
+    std::vector<double> work;
+    for (const auto& b : blocks) work.push_back(HierarchicalFormFactors::block_work(b));
+    const std::vector<std::size_t> bounds = HierarchicalFormFactors::chunk_bounds(work);
+    REQUIRE(bounds.size() == H.chunks() + 1);
+    const auto n = static_cast<Eigen::Index>(H.size());
+    const Eigen::MatrixXd X = Eigen::MatrixXd::Random(n, 3);
+    Eigen::MatrixXd Y;
+    H.multiply(X, Y, 2);
+    // Runs of chunks: [0, 5), [5, 11), [11, 16) and the empty run [16, 16).
+    const std::vector<std::size_t> runs = {0, 5, 11, 16, 16};
+    Eigen::MatrixXd Yt = Eigen::MatrixXd::Zero(n, 3), Zt = Eigen::MatrixXd::Zero(n, 3);
+    std::vector<HierarchicalFormFactors> parts;
+    for (std::size_t r = 0; r + 1 < runs.size(); ++r) {
+        const std::size_t b0 = bounds[runs[r]], b1 = bounds[runs[r + 1]];
+        std::vector<HierarchicalFormFactors::Block> mine(blocks.begin() + std::ptrdiff_t(b0),
+                                                         blocks.begin() + std::ptrdiff_t(b1));
+        std::vector<std::size_t> local;
+        for (std::size_t c = runs[r]; c <= runs[r + 1]; ++c) local.push_back(bounds[c] - b0);
+        parts.push_back(HierarchicalFormFactors::part(plan.areas(), plan.order(), std::move(mine),
+                                                      std::move(local), runs[r], H.stats()));
+        CHECK_FALSE(parts.back().whole());
+        CHECK(parts.back().chunks() == runs[r + 1] - runs[r]);
+        HierarchicalFormFactors::add_partials(parts.back().partial_products(X, 1), Yt, Zt);
+    }
+    Eigen::MatrixXd Yp;
+    parts.back().finish_product(Yt, Zt, Yp);
+    CHECK(Yp == Y);
+    // A part alone is no operator.
+    CHECK_THROWS_AS(parts.front().multiply(X, Yp), Error);
+}
+
 TEST_CASE("hierarchical: thermal and radiosity solves agree with the dense solves") {
     const Scene s = room_scene(10, RoomBox::kNone);
     ComputeOptions co;

@@ -290,6 +290,64 @@ std::vector<double> csv_column(const std::string& text, const std::string& name)
 }  // namespace
 
 TEST_CASE(
+    "mpi: a solve on the hierarchical operator spread over 2 and 3 ranks writes one process's "
+    "solution bit for bit" *
+    doctest::test_suite("mpi")) {
+    // Each rank computes a share of the blocks and holds a run of the operator's chunks; the
+    // partial sums of every product go from rank to rank in chunk order, so every product is
+    // summed as one process sums it: the tolerance is zero.
+    check_same_files_on_any_rank_count(
+        "solve cube --subdivide 8 --storage hierarchical --thermal --properties p.csv "
+        "--threads 1 -o H{}.csv --report R{}.json",
+        {"H{}.csv"});
+    // Radiosity (three channels) by Jacobi, two threads a rank.
+    TempDir dir;
+    write_text(dir.file("rgb.csv"),
+               "surface,reflectance_r,reflectance_g,reflectance_b,emission_r,emission_g,"
+               "emission_b\nz1,0.5,0.5,0.5,10,8,6\nx0,0.8,0.3,0.2,0,0,0\ny1,0.2,0.7,0.4,0,0,0\n");
+    const std::string args =
+        "solve cube --subdivide 12 --properties rgb.csv --storage hierarchical --solver jacobi "
+        "--threads 2 -o ";
+    const Run one = run(dir, 0, args + "B1.csv");
+    INFO(said(one));
+    REQUIRE(one.code == 0);
+    const std::string expected = read_text(dir.file("B1.csv"));
+    REQUIRE(csv_column(expected, "radiosity_r").size() == 864);
+    for (int ranks : {2, 3}) {
+        CAPTURE(ranks);
+        const std::string name = "B" + std::to_string(ranks) + ".csv";
+        const Run r = run(dir, ranks, args + name);
+        INFO(said(r));
+        REQUIRE(r.code == 0);
+        CHECK(r.out.find("ranks      " + std::to_string(ranks) + " × 2 threads: partition ") !=
+              std::string::npos);
+        CHECK(read_text(dir.file(name)) == expected);
+    }
+}
+
+TEST_CASE("mpi: a rank that fails building or applying the hierarchical operator ends every rank" *
+          doctest::test_suite("mpi")) {
+    TempDir dir;
+    write_text(dir.file("p.csv"), "surface,temperature\nx0,300\nz1,1000\n");
+    const std::string args =
+        "solve cube --subdivide 6 --storage hierarchical --thermal --properties p.csv --threads 1 "
+        "-o T.csv --report r.json";
+    for (const auto& [env, rank] : std::vector<std::pair<std::string, std::string>>{
+             {"FORMFACTOR_TEST_FAIL_RANK=1", "1"}, {"FORMFACTOR_TEST_FAIL_SOLVE_RANK=2", "2"}}) {
+        CAPTURE(env);
+        const Run r = run(dir, 3, args, env);
+        INFO(said(r));
+        CHECK(r.code == 1);
+        CHECK(r.err.find("formfactor: rank " + rank + ": a failure injected on rank " + rank) !=
+              std::string::npos);
+        const auto first = r.err.find("formfactor:");
+        CHECK(r.err.find("formfactor:", first + 1) == std::string::npos);
+        CHECK(r.seconds < 10.0);
+        CHECK(dir.entries() == 1);  // p.csv alone
+    }
+}
+
+TEST_CASE(
     "mpi: a Gauss-Seidel thermal solve over 2 and 3 ranks is the serial one to the tolerance "
     "and repeats bit for bit" *
     doctest::test_suite("mpi")) {

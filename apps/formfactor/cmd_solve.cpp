@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include <memory>
+#include <optional>
 
 #include "all_zones.h"
 #include "commands.h"
@@ -240,13 +241,21 @@ void solve_hierarchical_scene(const SolveArgs& args, Scene& scene, StepTimes& ti
     Stopwatch sw;
     const PatchProperties props = patch_properties(args, scene);
 
-    const HierarchicalFormFactors H =
-        hierarchical_operator(scene, args.error_target, threads, times);
+    // Under mpirun the blocks are built and applied over the ranks (the same bits as one
+    // process); else the operator is this process's.
+    std::optional<HierarchicalFormFactors> whole;
+    std::optional<distributed::DistributedHierarchical> spread;
+    if (distributed::size() > 1)
+        spread = build_hierarchical_on_ranks(scene, args.error_target, threads, times);
+    else
+        whole.emplace(hierarchical_operator(scene, args.error_target, threads, times));
     sw.lap();
-    const HierarchicalStats& hs = H.stats();
+    const HierarchicalStats hs = spread ? spread->stats : whole->stats();
     OutputTransaction tx;
-    const nlohmann::json solve_json = solve_and_stage(H, props, solve_options(args, solver_options),
-                                                      args.output, times, sw, tx, scene);
+    const SolveOptions problem = solve_options(args, solver_options);
+    const nlohmann::json solve_json =
+        spread ? solve_and_stage(*spread, props, problem, args.output, times, sw, tx, scene)
+               : solve_and_stage(*whole, props, problem, args.output, times, sw, tx, scene);
     times.add("write", sw.lap());
     if (!args.report.empty()) {
         nlohmann::json options = args.method.to_json("analytic");
@@ -256,9 +265,11 @@ void solve_hierarchical_scene(const SolveArgs& args, Scene& scene, StepTimes& ti
             solve_report(args, scene, "analytic (hierarchical operator)", options, solver_options,
                          threads, times, total, solve_json);
         report["diagnostics"] = {
-            {"row_sum", row_sum_json(row_sum_range(H.row_sums(threads)))},
+            {"row_sum",
+             row_sum_json(row_sum_range(spread ? spread->row_sums : whole->row_sums(threads)))},
             {"reciprocity", "exact by construction (one block per unordered cluster pair)"}};
         report["details"] = {{"hierarchical", to_json(hs)}};
+        if (spread) report["details"]["mpi"] = to_json(*spread);
         report["storage"] = {{"kind", "hierarchical"}, {"why", why}, {"operator_bytes", hs.bytes}};
         report["memory"] = {{"peak_bytes", peak_memory_bytes()}};
         stage_report(tx, args.report, report);

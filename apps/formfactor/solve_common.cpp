@@ -143,17 +143,18 @@ SolverOptions SolverArgs::options(Storage storage, bool thermal, int threads) co
     return o;
 }
 
-HierarchicalFormFactors hierarchical_operator(const Scene& scene, double error_target, int threads,
-                                              StepTimes& times) {
+namespace {
+
+HierarchicalOptions hierarchical_options(double error_target, int threads) {
     if (!(error_target > 0.0 && error_target <= 0.1))
         throw OptionError("--error-target", "must be in (0, 0.1]");
     HierarchicalOptions ho;
     ho.tolerance = error_target;
     ho.threads = threads;
-    TerminalProgress bar(cli_text);
-    ho.progress = &bar;
-    HierarchicalFormFactors H = compute_hierarchical_operator(scene, ho, &times);
-    const HierarchicalStats& hs = H.stats();
+    return ho;
+}
+
+void print_operator_line(const HierarchicalStats& hs) {
     fmt::print(
         "operator   hierarchical, error target {:g}: {} low-rank blocks (rank mean {:.1f}, max "
         "{}), {} dense, {} zero; {} ({:.2f}% of dense F)\n",
@@ -161,7 +162,55 @@ HierarchicalFormFactors hierarchical_operator(const Scene& scene, double error_t
         hs.zero_blocks, format_bytes(static_cast<double>(hs.bytes)),
         100.0 * static_cast<double>(hs.bytes) /
             (8.0 * static_cast<double>(hs.patches) * static_cast<double>(hs.patches)));
+}
+
+// "a / b / c" of per-rank values.
+std::string per_rank(const std::vector<double>& v, const char* format) {
+    std::string s;
+    for (std::size_t r = 0; r < v.size(); ++r)
+        s += (r ? " / " : "") + fmt::format(fmt::runtime(format), v[r]);
+    return s;
+}
+
+}  // namespace
+
+HierarchicalFormFactors hierarchical_operator(const Scene& scene, double error_target, int threads,
+                                              StepTimes& times) {
+    HierarchicalOptions ho = hierarchical_options(error_target, threads);
+    TerminalProgress bar(cli_text);
+    ho.progress = &bar;
+    HierarchicalFormFactors H = compute_hierarchical_operator(scene, ho, &times);
+    print_operator_line(H.stats());
     return H;
+}
+
+distributed::DistributedHierarchical build_hierarchical_on_ranks(const Scene& scene,
+                                                                 double error_target, int threads,
+                                                                 StepTimes& times) {
+    HierarchicalOptions ho = hierarchical_options(error_target, threads);
+    Stopwatch sw;
+    TerminalProgress bar(cli_text);
+    ho.progress = &bar;
+    distributed::DistributedHierarchical H = distributed::build_hierarchical(scene, ho);
+    times.add("hierarchical operator", sw.lap());
+    print_operator_line(H.stats);
+    fmt::print(
+        "ranks      {} × {} thread{}: partition {} s; blocks computed {}, busy {} s, imbalance "
+        "{:.1f} %; held {} blocks in {} chunks ({} MB moved)\n",
+        H.build_seconds.size(), threads, threads == 1 ? "" : "s",
+        per_rank(H.partition_seconds, "{:.2f}"), per_rank(H.blocks_built, "{:.0f}"),
+        per_rank(H.build_seconds, "{:.2f}"), 100.0 * H.build_imbalance(),
+        per_rank(H.blocks_held, "{:.0f}"), per_rank(H.chunks_held, "{:.0f}"),
+        fmt::format("{:.1f}", H.moved_bytes / 1e6));
+    return H;
+}
+
+nlohmann::json to_json(const distributed::DistributedHierarchical& H) {
+    return {
+        {"ranks", H.build_seconds.size()},          {"blocks_computed_per_rank", H.blocks_built},
+        {"busy_seconds_per_rank", H.build_seconds}, {"imbalance", H.build_imbalance()},
+        {"blocks_held_per_rank", H.blocks_held},    {"chunks_held_per_rank", H.chunks_held},
+        {"product_work_per_rank", H.product_work},  {"moved_bytes", H.moved_bytes}};
 }
 
 nlohmann::json to_json(const HierarchicalStats& hs) {
@@ -197,6 +246,9 @@ std::vector<double> row_sums_of(const SparseFormFactors& F) {
 }
 std::vector<double> row_sums_of(const HierarchicalFormFactors& F) { return F.row_sums(); }
 std::vector<double> row_sums_of(const distributed::DistributedRows& F) { return F.row_sums; }
+std::vector<double> row_sums_of(const distributed::DistributedHierarchical& F) {
+    return F.row_sums;
+}
 
 // The .vtu fields of F: those of form_factor_fields() for a dense F (with the standard errors
 // when it has them), the areas and row sums otherwise.
@@ -255,6 +307,9 @@ template nlohmann::json solve_and_stage<HierarchicalFormFactors>(
     StepTimes&, Stopwatch&, OutputTransaction&, const Scene&);
 template nlohmann::json solve_and_stage<distributed::DistributedRows>(
     const distributed::DistributedRows&, const PatchProperties&, const SolveOptions&,
+    const std::string&, StepTimes&, Stopwatch&, OutputTransaction&, const Scene&);
+template nlohmann::json solve_and_stage<distributed::DistributedHierarchical>(
+    const distributed::DistributedHierarchical&, const PatchProperties&, const SolveOptions&,
     const std::string&, StepTimes&, Stopwatch&, OutputTransaction&, const Scene&);
 template nlohmann::json solve_and_stage<SparseFormFactors>(const SparseFormFactors&,
                                                            const PatchProperties&,

@@ -72,8 +72,16 @@ struct SolverArgs {
 /// the pipeline, progress on the terminal; adds its step to `times` and prints the operator line.
 HierarchicalFormFactors hierarchical_operator(const Scene& scene, double error_target, int threads,
                                               StepTimes& times);
+/// The operator over the MPI ranks (distributed::build_hierarchical(),
+/// formfactor/distributed/distributed.h): the blocks stay on the ranks; prints the operator line
+/// and a line of what the ranks did.
+distributed::DistributedHierarchical build_hierarchical_on_ranks(const Scene& scene,
+                                                                 double error_target, int threads,
+                                                                 StepTimes& times);
 /// The operator's statistics for a report (details.hierarchical / storage).
 nlohmann::json to_json(const HierarchicalStats& s);
+/// What the ranks did for the operator (details.mpi of a report).
+nlohmann::json to_json(const distributed::DistributedHierarchical& H);
 
 /// Solves the problem of `options` on F (a FormFactors, a sparse F, the hierarchical operator,
 /// or rows spread over MPI ranks) through the pipeline (solve(), formfactor/pipeline_solve.h),

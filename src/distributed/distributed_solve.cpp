@@ -6,6 +6,7 @@
 
 #include "formfactor/core/error.h"
 #include "formfactor/distributed/distributed.h"
+#include "hierarchical_solve.h"
 #include "row_solve.h"
 
 namespace formfactor::distributed {
@@ -92,6 +93,52 @@ RadiosityResult solve_radiosity(const DistributedRows& rows, const PatchProperti
 SolveResult solve(const Scene& scene, const DistributedRows& rows, const PatchProperties& props,
                   const SolveOptions& options) {
     return formfactor::detail::solve_problem(scene, rows, props, options);
+}
+
+ThermalResult solve_thermal(const DistributedHierarchical& op, const PatchProperties& props,
+                            const ThermalOptions& options) {
+    if (props.size() != op.n)
+        throw Error(fmt::format("solve: the scene has {} patches but the operator has {}",
+                                props.size(), op.n));
+    detail::ThermalSystem sys;
+    sys.n = static_cast<Eigen::Index>(op.n);
+    sys.areas = &op.areas;
+    sys.row_sums = op.row_sums;
+    // As the single-process solve of the operator (solve/thermal.cpp).
+    sys.row_sum_tolerance = std::max(1e-9, 10.0 * op.stats.tolerance);
+    LastProduct last;
+    sys.apply = [&](const Columns& x, Columns& y) {
+        FF_ASSERT(x.rows() == last.x.rows() && x == last.x);
+        y = last.fx;
+    };
+    sys.solve = [&](const Columns& d, const Columns& c, Columns& x) {
+        const SolverStats st = solve_operator(op, d, c, options.solver, x, last.fx);
+        last.x = x;
+        return st;
+    };
+    return detail::solve_thermal_system(sys, props, options);
+}
+
+RadiosityResult solve_radiosity(const DistributedHierarchical& op, const PatchProperties& props,
+                                const SolverOptions& options) {
+    if (props.size() != op.n)
+        throw Error(fmt::format("solve: the scene has {} patches but the operator has {}",
+                                props.size(), op.n));
+    validate_properties(props);
+    Columns d, c, x, fx;
+    detail::radiosity_system(props, d, c);
+    RadiosityResult res;
+    res.stats = solve_operator(op, d, c, options, x, fx);
+    res.radiosity.resize(op.n);
+    for (Eigen::Index i = 0; i < x.rows(); ++i)
+        res.radiosity[static_cast<std::size_t>(i)] = x.row(i);
+    res.balance = detail::radiosity_balance_of(op.areas, op.row_sums, props, x, fx);
+    return res;
+}
+
+SolveResult solve(const Scene& scene, const DistributedHierarchical& op,
+                  const PatchProperties& props, const SolveOptions& options) {
+    return formfactor::detail::solve_problem(scene, op, props, options);
 }
 
 }  // namespace formfactor::distributed

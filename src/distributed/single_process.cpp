@@ -5,6 +5,7 @@
 
 #include "formfactor/core/error.h"
 #include "formfactor/distributed/distributed.h"
+#include "hierarchical_solve.h"
 #include "row_solve.h"
 
 namespace formfactor::distributed {
@@ -73,6 +74,15 @@ DistributedRows distribute_rows(const SparseFormFactors& F) {
 SolverStats solve_rows(const DistributedRows& rows, const Columns& d, const Columns& c,
                        const SolverOptions& options, Columns& x, Columns& fx) {
     return solve_rows_here(rows, d, c, options, x, fx);
+}
+
+DistributedHierarchical build_hierarchical(const Scene& scene, const HierarchicalOptions& options) {
+    return build_operator_here(scene, options);
+}
+
+SolverStats solve_operator(const DistributedHierarchical& op, const Columns& d, const Columns& c,
+                           const SolverOptions& options, Columns& x, Columns& fx) {
+    return solve_operator_here(op, d, c, options, x, fx);
 }
 
 }  // namespace formfactor::distributed

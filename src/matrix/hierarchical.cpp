@@ -16,32 +16,59 @@ HierarchicalFormFactors::HierarchicalFormFactors(std::vector<double> areas,
       order_(std::move(order)),
       blocks_(std::move(blocks)),
       stats_(std::move(stats)) {
+    std::vector<double> work(blocks_.size());
+    for (std::size_t k = 0; k < blocks_.size(); ++k) work[k] = block_work(blocks_[k]);
+    chunk_begin_ = chunk_bounds(work);
+    set_areas_and_bytes();
+}
+
+std::vector<std::size_t> HierarchicalFormFactors::chunk_bounds(const std::vector<double>& work) {
+    // Chunks of about equal work, in block order (fixed for a scene and options).
+    double total = 0.0;
+    for (double w : work) total += w;
+    std::vector<std::size_t> begin{0};
+    double acc = 0.0;
+    for (std::size_t k = 0; k < work.size(); ++k) {
+        acc += work[k];
+        if (acc >= total * double(begin.size()) / double(kChunks) && begin.size() < kChunks)
+            begin.push_back(k + 1);
+    }
+    if (begin.back() != work.size()) begin.push_back(work.size());
+    return begin;
+}
+
+HierarchicalFormFactors HierarchicalFormFactors::part(
+    std::vector<double> areas, std::vector<std::uint32_t> order, std::vector<Block> blocks,
+    std::vector<std::size_t> bounds, std::size_t first_chunk, HierarchicalStats stats) {
+    FF_ASSERT(!bounds.empty() && bounds.front() == 0 && bounds.back() == blocks.size());
+    HierarchicalFormFactors h;
+    h.areas_ = std::move(areas);
+    h.order_ = std::move(order);
+    h.blocks_ = std::move(blocks);
+    h.chunk_begin_ = std::move(bounds);
+    h.first_chunk_ = first_chunk;
+    h.whole_ = false;
+    h.stats_ = std::move(stats);
+    h.set_areas_and_bytes();
+    std::size_t values = 0;
+    for (const Block& b : h.blocks_) values += b.u.size() + b.v.size();
+    h.stats_.bytes = 8 * values + h.blocks_.size() * sizeof(Block) +
+                     h.size() * (2 * sizeof(double) + sizeof(std::uint32_t));
+    return h;
+}
+
+void HierarchicalFormFactors::set_areas_and_bytes() {
     const std::size_t n = areas_.size();
     FF_ASSERT(order_.size() == n);
     tree_areas_.resize(n);
     for (std::size_t k = 0; k < n; ++k) tree_areas_[k] = areas_[order_[k]];
-
-    // Chunks of about equal work, in block order (fixed for a scene and options).
-    double work = 0.0;
-    for (const Block& blk : blocks_) work += double(blk.u.size() + blk.v.size() + blk.m + blk.n);
-    chunk_begin_.push_back(0);
-    double acc = 0.0;
-    for (std::size_t k = 0; k < blocks_.size(); ++k) {
-        const Block& blk = blocks_[k];
-        acc += double(blk.u.size() + blk.v.size() + blk.m + blk.n);
-        if (acc >= work * double(chunk_begin_.size()) / double(kChunks) &&
-            chunk_begin_.size() < kChunks)
-            chunk_begin_.push_back(k + 1);
-    }
-    if (chunk_begin_.back() != blocks_.size()) chunk_begin_.push_back(blocks_.size());
-
     stats_.bytes = 8 * (stats_.dense_values + stats_.low_rank_values) +
                    blocks_.size() * sizeof(Block) +
                    n * (2 * sizeof(double) + sizeof(std::uint32_t));
 }
 
-void HierarchicalFormFactors::multiply(const Eigen::MatrixXd& X, Eigen::MatrixXd& Y,
-                                       int threads) const {
+HierarchicalFormFactors::Partials HierarchicalFormFactors::partial_products(
+    const Eigen::MatrixXd& X, int threads) const {
     const auto n = static_cast<Eigen::Index>(size());
     FF_ASSERT(X.rows() == n);
     const Eigen::Index k = X.cols();
@@ -54,10 +81,12 @@ void HierarchicalFormFactors::multiply(const Eigen::MatrixXd& X, Eigen::MatrixXd
     }
     const std::size_t chunks = chunk_begin_.size() - 1;
     // Per chunk: Y (direct halves) and Z (transposed halves, divided by the areas at the end).
-    std::vector<Eigen::MatrixXd> Yc(chunks), Zc(chunks);
+    Partials out;
+    out.y.resize(chunks);
+    out.z.resize(chunks);
     parallel_for(chunks, threads, [&](std::size_t c) {
-        Eigen::MatrixXd& Yk = Yc[c];
-        Eigen::MatrixXd& Zk = Zc[c];
+        Eigen::MatrixXd& Yk = out.y[c];
+        Eigen::MatrixXd& Zk = out.z[c];
         Yk.setZero(n, k);
         Zk.setZero(n, k);
         for (std::size_t bi = chunk_begin_[c]; bi < chunk_begin_[c + 1]; ++bi) {
@@ -80,15 +109,37 @@ void HierarchicalFormFactors::multiply(const Eigen::MatrixXd& X, Eigen::MatrixXd
             }
         }
     });
-    Eigen::MatrixXd Yt = Eigen::MatrixXd::Zero(n, k), Zt = Eigen::MatrixXd::Zero(n, k);
-    for (std::size_t c = 0; c < chunks; ++c) {
-        Yt += Yc[c];
-        Zt += Zc[c];
+    return out;
+}
+
+void HierarchicalFormFactors::add_partials(const Partials& p, Eigen::MatrixXd& Yt,
+                                           Eigen::MatrixXd& Zt) {
+    for (std::size_t c = 0; c < p.y.size(); ++c) {
+        Yt += p.y[c];
+        Zt += p.z[c];
     }
-    Y.resize(n, k);
+}
+
+void HierarchicalFormFactors::finish_product(const Eigen::MatrixXd& Yt, const Eigen::MatrixXd& Zt,
+                                             Eigen::MatrixXd& Y) const {
+    const auto n = static_cast<Eigen::Index>(size());
+    FF_ASSERT(Yt.rows() == n && Zt.rows() == n && Yt.cols() == Zt.cols());
+    Y.resize(n, Yt.cols());
     for (Eigen::Index t = 0; t < n; ++t)
         Y.row(static_cast<Eigen::Index>(order_[static_cast<std::size_t>(t)])) =
             Yt.row(t) + Zt.row(t) / tree_areas_[static_cast<std::size_t>(t)];
+}
+
+void HierarchicalFormFactors::multiply(const Eigen::MatrixXd& X, Eigen::MatrixXd& Y,
+                                       int threads) const {
+    if (!whole_)
+        throw Error("hierarchical operator: a product needs every block; this is one rank's part");
+    const auto n = static_cast<Eigen::Index>(size());
+    const Partials p = partial_products(X, threads);
+    Eigen::MatrixXd Yt = Eigen::MatrixXd::Zero(n, X.cols()),
+                    Zt = Eigen::MatrixXd::Zero(n, X.cols());
+    add_partials(p, Yt, Zt);
+    finish_product(Yt, Zt, Y);
 }
 
 std::vector<double> HierarchicalFormFactors::row_sums(int threads) const {

@@ -593,21 +593,26 @@ std::vector<std::size_t> stored_blocks(const Builder& b, std::size_t n, Hierarch
     return stored;
 }
 
-// The entries of the stored blocks, in parallel; per block the entries computed and whether a
-// low-rank block fell back to dense.
+// Relative cost of an entry of a dense block (mostly exact contour integrals between
+// neighbours) against one of a low-rank block (a Gauss rule): for sharing blocks out.
+constexpr double kNearEntryCost = 4.0;
+
+// The entries of blocks `which` (indices into `stored`), in parallel; per block the entries
+// computed and whether a low-rank block fell back to dense.
 std::vector<Block> compute_blocks(const Builder& b, const std::vector<std::size_t>& stored,
+                                  const std::vector<std::size_t>& which,
                                   const HierarchicalOptions& options,
                                   std::vector<std::size_t>& computed,
                                   std::vector<char>& fell_back) {
-    std::vector<Block> blocks(stored.size());
-    computed.assign(stored.size(), 0);
-    fell_back.assign(stored.size(), 0);
-    Progress progress("hierarchical operator", stored.size(), options.progress);
+    std::vector<Block> blocks(which.size());
+    computed.assign(which.size(), 0);
+    fell_back.assign(which.size(), 0);
+    Progress progress("hierarchical operator", which.size(), options.progress);
     // Largest blocks first: the dynamic schedule then ends evenly.
-    std::vector<std::size_t> by_size(stored.size());
+    std::vector<std::size_t> by_size(which.size());
     std::iota(by_size.begin(), by_size.end(), 0);
     auto count_of = [&](std::size_t k) {
-        const Spec& sp = b.specs[stored[k]];
+        const Spec& sp = b.specs[stored[which[k]]];
         return double(b.nodes[static_cast<std::size_t>(sp.a)].count) *
                double(b.nodes[static_cast<std::size_t>(sp.b)].count);
     };
@@ -619,10 +624,10 @@ std::vector<Block> compute_blocks(const Builder& b, const std::vector<std::size_
     std::atomic<std::size_t> next{0};
     const auto workers = static_cast<std::size_t>(effective_threads(options.threads));
     parallel_for(workers, options.threads, [&](std::size_t) {
-        for (std::size_t t; (t = next.fetch_add(1)) < stored.size();) {
+        for (std::size_t t; (t = next.fetch_add(1)) < which.size();) {
             cancel.throw_if_requested();
             const std::size_t k = by_size[t];
-            const Spec& sp = b.specs[stored[k]];
+            const Spec& sp = b.specs[stored[which[k]]];
             const Node& P = b.nodes[static_cast<std::size_t>(sp.a)];
             const Node& Q = b.nodes[static_cast<std::size_t>(sp.b)];
             Block& blk = blocks[k];
@@ -641,58 +646,117 @@ std::vector<Block> compute_blocks(const Builder& b, const std::vector<std::size_
     return blocks;
 }
 
-// Entries computed, fallbacks, values stored and ranks of the computed blocks, into the stats.
-void count_values(const std::vector<Block>& blocks, const std::vector<std::size_t>& computed,
-                  const std::vector<char>& fell_back, HierarchicalStats& st) {
-    std::size_t rank_sum = 0, rank_blocks = 0;
-    for (std::size_t k = 0; k < blocks.size(); ++k) {
-        const Block& blk = blocks[k];
+// Entries computed and fallbacks of the computed blocks, into the stats.
+void count_work(const std::vector<std::size_t>& computed, const std::vector<char>& fell_back,
+                HierarchicalStats& st) {
+    for (std::size_t k = 0; k < computed.size(); ++k) {
         st.entries_computed += computed[k];
         st.low_rank_fallbacks += fell_back[k];
-        if (blk.rank > 0) {
-            st.low_rank_values += blk.u.size() + blk.v.size();
-            st.max_rank = std::max<std::size_t>(st.max_rank, blk.rank);
-            rank_sum += blk.rank;
-            ++rank_blocks;
-        } else {
-            st.dense_values += blk.u.size();
-        }
     }
-    st.mean_rank = rank_blocks ? double(rank_sum) / double(rank_blocks) : 0.0;
 }
 
 }  // namespace
 
 bool hierarchical_accepts(const Scene& scene) { return !may_obstruct(scene, kNearlyInPlane); }
 
-HierarchicalFormFactors build_hierarchical(const Scene& scene, const HierarchicalOptions& options) {
-    const auto start = std::chrono::steady_clock::now();
-    check(scene, options);
-    const std::size_t n = scene.patches.size();
+void count_block_values(const std::vector<std::uint32_t>& ranks,
+                        const std::vector<std::size_t>& values, HierarchicalStats& st) {
+    FF_ASSERT(ranks.size() == values.size());
+    std::size_t rank_sum = 0, rank_blocks = 0;
+    for (std::size_t k = 0; k < ranks.size(); ++k) {
+        if (ranks[k] > 0) {
+            st.low_rank_values += values[k];
+            st.max_rank = std::max<std::size_t>(st.max_rank, ranks[k]);
+            rank_sum += ranks[k];
+            ++rank_blocks;
+        } else {
+            st.dense_values += values[k];
+        }
+    }
+    st.mean_rank = rank_blocks ? double(rank_sum) / double(rank_blocks) : 0.0;
+}
 
-    Builder b(scene, options);
+struct HierarchicalPlan::Impl {
+    Impl(const Scene& s, const HierarchicalOptions& o) : scene(s), options(o), b(s, options) {}
+    const Scene& scene;
+    HierarchicalOptions options;
+    Builder b;
+    std::vector<std::size_t> stored;
+    HierarchicalStats st;
+};
+
+HierarchicalPlan::HierarchicalPlan(const Scene& scene, const HierarchicalOptions& options) {
+    check(scene, options);
+    impl_ = std::make_unique<Impl>(scene, options);
+    Builder& b = impl_->b;
     b.build_tree();
     b.partition(0, 0);
-
-    HierarchicalStats st;
+    HierarchicalStats& st = impl_->st;
+    const std::size_t n = scene.patches.size();
     st.patches = n;
     st.clusters = b.nodes.size();
     for (const Node& nd : b.nodes) st.leaves += nd.leaf() ? 1 : 0;
     st.tolerance = options.tolerance;
     st.eta = options.eta;
     st.leaf_size = options.leaf_size;
+    impl_->stored = stored_blocks(b, n, st);
+}
 
-    const std::vector<std::size_t> stored = stored_blocks(b, n, st);
+HierarchicalPlan::~HierarchicalPlan() = default;
+HierarchicalPlan::HierarchicalPlan(HierarchicalPlan&&) noexcept = default;
+HierarchicalPlan& HierarchicalPlan::operator=(HierarchicalPlan&&) noexcept = default;
+
+std::size_t HierarchicalPlan::blocks() const { return impl_->stored.size(); }
+
+double HierarchicalPlan::estimated_cost(std::size_t k) const {
+    const Builder& b = impl_->b;
+    const Spec& sp = b.specs[impl_->stored.at(k)];
+    const double m = b.nodes[static_cast<std::size_t>(sp.a)].count;
+    const double n = b.nodes[static_cast<std::size_t>(sp.b)].count;
+    if (sp.kind == Kind::dense) return kNearEntryCost * m * n;
+    // ACA: a row and a column per cross, and the sampled checks.
+    return std::min(kNearEntryCost * m * n, (kEstimatedRank + 2.0) * (m + n) + 32.0);
+}
+
+std::vector<HierarchicalFormFactors::Block> HierarchicalPlan::compute(
+    const std::vector<std::size_t>& which, HierarchicalStats& counts) const {
+    for (std::size_t k : which)
+        if (k >= impl_->stored.size()) throw Error("hierarchical: a block that is not stored");
     std::vector<std::size_t> computed;
     std::vector<char> fell_back;
-    std::vector<Block> blocks = compute_blocks(b, stored, options, computed, fell_back);
-    count_values(blocks, computed, fell_back, st);
+    std::vector<Block> blocks =
+        compute_blocks(impl_->b, impl_->stored, which, impl_->options, computed, fell_back);
+    count_work(computed, fell_back, counts);
+    return blocks;
+}
 
+const HierarchicalStats& HierarchicalPlan::stats() const { return impl_->st; }
+
+std::vector<double> HierarchicalPlan::areas() const {
+    const std::size_t n = impl_->scene.patches.size();
     std::vector<double> areas(n);
-    for (std::size_t i = 0; i < n; ++i) areas[i] = scene.patches[i].area;
+    for (std::size_t i = 0; i < n; ++i) areas[i] = impl_->scene.patches[i].area;
+    return areas;
+}
+
+const std::vector<std::uint32_t>& HierarchicalPlan::order() const { return impl_->b.order; }
+
+HierarchicalFormFactors build_hierarchical(const Scene& scene, const HierarchicalOptions& options) {
+    const auto start = std::chrono::steady_clock::now();
+    HierarchicalPlan plan(scene, options);
+    HierarchicalStats st = plan.stats();
+    std::vector<std::size_t> all(plan.blocks());
+    std::iota(all.begin(), all.end(), 0);
+    std::vector<Block> blocks = plan.compute(all, st);
+    std::vector<std::uint32_t> ranks(blocks.size());
+    std::vector<std::size_t> values(blocks.size());
+    for (std::size_t k = 0; k < blocks.size(); ++k) {
+        ranks[k] = blocks[k].rank;
+        values[k] = blocks[k].u.size() + blocks[k].v.size();
+    }
+    count_block_values(ranks, values, st);
     st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    return HierarchicalFormFactors(std::move(areas), std::move(b.order), std::move(blocks),
-                                   std::move(st));
+    return HierarchicalFormFactors(plan.areas(), plan.order(), std::move(blocks), std::move(st));
 }
 
 }  // namespace formfactor

@@ -28,6 +28,8 @@
 #include <string>
 #include <vector>
 
+#include "formfactor/matrix/hierarchical.h"
+#include "formfactor/methods/hierarchical_build.h"
 #include "formfactor/pipeline.h"
 #include "formfactor/pipeline_solve.h"
 #include "formfactor/pipeline_sparse.h"
@@ -171,5 +173,47 @@ RadiosityResult solve_radiosity(const DistributedRows& rows, const PatchProperti
 /// on rank 0: solve_radiosity() or solve_thermal() above, as options asks.
 SolveResult solve(const Scene& scene, const DistributedRows& rows, const PatchProperties& props,
                   const SolveOptions& options);
+
+/// The hierarchical operator (formfactor/matrix/hierarchical.h) spread over the ranks, as rank 0
+/// knows it: what the solvers and a report need; the blocks live on their ranks until the next
+/// build_hierarchical() of this process.
+struct DistributedHierarchical {
+    std::size_t n = 0;             ///< N patches
+    std::vector<double> areas;     ///< A_i
+    std::vector<double> row_sums;  ///< Σ_j F_ij per row (F·1 over the ranks, one process's bits)
+    HierarchicalStats stats;       ///< the whole operator's (bytes: over every rank)
+    /// Per rank: seconds making the partition (every rank makes all of it), blocks computed,
+    /// seconds busy computing them, and the blocks, chunks and share of a product's work
+    /// (values, rows and columns of its blocks) it holds.
+    std::vector<double> partition_seconds, blocks_built, build_seconds, blocks_held, chunks_held,
+        product_work;
+    double moved_bytes = 0.0;  ///< block values sent between ranks after the build
+    std::uint64_t id = 0;      ///< which build (a solve of an older one is an Error)
+    /// (largest build seconds − mean) / mean.
+    double build_imbalance() const;
+};
+
+/// Rank 0: build_hierarchical() (formfactor/methods/hierarchical_build.h) over every rank (the
+/// others in serve()). Every rank makes the cluster tree and the partition (the same on every
+/// rank), computes a share of the blocks (the largest estimated cost first, each to the rank
+/// with the least so far), and the blocks then move so that each rank holds a run of the
+/// operator's fixed chunks of about equal product work. Each block is the one a single process
+/// computes, bit for bit. On one rank the operator stays in this process.
+DistributedHierarchical build_hierarchical(const Scene& scene, const HierarchicalOptions& options);
+
+/// solve_thermal() and solve_radiosity() (formfactor/solve/) on the operator spread over the
+/// ranks, called on rank 0: every rank runs the same iteration (gmres or jacobi; others:
+/// OptionError("solver")); a product F x is each rank's chunks, their partial sums handed from
+/// rank to rank in chunk order and the last rank's product sent to every rank, so that it is
+/// summed exactly as one process sums it: the result is one process's bit for bit, for any
+/// number of ranks and threads.
+ThermalResult solve_thermal(const DistributedHierarchical& op, const PatchProperties& props,
+                            const ThermalOptions& options);
+RadiosityResult solve_radiosity(const DistributedHierarchical& op, const PatchProperties& props,
+                                const SolverOptions& options);
+/// The pipeline's solve() (formfactor/pipeline_solve.h) on the operator spread over the ranks,
+/// called on rank 0: solve_radiosity() or solve_thermal() above, as options asks.
+SolveResult solve(const Scene& scene, const DistributedHierarchical& op,
+                  const PatchProperties& props, const SolveOptions& options);
 
 }  // namespace formfactor::distributed

@@ -26,7 +26,10 @@
 /// the alternatives (dense or sparse storage); visibility in blocks is left for later.
 ///
 /// Products are deterministic: the blocks are summed in a fixed order of fixed chunks, so y = F x
-/// is bit-identical for any thread count.
+/// is bit-identical for any thread count. The chunks are also what MPI ranks share out
+/// (distributed/distributed.h): an operator may hold the blocks of a run of chunks only (a
+/// part), whose partial products are added to the running sums of the chunks before it, so that
+/// the ranks together sum every product exactly as one process does.
 
 #include <Eigen/Core>
 #include <cstddef>
@@ -79,9 +82,33 @@ class HierarchicalFormFactors {
     HierarchicalFormFactors(std::vector<double> areas, std::vector<std::uint32_t> order,
                             std::vector<Block> blocks, HierarchicalStats stats);
 
+    /// The work of a block in a product (what the chunks even out): its stored values and its
+    /// rows and columns.
+    static double block_work(const Block& b) { return double(b.u.size() + b.v.size() + b.m + b.n); }
+    /// Where each chunk starts in the list of blocks whose works are `work` (in block order),
+    /// and the end: at most kChunks + 1 ascending indices from 0 to work.size(), each chunk
+    /// about 1/kChunks of the total. The whole operator's chunks.
+    static std::vector<std::size_t> chunk_bounds(const std::vector<double>& work);
+
+    /// One rank's part of an operator spread over ranks: `blocks` are the blocks of chunks
+    /// [first_chunk, first_chunk + bounds.size() − 1) of the whole operator (chunk_bounds() of
+    /// every block's work), `bounds` where each of them starts in `blocks` (from 0 to
+    /// blocks.size()); stats are the whole operator's (bytes is this part's). A part computes
+    /// partial products only (partial_products()); multiply() and the calls built on it need
+    /// the whole operator (Error otherwise).
+    static HierarchicalFormFactors part(std::vector<double> areas, std::vector<std::uint32_t> order,
+                                        std::vector<Block> blocks, std::vector<std::size_t> bounds,
+                                        std::size_t first_chunk, HierarchicalStats stats);
+
     std::size_t size() const { return areas_.size(); }
     const std::vector<double>& areas() const { return areas_; }
     const HierarchicalStats& stats() const { return stats_; }
+    /// True when this operator holds every block (not a part()).
+    bool whole() const { return whole_; }
+    /// The blocks this operator holds, and the chunks: [first_chunk(), first_chunk() + chunks()).
+    std::size_t blocks() const { return blocks_.size(); }
+    std::size_t first_chunk() const { return first_chunk_; }
+    std::size_t chunks() const { return chunk_begin_.size() - 1; }
 
     /// Y = F X for an n × k column-major X (one column per channel); Y is resized.
     void multiply(const Eigen::MatrixXd& X, Eigen::MatrixXd& Y, int threads = 0) const;
@@ -94,13 +121,33 @@ class HierarchicalFormFactors {
     DenseMatrix per_group(const std::vector<int>& group_of_patch, std::size_t groups,
                           int threads = 0) const;
 
+    /// A product in pieces, as multiply() does it and ranks share it: the partial products
+    /// of this operator's chunks (in cluster order: y of the blocks F_PQ, z of their
+    /// transposed halves before the division by the areas), then add_partials() adds them in
+    /// chunk order to the running sums of the chunks before (zero before the first chunk), then
+    /// finish_product() makes Y of the sums of every chunk.
+    struct Partials {
+        std::vector<Eigen::MatrixXd> y, z;  ///< one per chunk, n × k
+    };
+    Partials partial_products(const Eigen::MatrixXd& X, int threads = 0) const;
+    /// Yt += y[c], Zt += z[c] for c in order (Yt, Zt n × k).
+    static void add_partials(const Partials& p, Eigen::MatrixXd& Yt, Eigen::MatrixXd& Zt);
+    /// Y (scene order) of the sums Yt, Zt of every chunk.
+    void finish_product(const Eigen::MatrixXd& Yt, const Eigen::MatrixXd& Zt,
+                        Eigen::MatrixXd& Y) const;
+
   private:
     std::vector<double> areas_;         ///< scene order
     std::vector<std::uint32_t> order_;  ///< cluster order → patch index
     std::vector<double> tree_areas_;    ///< areas in cluster order
     std::vector<Block> blocks_;
     std::vector<std::size_t> chunk_begin_;  ///< blocks [chunk_begin_[c], chunk_begin_[c + 1])
+    std::size_t first_chunk_ = 0;           ///< of the whole operator's chunks
+    bool whole_ = true;
     HierarchicalStats stats_;
+
+    HierarchicalFormFactors() = default;
+    void set_areas_and_bytes();
 };
 
 }  // namespace formfactor

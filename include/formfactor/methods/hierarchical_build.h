@@ -3,6 +3,9 @@
 /// partition into zero, low-rank and dense blocks, and their entries by the analytic kernels.
 
 #include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <vector>
 
 #include "formfactor/matrix/hierarchical.h"
 #include "formfactor/scene/scene.h"
@@ -31,6 +34,49 @@ struct HierarchicalOptions {
 /// block the view between two others (within 1e-6 of the scene's size; surfaces, or patches when
 /// the scene has none). What `solve --storage auto` asks before it picks the operator.
 bool hierarchical_accepts(const Scene& scene);
+
+/// The partition of a scene's operator before any entry is computed: what MPI ranks share out
+/// (distributed/distributed.h), each computing some of the blocks. build_hierarchical() is a
+/// plan whose every block is computed. Every block is computed alone (ACA's random samples are
+/// seeded by the block), so a block is bit for bit the same whoever computes it.
+class HierarchicalPlan {
+  public:
+    /// The checks of build_hierarchical(), the cluster tree and the partition. Throws as
+    /// build_hierarchical() does (ResourceError when the whole operator's estimated memory does
+    /// not fit). `scene` must outlive the plan.
+    HierarchicalPlan(const Scene& scene, const HierarchicalOptions& options);
+    ~HierarchicalPlan();
+    HierarchicalPlan(HierarchicalPlan&&) noexcept;
+    HierarchicalPlan& operator=(HierarchicalPlan&&) noexcept;
+
+    /// The stored blocks (dense and low-rank; zero blocks are not stored), in the operator's
+    /// order.
+    std::size_t blocks() const;
+    /// An estimate of block k's cost to compute, in far-field entries (an entry of a dense
+    /// block, mostly exact contour integrals, counts as several).
+    double estimated_cost(std::size_t k) const;
+    /// Blocks `which` (indices of stored blocks), computed in parallel over options.threads
+    /// (largest first); the entries computed and the low-rank blocks stored dense are added to
+    /// counts.entries_computed and counts.low_rank_fallbacks. Throws Cancelled when the
+    /// current cancellation is requested.
+    std::vector<HierarchicalFormFactors::Block> compute(const std::vector<std::size_t>& which,
+                                                        HierarchicalStats& counts) const;
+    /// What the partition knows of the operator: the counts of blocks and pairs, clusters and
+    /// options (no values, ranks, entries or seconds yet).
+    const HierarchicalStats& stats() const;
+    /// Areas in scene order; order()[k] is the patch at cluster position k.
+    std::vector<double> areas() const;
+    const std::vector<std::uint32_t>& order() const;
+
+  private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+/// Counts the values and ranks of the blocks (rank and stored values of each, in any order)
+/// into stats: dense_values, low_rank_values, max_rank, mean_rank.
+void count_block_values(const std::vector<std::uint32_t>& ranks,
+                        const std::vector<std::size_t>& values, HierarchicalStats& stats);
 
 /// Builds the operator of the scene's patches. Throws OptionError for bad options, Error for a
 /// scene with obstructions (see matrix/hierarchical.h), ResourceError when the estimated memory
