@@ -277,6 +277,11 @@ bool BlockerSet::culls_all(int solid, const Vec3* v, int n) const {
     return false;
 }
 
+namespace {
+// From this many faces on, solid_hides() holds segments against the solid's balls first.
+constexpr std::size_t kBallFaces = 16;
+}  // namespace
+
 bool BlockerSet::solid_hides(int solid, const Vec3* a, int na, const Vec3* b, int nb) const {
     const Solid& so = solids_[static_cast<std::size_t>(solid)];
     // Neither polygon reaches into the solid: all its vertices on or in front of one of the
@@ -292,10 +297,12 @@ bool BlockerSet::solid_hides(int solid, const Vec3* a, int na, const Vec3* b, in
             if (in_front(f)) return true;
         return false;
     };
-    // The balls about the solid's centre first (a faceted sphere has thousands of faces): a
-    // segment farther from the centre than every vertex misses the solid, and one that passes
-    // through the ball inside every face plane goes through it — each by a margin far above the
-    // rounding of the plane tests below, so that they answer as those would.
+    // The balls about the solid's centre first, for a solid of many faces (a faceted sphere has
+    // thousands; a box's five or six planes cost less than the balls): a segment farther from
+    // the centre than every vertex misses the solid, and one that passes through the ball inside
+    // every face plane goes through it — each by a margin far above the rounding of the plane
+    // tests below, so that they answer as those would.
+    const bool balls = so.faces.size() >= kBallFaces;
     const double margin = so.tol + 1e-9 * so.r_out;
     auto ball_test = [&](const Vec3& p, const Vec3& q) {  // −1 misses, 1 through, 0 undecided
         const Vec3 d = q - p;
@@ -310,8 +317,8 @@ bool BlockerSet::solid_hides(int solid, const Vec3* a, int na, const Vec3* b, in
         return 0;
     };
     thread_local std::vector<signed char> decided;
-    decided.resize(static_cast<std::size_t>(na * nb));
-    for (int i = 0; i < na; ++i)
+    decided.assign(balls ? static_cast<std::size_t>(na * nb) : 0, 0);
+    for (int i = 0; i < na && balls; ++i)
         for (int j = 0; j < nb; ++j) {
             const int bt = ball_test(a[i], b[j]);
             if (bt < 0) return false;
@@ -320,7 +327,7 @@ bool BlockerSet::solid_hides(int solid, const Vec3* a, int na, const Vec3* b, in
     // A point farther from the centre than every vertex is outside the solid, so in front of
     // one of its planes.
     auto outside_ball = [&](const Vec3* v, int n) {
-        return n == 1 && (v[0] - so.centre).norm() > so.r_out + margin;
+        return balls && n == 1 && (v[0] - so.centre).norm() > so.r_out + margin;
     };
     if (!(outside_ball(a, na) || separated(a, na)) || !(outside_ball(b, nb) || separated(b, nb)))
         return false;
@@ -349,7 +356,8 @@ bool BlockerSet::solid_hides(int solid, const Vec3* a, int na, const Vec3* b, in
     };
     for (int i = 0; i < na; ++i)
         for (int j = 0; j < nb; ++j)
-            if (decided[static_cast<std::size_t>(i * nb + j)] == 0 && !through(a[i], b[j]))
+            if (!(balls && decided[static_cast<std::size_t>(i * nb + j)] == 1) &&
+                !through(a[i], b[j]))
                 return false;
     return true;
 }
