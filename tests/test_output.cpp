@@ -613,3 +613,31 @@ TEST_CASE("output: the JSON report carries the run, the scene and the diagnostic
     CHECK(text.back() == '\n');
     CHECK(nlohmann::json::parse(text) == r);
 }
+
+TEST_CASE("output: the report has the sections the run set, and no others") {
+    const Scene s = two_plate_scene();
+    ReportContext ctx;
+    ctx.method = "analytic (hierarchical operator)";
+    ctx.storage = {{"kind", "hierarchical"}};
+    ctx.solve = {{"kind", "radiosity"}};
+    ctx.note = "a remark";
+    const nlohmann::json r = make_report(s, 7, ctx);
+    CHECK(r["N"] == 7);
+    CHECK(r["storage"]["kind"] == "hierarchical");
+    CHECK(r["solve"]["kind"] == "radiosity");
+    CHECK(r["note"] == "a remark");
+    for (const char* unset : {"diagnostics", "memory", "repair", "per_surface", "render", "rows"})
+        CHECK_MESSAGE(!r.contains(unset), unset);
+
+    // A block of rows: N counts every patch, "rows" is the block, the diagnostics its standard
+    // errors alone (no row sums: the other rows are missing), and no memory section.
+    FormFactors block;
+    block.F = DenseMatrix::Constant(1, 2, 0.25);
+    block.first_row = 1;
+    block.areas = {1.0, 1.0};
+    const nlohmann::json b = make_report(s, block, ReportContext{});
+    CHECK(b["N"] == 2);
+    CHECK(b["rows"] == nlohmann::json::array({1, 2}));
+    CHECK(b["diagnostics"] == nlohmann::json{{"standard_error", nullptr}});
+    CHECK(!b.contains("memory"));
+}

@@ -134,11 +134,10 @@ void run_compute_hierarchical(const ComputeArgs& args, OutputTransaction* outer)
         ctx.options["output"] = args.output;
         ctx.options["report"] = args.report;
         ctx.outputs = {{"matrix", args.output}, {"report", args.report}};
-        nlohmann::json report = report_head(scene, scene.patches.size(), ctx);
-        report["storage"] = {{"kind", "hierarchical"}, {"operator_bytes", hs.bytes}};
-        report["memory"] = {{"peak_bytes", peak_memory_bytes()}};
-        report["per_surface"] = {{"N", written.size()}, {"diagnostics", diagnostics_json(d)}};
-        stage_report(tx, args.report, report);
+        ctx.storage = {{"kind", "hierarchical"}, {"operator_bytes", hs.bytes}};
+        ctx.memory = memory_json();
+        ctx.per_surface = {{"N", written.size()}, {"diagnostics", diagnostics_json(d)}};
+        stage_report(tx, args.report, make_report(scene, scene.patches.size(), ctx));
     }
     finish(tx, outer);
     fmt::print("scene      {}: N = {} patches, {} surfaces; rows sum to {:.9f} .. {:.9f}\n",
@@ -190,10 +189,9 @@ void run_compute_sparse(const ComputeArgs& args, const std::string& why, OutputT
         ctx.options["per_surface"] = args.per_surface;
         ctx.options["output"] = args.output;
         ctx.outputs = {{"matrix", args.output}};
-        nlohmann::json report = report_head(scene, scene.patches.size(), ctx);
-        report.update(sparse_report_sections(r, why, args.threshold, args.repair.mode));
-        if (args.per_surface) report["per_surface"] = {{"N", F.n}, {"nonzeros", F.nonzeros()}};
-        stage_report(tx, args.report, report);
+        add_sparse_sections(r, why, args.threshold, args.repair.mode, ctx);
+        if (args.per_surface) ctx.per_surface = {{"N", F.n}, {"nonzeros", F.nonzeros()}};
+        stage_report(tx, args.report, make_report(scene, scene.patches.size(), ctx));
     }
     SparseFileInfo info;
     info.scene = scene.name;
@@ -571,8 +569,7 @@ void run_compute(const ComputeArgs& args, OutputTransaction* outer) {
         ctx.options["per_surface"] = by_surface;
         ctx.outputs["report"] = args.report;
         ctx.options["repair"] = args.repair.mode;
-        nlohmann::json report = make_report(scene, ff, ctx);
-        if (repaired) report["repair"] = to_json(*repaired);
+        if (repaired) ctx.repair = to_json(*repaired);
         if (by_surface) {
             const PatchGroups& groups = surfaces->groups;
             // The report describes the patch computation; this block the matrix in -o.
@@ -583,12 +580,12 @@ void run_compute(const ComputeArgs& args, OutputTransaction* outer) {
                 rows.push_back(
                     {{"name", groups.names[g]}, {"area", written.areas[g]}, {"surfaces", members}});
             }
-            report["per_surface"] = {
+            ctx.per_surface = {
                 {"N", written.size()},
                 {"rows", rows},
                 {"diagnostics", diagnostics_json(diagnose(written), traits.reciprocity)}};
         }
-        stage_report(tx, args.report, report);
+        stage_report(tx, args.report, make_report(scene, ff, ctx));
     }
     finish(tx, outer);
 

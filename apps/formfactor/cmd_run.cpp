@@ -154,14 +154,14 @@ void run_run(RunArgs args) {
                    {"radiosity", radiosity_csv}, {"image", image_png},
                    {"mesh", mesh_ply},           {"report", report_json}};
     if (ff.standard_error) ctx.outputs["standard_error"] = se_npy;
-    nlohmann::json report = make_report(scene, ff, ctx);
-    report["solve"] = to_json(solution);
-    report["render"] = {{"width", args.image_size},
-                        {"height", args.image_size},
-                        {"exposure", info.exposure},
-                        {"triangles", info.triangles}};
-    if (repaired) report["repair"] = to_json(*repaired);
-    if (!note.empty()) report["note"] = note;
+    ctx.solve = to_json(solution);
+    ctx.render = {{"width", args.image_size},
+                  {"height", args.image_size},
+                  {"exposure", info.exposure},
+                  {"triangles", info.triangles}};
+    if (repaired) ctx.repair = to_json(*repaired);
+    ctx.note = note;
+    const nlohmann::json report = make_report(scene, ff, ctx);
     // The result page: the scene, its radiosity in the PNG's exposure, F and this report.
     PageContent page;
     page.form_factors = &ff;

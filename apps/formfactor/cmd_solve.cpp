@@ -185,9 +185,10 @@ nlohmann::json stored_options(const SolveArgs& args, const std::string& method_n
     return options;
 }
 
-// The report of a solve on the hierarchical operator or a sparse F (the dense path's comes from
-// make_report): report_head() with `options` completed with the solve's own, and "solve".
-nlohmann::json solve_report(const SolveArgs& args, const Scene& scene, const std::string& method,
+// The report context of a solve on the hierarchical operator, a sparse F or rows kept on the
+// ranks (the dense path's comes from report_context()): `options` completed with the solve's
+// own, and "solve"; the caller adds its storage's sections.
+ReportContext solve_context(const SolveArgs& args, const std::string& method,
                             nlohmann::json options, const SolverOptions& solver_options,
                             int threads, const StepTimes& times, const Stopwatch& total,
                             const nlohmann::json& solve_json) {
@@ -200,9 +201,8 @@ nlohmann::json solve_report(const SolveArgs& args, const Scene& scene, const std
     ctx.total_seconds = total.seconds();
     ctx.threads = threads;
     ctx.outputs = {{"result", args.output}, {"report", args.report}};
-    nlohmann::json report = report_head(scene, scene.patches.size(), ctx);
-    report["solve"] = solve_json;
-    return report;
+    ctx.solve = solve_json;
+    return ctx;
 }
 
 // `solve --storage hierarchical`: the operator of formfactor/matrix/hierarchical.h, never F.
@@ -261,18 +261,17 @@ void solve_hierarchical_scene(const SolveArgs& args, Scene& scene, StepTimes& ti
         nlohmann::json options = args.method.to_json("analytic");
         options["storage"] = "hierarchical";
         options["error_target"] = args.error_target;
-        nlohmann::json report =
-            solve_report(args, scene, "analytic (hierarchical operator)", options, solver_options,
-                         threads, times, total, solve_json);
-        report["diagnostics"] = {
+        ReportContext ctx = solve_context(args, "analytic (hierarchical operator)", options,
+                                          solver_options, threads, times, total, solve_json);
+        ctx.diagnostics = {
             {"row_sum",
              row_sum_json(row_sum_range(spread ? spread->row_sums : whole->row_sums(threads)))},
             {"reciprocity", "exact by construction (one block per unordered cluster pair)"}};
-        report["details"] = {{"hierarchical", to_json(hs)}};
-        if (spread) report["details"]["mpi"] = to_json(*spread);
-        report["storage"] = {{"kind", "hierarchical"}, {"why", why}, {"operator_bytes", hs.bytes}};
-        report["memory"] = {{"peak_bytes", peak_memory_bytes()}};
-        stage_report(tx, args.report, report);
+        ctx.details = {{"hierarchical", to_json(hs)}};
+        if (spread) ctx.details["mpi"] = to_json(*spread);
+        ctx.storage = {{"kind", "hierarchical"}, {"why", why}, {"operator_bytes", hs.bytes}};
+        ctx.memory = memory_json();
+        stage_report(tx, args.report, make_report(scene, scene.patches.size(), ctx));
     }
     finish(tx, args.outer);
     fmt::print("scene      {}: N = {} patches, hierarchical operator (analytic entries)\n",
@@ -342,11 +341,11 @@ void solve_sparse_scene(const SolveArgs& args, Scene& scene, StepTimes& times, S
     if (!args.report.empty()) {
         const nlohmann::json options =
             stored_options(args, to_string(method), read ? args.matrix : "", "sparse");
-        nlohmann::json report = solve_report(args, scene, method_name, options, solver_options,
-                                             threads, times, total, solve_json);
-        report.update(sparse_report_sections(r, why, F.threshold, args.repair.mode));
-        report["memory"]["peak_bytes"] = peak_memory_bytes();  // the solve's too
-        stage_report(tx, args.report, report);
+        ReportContext ctx = solve_context(args, method_name, options, solver_options, threads,
+                                          times, total, solve_json);
+        add_sparse_sections(r, why, F.threshold, args.repair.mode, ctx);
+        ctx.memory["peak_bytes"] = peak_memory_bytes();  // the solve's too
+        stage_report(tx, args.report, make_report(scene, scene.patches.size(), ctx));
     }
     finish(tx, args.outer);
     fmt::print("scene      {}: N = {} patches, F from {} ({} thread{})\n", scene.name,
@@ -388,20 +387,20 @@ void solve_distributed_scene(const SolveArgs& args, Scene& scene, StepTimes& tim
     const std::string kind = sparse ? "sparse" : "dense";
     if (!args.report.empty()) {
         const nlohmann::json options = stored_options(args, method_name, "", kind);
-        nlohmann::json report = solve_report(args, scene, method_name, options, solver_options,
-                                             threads, times, total, solve_json);
-        report["diagnostics"] = {
+        ReportContext ctx = solve_context(args, method_name, options, solver_options, threads,
+                                          times, total, solve_json);
+        ctx.diagnostics = {
             {"row_sum", row_sum_json(sums)},
             {"reciprocity", "not checked: the rows of F stay on the ranks that computed them"}};
-        report["details"] = to_json(to_fields(F.report));
-        report["storage"] = {{"kind", kind},
-                             {"why", "rows kept on the MPI ranks that computed them"},
-                             {"ranks", distributed::size()},
-                             {"rows_per_rank", F.rows_per_rank},
-                             {"entries", F.entries},
-                             {"threshold", F.threshold}};
-        report["memory"] = {{"peak_bytes", peak_memory_bytes()}};
-        stage_report(tx, args.report, report);
+        ctx.details = to_json(to_fields(F.report));
+        ctx.storage = {{"kind", kind},
+                       {"why", "rows kept on the MPI ranks that computed them"},
+                       {"ranks", distributed::size()},
+                       {"rows_per_rank", F.rows_per_rank},
+                       {"entries", F.entries},
+                       {"threshold", F.threshold}};
+        ctx.memory = memory_json();
+        stage_report(tx, args.report, make_report(scene, scene.patches.size(), ctx));
     }
     finish(tx, args.outer);
     fmt::print("scene      {}: N = {} patches, F from {} ({} thread{} per rank)\n", scene.name,
@@ -614,10 +613,9 @@ void run_solve(const SolveArgs& args) {
         ctx.outputs["result"] = args.output;
         if (!args.exchange.empty()) ctx.outputs["exchange_factors"] = args.exchange;
         ctx.outputs["report"] = args.report;
-        nlohmann::json report = make_report(scene, ff, ctx);
-        report["solve"] = solve_json;
-        if (repaired) report["repair"] = to_json(*repaired);
-        stage_report(tx, args.report, report);
+        ctx.solve = solve_json;
+        if (repaired) ctx.repair = to_json(*repaired);
+        stage_report(tx, args.report, make_report(scene, ff, ctx));
     }
     finish(tx, args.outer);
     fmt::print("scene      {}: N = {} patches, F from {}\n", scene.name, scene.patches.size(),

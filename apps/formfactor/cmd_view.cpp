@@ -190,18 +190,19 @@ void run_view(const ViewArgs& args) {
         args.matrix.empty() ? nlohmann::json(nullptr) : nlohmann::json(args.matrix);
     ctx.options["repair"] = args.repair.mode;
     ctx.outputs = {{"page", args.output}};
+    ctx.solve = solve_json;
     nlohmann::json report;
     if (content.form_factors) {
+        if (computed.repaired) ctx.repair = to_json(*computed.repaired);
         report = make_report(scene, computed.ff, ctx);
-        if (computed.repaired) report["repair"] = to_json(*computed.repaired);
     } else {
-        report = report_head(scene, sparse.n, ctx);
+        ctx.storage = "sparse";
+        report = make_report(scene, sparse.n, ctx);
+        // The sparse F read from --matrix.
         report["matrix"] = args.matrix;
-        report["storage"] = "sparse";
         report["nonzeros"] = sparse.nonzeros();
         report["threshold"] = sparse.threshold;
     }
-    if (!solve_json.is_null()) report["solve"] = solve_json;
     if (!table_path.empty()) report["solution"] = table_path;
 
     PageOptions po;

@@ -57,36 +57,33 @@ nlohmann::json memory_items(const MemoryEstimate& e) {
 
 }  // namespace
 
-nlohmann::json sparse_report_sections(const SparseComputeResult& r, const std::string& why,
-                                      double threshold, const std::string& repair_mode) {
+void add_sparse_sections(const SparseComputeResult& r, const std::string& why, double threshold,
+                         const std::string& repair_mode, ReportContext& ctx) {
     const SparseFormFactors& F = r.form_factors;
-    nlohmann::json j = {{"storage",
-                         {{"kind", "sparse"},
-                          {"why", why},
-                          {"threshold", threshold},
-                          {"blocks", r.run.blocks},
-                          {"block_rows", r.run.block_rows},
-                          {"nonzeros", F.nonzeros()},
-                          {"csr_bytes", F.memory_bytes()}}},
-                        {"details", to_json(to_fields(r.report))},
-                        {"diagnostics", diagnostics_json(r.diagnostics)},
-                        {"memory",
-                         {{"estimate_before", memory_items(r.run.estimate_before)},
-                          {"estimate_after", memory_items(r.run.estimate_after)},
-                          {"projected_bytes", r.run.projected_bytes},
-                          {"peak_bytes", r.run.peak_memory_bytes}}}};
+    ctx.storage = {{"kind", "sparse"},
+                   {"why", why},
+                   {"threshold", threshold},
+                   {"blocks", r.run.blocks},
+                   {"block_rows", r.run.block_rows},
+                   {"nonzeros", F.nonzeros()},
+                   {"csr_bytes", F.memory_bytes()}};
+    ctx.details = to_json(to_fields(r.report));
+    ctx.diagnostics = diagnostics_json(r.diagnostics);
+    ctx.memory = {{"estimate_before", memory_items(r.run.estimate_before)},
+                  {"estimate_after", memory_items(r.run.estimate_after)},
+                  {"projected_bytes", r.run.projected_bytes},
+                  {"peak_bytes", r.run.peak_memory_bytes}};
     if (r.repair)
-        j["repair"] = {{"mode", repair_mode},
-                       {"closure", r.repair->closure},
-                       {"entries_restored", r.repair->entries_restored},
-                       {"entries_removed", r.repair->entries_removed},
-                       {"rows_lowered", r.repair->rows_lowered},
-                       {"min_scale", r.repair->min_scale},
-                       {"closure_iterations", r.repair->closure_iterations},
-                       {"closure_residual", r.repair->closure_residual},
-                       {"max_row_increase", r.repair->max_row_increase},
-                       {"after", diagnostics_json(r.repair->after)}};
-    return j;
+        ctx.repair = {{"mode", repair_mode},
+                      {"closure", r.repair->closure},
+                      {"entries_restored", r.repair->entries_restored},
+                      {"entries_removed", r.repair->entries_removed},
+                      {"rows_lowered", r.repair->rows_lowered},
+                      {"min_scale", r.repair->min_scale},
+                      {"closure_iterations", r.repair->closure_iterations},
+                      {"closure_residual", r.repair->closure_residual},
+                      {"max_row_increase", r.repair->max_row_increase},
+                      {"after", diagnostics_json(r.repair->after)}};
 }
 
 void print_sparse_summary(const Scene& scene, const SparseComputeResult& r, const std::string& why,

@@ -17,10 +17,11 @@ SparseComputeResult compute_sparse_matrix(const Scene& scene, const MethodArgs& 
                                           const RepairArgs& repair, double threshold,
                                           StepTimes& times);
 
-/// The report's sections of a sparse run: "storage" (kind, why, threshold, blocks, nonzeros,
-/// CSR bytes), "details", "diagnostics" (before repair), "memory", and "repair" when it ran.
-nlohmann::json sparse_report_sections(const SparseComputeResult& r, const std::string& why,
-                                      double threshold, const std::string& repair_mode);
+/// Fills the report sections of a sparse run into `ctx`: "storage" (kind, why, threshold,
+/// blocks, nonzeros, CSR bytes), "details", "diagnostics" (before repair), "memory", and
+/// "repair" when it ran.
+void add_sparse_sections(const SparseComputeResult& r, const std::string& why, double threshold,
+                         const std::string& repair_mode, ReportContext& ctx);
 
 /// Prints the storage, matrix, dropped-mass, row-sum, reciprocity, repair and memory lines.
 void print_sparse_summary(const Scene& scene, const SparseComputeResult& r, const std::string& why,

@@ -195,18 +195,9 @@ std::string report_of(const Scene& scene, const ComputeOptions& o, const Compute
     ctx.threads = r.threads;
     ctx.details = to_json(to_fields(r.report));
     ctx.reciprocity = r.traits.reciprocity;
-    if (ff.is_block()) {
-        // A block of rows has no row sums or reciprocity to diagnose: its standard errors only.
-        const nlohmann::json rows = {ff.first_row, ff.first_row + ff.size()};
-        ctx.options["rows"] = rows;
-        nlohmann::json report = report_head(scene, ff.areas.size(), ctx);
-        report["rows"] = rows;
-        report["diagnostics"] = {{"standard_error", standard_error_json(ff)}};
-        return json_text(report);
-    }
-    nlohmann::json report = make_report(scene, ff, ctx);
-    if (r.repair) report["repair"] = to_json(*r.repair);
-    return json_text(report);
+    if (ff.is_block()) ctx.options["rows"] = {ff.first_row, ff.first_row + ff.size()};
+    if (r.repair) ctx.repair = to_json(*r.repair);
+    return json_text(make_report(scene, ff, std::move(ctx)));
 }
 
 // Under a communicator (comm= an mpi4py communicator): every rank calls together; rank 0

@@ -134,11 +134,15 @@ std::string reciprocity_summary(const Diagnostics& d, const ReciprocityPromise& 
     return s + ": " + v.text;
 }
 
-json report_head(const Scene& scene, std::size_t n, const ReportContext& ctx) {
+namespace {
+
+// The one place that writes the report's top-level keys; `rows` is a block's [first, end).
+json assemble_report(const Scene& scene, std::size_t n, const ReportContext& ctx,
+                     const json& rows) {
     json timings = json::object();
     for (const auto& [name, seconds] : ctx.timings.steps) timings[name] = seconds;
     timings["total"] = std::max(ctx.total_seconds, ctx.timings.sum());
-    return json{
+    json report{
         {"formfactor_version", FF_VERSION},
         {"timestamp", utc_timestamp()},
         {"command", ctx.command},
@@ -151,15 +155,37 @@ json report_head(const Scene& scene, std::size_t n, const ReportContext& ctx) {
         {"details", ctx.details},
         {"outputs", ctx.outputs},
     };
-}
-
-json make_report(const Scene& scene, const FormFactors& ff, const ReportContext& ctx) {
-    json report = report_head(scene, ff.size(), ctx);
-    json& diagnostics = report["diagnostics"] = diagnostics_json(diagnose(ff), ctx.reciprocity);
-    diagnostics["standard_error"] = standard_error_json(ff);
-    report["memory"] = {{"peak_bytes", peak_memory_bytes()}};
+    const std::pair<const char*, const json*> sections[] = {
+        {"storage", &ctx.storage},         {"diagnostics", &ctx.diagnostics},
+        {"memory", &ctx.memory},           {"repair", &ctx.repair},
+        {"per_surface", &ctx.per_surface}, {"solve", &ctx.solve},
+        {"render", &ctx.render},           {"rows", &rows}};
+    for (const auto& [key, section] : sections) {
+        if (!section->is_null()) report[key] = *section;
+    }
+    if (!ctx.note.empty()) report["note"] = ctx.note;
     return report;
 }
+
+}  // namespace
+
+json make_report(const Scene& scene, std::size_t n, const ReportContext& ctx) {
+    return assemble_report(scene, n, ctx, nullptr);
+}
+
+json make_report(const Scene& scene, const FormFactors& ff, ReportContext ctx) {
+    if (ff.is_block()) {
+        ctx.diagnostics = {{"standard_error", standard_error_json(ff)}};
+        return assemble_report(scene, ff.areas.size(), ctx,
+                               json::array({ff.first_row, ff.first_row + ff.size()}));
+    }
+    ctx.diagnostics = diagnostics_json(diagnose(ff), ctx.reciprocity);
+    ctx.diagnostics["standard_error"] = standard_error_json(ff);
+    ctx.memory = memory_json();
+    return assemble_report(scene, ff.size(), ctx, nullptr);
+}
+
+json memory_json() { return {{"peak_bytes", peak_memory_bytes()}}; }
 
 std::string json_text(const json& j) { return j.dump(2) + "\n"; }
 

@@ -8,7 +8,9 @@
 ///       "method": "analytic", "options": { every option, as resolved },
 ///       "threads": 2, "timings": { "load": s, "subdivide": s, "compute": s, ..., "total": s },
 ///       "diagnostics": { diagnostics_json() }, "details": { the method's own fields },
-///       "outputs": { "matrix": "F.npy", ... } }
+///       "outputs": { "matrix": "F.npy", ... }, "memory": { "peak_bytes": bytes },
+///       and the sections the run has: "storage", "repair", "per_surface", "solve", "render",
+///       "rows", "note" (ReportContext) }
 
 #include <nlohmann/json.hpp>
 #include <string>
@@ -24,7 +26,9 @@
 
 namespace formfactor {
 
-/// Everything the report says that is not in the scene or the matrix.
+/// Everything the report says that is not in the scene or the matrix: a front end fills in what
+/// it has and make_report() writes the report's top-level keys from it (they are written nowhere
+/// else). A section left null is left out of the report.
 struct ReportContext {
     std::string command = "compute";                    ///< the CLI subcommand (or API caller)
     std::string method;                                 ///< Method::name()
@@ -36,6 +40,17 @@ struct ReportContext {
     nlohmann::json outputs = nlohmann::json::object();  ///< role → path of each file written
     /// What the method promises about reciprocity (method_traits()); unknown by default.
     ReciprocityPromise reciprocity;
+    /// "storage": how F is held when it is not one dense matrix ({"kind", "why", ...}).
+    nlohmann::json storage = nullptr;
+    /// "diagnostics" of an F not held dense (a dense F's are computed from it by make_report()).
+    nlohmann::json diagnostics = nullptr;
+    /// "memory" of an F not held dense, {"peak_bytes", ...} (memory_json() for the peak alone).
+    nlohmann::json memory = nullptr;
+    nlohmann::json repair = nullptr;       ///< "repair": what the repair changed
+    nlohmann::json per_surface = nullptr;  ///< "per_surface": the per-surface matrix written
+    nlohmann::json solve = nullptr;        ///< "solve": the solution's summary
+    nlohmann::json render = nullptr;       ///< "render": the image rendered
+    std::string note;                      ///< "note" when not empty: a remark on the run
 };
 
 /// The diagnostics as JSON: {"row_sum": {"min", "max", "mean"}, "reciprocity": {...},
@@ -64,17 +79,23 @@ nlohmann::json standard_error_json(const FormFactors& ff);
 /// "max"}, "bounds": {"min": [x,y,z], "max": [x,y,z]}, "warnings": [...]}.
 nlohmann::json scene_summary_json(const Scene& scene);
 
-/// The keys every report has, whatever holds F (a dense matrix, a sparse one, a hierarchical
-/// operator, a block of rows): "formfactor_version", "timestamp", "command", "scene"
+/// The report of a run whose F is not one dense matrix (a sparse one, a hierarchical operator,
+/// rows kept on MPI ranks): "formfactor_version", "timestamp", "command", "scene"
 /// (scene_summary_json()), "N" (`n`, the patches), "method", "options", "threads", "timings"
 /// (each step, and "total": the larger of ctx.total_seconds and the steps' sum), "details",
-/// "outputs". make_report() adds what a dense F says; the other front ends add their storage's.
-nlohmann::json report_head(const Scene& scene, std::size_t n, const ReportContext& ctx);
+/// "outputs", and each section of `ctx` that is set.
+nlohmann::json make_report(const Scene& scene, std::size_t n, const ReportContext& ctx);
 
-/// The full report for F computed on `scene`: report_head() with "diagnostics" (diagnose(ff),
-/// with the standard errors when ff has them; the reciprocity verdict against ctx.reciprocity;
-/// and "standard_error": standard_error_json(ff)) and "memory": {"peak_bytes"}.
-nlohmann::json make_report(const Scene& scene, const FormFactors& ff, const ReportContext& ctx);
+/// The report for F computed on `scene`: make_report(scene, n, ctx) with "diagnostics"
+/// (diagnose(ff), with the standard errors when ff has them; the reciprocity verdict against
+/// ctx.reciprocity; and "standard_error": standard_error_json(ff)) and "memory": memory_json().
+/// A block of rows has no row sums or reciprocity to diagnose: its "diagnostics" are
+/// {"standard_error"} alone, "N" counts every patch and "rows" is [first, end) of the block.
+nlohmann::json make_report(const Scene& scene, const FormFactors& ff, ReportContext ctx);
+
+/// The report's "memory" section when the peak is all it says: {"peak_bytes": the process's
+/// peak resident memory so far}.
+nlohmann::json memory_json();
 
 /// The report of repair(): mode, the diagnostics before and after, the changes, the closure
 /// iterations, the warnings.
