@@ -1246,6 +1246,21 @@ struct SolveJob {
     int threads = 0;
     bool fail_if_not_converged = true;
 
+    /// The job of a solve of kept rows or operator `kept` (owners left empty).
+    static SolveJob of(std::uint64_t kept, const Columns& d, const Columns& c,
+                       const SolverOptions& options) {
+        SolveJob job;
+        job.kept = kept;
+        job.d = d;
+        job.c = c;
+        job.solver = options.solver;
+        job.residual = options.residual;
+        job.max_iterations = options.max_iterations;
+        job.threads = options.threads;
+        job.fail_if_not_converged = options.fail_if_not_converged;
+        return job;
+    }
+
     SolverOptions options() const {
         SolverOptions o;
         o.solver = solver;
@@ -1297,6 +1312,16 @@ SolveJob get_solve_job(const std::vector<char>& bytes) {
     return job;
 }
 
+// A worker's answer when a solve stopped: only a rank whose own failure stopped it tells rank 0
+// why.
+void tell_own_failure(const RankStopped& e) {
+    if (e.state.rank != g_rank || e.state.status != RankStatus::failed) return;
+    WireWriter w;
+    w.put(Status::failed);
+    w.put_string(e.own_message);
+    send_bytes(w.bytes(), 0, kTagResult);
+}
+
 // A worker's part of a solve: the same iteration as rank 0's on its own rows. It ends with the
 // solve on every rank; only a rank whose own failure stopped it tells rank 0 why.
 void work_on_solve(const std::vector<char>& bytes) {
@@ -1307,12 +1332,7 @@ void work_on_solve(const std::vector<char>& bytes) {
         if (job.kept != kept_id()) throw Error("distributed: the rows of F are not the ones kept");
         solve_kept(kept_rows(), g_rank, exchange, job.d, job.c, job.options(), x, fx);
     } catch (const RankStopped& e) {
-        if (e.state.rank == g_rank && e.state.status == RankStatus::failed) {
-            WireWriter w;
-            w.put(Status::failed);
-            w.put_string(e.own_message);
-            send_bytes(w.bytes(), 0, kTagResult);
-        }
+        tell_own_failure(e);
     } catch (const std::exception&) {
         // Not converged (and any error of the options): rank 0 meets the same and reports it.
     }
@@ -1740,12 +1760,7 @@ void work_on_operator_solve(const std::vector<char>& bytes) {
             job.kept == kept_operator_id() ? kept_operator().get() : nullptr;
         solve_operator_kept(part, g_rank, chain, job.d.rows(), job.d, job.c, job.options(), x, fx);
     } catch (const RankStopped& e) {
-        if (e.state.rank == g_rank && e.state.status == RankStatus::failed) {
-            WireWriter w;
-            w.put(Status::failed);
-            w.put_string(e.own_message);
-            send_bytes(w.bytes(), 0, kTagResult);
-        }
+        tell_own_failure(e);
     } catch (const std::exception&) {
         // Not converged (and any error of the options): rank 0 meets the same and reports it.
     }
@@ -2043,36 +2058,34 @@ DistributedRows distribute_rows(const SparseFormFactors& F) {
     return scatter_rows(whole_rows(F, g_rank == 0 ? g_size : 1));
 }
 
+// Rank 0 when a solve stopped: Cancelled for an interruption, else the failing rank's message
+// (its own, or the one that rank sent).
+[[noreturn]] void throw_stopped(const RankStopped& e) {
+    const int from = e.state.rank;
+    if (e.state.status == RankStatus::cancelled) {
+        if (from == 0) throw Cancelled();
+        throw Cancelled(fmt::format("rank {}: interrupted", from));
+    }
+    if (from == 0) throw Error(e.own_message);
+    const MPI_Status probed = wait_for(from, kTagResult, nullptr);
+    const std::vector<char> bytes = receive_bytes(probed);
+    WireReader r(bytes.data(), bytes.size());
+    r.get<Status>();
+    throw Error(fmt::format("rank {}: {}", from, r.get_string()));
+}
+
 SolverStats solve_rows(const DistributedRows& rows, const Columns& d, const Columns& c,
                        const SolverOptions& options, Columns& x, Columns& fx) {
     if (g_size <= 1 || g_rank != 0) return solve_rows_here(rows, d, c, options, x, fx);
     check_kept(rows);
-    SolveJob job;
-    job.kept = rows.id;
+    SolveJob job = SolveJob::of(rows.id, d, c, options);
     job.owners = g_owners;
-    job.d = d;
-    job.c = c;
-    job.solver = options.solver;
-    job.residual = options.residual;
-    job.max_iterations = options.max_iterations;
-    job.threads = options.threads;
-    job.fail_if_not_converged = options.fail_if_not_converged;
     broadcast_command(kCommandSolve, solve_job_bytes(job));
     MpiExchange exchange(g_owners);
     try {
         return solve_kept(kept_rows(), 0, exchange, d, c, options, x, fx);
     } catch (const RankStopped& e) {
-        const int from = e.state.rank;
-        if (e.state.status == RankStatus::cancelled) {
-            if (from == 0) throw Cancelled();
-            throw Cancelled(fmt::format("rank {}: interrupted", from));
-        }
-        if (from == 0) throw Error(e.own_message);
-        const MPI_Status probed = wait_for(from, kTagResult, nullptr);
-        const std::vector<char> bytes = receive_bytes(probed);
-        WireReader r(bytes.data(), bytes.size());
-        r.get<Status>();
-        throw Error(fmt::format("rank {}: {}", from, r.get_string()));
+        throw_stopped(e);
     }
 }
 
@@ -2093,32 +2106,14 @@ SolverStats solve_operator(const DistributedHierarchical& op, const Columns& d, 
                           fmt::format("{} needs the entries of F; the hierarchical operator is "
                                       "solved by gmres or jacobi",
                                       to_string(options.solver)));
-    SolveJob job;
-    job.kept = op.id;
-    job.d = d;
-    job.c = c;
-    job.solver = options.solver;
-    job.residual = options.residual;
-    job.max_iterations = options.max_iterations;
-    job.threads = options.threads;
-    job.fail_if_not_converged = options.fail_if_not_converged;
+    const SolveJob job = SolveJob::of(op.id, d, c, options);
     broadcast_command(kCommandOperatorSolve, solve_job_bytes(job));
     MpiChain chain;
     try {
         return solve_operator_kept(kept_operator().get(), 0, chain, static_cast<Eigen::Index>(op.n),
                                    d, c, options, x, fx);
     } catch (const RankStopped& e) {
-        const int from = e.state.rank;
-        if (e.state.status == RankStatus::cancelled) {
-            if (from == 0) throw Cancelled();
-            throw Cancelled(fmt::format("rank {}: interrupted", from));
-        }
-        if (from == 0) throw Error(e.own_message);
-        const MPI_Status probed = wait_for(from, kTagResult, nullptr);
-        const std::vector<char> bytes = receive_bytes(probed);
-        WireReader r(bytes.data(), bytes.size());
-        r.get<Status>();
-        throw Error(fmt::format("rank {}: {}", from, r.get_string()));
+        throw_stopped(e);
     }
 }
 
