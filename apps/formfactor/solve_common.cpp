@@ -68,19 +68,22 @@ ComputedMatrix computed_matrix(ComputeResult&& r, StepTimes& times) {
     return out;
 }
 
+// "a / b / c" of per-rank values.
+std::string per_rank(const std::vector<double>& v, const char* format) {
+    std::string s;
+    for (std::size_t r = 0; r < v.size(); ++r)
+        s += (r ? " / " : "") + fmt::format(fmt::runtime(format), v[r]);
+    return s;
+}
+
 }  // namespace
 
 void print_rank_shares(int threads) {
     const distributed::RankShares& shares = distributed::last_rank_shares();
     if (distributed::size() <= 1 || shares.rows.empty()) return;
-    std::string rows, busy;
-    for (std::size_t r = 0; r < shares.rows.size(); ++r) {
-        rows += fmt::format("{}{:.0f}", r ? " / " : "", shares.rows[r]);
-        busy += fmt::format("{}{:.2f}", r ? " / " : "", shares.busy_seconds[r]);
-    }
-    std::string pairs;
-    for (std::size_t r = 0; r < shares.pairs.size(); ++r)
-        pairs += fmt::format("{}{:.0f}", r ? " / " : "", shares.pairs[r]);
+    const std::string rows = per_rank(shares.rows, "{:.0f}");
+    const std::string busy = per_rank(shares.busy_seconds, "{:.2f}");
+    std::string pairs = per_rank(shares.pairs, "{:.0f}");
     if (!pairs.empty())
         pairs = fmt::format("; partly hidden pairs {} in {} parts", pairs, shares.pair_blocks);
     fmt::print("ranks      {} × {} thread{}: rows {}, busy {} s, imbalance {:.1f} %, {} blocks{}\n",
@@ -162,14 +165,6 @@ void print_operator_line(const HierarchicalStats& hs) {
         hs.zero_blocks, format_bytes(static_cast<double>(hs.bytes)),
         100.0 * static_cast<double>(hs.bytes) /
             (8.0 * static_cast<double>(hs.patches) * static_cast<double>(hs.patches)));
-}
-
-// "a / b / c" of per-rank values.
-std::string per_rank(const std::vector<double>& v, const char* format) {
-    std::string s;
-    for (std::size_t r = 0; r < v.size(); ++r)
-        s += (r ? " / " : "") + fmt::format(fmt::runtime(format), v[r]);
-    return s;
 }
 
 }  // namespace
