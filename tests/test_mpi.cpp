@@ -332,8 +332,10 @@ TEST_CASE("mpi: a rank that fails building or applying the hierarchical operator
     const std::string args =
         "solve cube --subdivide 6 --storage hierarchical --thermal --properties p.csv --threads 1 "
         "-o T.csv --report r.json";
-    for (const auto& [env, rank] : std::vector<std::pair<std::string, std::string>>{
+    for (const auto& [variable, failing] : std::vector<std::pair<std::string, std::string>>{
              {"FORMFACTOR_TEST_FAIL_RANK=1", "1"}, {"FORMFACTOR_TEST_FAIL_SOLVE_RANK=2", "2"}}) {
+        // Copies: clang's doctest CAPTURE (a lambda) cannot name a structured binding.
+        const std::string env = variable, rank = failing;
         CAPTURE(env);
         const Run r = run(dir, 3, args, env);
         INFO(said(r));
