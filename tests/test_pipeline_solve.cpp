@@ -10,19 +10,12 @@
 #include "formfactor/pipeline.h"
 #include "formfactor/pipeline_solve.h"
 #include "formfactor/pipeline_sparse.h"
+#include "support/scenes.h"
 
 using namespace formfactor;
+using formfactor::testing::unit_cube;
 
 namespace {
-
-// The built-in unit cube (a closed model) with n×n patches per face.
-Scene cube(int n) {
-    Scene s = load_scene("cube");
-    SubdivisionOptions o;
-    o.n = n;
-    subdivide(s, o);
-    return s;
-}
 
 // Grey walls at 300 K, the patches of the first face at 400 K.
 PatchProperties warm_floor(const Scene& scene) {
@@ -54,7 +47,7 @@ TEST_CASE("pipeline solve: the default solver of each storage and problem") {
 }
 
 TEST_CASE("pipeline solve: dense and sparse F and the operator give one thermal solution") {
-    const Scene scene = cube(3);
+    const Scene scene = unit_cube(3);
     const PatchProperties props = warm_floor(scene);
     SolveOptions o;
     o.thermal = true;
@@ -87,7 +80,7 @@ TEST_CASE("pipeline solve: dense and sparse F and the operator give one thermal 
 }
 
 TEST_CASE("pipeline solve: radiosity is the solver's own answer") {
-    const Scene scene = cube(2);
+    const Scene scene = unit_cube(2);
     PatchProperties props = properties_from_scene(scene);
     for (std::size_t i = 0; i < props.size(); ++i) {
         props.reflectance[i] = Rgb(0.5, 0.6, 0.7);
@@ -107,7 +100,7 @@ TEST_CASE("pipeline solve: radiosity is the solver's own answer") {
 
 TEST_CASE("pipeline solve: F per surface from a matrix and from the operator") {
     SUBCASE("one patch per surface: the patch matrix itself") {
-        const Scene scene = cube(1);
+        const Scene scene = unit_cube(1);
         const FormFactors F = compute_form_factors(scene).form_factors;
         const SurfaceFormFactors<FormFactors> s = per_surface(scene, F);
         CHECK(s.groups.size() == 6);
@@ -115,7 +108,7 @@ TEST_CASE("pipeline solve: F per surface from a matrix and from the operator") {
         CHECK(&s.of(F) == &F);
     }
     SUBCASE("several patches per surface: aggregated, closed rows") {
-        const Scene scene = cube(3);
+        const Scene scene = unit_cube(3);
         const FormFactors F = compute_form_factors(scene).form_factors;
         const SurfaceFormFactors<FormFactors> s = per_surface(scene, F);
         REQUIRE(s.aggregated);
