@@ -4,6 +4,9 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <optional>
+
 #include "formfactor/core/error.h"
 #include "formfactor/distributed/distributed.h"
 #include "hierarchical_solve.h"
@@ -46,29 +49,69 @@ struct LastProduct {
     Columns x, fx;
 };
 
+// The thermal problem on F of n patches (areas, row sums) held over the ranks, whose linear
+// solves are linear_solve(d, c, x, fx) (the rows' or the operator's): set up on rank 0 as on one
+// process. The thermal solve asks for F J once, after the solve, of the J the solve returned.
+template <class LinearSolve>
+ThermalResult thermal_on_ranks(std::size_t n, const std::vector<double>& areas,
+                               const std::vector<double>& row_sums,
+                               std::optional<double> row_sum_tolerance,
+                               const PatchProperties& props, const ThermalOptions& options,
+                               const LinearSolve& linear_solve) {
+    detail::ThermalSystem sys;
+    sys.n = static_cast<Eigen::Index>(n);
+    sys.areas = &areas;
+    sys.row_sums = row_sums;
+    if (row_sum_tolerance) sys.row_sum_tolerance = *row_sum_tolerance;
+    LastProduct last;
+    sys.apply = [&](const Columns& x, Columns& y) {
+        FF_ASSERT(x.rows() == last.x.rows() && x == last.x);
+        y = last.fx;
+    };
+    sys.solve = [&](const Columns& d, const Columns& c, Columns& x) {
+        const SolverStats st = linear_solve(d, c, x, last.fx);
+        last.x = x;
+        return st;
+    };
+    return detail::solve_thermal_system(sys, props, options);
+}
+
+// The radiosity problem likewise.
+template <class LinearSolve>
+RadiosityResult radiosity_on_ranks(std::size_t n, const std::vector<double>& areas,
+                                   const std::vector<double>& row_sums,
+                                   const PatchProperties& props, const LinearSolve& linear_solve) {
+    validate_properties(props);
+    Columns d, c, x, fx;
+    detail::radiosity_system(props, d, c);
+    RadiosityResult res;
+    res.stats = linear_solve(d, c, x, fx);
+    res.radiosity.resize(n);
+    for (Eigen::Index i = 0; i < x.rows(); ++i)
+        res.radiosity[static_cast<std::size_t>(i)] = x.row(i);
+    res.balance = detail::radiosity_balance_of(areas, row_sums, props, x, fx);
+    return res;
+}
+
+void check_operator_size(const DistributedHierarchical& op, std::size_t properties) {
+    if (properties != op.n)
+        throw Error(fmt::format("solve: the scene has {} patches but the operator has {}",
+                                properties, op.n));
+}
+
 }  // namespace
 
 ThermalResult solve_thermal(const DistributedRows& rows, const PatchProperties& props,
                             const ThermalOptions& options) {
     check_sizes(rows, props.size());
     check_solver(options.solver.solver);
-    detail::ThermalSystem sys;
-    sys.n = static_cast<Eigen::Index>(rows.n);
-    sys.areas = &rows.areas;
-    sys.row_sums = rows.row_sums;
-    if (rows.sparse) sys.row_sum_tolerance = std::max(1e-9, 2.0 * rows.dropped_max);
-    LastProduct last;
-    // The thermal solve asks for F J once, after the solve, of the J the solve returned.
-    sys.apply = [&](const Columns& x, Columns& y) {
-        FF_ASSERT(x.rows() == last.x.rows() && x == last.x);
-        y = last.fx;
-    };
-    sys.solve = [&](const Columns& d, const Columns& c, Columns& x) {
-        const SolverStats st = solve_rows(rows, d, c, options.solver, x, last.fx);
-        last.x = x;
-        return st;
-    };
-    ThermalResult res = detail::solve_thermal_system(sys, props, options);
+    std::optional<double> tolerance;
+    if (rows.sparse) tolerance = std::max(1e-9, 2.0 * rows.dropped_max);
+    ThermalResult res =
+        thermal_on_ranks(rows.n, rows.areas, rows.row_sums, tolerance, props, options,
+                         [&](const Columns& d, const Columns& c, Columns& x, Columns& fx) {
+                             return solve_rows(rows, d, c, options.solver, x, fx);
+                         });
     if (std::string w = dropped_mass_warning(rows); !w.empty()) res.warnings.push_back(w);
     return res;
 }
@@ -77,15 +120,11 @@ RadiosityResult solve_radiosity(const DistributedRows& rows, const PatchProperti
                                 const SolverOptions& options) {
     check_sizes(rows, props.size());
     check_solver(options.solver);
-    validate_properties(props);
-    Columns d, c, x, fx;
-    detail::radiosity_system(props, d, c);
-    RadiosityResult res;
-    res.stats = solve_rows(rows, d, c, options, x, fx);
-    res.radiosity.resize(rows.n);
-    for (Eigen::Index i = 0; i < x.rows(); ++i)
-        res.radiosity[static_cast<std::size_t>(i)] = x.row(i);
-    res.balance = detail::radiosity_balance_of(rows.areas, rows.row_sums, props, x, fx);
+    RadiosityResult res =
+        radiosity_on_ranks(rows.n, rows.areas, rows.row_sums, props,
+                           [&](const Columns& d, const Columns& c, Columns& x, Columns& fx) {
+                               return solve_rows(rows, d, c, options, x, fx);
+                           });
     if (std::string w = dropped_mass_warning(rows); !w.empty()) res.stats.warnings.push_back(w);
     return res;
 }
@@ -97,43 +136,22 @@ SolveResult solve(const Scene& scene, const DistributedRows& rows, const PatchPr
 
 ThermalResult solve_thermal(const DistributedHierarchical& op, const PatchProperties& props,
                             const ThermalOptions& options) {
-    if (props.size() != op.n)
-        throw Error(fmt::format("solve: the scene has {} patches but the operator has {}",
-                                props.size(), op.n));
-    detail::ThermalSystem sys;
-    sys.n = static_cast<Eigen::Index>(op.n);
-    sys.areas = &op.areas;
-    sys.row_sums = op.row_sums;
-    // As the single-process solve of the operator (solve/thermal.cpp).
-    sys.row_sum_tolerance = std::max(1e-9, 10.0 * op.stats.tolerance);
-    LastProduct last;
-    sys.apply = [&](const Columns& x, Columns& y) {
-        FF_ASSERT(x.rows() == last.x.rows() && x == last.x);
-        y = last.fx;
-    };
-    sys.solve = [&](const Columns& d, const Columns& c, Columns& x) {
-        const SolverStats st = solve_operator(op, d, c, options.solver, x, last.fx);
-        last.x = x;
-        return st;
-    };
-    return detail::solve_thermal_system(sys, props, options);
+    check_operator_size(op, props.size());
+    // The row-sum tolerance as the single-process solve of the operator's (solve/thermal.cpp).
+    return thermal_on_ranks(op.n, op.areas, op.row_sums, std::max(1e-9, 10.0 * op.stats.tolerance),
+                            props, options,
+                            [&](const Columns& d, const Columns& c, Columns& x, Columns& fx) {
+                                return solve_operator(op, d, c, options.solver, x, fx);
+                            });
 }
 
 RadiosityResult solve_radiosity(const DistributedHierarchical& op, const PatchProperties& props,
                                 const SolverOptions& options) {
-    if (props.size() != op.n)
-        throw Error(fmt::format("solve: the scene has {} patches but the operator has {}",
-                                props.size(), op.n));
-    validate_properties(props);
-    Columns d, c, x, fx;
-    detail::radiosity_system(props, d, c);
-    RadiosityResult res;
-    res.stats = solve_operator(op, d, c, options, x, fx);
-    res.radiosity.resize(op.n);
-    for (Eigen::Index i = 0; i < x.rows(); ++i)
-        res.radiosity[static_cast<std::size_t>(i)] = x.row(i);
-    res.balance = detail::radiosity_balance_of(op.areas, op.row_sums, props, x, fx);
-    return res;
+    check_operator_size(op, props.size());
+    return radiosity_on_ranks(op.n, op.areas, op.row_sums, props,
+                              [&](const Columns& d, const Columns& c, Columns& x, Columns& fx) {
+                                  return solve_operator(op, d, c, options, x, fx);
+                              });
 }
 
 SolveResult solve(const Scene& scene, const DistributedHierarchical& op,
