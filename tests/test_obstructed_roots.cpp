@@ -14,6 +14,7 @@
 #include "formfactor/scene/room.h"
 #include "formfactor/scene/scene.h"
 #include "methods/analytic/obstructed_internal.h"
+#include "methods/analytic/shadow_clip.h"
 #include "support/closed_rooms.h"
 #include "support/method_runner.h"
 #include "support/scenes.h"
@@ -572,4 +573,63 @@ TEST_CASE(
     CHECK(hidden > 5000);
     CHECK(seen > 5000);
     CHECK(near_surface > 2000);
+}
+
+TEST_CASE(
+    "shadow clipping: both sides of a line at once are the two one-sided clips, bit for bit") {
+    // split2() replaces two clip2() calls in the subtraction of shadows; the point factors must
+    // not move by a bit. Random convex polygons (regular polygons jittered on a circle) against
+    // lines through their vertices, their edges and anywhere, and the degenerate cases: every
+    // vertex on the line, all on one side, some on it.
+    using namespace formfactor::detail;
+    std::mt19937_64 rng(7);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    auto same = [](const Poly2& a, const Poly2& b) {
+        if (a.n != b.n) return false;
+        for (int k = 0; k < a.n; ++k)
+            if (a.x[static_cast<std::size_t>(k)] != b.x[static_cast<std::size_t>(k)] ||
+                a.y[static_cast<std::size_t>(k)] != b.y[static_cast<std::size_t>(k)])
+                return false;
+        return true;
+    };
+    int checked = 0, cut = 0;
+    for (int trial = 0; trial < 20000; ++trial) {
+        Poly2 p;
+        p.n = 3 + trial % 8;
+        const double r = 0.5 + 0.5 * std::abs(u(rng)), cx = u(rng), cy = u(rng);
+        for (int k = 0; k < p.n; ++k) {
+            const double a = 2.0 * M_PI * (k + 0.3 * std::abs(u(rng))) / p.n;
+            p.x[static_cast<std::size_t>(k)] = cx + r * std::cos(a);
+            p.y[static_cast<std::size_t>(k)] = cy + r * std::sin(a);
+        }
+        double ax = u(rng), ay = u(rng), ex = u(rng), ey = u(rng);
+        const int kind = trial % 5;
+        if (kind == 1) {  // through a vertex
+            ax = p.x[0];
+            ay = p.y[0];
+        } else if (kind == 2) {  // along an edge
+            ax = p.x[0];
+            ay = p.y[0];
+            ex = p.x[1] - p.x[0];
+            ey = p.y[1] - p.y[0];
+        } else if (kind == 3) {  // far away
+            ax += 10.0;
+        }
+        if (kind == 4 && trial % 10 == 4) {  // a degenerate polygon on the line
+            for (int k = 0; k < p.n; ++k) {
+                p.x[static_cast<std::size_t>(k)] = ax + 0.25 * k * ex;
+                p.y[static_cast<std::size_t>(k)] = ay + 0.25 * k * ey;
+            }
+        }
+        Poly2 l1, r1, l2, r2;
+        clip2(p, ax, ay, ex, ey, 1.0, l1);
+        clip2(p, ax, ay, ex, ey, -1.0, r1);
+        split2(p, ax, ay, ex, ey, l2, r2);
+        CHECK(same(l1, l2));
+        CHECK(same(r1, r2));
+        ++checked;
+        cut += l1.n > 0 && r1.n > 0;
+    }
+    CHECK(checked == 20000);
+    CHECK(cut > 5000);  // most lines cut the polygon: both branches of split2() are exercised
 }

@@ -129,7 +129,7 @@ void merge_solid_shadows(std::vector<Poly2>& shadows, std::vector<int>& solid_of
         const bool has_raw = rr.first != rr.second;
         for (auto it = rr.first; it != rr.second; ++it) pts.push_back({it->x, it->y});
         if (!has_raw && e - s == 1) {
-            out.push_back(shadows[static_cast<std::size_t>(by_solid[s].second)]);
+            append2(out, shadows[static_cast<std::size_t>(by_solid[s].second)]);
             out_solid.push_back(so);
             return;
         }
@@ -164,7 +164,7 @@ void merge_solid_shadows(std::vector<Poly2>& shadows, std::vector<int>& solid_of
             if (has_raw) return;  // nothing of the solid in front of the receiver
             // A hull that rounding made degenerate: the faces as they are.
             for (std::size_t m = s; m < e; ++m) {
-                out.push_back(shadows[static_cast<std::size_t>(by_solid[m].second)]);
+                append2(out, shadows[static_cast<std::size_t>(by_solid[m].second)]);
                 out_solid.push_back(so);
             }
             return;
@@ -202,7 +202,7 @@ void merge_solid_shadows(std::vector<Poly2>& shadows, std::vector<int>& solid_of
         const int at = group_at[k];
         if (at == -2) continue;
         if (at == -1) {
-            out.push_back(shadows[k]);
+            append2(out, shadows[k]);
             out_solid.push_back(solid_of[k]);
             continue;
         }
@@ -461,7 +461,7 @@ PointResult evaluate_point(const Receiver& rc, const Vec3& x, const Vec3& nx,
         for (std::size_t k = 0; k < shadows.size(); ++k) boxes[k] = box_of(shadows[k]);
         for (std::size_t k = 0; k < shadows.size(); ++k) {
             frags.clear();
-            frags.push_back(shadows[k]);
+            append2(frags, shadows[k]);
             for (std::size_t l = 0; l < k && !frags.empty(); ++l) {
                 if (solid_of[k] >= 0 && solid_of[k] == solid_of[l]) continue;
                 if (apart(boxes[l], boxes[k])) continue;
@@ -494,7 +494,7 @@ PointResult evaluate_point(const Receiver& rc, const Vec3& x, const Vec3& nx,
     thread_local std::vector<std::array<double, 4>> frag_box, next_box;
     frags.clear();
     frag_box.clear();
-    frags.push_back(whole);
+    append2(frags, whole);
     frag_box.push_back(box_of(whole));
     bool cut = false;  // some shadow took a part above the sliver size
     for (const auto& [neg_area, k] : order) {
@@ -505,7 +505,7 @@ PointResult evaluate_point(const Receiver& rc, const Vec3& x, const Vec3& nx,
         for (std::size_t f = 0; f < frags.size(); ++f) {
             const std::array<double, 4>& bf = frag_box[f];
             if (apart(bf, bs)) {
-                next.push_back(frags[f]);
+                append2(next, frags[f]);
                 next_box.push_back(bf);
                 continue;
             }
@@ -516,7 +516,7 @@ PointResult evaluate_point(const Receiver& rc, const Vec3& x, const Vec3& nx,
                 // Nothing taken: the fragment stays whole (not as the pieces the clipping cut
                 // it into, which would add rounding and work).
                 next.resize(first);
-                next.push_back(frags[f]);
+                append2(next, frags[f]);
                 next_box.push_back(bf);
                 continue;
             }

@@ -78,6 +78,54 @@ void clip2(const Poly2& in, double ax, double ay, double ex, double ey, double s
     if (out.n < 3) out.n = 0;
 }
 
+void split2(const Poly2& in, double ax, double ay, double ex, double ey, Poly2& left,
+            Poly2& right) {
+    left.n = 0;
+    right.n = 0;
+    double d[kCap];
+    bool none_neg = true, none_pos = true;  // no d < 0, no d > 0
+    for (int k = 0; k < in.n; ++k) {
+        d[k] = ex * (in.y[static_cast<std::size_t>(k)] - ay) -
+               ey * (in.x[static_cast<std::size_t>(k)] - ax);
+        none_neg = none_neg && d[k] >= 0.0;
+        none_pos = none_pos && d[k] <= 0.0;
+    }
+    // As clip2(): a side with every vertex on the line or beyond it is empty, else one with
+    // every vertex on it or on its side is `in` whole.
+    if (none_neg || none_pos) {
+        if (!none_pos) copy2(in, left);
+        if (!none_neg) copy2(in, right);
+        return;
+    }
+    for (int k = 0; k < in.n; ++k) {
+        const int m = k + 1 == in.n ? 0 : k + 1;
+        const auto ks = static_cast<std::size_t>(k), ms = static_cast<std::size_t>(m);
+        if (d[k] >= 0.0 && left.n < kCap) {
+            left.x[static_cast<std::size_t>(left.n)] = in.x[ks];
+            left.y[static_cast<std::size_t>(left.n++)] = in.y[ks];
+        }
+        if (d[k] <= 0.0 && right.n < kCap) {
+            right.x[static_cast<std::size_t>(right.n)] = in.x[ks];
+            right.y[static_cast<std::size_t>(right.n++)] = in.y[ks];
+        }
+        if ((d[k] > 0.0 && d[m] < 0.0) || (d[k] < 0.0 && d[m] > 0.0)) {
+            const double t = d[k] / (d[k] - d[m]);
+            const double x = in.x[ks] + t * (in.x[ms] - in.x[ks]);
+            const double y = in.y[ks] + t * (in.y[ms] - in.y[ks]);
+            if (left.n < kCap) {
+                left.x[static_cast<std::size_t>(left.n)] = x;
+                left.y[static_cast<std::size_t>(left.n++)] = y;
+            }
+            if (right.n < kCap) {
+                right.x[static_cast<std::size_t>(right.n)] = x;
+                right.y[static_cast<std::size_t>(right.n++)] = y;
+            }
+        }
+    }
+    if (left.n < 3) left.n = 0;
+    if (right.n < 3) right.n = 0;
+}
+
 double lambert2(const Poly2& q, const Vec3& xl, const Vec3& nl) {
     double sum = 0.0;
     for (int k = 0; k < q.n; ++k) {

@@ -45,9 +45,18 @@ inline void copy2(const Poly2& in, Poly2& out) {
     std::copy(in.y.begin(), in.y.begin() + in.n, out.y.begin());
 }
 
+/// Appends a copy of p to v, its n vertices only (a whole Poly2 is kCap of each coordinate).
+inline void append2(std::vector<Poly2>& v, const Poly2& p) {
+    v.emplace_back();
+    copy2(p, v.back());
+}
+
 /// Keeps the part of `in` on the left of the directed line a → a + e (sign = +1) or on its
 /// right (sign = −1).
 void clip2(const Poly2& in, double ax, double ay, double ex, double ey, double sign, Poly2& out);
+/// Both parts at once: clip2() with sign +1 into `left` and with sign −1 into `right`, the same
+/// vertices bit for bit, each vertex's side found once.
+void split2(const Poly2& in, double ax, double ay, double ex, double ey, Poly2& left, Poly2& right);
 
 /// Signed area (positive when counter-clockwise).
 inline double area2(const Poly2& p) {
@@ -73,12 +82,8 @@ inline double subtract(const Poly2& f, const Poly2& s, std::vector<Poly2>& out) 
         const double ax = s.x[ks], ay = s.y[ks];
         const double ex = s.x[ms] - ax, ey = s.y[ms] - ay;
         if (ex == 0.0 && ey == 0.0) continue;
-        clip2(*inside, ax, ay, ex, ey, -1.0, outside);
-        if (outside.n >= 3 && area2(outside) > 0.0) {
-            out.emplace_back();
-            copy2(outside, out.back());
-        }
-        clip2(*inside, ax, ay, ex, ey, 1.0, *next);
+        split2(*inside, ax, ay, ex, ey, *next, outside);
+        if (outside.n >= 3 && area2(outside) > 0.0) append2(out, outside);
         std::swap(inside, next);
     }
     return inside->n >= 3 ? std::abs(area2(*inside)) : 0.0;

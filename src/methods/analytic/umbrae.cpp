@@ -103,7 +103,7 @@ bool umbra_remainder(const Receiver& rc, const Vec3* poly, int np, const Vec3& n
               [](const Poly2& a, const Poly2& b) { return area2(a) > area2(b); });
     const double left_over = 1e-12 * std::abs(area2(whole));
     frags.clear();
-    frags.push_back(whole);
+    append2(frags, whole);
     if (area2(frags[0]) < 0.0) {
         std::reverse(frags[0].x.begin(), frags[0].x.begin() + frags[0].n);
         std::reverse(frags[0].y.begin(), frags[0].y.begin() + frags[0].n);
@@ -113,7 +113,7 @@ bool umbra_remainder(const Receiver& rc, const Vec3* poly, int np, const Vec3& n
         for (const Poly2& f : frags) subtract(f, u, next);
         frags.clear();
         for (const Poly2& f : next)
-            if (std::abs(area2(f)) > left_over) frags.push_back(f);
+            if (std::abs(area2(f)) > left_over) append2(frags, f);
         if (frags.empty()) return true;
     }
     return true;
