@@ -18,6 +18,7 @@
 
 #include "formfactor/core/cancel.h"
 #include "formfactor/core/timing.h"
+#include "formfactor/matrix/memory.h"
 #include "mpi_internal.h"
 
 namespace formfactor::distributed {
@@ -239,6 +240,12 @@ DistributedHierarchical build_on_ranks(const Scene& scene, const HierarchicalOpt
         built_by[static_cast<std::size_t>(builder[k])].push_back(k);
     const std::vector<std::size_t>& mine = built_by[static_cast<std::size_t>(g_rank)];
 
+    // This rank's share against this rank's machine, before any entry is computed: the blocks
+    // it computes and its run of chunks, not the whole operator.
+    const double estimate = plan->estimate_memory(mine, ranks).total();
+    guarded_step([&] { plan->check_memory(mine, ranks, available_memory()); }, failure, cancelled);
+    if (!agree(failure, cancelled)) return out;
+
     HierarchicalStats counts;
     std::vector<Block> built;
     double busy = 0.0;
@@ -255,12 +262,12 @@ DistributedHierarchical build_on_ranks(const Scene& scene, const HierarchicalOpt
     std::vector<int> sizes(ranks), displs(ranks);
     std::size_t total = 0;
     for (std::size_t r = 0; r < ranks; ++r) {
-        sizes[r] = static_cast<int>(4 + 3 * built_by[r].size());
+        sizes[r] = static_cast<int>(5 + 3 * built_by[r].size());
         displs[r] = static_cast<int>(total);
         total += static_cast<std::size_t>(sizes[r]);
     }
     std::vector<double> mine_sent{partition, busy, double(counts.entries_computed),
-                                  double(counts.low_rank_fallbacks)};
+                                  double(counts.low_rank_fallbacks), estimate};
     for (const Block& b : built) {
         mine_sent.push_back(double(b.rank));
         mine_sent.push_back(double(b.u.size() + b.v.size()));
@@ -280,6 +287,7 @@ DistributedHierarchical build_on_ranks(const Scene& scene, const HierarchicalOpt
     out.partition_seconds.assign(ranks, 0.0);
     out.build_seconds.assign(ranks, 0.0);
     out.blocks_built.assign(ranks, 0.0);
+    out.estimated_bytes.assign(ranks, 0.0);
     for (std::size_t r = 0; r < ranks; ++r) {
         const double* p = got.data() + displs[r];
         out.partition_seconds[r] = p[0];
@@ -287,7 +295,8 @@ DistributedHierarchical build_on_ranks(const Scene& scene, const HierarchicalOpt
         out.blocks_built[r] = double(built_by[r].size());
         st.entries_computed += static_cast<std::size_t>(p[2]);
         st.low_rank_fallbacks += static_cast<std::size_t>(p[3]);
-        p += 4;
+        out.estimated_bytes[r] = p[4];
+        p += 5;
         for (std::size_t k : built_by[r]) {
             block_rank[k] = static_cast<std::uint32_t>(p[0]);
             block_values[k] = static_cast<std::size_t>(p[1]);
