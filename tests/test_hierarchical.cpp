@@ -1,16 +1,19 @@
 // The hierarchical operator (formfactor/matrix/hierarchical.h): products against the dense exact
 // matrix within its error target, an error that falls with the target, reciprocity by
 // construction, products bit-identical for any thread count, thermal and radiosity solves on it
-// against the dense solves, and the refusals (obstructed scenes, bad options, solvers that need
-// F's entries).
+// against the dense solves, the memory check of one process and of one rank's share, and the
+// refusals (obstructed scenes, bad options, solvers that need F's entries).
 
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numeric>
 #include <random>
 
 #include "formfactor/core/error.h"
+#include "formfactor/matrix/memory.h"
 #include "formfactor/methods/hierarchical_build.h"
 #include "formfactor/pipeline.h"
 #include "formfactor/scene/room.h"
@@ -176,6 +179,48 @@ TEST_CASE(
     CHECK(Yp == Y);
     // A part alone is no operator.
     CHECK_THROWS_AS(parts.front().multiply(X, Yp), Error);
+}
+
+TEST_CASE(
+    "hierarchical: the memory check of one rank of several asks for its share of the blocks, not "
+    "the whole operator") {
+    const Scene s = room_scene(8, RoomBox::kNone);
+    HierarchicalOptions o;
+    o.leaf_size = 8;
+    const HierarchicalPlan plan(s, o);
+    std::vector<std::size_t> all(plan.blocks());
+    std::iota(all.begin(), all.end(), 0);
+    const MemoryEstimate whole = plan.estimate_memory(all, 1);
+    REQUIRE(whole.items.size() == 2);
+    const double tables = whole.items[0].bytes, blocks = whole.items[1].bytes;
+    CHECK(tables == doctest::Approx(double(s.patches.size()) *
+                                    (kBytesPerPatch + 8.0 * HierarchicalFormFactors::kChunks)));
+    // Four ranks, each computing every fourth block: the tables, its blocks and a quarter of
+    // all of them (its run of chunks).
+    double largest = 0.0, computed = 0.0;
+    std::vector<std::vector<std::size_t>> shares(4);
+    for (std::size_t k = 0; k < all.size(); ++k) shares[k % 4].push_back(k);
+    for (const auto& share : shares) {
+        const MemoryEstimate e = plan.estimate_memory(share, 4);
+        REQUIRE(e.items.size() == 3);
+        CHECK(e.items[0].bytes == tables);
+        CHECK(e.items[2].bytes == doctest::Approx(blocks / 4));
+        computed += e.items[1].bytes;
+        largest = std::max(largest, e.total());
+    }
+    CHECK(computed == doctest::Approx(blocks));
+    REQUIRE(largest < whole.total());
+    // Memory between a rank's share and the whole operator: every rank of four fits, one
+    // process does not.
+    const double available = 0.5 * (largest + whole.total());
+    for (const auto& share : shares) CHECK_NOTHROW(plan.check_memory(share, 4, available));
+    CHECK_THROWS_WITH_AS(plan.check_memory(all, 1, available),
+                         doctest::Contains("hierarchical operator of 384 patches: needs about"),
+                         ResourceError);
+    CHECK_THROWS_WITH_AS(plan.check_memory(shares[0], 4, 0.5 * largest),
+                         doctest::Contains("over 4 ranks: this rank needs about"), ResourceError);
+    // Unknown memory (0): no check.
+    CHECK_NOTHROW(plan.check_memory(all, 1, 0.0));
 }
 
 TEST_CASE("hierarchical: thermal and radiosity solves agree with the dense solves") {

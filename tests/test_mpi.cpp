@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -347,6 +348,43 @@ TEST_CASE("mpi: a rank that fails building or applying the hierarchical operator
         CHECK(r.seconds < 10.0);
         CHECK(dir.entries() == 1);  // p.csv alone
     }
+}
+
+TEST_CASE(
+    "mpi: the hierarchical operator's memory check asks each rank for its share: refused on one "
+    "process and built on 3 ranks" *
+    doctest::test_suite("mpi")) {
+    // cube --subdivide 90 (48,600 patches): the whole operator is estimated at 752 MB (404 MB
+    // of per-patch tables and tree, which every rank holds, and 348 MB of blocks); each of 3
+    // ranks at 636 MB (the tables, the 116 MB of blocks it computes and a third of all blocks,
+    // its run of chunks). Under an address-space limit of 700 MB, which the ranks fit in, one
+    // process is refused before anything is computed and 3 ranks build and solve. (prlimit is
+    // util-linux's; the limit holds for mpirun and every rank it starts.)
+    TempDir dir;
+    write_text(dir.file("p.csv"), "surface,emissivity,temperature\nx0,0.5,300\nz1,0.8,1000\n");
+    const std::string limit = "prlimit --as=700000000 ";
+    const std::string args =
+        " solve cube --subdivide 90 --storage hierarchical --error-target 0.1 --thermal "
+        "--properties p.csv --threads 1 -o T.csv --report r.json";
+    const Run one = run_shell(dir, limit + shell_quote(FF_CLI_PATH) + args);
+    INFO(said(one));
+    CHECK(one.code == 1);
+    CHECK(one.err.find("formfactor: hierarchical operator of 48600 patches: needs about 0.8 GB") !=
+          std::string::npos);
+    CHECK(one.err.find("0.7 GB available") != std::string::npos);
+    CHECK(dir.entries() == 1);  // p.csv alone
+    const Run three = run_shell(dir, limit + mpirun(3) + " " + shell_quote(FF_CLI_PATH) + args);
+    INFO(said(three));
+    REQUIRE(three.code == 0);
+    CHECK(three.out.find("ranks      3 × 1 thread: ") != std::string::npos);
+    const auto report = nlohmann::json::parse(read_text(dir.file("r.json")));
+    const auto& estimated = report["details"]["mpi"]["estimated_bytes_per_rank"];
+    REQUIRE(estimated.size() == 3);
+    for (const auto& bytes : estimated) {
+        CHECK(bytes.get<double>() > 0.6e9);
+        CHECK(bytes.get<double>() < 0.7e9);
+    }
+    CHECK(csv_column(read_text(dir.file("T.csv")), "radiosity").size() == 48600);
 }
 
 TEST_CASE(

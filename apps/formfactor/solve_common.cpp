@@ -189,23 +189,29 @@ distributed::DistributedHierarchical build_hierarchical_on_ranks(const Scene& sc
     distributed::DistributedHierarchical H = distributed::build_hierarchical(scene, ho);
     times.add("hierarchical operator", sw.lap());
     print_operator_line(H.stats);
+    std::vector<double> estimated_mb;
+    for (double bytes : H.estimated_bytes) estimated_mb.push_back(bytes / 1e6);
     fmt::print(
         "ranks      {} × {} thread{}: partition {} s; blocks computed {}, busy {} s, imbalance "
-        "{:.1f} %; held {} blocks in {} chunks ({} MB moved)\n",
+        "{:.1f} %; held {} blocks in {} chunks ({} MB moved); memory estimate {} MB\n",
         H.build_seconds.size(), threads, threads == 1 ? "" : "s",
         per_rank(H.partition_seconds, "{:.2f}"), per_rank(H.blocks_built, "{:.0f}"),
         per_rank(H.build_seconds, "{:.2f}"), 100.0 * H.build_imbalance(),
         per_rank(H.blocks_held, "{:.0f}"), per_rank(H.chunks_held, "{:.0f}"),
-        fmt::format("{:.1f}", H.moved_bytes / 1e6));
+        fmt::format("{:.1f}", H.moved_bytes / 1e6), per_rank(estimated_mb, "{:.0f}"));
     return H;
 }
 
 nlohmann::json to_json(const distributed::DistributedHierarchical& H) {
-    return {
-        {"ranks", H.build_seconds.size()},          {"blocks_computed_per_rank", H.blocks_built},
-        {"busy_seconds_per_rank", H.build_seconds}, {"imbalance", H.build_imbalance()},
-        {"blocks_held_per_rank", H.blocks_held},    {"chunks_held_per_rank", H.chunks_held},
-        {"product_work_per_rank", H.product_work},  {"moved_bytes", H.moved_bytes}};
+    return {{"ranks", H.build_seconds.size()},
+            {"blocks_computed_per_rank", H.blocks_built},
+            {"busy_seconds_per_rank", H.build_seconds},
+            {"imbalance", H.build_imbalance()},
+            {"blocks_held_per_rank", H.blocks_held},
+            {"chunks_held_per_rank", H.chunks_held},
+            {"product_work_per_rank", H.product_work},
+            {"moved_bytes", H.moved_bytes},
+            {"estimated_bytes_per_rank", H.estimated_bytes}};
 }
 
 nlohmann::json to_json(const HierarchicalStats& hs) {

@@ -551,10 +551,11 @@ void check(const Scene& scene, const HierarchicalOptions& options) {
 }
 
 // The blocks of the partition that are stored (dense and low-rank; zero blocks are not), counted
-// into the stats; refuses with a ResourceError when their estimated memory does not fit.
-std::vector<std::size_t> stored_blocks(const Builder& b, std::size_t n, HierarchicalStats& st) {
+// into the stats, and each one's estimated bytes in `bytes` (dense exactly, compressed at rank
+// kEstimatedRank).
+std::vector<std::size_t> stored_blocks(const Builder& b, HierarchicalStats& st,
+                                       std::vector<double>& bytes) {
     std::vector<std::size_t> stored;
-    double estimate = 0.0;
     for (std::size_t s = 0; s < b.specs.size(); ++s) {
         const Spec& sp = b.specs[s];
         const Node& P = b.nodes[static_cast<std::size_t>(sp.a)];
@@ -569,27 +570,18 @@ std::vector<std::size_t> stored_blocks(const Builder& b, std::size_t n, Hierarch
             case Kind::dense:
                 ++st.dense_blocks;
                 st.pairs_dense += pairs;
-                estimate += 8.0 * P.count * Q.count;
+                bytes.push_back(8.0 * P.count * Q.count);
                 stored.push_back(s);
                 break;
             case Kind::low_rank:
                 ++st.low_rank_blocks;
                 st.pairs_low_rank += pairs;
-                estimate += 8.0 * std::min<double>(double(P.count) * Q.count,
-                                                   kEstimatedRank * (P.count + Q.count));
+                bytes.push_back(8.0 * std::min<double>(double(P.count) * Q.count,
+                                                       kEstimatedRank * (P.count + Q.count)));
                 stored.push_back(s);
                 break;
         }
     }
-    estimate += double(n) * (kBytesPerPatch + 8.0 * HierarchicalFormFactors::kChunks);
-    const double available = available_memory();
-    if (available > 0.0 && estimate > available)
-        throw ResourceError(fmt::format(
-            "hierarchical operator of {} patches: needs about {:.1f} GB ({} dense blocks, {} "
-            "compressed at rank ~{}), {:.1f} GB available; loosen the tolerance, use a coarser "
-            "subdivision or a machine with more memory",
-            n, estimate / 1e9, st.dense_blocks, st.low_rank_blocks, kEstimatedRank,
-            available / 1e9));
     return stored;
 }
 
@@ -682,6 +674,7 @@ struct HierarchicalPlan::Impl {
     HierarchicalOptions options;
     Builder b;
     std::vector<std::size_t> stored;
+    std::vector<double> stored_bytes;  // estimated, per stored block
     HierarchicalStats st;
 };
 
@@ -699,7 +692,7 @@ HierarchicalPlan::HierarchicalPlan(const Scene& scene, const HierarchicalOptions
     st.tolerance = options.tolerance;
     st.eta = options.eta;
     st.leaf_size = options.leaf_size;
-    impl_->stored = stored_blocks(b, n, st);
+    impl_->stored = stored_blocks(b, st, impl_->stored_bytes);
 }
 
 HierarchicalPlan::~HierarchicalPlan() = default;
@@ -730,6 +723,48 @@ std::vector<HierarchicalFormFactors::Block> HierarchicalPlan::compute(
     return blocks;
 }
 
+MemoryEstimate HierarchicalPlan::estimate_memory(const std::vector<std::size_t>& built,
+                                                 std::size_t ranks) const {
+    const std::size_t n = impl_->scene.patches.size();
+    double all = 0.0;
+    for (double bytes : impl_->stored_bytes) all += bytes;
+    MemoryEstimate e;
+    e.add(fmt::format("tables and cluster tree of {} patches", format_count(double(n))),
+          double(n) * (kBytesPerPatch + 8.0 * HierarchicalFormFactors::kChunks));
+    if (ranks <= 1) {
+        e.add(fmt::format("{} blocks", format_count(double(impl_->stored.size()))), all);
+        return e;
+    }
+    double mine = 0.0;
+    for (std::size_t k : built) mine += impl_->stored_bytes.at(k);
+    e.add(fmt::format("{} blocks computed", format_count(double(built.size()))), mine);
+    e.add(fmt::format("1/{} of all blocks held", ranks), all / double(ranks));
+    return e;
+}
+
+void HierarchicalPlan::check_memory(const std::vector<std::size_t>& built, std::size_t ranks,
+                                    double available) const {
+    const double need = estimate_memory(built, ranks).total();
+    if (!(available > 0.0) || need <= available) return;
+    const HierarchicalStats& st = impl_->st;
+    const std::size_t n = impl_->scene.patches.size();
+    if (ranks <= 1)
+        throw ResourceError(fmt::format(
+            "hierarchical operator of {} patches: needs about {:.1f} GB ({} dense blocks, {} "
+            "compressed at rank ~{}), {:.1f} GB available; loosen the tolerance, use a coarser "
+            "subdivision or a machine with more memory",
+            n, need / 1e9, st.dense_blocks, st.low_rank_blocks, kEstimatedRank, available / 1e9));
+    std::string parts;
+    for (const MemoryEstimate::Item& item : estimate_memory(built, ranks).items)
+        parts += (parts.empty() ? "" : ", ") + item.what + ": " + format_bytes(item.bytes);
+    throw ResourceError(fmt::format(
+        "hierarchical operator of {} patches over {} ranks: this rank needs about {} ({}; the "
+        "whole operator {}), {} available; use more ranks, a coarser subdivision or machines "
+        "with more memory",
+        n, ranks, format_bytes(need), parts, format_bytes(estimate_memory({}, 1).total()),
+        format_bytes(available)));
+}
+
 const HierarchicalStats& HierarchicalPlan::stats() const { return impl_->st; }
 
 std::vector<double> HierarchicalPlan::areas() const {
@@ -747,6 +782,7 @@ HierarchicalFormFactors build_hierarchical(const Scene& scene, const Hierarchica
     HierarchicalStats st = plan.stats();
     std::vector<std::size_t> all(plan.blocks());
     std::iota(all.begin(), all.end(), 0);
+    plan.check_memory(all, 1, available_memory());
     std::vector<Block> blocks = plan.compute(all, st);
     std::vector<std::uint32_t> ranks(blocks.size());
     std::vector<std::size_t> values(blocks.size());

@@ -187,6 +187,10 @@ struct DistributedHierarchical {
     /// (values, rows and columns of its blocks) it holds.
     std::vector<double> partition_seconds, blocks_built, build_seconds, blocks_held, chunks_held,
         product_work;
+    /// Per rank: the bytes it was estimated to hold at its peak, which the memory check before
+    /// the build held against its machine's memory: its share of the blocks and what every
+    /// rank holds whole (HierarchicalPlan::estimate_memory()); empty on one rank.
+    std::vector<double> estimated_bytes;
     double moved_bytes = 0.0;  ///< block values sent between ranks after the build
     std::uint64_t id = 0;      ///< which build (a solve of an older one is an Error)
     /// (largest build seconds − mean) / mean.
@@ -198,7 +202,10 @@ struct DistributedHierarchical {
 /// rank), computes a share of the blocks (the largest estimated cost first, each to the rank
 /// with the least so far), and the blocks then move so that each rank holds a run of the
 /// operator's fixed chunks of about equal product work. Each block is the one a single process
-/// computes, bit for bit. On one rank the operator stays in this process.
+/// computes, bit for bit. On one rank the operator stays in this process. Before any entry is
+/// computed each rank checks its own share against its machine's memory
+/// (HierarchicalPlan::check_memory()); a rank whose share does not fit stops every rank with a
+/// ResourceError's message.
 DistributedHierarchical build_hierarchical(const Scene& scene, const HierarchicalOptions& options);
 
 /// solve_thermal() and solve_radiosity() (formfactor/solve/) on the operator spread over the

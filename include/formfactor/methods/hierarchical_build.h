@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "formfactor/matrix/hierarchical.h"
+#include "formfactor/matrix/memory.h"
 #include "formfactor/scene/scene.h"
 
 namespace formfactor {
@@ -42,8 +43,9 @@ bool hierarchical_accepts(const Scene& scene);
 class HierarchicalPlan {
   public:
     /// The checks of build_hierarchical(), the cluster tree and the partition. Throws as
-    /// build_hierarchical() does (ResourceError when the whole operator's estimated memory does
-    /// not fit). `scene` must outlive the plan.
+    /// build_hierarchical() does, memory apart: the caller checks what it will hold with
+    /// check_memory() (one process the whole operator, an MPI rank its share). `scene` must
+    /// outlive the plan.
     HierarchicalPlan(const Scene& scene, const HierarchicalOptions& options);
     ~HierarchicalPlan();
     HierarchicalPlan(HierarchicalPlan&&) noexcept;
@@ -61,6 +63,18 @@ class HierarchicalPlan {
     /// current cancellation is requested.
     std::vector<HierarchicalFormFactors::Block> compute(const std::vector<std::size_t>& which,
                                                         HierarchicalStats& counts) const;
+    /// What one of `ranks` processes that computes blocks `built` (indices of stored blocks)
+    /// holds at its peak, estimated before any entry is computed (dense blocks exactly,
+    /// compressed blocks at rank ~10): the per-patch tables and the cluster tree, which every
+    /// rank holds whole, and with one process every block; with more ranks the blocks it
+    /// computes (kept until they have moved to the ranks that hold them) and 1/ranks of all the
+    /// blocks (its run of chunks, about 1/ranks of the operator).
+    MemoryEstimate estimate_memory(const std::vector<std::size_t>& built, std::size_t ranks) const;
+    /// Throws ResourceError when estimate_memory(built, ranks).total() exceeds `available`
+    /// bytes: what it needs, what is available and what to do instead (with more than one rank,
+    /// the whole operator's estimate too). No check when available ≤ 0 (unknown).
+    void check_memory(const std::vector<std::size_t>& built, std::size_t ranks,
+                      double available) const;
     /// What the partition knows of the operator: the counts of blocks and pairs, clusters and
     /// options (no values, ranks, entries or seconds yet).
     const HierarchicalStats& stats() const;
