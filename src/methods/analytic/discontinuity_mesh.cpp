@@ -482,8 +482,7 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
             // A point on the line and its direction (b, −a).
             const double px = l.a * l.c, py = l.b * l.c;
             Poly2 left, right;
-            clip2(q, px, py, l.b, -l.a, 1.0, left);
-            clip2(q, px, py, l.b, -l.a, -1.0, right);
+            split2(q, px, py, l.b, -l.a, left, right);
             if (left.n >= 3) nxt.push_back(left);
             if (right.n >= 3) nxt.push_back(right);
         }
