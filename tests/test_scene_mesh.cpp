@@ -164,6 +164,20 @@ TEST_CASE("mesh: bad meshes are input errors naming the file, mesh and face") {
     CHECK(input_error([&] { load_scene(dir.file("nocounts.off")); }) ==
           dir.file("nocounts.off") +
               ": not an OFF file: no counts of vertices and faces in its header");
+    // Binary glTF whose header declares more than the file holds: version 1 with a scene of
+    // 1.85 GB in 33 bytes (Open Asset Import allocated it), version 2 with a chunk past the end.
+    const std::string v1 = std::string("glTF\x01\0\0\0\0\0\0\0\0scn", 16) + std::string(17, '\0');
+    write_text(dir.file("scene.glb"), v1);
+    CHECK(
+        input_error([&] { load_scene(dir.file("scene.glb")); }) ==
+        dir.file("scene.glb") +
+            ": binary glTF: the header declares a scene of 1852011264 bytes, but the file has 33");
+    std::string v2("glTF\x02\0\0\0\x20\0\0\0\x40\0\0\0JSON", 20);
+    v2 += std::string(12, ' ');
+    write_text(dir.file("chunk.glb"), v2);
+    CHECK(input_error([&] { load_scene(dir.file("chunk.glb")); }) ==
+          dir.file("chunk.glb") +
+              ": binary glTF: the header declares a chunk of 64 bytes, but the file has 32");
 }
 
 TEST_CASE("mesh: the CLI computes on an STL and refuses a broken one with one message") {

@@ -25,6 +25,7 @@
 
 #include "formfactor/core/error.h"
 #include "formfactor/scene/mesh_io.h"
+#include "scene/glb_check.h"
 #include "scene/off_check.h"
 #include "scene/ply_check.h"
 #include "scene/text.h"
@@ -84,6 +85,7 @@ class AssimpReader {
         gltf_ = ext == ".gltf" || ext == ".glb";
         if (ext == ".ply") detail::check_ply(path_);
         if (ext == ".off") detail::check_off(path_);
+        if (gltf_) detail::check_glb(path_);
         std::lock_guard<std::mutex> lock(import_mutex());
         std::string logged;
         Assimp::DefaultLogger::create("", Assimp::Logger::NORMAL, 0);
