@@ -744,7 +744,8 @@ MemoryEstimate HierarchicalPlan::estimate_memory(const std::vector<std::size_t>&
 
 void HierarchicalPlan::check_memory(const std::vector<std::size_t>& built, std::size_t ranks,
                                     double available) const {
-    const double need = estimate_memory(built, ranks).total();
+    const MemoryEstimate mine = estimate_memory(built, ranks);
+    const double need = mine.total();
     if (!(available > 0.0) || need <= available) return;
     const HierarchicalStats& st = impl_->st;
     const std::size_t n = impl_->scene.patches.size();
@@ -755,7 +756,7 @@ void HierarchicalPlan::check_memory(const std::vector<std::size_t>& built, std::
             "subdivision or a machine with more memory",
             n, need / 1e9, st.dense_blocks, st.low_rank_blocks, kEstimatedRank, available / 1e9));
     std::string parts;
-    for (const MemoryEstimate::Item& item : estimate_memory(built, ranks).items)
+    for (const MemoryEstimate::Item& item : mine.items)
         parts += (parts.empty() ? "" : ", ") + item.what + ": " + format_bytes(item.bytes);
     throw ResourceError(fmt::format(
         "hierarchical operator of {} patches over {} ranks: this rank needs about {} ({}; the "
