@@ -4,6 +4,7 @@
 
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
@@ -169,6 +170,43 @@ TEST_CASE("ply: binary data must be as long as the header declares") {
     negative[negative.find("end_header\n") + 11 + 8 * 12] = static_cast<char>(-4);
     CHECK(error_of(dir, "b.ply", negative) ==
           file + ": face 1: list 'vertex_indices' has a negative count (-4)");
+}
+
+TEST_CASE("ply: an element Open Asset Import reads no data of is refused before one it reads") {
+    const TempDir dir;
+    const std::string file = dir.file("e.ply");
+    const std::string box = ascii_box();
+    // Named with digits: the reader would take 4294967295 from the name as the count and
+    // allocate for it (found by the mesh fuzzer).
+    const std::string digits =
+        replaced(box, "end_header", "element 4294967295 0\nproperty float q\nend_header");
+    const std::size_t digits_line =
+        1 + static_cast<std::size_t>(
+                std::count(box.begin(), box.begin() + box.find("end_header"), '\n'));
+    CHECK(error_of(dir, "e.ply", digits) ==
+          file + ":" + std::to_string(digits_line) +
+              ": element '4294967295': a name that starts with a digit (Open Asset Import reads "
+              "it as the element's count)");
+    // An element of its own before the vertices: the reader would skip its line and read it as
+    // the first vertex.
+    std::string before = replaced(box, "element vertex",
+                                  "element camera 1\nproperty float "
+                                  "view_px\nelement vertex");
+    const std::size_t data = before.find("end_header\n") + 11;
+    before.insert(data, "0.5\n");
+    const std::size_t camera_line =
+        1 + static_cast<std::size_t>(
+                std::count(before.begin(), before.begin() + before.find("element camera"), '\n'));
+    CHECK(error_of(dir, "e.ply", before) ==
+          file + ":" + std::to_string(camera_line) +
+              ": element 'camera' (1) comes before element 'vertex': Open Asset Import skips the "
+              "data of elements other than vertex, face, tristrips, edge and material, and would "
+              "misread what follows; move it after them");
+    // With no instances, or after the elements it reads, such an element is harmless.
+    CHECK(error_of(dir, "e.ply",
+                   replaced(box, "element vertex",
+                            "element camera 0\nproperty "
+                            "float view_px\nelement vertex")) == "");
 }
 
 TEST_CASE(

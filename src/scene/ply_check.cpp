@@ -200,6 +200,35 @@ class PlyCheck {
                                 "obj_info, end_header)");
         }
         for (const Element& e : elements_) semantics(e);
+        elements_assimp_skips();
+    }
+
+    // Open Asset Import knows these elements by name. For any other it takes the count from
+    // the first digits after `element` (those of the name, or none: 0), so it reads no data for
+    // an element like `camera 1` and would read 2^32 - 1 instances of one named `4294967295`.
+    // Such an element is harmless after the ones it reads, where its data is left unread.
+    static bool known_to_assimp(const std::string& name) {
+        return name == "vertex" || name == "face" || name == "tristrips" || name == "edge" ||
+               name == "material";
+    }
+
+    void elements_assimp_skips() const {
+        for (std::size_t k = 0; k < elements_.size(); ++k) {
+            const Element& e = elements_[k];
+            if (known_to_assimp(e.name)) continue;
+            if (e.name[0] >= '0' && e.name[0] <= '9')
+                fail(e.line, "element '" + e.name +
+                                 "': a name that starts with a digit (Open Asset Import reads "
+                                 "it as the element's count)");
+            if (e.count == 0) continue;
+            for (std::size_t j = k + 1; j < elements_.size(); ++j)
+                if (known_to_assimp(elements_[j].name))
+                    fail(e.line, "element '" + e.name + "' (" + std::to_string(e.count) +
+                                     ") comes before element '" + elements_[j].name +
+                                     "': Open Asset Import skips the data of elements other "
+                                     "than vertex, face, tristrips, edge and material, and "
+                                     "would misread what follows; move it after them");
+        }
     }
 
     void element(const std::vector<std::string>& w) {
