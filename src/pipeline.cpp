@@ -152,6 +152,7 @@ ComputeResult compute_form_factors(const Scene& scene, const ComputeOptions& opt
                       rows,
                       emit_sparse ? options.sparse_rows : nullptr,
                       options.partly_hidden};
+    ctx.upper_triangle_only = options.upper_triangle_only;
     announce_phase("rows");
     MethodResult computed = method->compute(ctx);
     result.timings.add("compute", sw.lap());

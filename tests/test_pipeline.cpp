@@ -112,6 +112,56 @@ TEST_CASE("pipeline: analytic row blocks of a room with obstruction records") {
     }
 }
 
+TEST_CASE(
+    "pipeline: analytic blocks of their upper triangle only, the rest filled by reciprocity, "
+    "give the whole matrix bit for bit where nothing obstructs") {
+    Scene s = load_scene("cube");  // convex: nothing obstructs
+    SubdivisionOptions sub;
+    sub.n = 4;
+    subdivide(s, sub);
+    const std::size_t n = s.patches.size();
+    const ComputeResult whole = compute_form_factors(s);
+    const DenseMatrix& W = whole.form_factors.F;
+    const std::vector<double>& area = whole.form_factors.areas;
+    DenseMatrix F = DenseMatrix::Zero(W.rows(), W.cols());
+    std::size_t upper_pairs = 0;
+    const std::size_t cuts[] = {0, 5, 40, 41, n};
+    for (int b = 0; b < 4; ++b) {
+        CAPTURE(cuts[b]);
+        ComputeOptions o;
+        o.rows = {cuts[b], cuts[b + 1]};
+        o.upper_triangle_only = true;
+        const ComputeResult part = compute_form_factors(s, o);
+        const DenseMatrix& P = part.form_factors.F;
+        REQUIRE(P.rows() == static_cast<Eigen::Index>(cuts[b + 1] - cuts[b]));
+        upper_pairs += part.report.pairs->pairs;
+        for (Eigen::Index k = 0; k < P.rows(); ++k)
+            for (Eigen::Index j = 0; j < P.cols(); ++j) {
+                const Eigen::Index i = static_cast<Eigen::Index>(cuts[b]) + k;
+                if (j > i)
+                    F(i, j) = P(k, j);
+                else
+                    CHECK(P(k, j) == 0.0);  // left to the caller
+            }
+    }
+    // Each unordered pair once over the blocks, as in the whole matrix.
+    CHECK(upper_pairs == whole.report.pairs->pairs);
+    for (std::size_t i = 0; i < n; ++i)
+        for (std::size_t j = 0; j < i; ++j)
+            F(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) =
+                area[i] > 0.0 ? F(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(i)) *
+                                    area[j] / area[i]
+                              : 0.0;
+    CHECK((F.array() == W.array()).all());
+    // Where the scene may obstruct, the option is ignored: whole rows.
+    const Scene c = cornell(1);
+    ComputeOptions o;
+    o.rows = {3, 9};
+    const ComputeResult rows = compute_form_factors(c, o);
+    o.upper_triangle_only = true;
+    CHECK((compute_form_factors(c, o).form_factors.F.array() == rows.form_factors.F.array()).all());
+}
+
 TEST_CASE("pipeline: the default method, typed report, nothing drawn unless asked") {
     const Scene s = cornell(1);
     const ComputeResult r = compute_form_factors(s);

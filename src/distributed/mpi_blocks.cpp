@@ -26,6 +26,7 @@ ComputeOptions block_options(const Job& job, const Visibility* visibility, RowRa
     o.prebuilt_visibility = visibility;
     o.rows = rows;
     o.cancel = cancel;
+    o.upper_triangle_only = job.upper_only;
     return o;
 }
 
@@ -135,6 +136,7 @@ void work_on_job(const std::vector<char>& bytes) {
         job.threshold = r.get<double>();
         job.kept = r.get<std::uint64_t>();
         job.pairs_first = r.get<std::uint8_t>() != 0;
+        job.upper_only = r.get<std::uint8_t>() != 0;
         scene = get_scene(r);
         if (keeps_rows(job.kind)) {
             kept_rows() = KeptRows{};

@@ -75,6 +75,11 @@ struct Job {
     std::uint64_t kept = 0;  // kept_*: the id of the rows
     // The partly hidden pairs first, over the ranks (uses_pair_stage()).
     bool pairs_first = false;
+    // Dense rows of the analytic method in a scene that obstructs nothing: each block computes
+    // its upper-triangle entries only and rank 0 fills the lower triangle by reciprocity
+    // (ComputeOptions::upper_triangle_only), so that the blocks cost n² / 2 pairs together,
+    // as one process does, not n².
+    bool upper_only = false;
 };
 
 bool keeps_rows(JobKind kind);

@@ -55,6 +55,7 @@ std::vector<char> job_bytes(const Job& job, const Scene& scene) {
     w.put(job.threshold);
     w.put(job.kept);
     w.put<std::uint8_t>(job.pairs_first);
+    w.put<std::uint8_t>(job.upper_only);
     put_scene(w, scene);
     return std::move(w.bytes());
 }

@@ -238,21 +238,26 @@ UnobstructedStats whole_matrix(const std::vector<const Polygon*>& polys, double 
 }
 
 UnobstructedStats row_block(const std::vector<const Polygon*>& polys, double tol, int threads,
-                            Progress* progress, RowRange rows, UnobstructedBlock& out) {
-    const std::size_t n = polys.size(), b = rows.begin, e = rows.end, m = e - b;
+                            Progress* progress, RowRange rows, UnobstructedBlock& out,
+                            bool upper_only) {
+    const std::size_t n = polys.size(), e = rows.end, m = rows.size();
+    const std::size_t b = rows.begin, left_rows = upper_only ? 0 : b;
     const PatchTable t = build_table(polys, threads);
     out.rows = rows;
     out.n = n;
     out.areas = t.area;
     out.F = DenseMatrix::Zero(static_cast<Eigen::Index>(m), static_cast<Eigen::Index>(n));
-    out.left = DenseMatrix::Zero(static_cast<Eigen::Index>(b), static_cast<Eigen::Index>(m));
+    out.left =
+        DenseMatrix::Zero(static_cast<Eigen::Index>(left_rows), static_cast<Eigen::Index>(m));
     const Bounds3 box = polygons_box(polys);
     const double eps = box.empty() ? 0.0 : 1e-12 * box.diagonal().norm();
 
-    // Rows before the block compute their pairs with the block's patches (into `left`), the
-    // block's rows their pairs with every later patch (into F's upper part).
+    // Rows before the block compute their pairs with the block's patches (into `left`; not
+    // with upper_only), the block's rows their pairs with every later patch (into F's upper
+    // part).
     std::vector<RowStats> stats(e);
-    parallel_for(e, threads, [&](std::size_t r) {
+    parallel_for(e - b + left_rows, threads, [&](std::size_t k) {
+        const std::size_t r = k < left_rows ? k : b + (k - left_rows);
         if (r < b) {
             double* L = out.left.data() + r * m;
             row_pairs(t, polys, tol, eps, r, ColumnRange{b, e}, stats[r],
@@ -264,7 +269,9 @@ UnobstructedStats row_block(const std::vector<const Polygon*>& polys, double tol
             if (progress) progress->advance();
         }
     });
-    // The block's entries below the diagonal, by reciprocity from the upper values.
+    // The block's entries below the diagonal, by reciprocity from the upper values (the
+    // caller's, with upper_only).
+    if (upper_only) return sum_stats(stats);
     parallel_for(m, threads, [&](std::size_t k) {
         const std::size_t i = b + k;
         double* row = out.F.data() + k * n;
@@ -278,10 +285,10 @@ UnobstructedStats row_block(const std::vector<const Polygon*>& polys, double tol
 
 UnobstructedStats unobstructed_rows(const std::vector<const Polygon*>& polys, double tol,
                                     int threads, Progress* progress, RowRange rows,
-                                    UnobstructedBlock& out) {
+                                    UnobstructedBlock& out, bool upper_only) {
     const std::size_t n = polys.size();
     rows = rows.clamped(n);
-    if (rows.size() < n) return row_block(polys, tol, threads, progress, rows, out);
+    if (rows.size() < n) return row_block(polys, tol, threads, progress, rows, out, upper_only);
     out.rows = rows;
     out.n = n;
     out.left = DenseMatrix::Zero(0, static_cast<Eigen::Index>(n));

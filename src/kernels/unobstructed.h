@@ -32,7 +32,12 @@ struct UnobstructedStats {
 /// (out.F n × n, out.left empty); a block of rows gives out.F rows.size() × n and out.left the
 /// pairs of the rows before it with the block's patches (rows.begin × rows.size()), each value
 /// bit for bit the whole matrix's, at the cost of the block's rows plus rows.begin ×
-/// rows.size() pairs, not n². progress (may be null) advances once per row of the block.
+/// rows.size() pairs, not n². With `upper_only`, a block computes only its rows' pairs with
+/// later patches: out.F holds F_ij for j > i and 0 elsewhere, out.left is empty (upper() and
+/// unobstructed() then answer only for a, s in the block), and the caller fills the rest by
+/// reciprocity from the other blocks' rows (F_ij = reciprocal_entry(F_ji, A_j, A_i) for
+/// j < i, bit for bit the whole matrix's): the blocks of a matrix then cost n² / 2 together.
+/// progress (may be null) advances once per row of the block.
 struct UnobstructedBlock {
     RowRange rows;
     std::size_t n = 0;
@@ -51,7 +56,7 @@ struct UnobstructedBlock {
 };
 UnobstructedStats unobstructed_rows(const std::vector<const Polygon*>& polys, double tol,
                                     int threads, Progress* progress, RowRange rows,
-                                    UnobstructedBlock& out);
+                                    UnobstructedBlock& out, bool upper_only = false);
 
 /// The entry of the lower triangle from the upper one: F_ji = A_i F_ij / A_j (i < j), written
 /// once here so that every path (dense, blocks, sparse rows) evaluates it alike.

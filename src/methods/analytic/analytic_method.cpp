@@ -58,7 +58,8 @@ MethodResult AnalyticMethod::compute(const MethodContext& ctx) const {
     Progress progress("analytic", rows.size(), ctx.progress);
     detail::UnobstructedBlock block;
     const detail::UnobstructedStats total =
-        detail::unobstructed_rows(polys, tol, options.threads, &progress, rows, block);
+        detail::unobstructed_rows(polys, tol, options.threads, &progress, rows, block,
+                                  ctx.upper_triangle_only && !obstructed);
     progress.finish();
     out.areas = block.areas;
     if (whole) out.F = std::move(block.F);
