@@ -15,6 +15,7 @@
 
 #include "formfactor/core/error.h"
 #include "formfactor/core/progress.h"
+#include "formfactor/methods/partly_hidden.h"
 #include "formfactor/pipeline.h"
 #include "formfactor/scene/scene.h"
 #include "support/cli_runner.h"
@@ -112,54 +113,88 @@ TEST_CASE("pipeline: analytic row blocks of a room with obstruction records") {
     }
 }
 
-TEST_CASE(
-    "pipeline: analytic blocks of their upper triangle only, the rest filled by reciprocity, "
-    "give the whole matrix bit for bit where nothing obstructs") {
-    Scene s = load_scene("cube");  // convex: nothing obstructs
-    SubdivisionOptions sub;
-    sub.n = 4;
-    subdivide(s, sub);
+namespace {
+
+// The analytic F of `s` from blocks of its upper triangle (upper_triangle_only), the rest
+// filled as an MPI run's rank 0 does: by reciprocity, then the partly hidden pairs' own values
+// (`pairs`, null where nothing obstructs). `upper_pairs`: the unordered pairs the blocks took.
+DenseMatrix from_upper_blocks(const Scene& s, const PartlyHiddenPairs* pairs,
+                              std::size_t& upper_pairs) {
     const std::size_t n = s.patches.size();
-    const ComputeResult whole = compute_form_factors(s);
-    const DenseMatrix& W = whole.form_factors.F;
-    const std::vector<double>& area = whole.form_factors.areas;
-    DenseMatrix F = DenseMatrix::Zero(W.rows(), W.cols());
-    std::size_t upper_pairs = 0;
-    const std::size_t cuts[] = {0, 5, 40, 41, n};
+    const auto N = static_cast<Eigen::Index>(n);
+    DenseMatrix F = DenseMatrix::Zero(N, N);
+    std::vector<double> area;
+    upper_pairs = 0;
+    const std::size_t cuts[] = {0, 5, n / 3, n / 3 + 1, n};
     for (int b = 0; b < 4; ++b) {
         CAPTURE(cuts[b]);
         ComputeOptions o;
         o.rows = {cuts[b], cuts[b + 1]};
         o.upper_triangle_only = true;
+        o.partly_hidden = pairs;
         const ComputeResult part = compute_form_factors(s, o);
         const DenseMatrix& P = part.form_factors.F;
         REQUIRE(P.rows() == static_cast<Eigen::Index>(cuts[b + 1] - cuts[b]));
+        area = part.form_factors.areas;
         upper_pairs += part.report.pairs->pairs;
         for (Eigen::Index k = 0; k < P.rows(); ++k)
-            for (Eigen::Index j = 0; j < P.cols(); ++j) {
-                const Eigen::Index i = static_cast<Eigen::Index>(cuts[b]) + k;
-                if (j > i)
-                    F(i, j) = P(k, j);
-                else
-                    CHECK(P(k, j) == 0.0);  // left to the caller
-            }
+            for (Eigen::Index j = static_cast<Eigen::Index>(cuts[b]) + k + 1; j < N; ++j)
+                F(static_cast<Eigen::Index>(cuts[b]) + k, j) = P(k, j);
     }
-    // Each unordered pair once over the blocks, as in the whole matrix.
-    CHECK(upper_pairs == whole.report.pairs->pairs);
     for (std::size_t i = 0; i < n; ++i)
         for (std::size_t j = 0; j < i; ++j)
             F(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) =
                 area[i] > 0.0 ? F(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(i)) *
                                     area[j] / area[i]
                               : 0.0;
-    CHECK((F.array() == W.array()).all());
-    // Where the scene may obstruct, the option is ignored: whole rows.
-    const Scene c = cornell(1);
-    ComputeOptions o;
-    o.rows = {3, 9};
-    const ComputeResult rows = compute_form_factors(c, o);
-    o.upper_triangle_only = true;
-    CHECK((compute_form_factors(c, o).form_factors.F.array() == rows.form_factors.F.array()).all());
+    if (pairs) pairs->write_lower_values(F);
+    return F;
+}
+
+}  // namespace
+
+TEST_CASE(
+    "pipeline: analytic blocks of their upper triangle, the rest filled by reciprocity and the "
+    "partly hidden pairs' values, give the whole matrix bit for bit") {
+    SUBCASE("a scene that obstructs nothing: each unordered pair once over the blocks") {
+        Scene s = load_scene("cube");
+        SubdivisionOptions sub;
+        sub.n = 4;
+        subdivide(s, sub);
+        const ComputeResult whole = compute_form_factors(s);
+        std::size_t upper_pairs = 0;
+        const DenseMatrix F = from_upper_blocks(s, nullptr, upper_pairs);
+        CHECK((F.array() == whole.form_factors.F.array()).all());
+        CHECK(upper_pairs == whole.report.pairs->pairs);
+        // A block leaves its entries below the diagonal to the caller.
+        ComputeOptions o;
+        o.rows = {10, 20};
+        o.upper_triangle_only = true;
+        const DenseMatrix P = compute_form_factors(s, o).form_factors.F;
+        CHECK((P.leftCols(20).triangularView<Eigen::StrictlyLower>().toDenseMatrix().array() == 0.0)
+                  .all());
+        CHECK(P.leftCols(10).isZero(0.0));
+    }
+    SUBCASE("the Cornell box, with its partly hidden pairs given") {
+        // The blocks' faces come after the walls and are smaller: the pairs are integrated
+        // over the later patch of the two, whose entry below the diagonal is not the
+        // reciprocal of the one above bit for bit.
+        const Scene s = cornell(3);
+        const ComputeResult whole = compute_form_factors(s);
+        PartlyHiddenPairs pairs(s, ComputeOptions{}.method_options, false);
+        REQUIRE(pairs.count() > 100);
+        pairs.set_values(pairs.integrate({0, pairs.count()}));
+        std::size_t upper_pairs = 0;
+        const DenseMatrix F = from_upper_blocks(s, &pairs, upper_pairs);
+        CHECK((F.array() == whole.form_factors.F.array()).all());
+        // Without the given pairs the option is ignored: whole rows.
+        ComputeOptions o;
+        o.rows = {3, 9};
+        const ComputeResult rows = compute_form_factors(s, o);
+        o.upper_triangle_only = true;
+        CHECK((compute_form_factors(s, o).form_factors.F.array() == rows.form_factors.F.array())
+                  .all());
+    }
 }
 
 TEST_CASE("pipeline: the default method, typed report, nothing drawn unless asked") {

@@ -78,8 +78,7 @@ struct ComputeOptions {
     SparseRows* sparse_rows = nullptr;
     /// analytic: MethodContext::partly_hidden (null by default).
     const PartlyHiddenPairs* partly_hidden = nullptr;
-    /// analytic, a block of rows of a scene that obstructs nothing:
-    /// MethodContext::upper_triangle_only (false by default).
+    /// analytic, a block of rows: MethodContext::upper_triangle_only (false by default).
     bool upper_triangle_only = false;
     /// The rows of F to compute (every row by default).
     RowRange rows;

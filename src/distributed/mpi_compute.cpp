@@ -14,7 +14,6 @@
 #include "formfactor/core/parallel.h"
 #include "formfactor/core/timing.h"
 #include "formfactor/matrix/memory.h"
-#include "formfactor/scene/obstruction.h"
 #include "kernels/unobstructed.h"
 #include "mpi_internal.h"
 
@@ -42,6 +41,23 @@ class ReportMerger {
     MethodReport total_;
     bool first_ = true;
 };
+
+// F_ij = A_j F_ji / A_i below the diagonal from the upper triangle (Job::upper_only), in tiles
+// as the whole matrix's own fill (kernels/unobstructed.cpp) and with the same expression.
+void lower_by_reciprocity(FormFactors& ff, int threads) {
+    const auto n = static_cast<std::size_t>(ff.F.rows());
+    double* F = ff.F.data();
+    const std::vector<double>& area = ff.areas;
+    if (area.size() != n) throw Error("distributed: the blocks gave no areas");
+    constexpr std::size_t kTile = 64;
+    const std::size_t tiles = (n + kTile - 1) / kTile;
+    parallel_for(tiles, threads, [&](std::size_t bj) {
+        for (std::size_t bi = 0; bi <= bj; ++bi)
+            for (std::size_t j = bj * kTile; j < std::min(n, (bj + 1) * kTile); ++j)
+                for (std::size_t i = bi * kTile; i < std::min(j, (bi + 1) * kTile); ++i)
+                    F[j * n + i] = detail::reciprocal_entry(F[i * n + j], area[i], area[j]);
+    });
+}
 
 // Dense jobs: the rows straight into F (blocks are disjoint rows).
 class DenseSink final : public BlockSink {
@@ -76,6 +92,13 @@ class DenseSink final : public BlockSink {
             if (ff.standard_error) place(rows, data, count, *ff.standard_error);
         }
     }
+    // Blocks of the upper triangle (Job::upper_only): the entries below the diagonal as one
+    // process has them, by reciprocity, then the partly hidden pairs' own values.
+    void finish() override {
+        if (!job_.upper_only) return;
+        lower_by_reciprocity(ff, job_.method_options.threads);
+        if (partly_hidden) partly_hidden->write_lower_values(ff.F);
+    }
 
     FormFactors ff;
     ReportMerger report;
@@ -92,23 +115,6 @@ class DenseSink final : public BlockSink {
     const Visibility* visibility_;
     const CancellationFlag& cancel_;
 };
-
-// F_ij = A_j F_ji / A_i below the diagonal from the upper triangle (Job::upper_only), in tiles
-// as the whole matrix's own fill (kernels/unobstructed.cpp) and with the same expression.
-void lower_by_reciprocity(FormFactors& ff, int threads) {
-    const auto n = static_cast<std::size_t>(ff.F.rows());
-    double* F = ff.F.data();
-    const std::vector<double>& area = ff.areas;
-    if (area.size() != n) throw Error("distributed: the blocks gave no areas");
-    constexpr std::size_t kTile = 64;
-    const std::size_t tiles = (n + kTile - 1) / kTile;
-    parallel_for(tiles, threads, [&](std::size_t bj) {
-        for (std::size_t bi = 0; bi <= bj; ++bi)
-            for (std::size_t j = bj * kTile; j < std::min(n, (bj + 1) * kTile); ++j)
-                for (std::size_t i = bi * kTile; i < std::min(j, (bi + 1) * kTile); ++i)
-                    F[j * n + i] = detail::reciprocal_entry(F[i * n + j], area[i], area[j]);
-    });
-}
 
 // Sparse jobs: each block's sparse rows kept until all are in, then thresholded in row order.
 class SparseSink final : public BlockSink {
@@ -235,7 +241,7 @@ ComputeResult compute_form_factors(const Scene& scene, const ComputeOptions& opt
     job.method = options.method ? *options.method : default_method(scene);
     job.method_options = options.method_options;
     job.visibility = options.visibility;
-    job.upper_only = job.method == MethodKind::analytic && !formfactor::may_obstruct(scene);
+    job.upper_only = job.method == MethodKind::analytic;
     result.traits = method_traits(job.method, options.method_options, &scene);
     const auto method = make_method(job.method);
     const bool strip = job.method == MethodKind::analytic || job.method == MethodKind::mc_target;
@@ -257,7 +263,6 @@ ComputeResult compute_form_factors(const Scene& scene, const ComputeOptions& opt
                    cancel, result.traits.standard_errors);
     Stopwatch sw;
     run_job(job, scene, max_rows, sink, cancel, options.progress);
-    if (job.upper_only) lower_by_reciprocity(sink.ff, options.method_options.threads);
     result.timings.add("compute", sw.lap());
     result.form_factors = std::move(sink.ff);
     result.report = sink.report.take();

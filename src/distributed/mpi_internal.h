@@ -75,10 +75,10 @@ struct Job {
     std::uint64_t kept = 0;  // kept_*: the id of the rows
     // The partly hidden pairs first, over the ranks (uses_pair_stage()).
     bool pairs_first = false;
-    // Dense rows of the analytic method in a scene that obstructs nothing: each block computes
-    // its upper-triangle entries only and rank 0 fills the lower triangle by reciprocity
-    // (ComputeOptions::upper_triangle_only), so that the blocks cost n² / 2 pairs together,
-    // as one process does, not n².
+    // Dense rows of the analytic method: each block computes its upper-triangle entries only
+    // (ComputeOptions::upper_triangle_only) and rank 0 fills the lower triangle, by
+    // reciprocity and with the partly hidden pairs' values, so that the blocks cost n² / 2
+    // pairs together, as one process does, not n².
     bool upper_only = false;
 };
 
@@ -93,6 +93,8 @@ class BlockSink {
     virtual void local(const RowRange& rows) = 0;
     /// Rank `from`'s rows as it sent them (dispatcher thread).
     virtual void remote(int from, const RowRange& rows, WireReader& r) = 0;
+    /// Once every block is in (rank 0's main thread; partly_hidden still set).
+    virtual void finish() {}
     /// For local(): the partly hidden pairs of a job with a pair stage (run_job() sets it).
     const PartlyHiddenPairs* partly_hidden = nullptr;
 };

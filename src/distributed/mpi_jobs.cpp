@@ -403,9 +403,10 @@ void run_job(Job job, const Scene& scene, std::size_t max_rows, BlockSink& sink,
     std::vector<double> rows(static_cast<std::size_t>(g_size), 0.0), busy = rows;
     Progress progress("rows", n, progress_sink);
     run_stage(schedule, sink, failure, job_cancel, progress, rows, busy);
-    sink.partly_hidden = nullptr;
     if (failure.any()) failure.rethrow();
     process_cancellation().throw_if_requested();
+    sink.finish();
+    sink.partly_hidden = nullptr;
     progress.finish();
     g_shares.rows = rows;
     for (std::size_t r = 0; r < busy.size(); ++r) g_shares.busy_seconds[r] += busy[r];

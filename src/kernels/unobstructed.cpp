@@ -8,6 +8,8 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <memory>
+#include <optional>
 #include <vector>
 
 #include "formfactor/core/error.h"
@@ -17,8 +19,6 @@
 #include "kernels/analytic_internal.h"
 
 namespace formfactor::detail {
-
-namespace {
 
 /// Per-patch data of the far-field path, flat.
 struct PatchTable {
@@ -36,6 +36,8 @@ struct PatchTable {
         return {x.data() + o, y.data() + o, z.data() + o, w.data() + o, count[k]};
     }
 };
+
+namespace {
 
 PatchTable build_table(const std::vector<const Polygon*>& polys, int threads) {
     const std::size_t n = polys.size();
@@ -93,6 +95,15 @@ PatchTable build_table(const std::vector<const Polygon*>& polys, int threads) {
     }
     return t;
 }
+
+}  // namespace
+
+std::shared_ptr<const PatchTable> make_patch_table(const std::vector<const Polygon*>& polys,
+                                                   int threads) {
+    return std::make_shared<const PatchTable>(build_table(polys, threads));
+}
+
+namespace {
 
 enum class Side { kFront, kBehind, kStraddles };
 
@@ -208,11 +219,23 @@ RowStats sum_stats(const std::vector<RowStats>& stats) {
     return total;
 }
 
+// The table given, else one built here in `own`.
+const PatchTable& table_for(const std::vector<const Polygon*>& polys, int threads,
+                            const PatchTable* given, std::optional<PatchTable>& own) {
+    if (given) {
+        FF_ASSERT(given->area.size() == polys.size());
+        return *given;
+    }
+    return own.emplace(build_table(polys, threads));
+}
+
 UnobstructedStats whole_matrix(const std::vector<const Polygon*>& polys, double tol, int threads,
-                               Progress* progress, DenseMatrix& out_F, std::vector<double>& areas) {
+                               Progress* progress, DenseMatrix& out_F, std::vector<double>& areas,
+                               const PatchTable* table) {
     const std::size_t n = polys.size();
     out_F = DenseMatrix::Zero(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
-    const PatchTable t = build_table(polys, threads);
+    std::optional<PatchTable> own;
+    const PatchTable& t = table_for(polys, threads, table, own);
     areas = t.area;
     const Bounds3 box = polygons_box(polys);
     const double eps = box.empty() ? 0.0 : 1e-12 * box.diagonal().norm();
@@ -239,10 +262,11 @@ UnobstructedStats whole_matrix(const std::vector<const Polygon*>& polys, double 
 
 UnobstructedStats row_block(const std::vector<const Polygon*>& polys, double tol, int threads,
                             Progress* progress, RowRange rows, UnobstructedBlock& out,
-                            bool upper_only) {
+                            bool upper_only, const PatchTable* table) {
     const std::size_t n = polys.size(), e = rows.end, m = rows.size();
     const std::size_t b = rows.begin, left_rows = upper_only ? 0 : b;
-    const PatchTable t = build_table(polys, threads);
+    std::optional<PatchTable> own;
+    const PatchTable& t = table_for(polys, threads, table, own);
     out.rows = rows;
     out.n = n;
     out.areas = t.area;
@@ -285,24 +309,27 @@ UnobstructedStats row_block(const std::vector<const Polygon*>& polys, double tol
 
 UnobstructedStats unobstructed_rows(const std::vector<const Polygon*>& polys, double tol,
                                     int threads, Progress* progress, RowRange rows,
-                                    UnobstructedBlock& out, bool upper_only) {
+                                    UnobstructedBlock& out, bool upper_only,
+                                    const PatchTable* table) {
     const std::size_t n = polys.size();
     rows = rows.clamped(n);
-    if (rows.size() < n) return row_block(polys, tol, threads, progress, rows, out, upper_only);
+    if (rows.size() < n)
+        return row_block(polys, tol, threads, progress, rows, out, upper_only, table);
     out.rows = rows;
     out.n = n;
     out.left = DenseMatrix::Zero(0, static_cast<Eigen::Index>(n));
-    return whole_matrix(polys, tol, threads, progress, out.F, out.areas);
+    return whole_matrix(polys, tol, threads, progress, out.F, out.areas, table);
 }
 
 UnobstructedStats unobstructed_pairs(const std::vector<const Polygon*>& polys, double tol,
                                      int threads, Progress* progress,
                                      const std::vector<std::vector<std::int32_t>>& columns,
                                      std::vector<std::vector<double>>& values,
-                                     std::vector<double>& areas) {
+                                     std::vector<double>& areas, const PatchTable* table) {
     const std::size_t n = polys.size();
     FF_ASSERT(columns.size() == n);
-    const PatchTable t = build_table(polys, threads);
+    std::optional<PatchTable> own;
+    const PatchTable& t = table_for(polys, threads, table, own);
     areas = t.area;
     const Bounds3 box = polygons_box(polys);
     const double eps = box.empty() ? 0.0 : 1e-12 * box.diagonal().norm();

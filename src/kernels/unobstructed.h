@@ -6,6 +6,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "formfactor/core/progress.h"
@@ -14,6 +15,14 @@
 #include "formfactor/kernels/analytic.h"
 
 namespace formfactor::detail {
+
+/// The patches' normals, centroids, areas, radii and far-field quadrature rules (every order)
+/// that the functions below use: built by each call, or once by make_patch_table() for calls
+/// on the same polygons (the blocks of rows and parts of pairs of one scene). Tens of MB for
+/// 10^4 patches.
+struct PatchTable;
+std::shared_ptr<const PatchTable> make_patch_table(const std::vector<const Polygon*>& polys,
+                                                   int threads);
 
 /// Counts of the unobstructed entry points: pairs (j > i) facing away (zero), by the far-field
 /// rule (far) and by the contour integral (exact); kernel evaluations of the far-field rule and
@@ -56,7 +65,8 @@ struct UnobstructedBlock {
 };
 UnobstructedStats unobstructed_rows(const std::vector<const Polygon*>& polys, double tol,
                                     int threads, Progress* progress, RowRange rows,
-                                    UnobstructedBlock& out, bool upper_only = false);
+                                    UnobstructedBlock& out, bool upper_only = false,
+                                    const PatchTable* table = nullptr);
 
 /// The entry of the lower triangle from the upper one: F_ji = A_i F_ij / A_j (i < j), written
 /// once here so that every path (dense, blocks, sparse rows) evaluates it alike.
@@ -72,6 +82,6 @@ UnobstructedStats unobstructed_pairs(const std::vector<const Polygon*>& polys, d
                                      int threads, Progress* progress,
                                      const std::vector<std::vector<std::int32_t>>& columns,
                                      std::vector<std::vector<double>>& values,
-                                     std::vector<double>& areas);
+                                     std::vector<double>& areas, const PatchTable* table = nullptr);
 
 }  // namespace formfactor::detail

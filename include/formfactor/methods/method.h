@@ -85,12 +85,14 @@ struct MethodContext {
     /// an MPI run integrates each pair once over the ranks), for this scene, with values set
     /// and made sparse exactly when sparse_rows is set. Null (the default): computed here.
     const PartlyHiddenPairs* partly_hidden = nullptr;
-    /// A block of rows (rows not every row) of a scene that obstructs nothing, by the analytic
-    /// method: only the entries F_ij with j > i; the others stay 0 for the caller to fill by
-    /// reciprocity from the rows of the other blocks (F_ij = A_j F_ji / A_i for j < i, as
-    /// detail::reciprocal_entry() gives it: bit for bit the whole matrix's), so that the blocks
-    /// of a matrix cost what the whole matrix does. Every other method, and analytic where the
-    /// scene may obstruct, ignore it (whole rows). An MPI run of dense rows sets it.
+    /// A block of rows (rows not every row), by the analytic method in a scene that obstructs
+    /// nothing or with partly_hidden given: the entries F_ij with j > i are the whole
+    /// matrix's, those below the diagonal are not computed (0, or a pair's value) for the
+    /// caller to fill from the rows of the other blocks: by reciprocity (F_ij = A_j F_ji / A_i
+    /// as detail::reciprocal_entry() gives it), then PartlyHiddenPairs::write_lower_values():
+    /// bit for bit the whole matrix, and the blocks of a matrix cost what the whole matrix
+    /// does. Every other method, and analytic without partly_hidden where the scene may
+    /// obstruct, ignore it (whole rows). An MPI run of dense rows sets it.
     bool upper_triangle_only = false;
 };
 

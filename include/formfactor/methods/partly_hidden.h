@@ -64,6 +64,11 @@ class PartlyHiddenPairs {
     void set_values(PartlyHiddenValues all);
     /// True once set_values() was called.
     bool has_values() const;
+    /// Writes into the whole dense F (n × n, row-major) every integrated pair's entry below
+    /// the diagonal, as the method's rows give it (F_sr or its reciprocal F_rs): for F whose
+    /// lower triangle was filled by reciprocity from blocks of its upper triangle
+    /// (MethodContext::upper_triangle_only). Needs the values.
+    void write_lower_values(DenseMatrix& F) const;
 
     struct Impl;
     const Impl& impl() const { return *impl_; }

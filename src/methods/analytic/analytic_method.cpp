@@ -57,9 +57,9 @@ MethodResult AnalyticMethod::compute(const MethodContext& ctx) const {
     const bool whole = rows.size() == n;
     Progress progress("analytic", rows.size(), ctx.progress);
     detail::UnobstructedBlock block;
-    const detail::UnobstructedStats total =
-        detail::unobstructed_rows(polys, tol, options.threads, &progress, rows, block,
-                                  ctx.upper_triangle_only && !obstructed);
+    const detail::UnobstructedStats total = detail::unobstructed_rows(
+        polys, tol, options.threads, &progress, rows, block,
+        ctx.upper_triangle_only && (!obstructed || ctx.partly_hidden), given_table(ctx));
     progress.finish();
     out.areas = block.areas;
     if (whole) out.F = std::move(block.F);

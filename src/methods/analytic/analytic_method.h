@@ -38,6 +38,8 @@ class AnalyticMethod final : public Method {
     static double visible_tolerance(const MethodOptions& options, bool obstructed);
 
   private:
+    /// The patches' table of ctx.partly_hidden, made once for all its blocks; null without.
+    static const detail::PatchTable* given_table(const MethodContext& ctx);
     /// The obstruction pass over an unobstructed matrix (analytic_obstructed.cpp): corrects
     /// `out` and fills details["obstructions"] and the error bound's input.
     /// With `block`, only its rows are corrected (out.F is then unused).

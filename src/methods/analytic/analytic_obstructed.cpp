@@ -351,7 +351,9 @@ struct PartlyHiddenPairs::Impl {
     std::vector<PartialPair> partial;
     std::vector<std::size_t> cand_task;
     std::vector<std::size_t> order;  // integrate()'s positions → pairs
-    PartlyHiddenValues values;       // by pair, once set
+    // The patches' table of the unobstructed values, for every part and block of rows.
+    std::shared_ptr<const detail::PatchTable> table;
+    PartlyHiddenValues values;  // by pair, once set
     bool has_values = false;
 
     // values as integrate_partial() gives them, for pair k.
@@ -373,6 +375,11 @@ PartlyHiddenPairs::PartlyHiddenPairs(const Scene& scene, const MethodOptions& op
     m.tol = checked_tolerance(options);
     const MethodContext ctx{scene, options, nullptr, nullptr, RowRange{}, nullptr, nullptr};
     prepare_obstructions(ctx, sparse, m.S);
+    {
+        std::vector<const Polygon*> polys(scene.patches.size());
+        for (std::size_t p = 0; p < polys.size(); ++p) polys[p] = &scene.patches[p].polygon;
+        m.table = detail::make_patch_table(polys, options.threads);
+    }
     for (std::size_t k = 0; k < m.S.outputs.size(); ++k)
         for (const PartialPair& p : m.S.outputs[k].partial) {
             m.partial.push_back(p);
@@ -412,8 +419,8 @@ PartlyHiddenValues PartlyHiddenPairs::integrate(RowRange part) const {
     for (std::size_t p = 0; p < n; ++p) polys[p] = &scene.patches[p].polygon;
     std::vector<std::vector<double>> upper;
     std::vector<double> areas;
-    detail::unobstructed_pairs(polys, m.visible_tol, m.options.threads, nullptr, cols, upper,
-                               areas);
+    detail::unobstructed_pairs(polys, m.visible_tol, m.options.threads, nullptr, cols, upper, areas,
+                               m.table.get());
     auto at = [&](std::size_t a, std::size_t c) {
         const auto it =
             std::lower_bound(cols[a].begin(), cols[a].end(), static_cast<std::int32_t>(c));
@@ -441,6 +448,24 @@ PartlyHiddenValues PartlyHiddenPairs::integrate(RowRange part) const {
     return out;
 }
 
+void PartlyHiddenPairs::write_lower_values(DenseMatrix& F) const {
+    const Impl& m = *impl_;
+    const auto n = static_cast<std::size_t>(m.scene.patches.size());
+    if (!m.has_values || m.sparse)
+        throw Error("analytic: no dense values of the partly hidden pairs");
+    if (static_cast<std::size_t>(F.rows()) != n || static_cast<std::size_t>(F.cols()) != n)
+        throw Error("analytic: the lower values of the partly hidden pairs need the whole F");
+    double* out = F.data();
+    for (std::size_t k = 0; k < m.partial.size(); ++k) {
+        const PartialValue v = m.value(k);
+        if (!v.integrated) continue;
+        if (v.s > v.r)
+            out[v.s * n + v.r] = v.f;
+        else
+            out[v.r * n + v.s] = v.back;
+    }
+}
+
 void PartlyHiddenPairs::set_values(PartlyHiddenValues all) {
     Impl& m = *impl_;
     const std::size_t count = m.partial.size();
@@ -466,6 +491,10 @@ static const PartlyHiddenPairs::Impl* given_pairs(const MethodContext& ctx, bool
     const PartlyHiddenPairs::Impl& m = ctx.partly_hidden->impl();
     FF_ASSERT(&m.scene == &ctx.scene && m.has_values && m.sparse == sparse);
     return &m;
+}
+
+const detail::PatchTable* AnalyticMethod::given_table(const MethodContext& ctx) {
+    return ctx.partly_hidden ? ctx.partly_hidden->impl().table.get() : nullptr;
 }
 
 void AnalyticMethod::apply_obstructions(const MethodContext& ctx, FormFactors& out, Fields& details,
@@ -646,8 +675,9 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
     std::vector<std::vector<double>> upper;
     announce_phase("analytic visible pairs");
     Progress unobs_progress("analytic (visible pairs)", n, ctx.progress);
-    const detail::UnobstructedStats ust = detail::unobstructed_pairs(
-        polys, visible_tolerance, options.threads, &unobs_progress, cols, upper, ff.areas);
+    const detail::UnobstructedStats ust =
+        detail::unobstructed_pairs(polys, visible_tolerance, options.threads, &unobs_progress, cols,
+                                   upper, ff.areas, given ? given->table.get() : nullptr);
     unobs_progress.finish();
     const std::vector<double>& areas = ff.areas;
     std::vector<std::vector<double>> lower(n);
