@@ -187,6 +187,24 @@ TEST_CASE(
         std::size_t upper_pairs = 0;
         const DenseMatrix F = from_upper_blocks(s, &pairs, upper_pairs);
         CHECK((F.array() == whole.form_factors.F.array()).all());
+        // Classified in three parts elsewhere (as over MPI ranks), then given: the same pairs.
+        PartlyHiddenPairs parts(s, ComputeOptions{}.method_options, false, false);
+        const std::size_t tasks = parts.classification_tasks();
+        REQUIRE(tasks > 3);
+        const PartlyHiddenPairs classifier(s, ComputeOptions{}.method_options, false, false);
+        std::vector<char> bytes;
+        for (const RowRange r :
+             {RowRange{0, 1}, RowRange{1, tasks / 2}, RowRange{tasks / 2, tasks}}) {
+            const std::vector<char> b = classifier.classify(r);
+            bytes.insert(bytes.end(), b.begin(), b.end());
+        }
+        std::vector<char> cut(bytes.begin(), bytes.end() - 1);
+        CHECK_THROWS_AS(parts.set_classification(cut), Error);
+        PartlyHiddenPairs again(s, ComputeOptions{}.method_options, false, false);
+        again.set_classification(bytes);
+        REQUIRE(again.count() == pairs.count());
+        again.set_values(again.integrate({0, again.count()}));
+        CHECK((from_upper_blocks(s, &again, upper_pairs).array() == F.array()).all());
         // Without the given pairs the option is ignored: whole rows.
         ComputeOptions o;
         o.rows = {3, 9};

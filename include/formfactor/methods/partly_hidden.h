@@ -47,10 +47,25 @@ class PartlyHiddenPairs {
     /// Classifies the pairs of `scene` (options.threads threads). sparse: keep the visible
     /// pairs too, for rows emitted sparse (MethodContext::sparse_rows); the rows computed
     /// with it must then be sparse, and dense otherwise.
-    PartlyHiddenPairs(const Scene& scene, const MethodOptions& options, bool sparse);
+    /// classify = false: only the blockers; the classification then comes in parts from
+    /// classify() (done anywhere) through set_classification() (an MPI run shares it out
+    /// over the ranks), and nothing else may be called before.
+    PartlyHiddenPairs(const Scene& scene, const MethodOptions& options, bool sparse,
+                      bool classify = true);
     ~PartlyHiddenPairs();
     PartlyHiddenPairs(const PartlyHiddenPairs&) = delete;
     PartlyHiddenPairs& operator=(const PartlyHiddenPairs&) = delete;
+
+    /// The classification's tasks (one per unordered pair of plane groups of patches).
+    std::size_t classification_tasks() const;
+    /// The classification of tasks [tasks.begin, tasks.end), as bytes for
+    /// set_classification() (a process running the same binary on the same scene and
+    /// options reads them). In parallel (options.threads); polls current_cancellation().
+    std::vector<char> classify(RowRange tasks) const;
+    /// Every task's classification: the bytes of classify() for consecutive ranges that cover
+    /// [0, classification_tasks()), concatenated in order. Then as if classified here (the
+    /// same pairs in the same order); an Error if the bytes are not that.
+    void set_classification(const std::vector<char>& bytes);
 
     /// The number of partly hidden pairs.
     std::size_t count() const;

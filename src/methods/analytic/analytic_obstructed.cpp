@@ -17,6 +17,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <map>
 #include <memory>
@@ -353,6 +354,9 @@ struct PartlyHiddenPairs::Impl {
     std::vector<std::size_t> order;  // integrate()'s positions → pairs
     // The patches' table of the unobstructed values, for every part and block of rows.
     std::shared_ptr<const detail::PatchTable> table;
+
+    // partial, cand_task and order from S.outputs.
+    void list_pairs();
     PartlyHiddenValues values;  // by pair, once set
     bool has_values = false;
 
@@ -367,19 +371,113 @@ struct PartlyHiddenPairs::Impl {
     }
 };
 
-PartlyHiddenPairs::PartlyHiddenPairs(const Scene& scene, const MethodOptions& options, bool sparse)
+PartlyHiddenPairs::PartlyHiddenPairs(const Scene& scene, const MethodOptions& options, bool sparse,
+                                     bool classify)
     : impl_(std::make_unique<Impl>(scene, options)) {
     Impl& m = *impl_;
     m.visible_tol = AnalyticMethod::visible_tolerance(options, true);
     m.sparse = sparse;
     m.tol = checked_tolerance(options);
     const MethodContext ctx{scene, options, nullptr, nullptr, RowRange{}, nullptr, nullptr};
-    prepare_obstructions(ctx, sparse, m.S);
+    if (classify)
+        prepare_obstructions(ctx, sparse, m.S);
+    else
+        prepare_blockers(ctx, m.S);
     {
         std::vector<const Polygon*> polys(scene.patches.size());
         for (std::size_t p = 0; p < polys.size(); ++p) polys[p] = &scene.patches[p].polygon;
         m.table = detail::make_patch_table(polys, options.threads);
     }
+    if (classify) m.list_pairs();
+}
+
+// The bytes of classify(): per task, seven counts (hidden, visible, partial and candidate
+// entries, node pairs, visible and hidden patch pairs), then the four arrays as they are in
+// memory.
+namespace {
+
+template <class T>
+void put_array(std::vector<char>& out, const std::vector<T>& v) {
+    const char* p = reinterpret_cast<const char*>(v.data());
+    out.insert(out.end(), p, p + v.size() * sizeof(T));
+}
+
+class ByteReader {
+  public:
+    explicit ByteReader(const std::vector<char>& b) : b_(b) {}
+    bool done() const { return at_ == b_.size(); }
+    void read(void* dst, std::size_t bytes) {
+        if (bytes > b_.size() - at_) throw Error("analytic: a classification cut short");
+        std::memcpy(dst, b_.data() + at_, bytes);
+        at_ += bytes;
+    }
+    template <class T>
+    void array(std::vector<T>& v, std::uint64_t count) {
+        if (count > (b_.size() - at_) / sizeof(T))
+            throw Error("analytic: a classification cut short");
+        v.resize(static_cast<std::size_t>(count));
+        read(v.data(), v.size() * sizeof(T));
+    }
+
+  private:
+    const std::vector<char>& b_;
+    std::size_t at_ = 0;
+};
+
+}  // namespace
+
+std::size_t PartlyHiddenPairs::classification_tasks() const {
+    return detail::classification_tasks(impl_->S);
+}
+
+std::vector<char> PartlyHiddenPairs::classify(RowRange tasks) const {
+    const Impl& m = *impl_;
+    tasks = tasks.clamped(detail::classification_tasks(m.S));
+    std::vector<PairOutput> outputs(tasks.size());
+    detail::classify_tasks(m.S, tasks, m.sparse, m.options.threads, outputs.data());
+    std::vector<char> out;
+    for (const PairOutput& o : outputs) {
+        const std::uint64_t counts[7] = {
+            o.hidden.size(), o.visible.size(),      o.partial.size(),    o.cand.size(),
+            o.node_pairs,    o.visible_patch_pairs, o.hidden_patch_pairs};
+        const char* c = reinterpret_cast<const char*>(counts);
+        out.insert(out.end(), c, c + sizeof(counts));
+        put_array(out, o.hidden);
+        put_array(out, o.visible);
+        put_array(out, o.partial);
+        put_array(out, o.cand);
+    }
+    return out;
+}
+
+void PartlyHiddenPairs::set_classification(const std::vector<char>& bytes) {
+    Impl& m = *impl_;
+    if (!m.S.outputs.empty()) throw Error("analytic: the pairs are classified already");
+    const std::size_t tasks = detail::classification_tasks(m.S);
+    std::vector<PairOutput> outputs(tasks);
+    ByteReader r(bytes);
+    for (PairOutput& o : outputs) {
+        std::uint64_t counts[7];
+        r.read(counts, sizeof(counts));
+        r.array(o.hidden, counts[0]);
+        r.array(o.visible, counts[1]);
+        r.array(o.partial, counts[2]);
+        r.array(o.cand, counts[3]);
+        o.node_pairs = static_cast<std::size_t>(counts[4]);
+        o.visible_patch_pairs = static_cast<std::size_t>(counts[5]);
+        o.hidden_patch_pairs = static_cast<std::size_t>(counts[6]);
+        for (const PartialPair& p : o.partial)
+            if (p.cand_first > o.cand.size() ||
+                static_cast<std::size_t>(p.cand_count) > o.cand.size() - p.cand_first)
+                throw Error("analytic: a classification with candidates out of range");
+    }
+    if (!r.done()) throw Error("analytic: a classification of more tasks than the scene has");
+    m.S.outputs = std::move(outputs);
+    m.list_pairs();
+}
+
+void PartlyHiddenPairs::Impl::list_pairs() {
+    Impl& m = *this;
     for (std::size_t k = 0; k < m.S.outputs.size(); ++k)
         for (const PartialPair& p : m.S.outputs[k].partial) {
             m.partial.push_back(p);

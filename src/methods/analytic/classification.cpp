@@ -199,7 +199,7 @@ class Classifier {
 
 }  // namespace
 
-void prepare_obstructions(const MethodContext& ctx, bool record_visible, Obstructions& S) {
+void prepare_blockers(const MethodContext& ctx, Obstructions& S) {
     const Scene& scene = ctx.scene;
     const MethodOptions& options = ctx.options;
     const auto t_start = Clock::now();
@@ -292,27 +292,42 @@ void prepare_obstructions(const MethodContext& ctx, bool record_visible, Obstruc
         blockers.mark_closed_solids(patch_boxes, 1e-9 * diag);
     }
 
-    const double eps = 1e-11 * diag;
-    S.eps = eps;
+    S.eps = 1e-11 * diag;
+    S.seconds_setup = seconds(t_start, Clock::now());
+}
 
-    const auto t_setup = Clock::now();
-    // 1. Classification, one task per unordered pair of surfaces.
+std::size_t classification_tasks(const Obstructions& S) {
+    const std::size_t g = S.trees.size();
+    return g < 2 ? 0 : g * (g - 1) / 2;
+}
+
+void classify_tasks(const Obstructions& S, RowRange tasks, bool record_visible, int threads,
+                    PairOutput* out) {
+    // Task k is the k-th unordered pair (a, b), a < b, of plane groups in row order.
+    const std::size_t g = S.trees.size();
+    tasks = tasks.clamped(classification_tasks(S));
     std::vector<std::array<int, 2>> spairs;
-    for (std::size_t a = 0; a < trees.size(); ++a)
-        for (std::size_t b = a + 1; b < trees.size(); ++b)
-            spairs.push_back({static_cast<int>(a), static_cast<int>(b)});
-    std::vector<PairOutput>& outputs = S.outputs;
-    outputs.resize(spairs.size());
-    announce_phase("analytic classification");
+    spairs.reserve(tasks.size());
+    std::size_t k = 0;
+    for (std::size_t a = 0; a < g && k < tasks.end; ++a)
+        for (std::size_t b = a + 1; b < g && k < tasks.end; ++b, ++k)
+            if (k >= tasks.begin) spairs.push_back({static_cast<int>(a), static_cast<int>(b)});
     const CancellationFlag& cancel = current_cancellation();
-    parallel_for(spairs.size(), options.threads, [&](std::size_t k) {
-        Classifier c(trees, blockers, eps, cancel, record_visible);
-        c.surface_pair(spairs[k][0], spairs[k][1], outputs[k]);
+    parallel_for(spairs.size(), threads, [&](std::size_t q) {
+        Classifier c(S.trees, S.blockers, S.eps, cancel, record_visible);
+        c.surface_pair(spairs[q][0], spairs[q][1], out[q]);
     });
+}
 
-    const auto t_classified = Clock::now();
-    S.seconds_setup = seconds(t_start, t_setup);
-    S.seconds_classification = seconds(t_setup, t_classified);
+void prepare_obstructions(const MethodContext& ctx, bool record_visible, Obstructions& S) {
+    prepare_blockers(ctx, S);
+    // 1. Classification, one task per unordered pair of surfaces.
+    const auto t_setup = Clock::now();
+    S.outputs.assign(classification_tasks(S), PairOutput{});
+    announce_phase("analytic classification");
+    classify_tasks(S, RowRange{0, S.outputs.size()}, record_visible, ctx.options.threads,
+                   S.outputs.data());
+    S.seconds_classification = seconds(t_setup, Clock::now());
 }
 
 }  // namespace formfactor::detail

@@ -84,6 +84,15 @@ struct Obstructions {
 /// node pairs too (the sparse rows need them).
 void prepare_obstructions(const MethodContext& ctx, bool record_visible, Obstructions& S);
 
+/// prepare_obstructions() in parts, for a classification shared out over processes: the groups,
+/// trees and blockers (S.outputs empty); the classification's tasks (one per unordered pair of
+/// plane groups, in the order of S.outputs); and the outputs of tasks [tasks.begin, tasks.end)
+/// into out[0, tasks.size()), each bit for bit what prepare_obstructions() puts in S.outputs.
+void prepare_blockers(const MethodContext& ctx, Obstructions& S);
+std::size_t classification_tasks(const Obstructions& S);
+void classify_tasks(const Obstructions& S, RowRange tasks, bool record_visible, int threads,
+                    PairOutput* out);
+
 // f(i, j) for every patch pair (i of node a, j of node b) of a node pair.
 template <class F>
 void for_each_patch_pair(const std::vector<ClusterTree>& trees, const NodePair& np, const F& f) {
