@@ -153,9 +153,9 @@ void work_on_job(const std::vector<char>& bytes) {
         emit_sparse = sparse_job(job.kind) && method->emits_sparse_rows(scene);
         if (method->needs_visibility() && !scene.patches.empty())
             visibility = make_visibility(scene, job.visibility);
-        if (job.pairs_first)
+        if (job.pairs_first)  // the blockers; the classification comes in parts
             pairs = std::make_unique<PartlyHiddenPairs>(scene, job.method_options,
-                                                        sparse_job(job.kind));
+                                                        sparse_job(job.kind), false);
         return ready();
     });
     // Sends `message`, then a block per assignment (body(block) the message that answers it)
@@ -183,6 +183,24 @@ void work_on_job(const std::vector<char>& bytes) {
         }
     };
     if (job.pairs_first) {
+        // The classification's tasks, then all of it from rank 0 (1 and its bytes; 2: too
+        // large to send, classified here), or word that the job is over (0).
+        serve_blocks([&](RowRange tasks, WireWriter& out) {
+            if (!pairs) throw Error("distributed: the blockers are not prepared");
+            out.put_vector(pairs->classify(tasks));
+        });
+        std::vector<char> classified = receive_bytes(wait_for(0, kTagValues, nullptr));
+        if (classified.empty() || classified[0] == 0) return;
+        message = answer([&] {
+            if (classified[0] == 2) {
+                pairs->set_classification(pairs->classify({0, pairs->classification_tasks()}));
+            } else {
+                classified.erase(classified.begin());
+                pairs->set_classification(classified);
+            }
+            classified = std::vector<char>{};
+            return ready();
+        });
         serve_blocks([&](RowRange part, WireWriter& out) {
             if (!pairs) throw Error("distributed: the partly hidden pairs are not classified");
             put_values(out, pairs->integrate(part));

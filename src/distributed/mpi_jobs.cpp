@@ -16,6 +16,7 @@
 #include <chrono>
 #include <exception>
 #include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -286,7 +287,6 @@ class PairSink final : public BlockSink {
   public:
     PairSink(const PartlyHiddenPairs* pairs, const CancellationFlag& cancel)
         : pairs_(pairs), cancel_(cancel) {}
-    void set_pairs(const PartlyHiddenPairs* pairs) { pairs_ = pairs; }
     void local(const RowRange& part) override {
         const CancellationScope scope(cancel_);
         PartlyHiddenValues v = pairs_->integrate(part);
@@ -321,37 +321,118 @@ class PairSink final : public BlockSink {
     std::map<std::size_t, PartlyHiddenValues> parts_;
 };
 
-// Rank 0: the pair stage of a job (uses_pair_stage()). Every rank classifies; the parts of the
-// list go out as rows do; then every worker gets every value (or, when a rank failed, word to
-// stop) and `pairs` holds them. Returns the pairs, null after a failure (recorded in `failure`).
-std::unique_ptr<PartlyHiddenPairs> run_pair_stage(const Job& job, const Scene& scene,
-                                                  Failure& failure, CancellationFlag& job_cancel,
-                                                  ProgressSink* progress_sink) {
+// The classification's tasks, by their first task (bytes of PartlyHiddenPairs::classify()).
+class ClassificationSink final : public BlockSink {
+  public:
+    ClassificationSink(const CancellationFlag& cancel) : cancel_(cancel) {}
+    void set_pairs(const PartlyHiddenPairs* pairs) { pairs_ = pairs; }
+    void local(const RowRange& tasks) override {
+        const CancellationScope scope(cancel_);
+        std::vector<char> bytes = pairs_->classify(tasks);
+        const std::lock_guard lock(mutex_);
+        parts_[tasks.begin] = {tasks.end, std::move(bytes)};
+    }
+    void remote(int from, const RowRange& tasks, WireReader& r) override {
+        (void)from;
+        std::vector<char> bytes = r.get_vector<char>();
+        const std::lock_guard lock(mutex_);
+        parts_[tasks.begin] = {tasks.end, std::move(bytes)};
+    }
+    /// Every part, in order (once every part is in); `count` tasks in all.
+    std::vector<char> all(std::size_t count) {
+        std::size_t size = 0;
+        for (const auto& [first, part] : parts_) size += part.second.size();
+        std::vector<char> out;
+        out.reserve(size);
+        std::size_t next = 0;
+        for (auto& [first, part] : parts_) {
+            if (first != next) throw Error("distributed: a part of the classification is missing");
+            out.insert(out.end(), part.second.begin(), part.second.end());
+            part.second = std::vector<char>{};
+            next = part.first;
+        }
+        if (next != count) throw Error("distributed: a part of the classification is missing");
+        return out;
+    }
+
+  private:
+    const PartlyHiddenPairs* pairs_ = nullptr;
+    const CancellationFlag& cancel_;
+    std::mutex mutex_;
+    std::map<std::size_t, std::pair<std::size_t, std::vector<char>>> parts_;
+};
+
+// Rank 0: the classification of the partly hidden pairs (the first part of the pair stage),
+// shared out over the ranks by its tasks (pairs of plane groups) as rows are; every worker then
+// gets the whole of it (message: 1 and the bytes), or, when it is more than MPI sends at once,
+// word to classify it itself (2), or to stop (0). Returns the pairs, classified, or null
+// after a failure (recorded in `failure`).
+std::unique_ptr<PartlyHiddenPairs> run_classification(const Job& job, const Scene& scene,
+                                                      Failure& failure,
+                                                      CancellationFlag& job_cancel,
+                                                      ProgressSink* progress_sink,
+                                                      std::vector<double>& busy) {
     std::unique_ptr<PartlyHiddenPairs> pairs;
-    // Parts shrink as the pairs run out; each is a sample of the list (partly_hidden.h), so
-    // its cost follows its size.
     Schedule schedule(g_size);
-    PairSink sink(nullptr, job_cancel);
-    std::vector<double> done(static_cast<std::size_t>(g_size), 0.0), busy = done;
-    // Made again once the count is known; the dispatcher advances it only after that (it
-    // answers no worker before the schedule opens).
+    ClassificationSink sink(job_cancel);
+    std::vector<double> done(static_cast<std::size_t>(g_size), 0.0);
     std::optional<Progress> progress;
-    progress.emplace("partly hidden pairs", 0, nullptr);
-    // Rank 0 classifies while the dispatcher takes the workers' first word (a failure stops
-    // it through job_cancel).
-    auto classify = [&] {
+    progress.emplace("classification", 0, nullptr);
+    // Rank 0 prepares the blockers while the dispatcher takes the workers' first word.
+    auto prepare = [&] {
         {
             const CancellationScope scope(job_cancel);
             pairs = std::make_unique<PartlyHiddenPairs>(scene, job.method_options,
-                                                        sparse_job(job.kind));
+                                                        sparse_job(job.kind), false);
         }
         sink.set_pairs(pairs.get());
-        progress.emplace("partly hidden pairs", pairs->count(), progress_sink);
-        schedule.open(pairs->count(), pairs->count(), false);
+        const std::size_t tasks = pairs->classification_tasks();
+        progress.emplace("classification", tasks, progress_sink);
+        schedule.open(tasks, tasks, false);
     };
-    run_stage(schedule, sink, failure, job_cancel, *progress, done, busy, classify);
+    run_stage(schedule, sink, failure, job_cancel, *progress, done, busy, prepare);
     if (!failure.any()) progress->finish();
     progress.reset();
+    std::vector<char> message(1, 0);  // 0: stop
+    if (!failure.any() && !process_cancellation().requested()) {
+        try {
+            std::vector<char> all = sink.all(pairs->classification_tasks());
+            pairs->set_classification(all);
+            if (all.size() < static_cast<std::size_t>(std::numeric_limits<int>::max())) {
+                message.assign(1, 1);
+                message.insert(message.end(), all.begin(), all.end());
+            } else {
+                message.assign(1, 2);
+            }
+        } catch (...) {
+            failure.record_local(std::current_exception());
+            message.assign(1, 0);
+        }
+    }
+    for (int r = 1; r < g_size; ++r) send_bytes(message, r, kTagValues);
+    if (message[0] == 0) return nullptr;
+    return pairs;
+}
+
+// Rank 0: the pair stage of a job (uses_pair_stage()). The ranks classify (run_classification());
+// the parts of the list go out as rows do; then every worker gets every value (or, when a rank
+// failed, word to stop) and `pairs` holds them. Returns the pairs, null after a failure
+// (recorded in `failure`).
+std::unique_ptr<PartlyHiddenPairs> run_pair_stage(const Job& job, const Scene& scene,
+                                                  Failure& failure, CancellationFlag& job_cancel,
+                                                  ProgressSink* progress_sink) {
+    std::vector<double> classified(static_cast<std::size_t>(g_size), 0.0);
+    std::unique_ptr<PartlyHiddenPairs> pairs =
+        run_classification(job, scene, failure, job_cancel, progress_sink, classified);
+    if (!pairs) return nullptr;
+    // Parts shrink as the pairs run out; each is a sample of the list (partly_hidden.h), so
+    // its cost follows its size.
+    Schedule schedule(pairs->count(), g_size, pairs->count(), false);
+    PairSink sink(pairs.get(), job_cancel);
+    std::vector<double> done(static_cast<std::size_t>(g_size), 0.0), busy = classified;
+    Progress progress("partly hidden pairs", pairs->count(), progress_sink);
+    run_stage(schedule, sink, failure, job_cancel, progress, done, busy);
+    if (!failure.any()) progress.finish();
     std::vector<char> message(1, 0);  // 0: stop
     if (!failure.any() && !process_cancellation().requested()) {
         try {
