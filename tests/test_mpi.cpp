@@ -214,7 +214,7 @@ TEST_CASE(
 
 TEST_CASE(
     "mpi: analytic F where nothing obstructs is bit-identical on 2 and 3 ranks (blocks of the "
-    "upper triangle, the rest by reciprocity on rank 0)" *
+    "upper triangle and the rest by reciprocity on rank 0)" *
     doctest::test_suite("mpi")) {
     check_same_files_on_any_rank_count(
         "compute cube --subdivide 10 --method analytic --threads 1 -o F{}.npy", {"F{}.npy"});

@@ -84,7 +84,17 @@ void put_block(WireWriter& w, const Job& job, const Scene& scene, const Visibili
         const ComputeResult r = formfactor::compute_form_factors(scene, o);
         report = r.report;
         const FormFactors& ff = r.form_factors;
-        w.put_array(ff.F.data(), static_cast<std::size_t>(ff.F.size()));
+        if (job.upper_only) {
+            // Columns [rows.begin, n) only: rank 0 fills the rest (Job::upper_only).
+            const auto n = static_cast<std::size_t>(ff.F.cols());
+            const std::size_t b = rows.clamped(n).begin, m = static_cast<std::size_t>(ff.F.rows());
+            std::vector<double> upper(m * (n - b));
+            for (std::size_t k = 0; k < m; ++k)
+                std::copy_n(ff.F.data() + k * n + b, n - b, upper.data() + k * (n - b));
+            w.put_vector(upper);
+        } else {
+            w.put_array(ff.F.data(), static_cast<std::size_t>(ff.F.size()));
+        }
         w.put<std::uint8_t>(ff.standard_error.has_value());
         if (ff.standard_error)
             w.put_array(ff.standard_error->data(),

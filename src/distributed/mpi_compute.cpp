@@ -86,7 +86,10 @@ class DenseSink final : public BlockSink {
         report.add(get_report(r));
         const char* data = nullptr;
         std::size_t count = r.get_array<double>(&data);
-        place(rows, data, count, ff.F);
+        if (job_.upper_only)
+            place_upper(rows, data, count);
+        else
+            place(rows, data, count, ff.F);
         if (r.get<std::uint8_t>() != 0) {
             count = r.get_array<double>(&data);
             if (ff.standard_error) place(rows, data, count, *ff.standard_error);
@@ -104,6 +107,15 @@ class DenseSink final : public BlockSink {
     ReportMerger report;
 
   private:
+    // Columns [rows.begin, n) of the rows, as a worker sends them with Job::upper_only.
+    void place_upper(const RowRange& rows, const char* data, std::size_t count) {
+        const std::size_t n = scene_.patches.size(), b = rows.begin;
+        if (b > n || count != rows.size() * (n - b))
+            throw Error("distributed: a block of the wrong size");
+        for (std::size_t k = 0; k < rows.size(); ++k)
+            std::memcpy(ff.F.data() + (b + k) * n + b, data + k * (n - b) * sizeof(double),
+                        (n - b) * sizeof(double));
+    }
     void place(const RowRange& rows, const void* data, std::size_t count, DenseMatrix& M) const {
         const std::size_t n = scene_.patches.size();
         if (count != rows.size() * n) throw Error("distributed: a block of the wrong size");
