@@ -176,15 +176,17 @@ TEST_CASE("ply: an element Open Asset Import reads no data of is refused before 
     const TempDir dir;
     const std::string file = dir.file("e.ply");
     const std::string box = ascii_box();
+    // ":N" for the line of `text` that starts with `what`.
+    auto line_of = [](const std::string& text, const std::string& what) {
+        const auto before = std::count(text.begin(), text.begin() + text.find(what), '\n');
+        return ":" + std::to_string(before + 1);
+    };
     // Named with digits: the reader would take 4294967295 from the name as the count and
     // allocate for it (found by the mesh fuzzer).
     const std::string digits =
         replaced(box, "end_header", "element 4294967295 0\nproperty float q\nend_header");
-    const std::size_t digits_line =
-        1 + static_cast<std::size_t>(
-                std::count(box.begin(), box.begin() + box.find("end_header"), '\n'));
     CHECK(error_of(dir, "e.ply", digits) ==
-          file + ":" + std::to_string(digits_line) +
+          file + line_of(digits, "element 4294967295") +
               ": element '4294967295': a name that starts with a digit (Open Asset Import reads "
               "it as the element's count)");
     // An element of its own before the vertices: the reader would skip its line and read it as
@@ -194,11 +196,8 @@ TEST_CASE("ply: an element Open Asset Import reads no data of is refused before 
                                   "view_px\nelement vertex");
     const std::size_t data = before.find("end_header\n") + 11;
     before.insert(data, "0.5\n");
-    const std::size_t camera_line =
-        1 + static_cast<std::size_t>(
-                std::count(before.begin(), before.begin() + before.find("element camera"), '\n'));
     CHECK(error_of(dir, "e.ply", before) ==
-          file + ":" + std::to_string(camera_line) +
+          file + line_of(before, "element camera") +
               ": element 'camera' (1) comes before element 'vertex': Open Asset Import skips the "
               "data of elements other than vertex, face, tristrips, edge and material, and would "
               "misread what follows; move it after them");

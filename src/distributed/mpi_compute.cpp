@@ -42,23 +42,6 @@ class ReportMerger {
     bool first_ = true;
 };
 
-// F_ij = A_j F_ji / A_i below the diagonal from the upper triangle (Job::upper_only), in tiles
-// as the whole matrix's own fill (kernels/unobstructed.cpp) and with the same expression.
-void lower_by_reciprocity(FormFactors& ff, int threads) {
-    const auto n = static_cast<std::size_t>(ff.F.rows());
-    double* F = ff.F.data();
-    const std::vector<double>& area = ff.areas;
-    if (area.size() != n) throw Error("distributed: the blocks gave no areas");
-    constexpr std::size_t kTile = 64;
-    const std::size_t tiles = (n + kTile - 1) / kTile;
-    parallel_for(tiles, threads, [&](std::size_t bj) {
-        for (std::size_t bi = 0; bi <= bj; ++bi)
-            for (std::size_t j = bj * kTile; j < std::min(n, (bj + 1) * kTile); ++j)
-                for (std::size_t i = bi * kTile; i < std::min(j, (bi + 1) * kTile); ++i)
-                    F[j * n + i] = detail::reciprocal_entry(F[i * n + j], area[i], area[j]);
-    });
-}
-
 // Dense jobs: the rows straight into F (blocks are disjoint rows).
 class DenseSink final : public BlockSink {
   public:
@@ -99,7 +82,9 @@ class DenseSink final : public BlockSink {
     // process has them, by reciprocity, then the partly hidden pairs' own values.
     void finish() override {
         if (!job_.upper_only) return;
-        lower_by_reciprocity(ff, job_.method_options.threads);
+        const auto n = static_cast<std::size_t>(ff.F.rows());
+        if (ff.areas.size() != n) throw Error("distributed: the blocks gave no areas");
+        detail::lower_by_reciprocity(ff.F.data(), n, ff.areas, job_.method_options.threads);
         if (partly_hidden) partly_hidden->write_lower_values(ff.F);
     }
 

@@ -98,6 +98,19 @@ PatchTable build_table(const std::vector<const Polygon*>& polys, int threads) {
 
 }  // namespace
 
+void lower_by_reciprocity(double* F, std::size_t n, const std::vector<double>& area, int threads) {
+    FF_ASSERT(area.size() == n);
+    // In cache-friendly tiles.
+    constexpr std::size_t kTile = 64;
+    const std::size_t tiles = (n + kTile - 1) / kTile;
+    parallel_for(tiles, threads, [&](std::size_t bj) {
+        for (std::size_t bi = 0; bi <= bj; ++bi)
+            for (std::size_t j = bj * kTile; j < std::min(n, (bj + 1) * kTile); ++j)
+                for (std::size_t i = bi * kTile; i < std::min(j, (bi + 1) * kTile); ++i)
+                    F[j * n + i] = reciprocal_entry(F[i * n + j], area[i], area[j]);
+    });
+}
+
 std::shared_ptr<const PatchTable> make_patch_table(const std::vector<const Polygon*>& polys,
                                                    int threads) {
     return std::make_shared<const PatchTable>(build_table(polys, threads));
@@ -248,15 +261,7 @@ UnobstructedStats whole_matrix(const std::vector<const Polygon*>& polys, double 
                   [&](std::size_t j, double v) { F[i * n + j] = v; });
         if (progress) progress->advance();
     });
-    // Lower triangle by reciprocity, A_j F_ji = A_i F_ij, in cache-friendly tiles.
-    constexpr std::size_t kTile = 64;
-    const std::size_t tiles = (n + kTile - 1) / kTile;
-    parallel_for(tiles, threads, [&](std::size_t bj) {
-        for (std::size_t bi = 0; bi <= bj; ++bi)
-            for (std::size_t j = bj * kTile; j < std::min(n, (bj + 1) * kTile); ++j)
-                for (std::size_t i = bi * kTile; i < std::min(j, (bi + 1) * kTile); ++i)
-                    F[j * n + i] = reciprocal_entry(F[i * n + j], t.area[i], t.area[j]);
-    });
+    lower_by_reciprocity(F, n, t.area, threads);
     return sum_stats(stats);
 }
 

@@ -74,6 +74,10 @@ inline double reciprocal_entry(double upper, double area_i, double area_j) {
     return area_j > 0.0 ? upper * area_i / area_j : 0.0;
 }
 
+/// F (n × n, row-major) below the diagonal from above it: F_ji = reciprocal_entry(F_ij, A_i,
+/// A_j) for i < j, as the whole matrix of unobstructed_rows() is filled.
+void lower_by_reciprocity(double* F, std::size_t n, const std::vector<double>& area, int threads);
+
 /// The unobstructed U_ij of the listed pairs only: for each row i, the columns columns[i] (all
 /// > i, ascending) get values[i][k] = U_{i, columns[i][k]}, bit for bit the value
 /// unobstructed_rows() gives. Cost: the listed pairs, not n². progress (may be null)
