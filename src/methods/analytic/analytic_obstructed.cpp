@@ -408,6 +408,7 @@ class ByteReader {
     bool done() const { return at_ == b_.size(); }
     void read(void* dst, std::size_t bytes) {
         if (bytes > b_.size() - at_) throw Error("analytic: a classification cut short");
+        if (bytes == 0) return;  // dst may be an empty vector's null data()
         std::memcpy(dst, b_.data() + at_, bytes);
         at_ += bytes;
     }
