@@ -4,11 +4,12 @@
 // message a worker sends (ready, rows, failure) is answered by one assignment: a block, or
 // none (the job is over for it).
 //
-// The analytic method in a scene that may obstruct runs a job in two stages: first the partly
-// hidden pairs (classified on every rank, the same list everywhere) are handed out in parts of
-// the list and integrated once over the ranks; rank 0 sends every rank all their values, and
-// the rows then take them (formfactor/methods/partly_hidden.h). By rows alone, a pair between
-// two blocks would be integrated for each block.
+// The analytic method in a scene that may obstruct runs a job in three stages: the
+// classification's tasks (pairs of plane groups) are handed out and rank 0 sends every rank the
+// whole classification (the same list everywhere); the partly hidden pairs are handed out in
+// parts of the list and integrated once over the ranks, and rank 0 sends every rank all their
+// values; the rows then take them (formfactor/methods/partly_hidden.h). By rows alone, a pair
+// between two blocks would be integrated for each block.
 
 #include <fmt/format.h>
 

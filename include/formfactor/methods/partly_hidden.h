@@ -3,8 +3,9 @@
 /// scene that may obstruct and the integration of any part of the list it makes. A block of rows
 /// needs the values of every partly hidden pair with a patch in it, so blocks computed on their
 /// own integrate the pairs between two blocks twice; an MPI run instead prepares this on every
-/// rank, hands out parts of the list over the ranks, gives every rank all the values, and then
-/// computes the rows with them (MethodContext::partly_hidden): each pair is integrated once.
+/// rank, classifies in parts over the ranks (classify(), set_classification()), hands out
+/// parts of the list, gives every rank all the values, and then computes the rows with them
+/// (MethodContext::partly_hidden): each pair is classified and integrated once.
 
 #include <array>
 #include <cstddef>
