@@ -205,8 +205,7 @@ void work_on_job(const std::vector<char>& bytes) {
             if (classified[0] == 2) {
                 pairs->set_classification(pairs->classify({0, pairs->classification_tasks()}));
             } else {
-                classified.erase(classified.begin());
-                pairs->set_classification(classified);
+                pairs->set_classification(classified.data() + 1, classified.size() - 1);
             }
             classified = std::vector<char>{};
             return ready();

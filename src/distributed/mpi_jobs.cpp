@@ -339,12 +339,13 @@ class ClassificationSink final : public BlockSink {
         const std::lock_guard lock(mutex_);
         parts_[tasks.begin] = {tasks.end, std::move(bytes)};
     }
-    /// Every part, in order (once every part is in); `count` tasks in all.
-    std::vector<char> all(std::size_t count) {
-        std::size_t size = 0;
+    /// `lead`, then every part in order (once every part is in); `count` tasks in all.
+    std::vector<char> all(std::size_t count, char lead) {
+        std::size_t size = 1;
         for (const auto& [first, part] : parts_) size += part.second.size();
         std::vector<char> out;
         out.reserve(size);
+        out.push_back(lead);
         std::size_t next = 0;
         for (auto& [first, part] : parts_) {
             if (first != next) throw Error("distributed: a part of the classification is missing");
@@ -397,14 +398,10 @@ std::unique_ptr<PartlyHiddenPairs> run_classification(const Job& job, const Scen
     std::vector<char> message(1, 0);  // 0: stop
     if (!failure.any() && !process_cancellation().requested()) {
         try {
-            std::vector<char> all = sink.all(pairs->classification_tasks());
-            pairs->set_classification(all);
-            if (all.size() < static_cast<std::size_t>(std::numeric_limits<int>::max())) {
-                message.assign(1, 1);
-                message.insert(message.end(), all.begin(), all.end());
-            } else {
+            message = sink.all(pairs->classification_tasks(), 1);
+            pairs->set_classification(message.data() + 1, message.size() - 1);
+            if (message.size() > static_cast<std::size_t>(std::numeric_limits<int>::max()))
                 message.assign(1, 2);
-            }
         } catch (...) {
             failure.record_local(std::current_exception());
             message.assign(1, 0);

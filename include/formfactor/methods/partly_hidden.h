@@ -66,7 +66,10 @@ class PartlyHiddenPairs {
     /// Every task's classification: the bytes of classify() for consecutive ranges that cover
     /// [0, classification_tasks()), concatenated in order. Then as if classified here (the
     /// same pairs in the same order); an Error if the bytes are not that.
-    void set_classification(const std::vector<char>& bytes);
+    void set_classification(const char* bytes, std::size_t size);
+    void set_classification(const std::vector<char>& bytes) {
+        set_classification(bytes.data(), bytes.size());
+    }
 
     /// The number of partly hidden pairs.
     std::size_t count() const;

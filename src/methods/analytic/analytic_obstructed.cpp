@@ -404,24 +404,24 @@ void put_array(std::vector<char>& out, const std::vector<T>& v) {
 
 class ByteReader {
   public:
-    explicit ByteReader(const std::vector<char>& b) : b_(b) {}
-    bool done() const { return at_ == b_.size(); }
+    ByteReader(const char* data, std::size_t size) : data_(data), size_(size) {}
+    bool done() const { return at_ == size_; }
     void read(void* dst, std::size_t bytes) {
-        if (bytes > b_.size() - at_) throw Error("analytic: a classification cut short");
+        if (bytes > size_ - at_) throw Error("analytic: a classification cut short");
         if (bytes == 0) return;  // dst may be an empty vector's null data()
-        std::memcpy(dst, b_.data() + at_, bytes);
+        std::memcpy(dst, data_ + at_, bytes);
         at_ += bytes;
     }
     template <class T>
     void array(std::vector<T>& v, std::uint64_t count) {
-        if (count > (b_.size() - at_) / sizeof(T))
-            throw Error("analytic: a classification cut short");
+        if (count > (size_ - at_) / sizeof(T)) throw Error("analytic: a classification cut short");
         v.resize(static_cast<std::size_t>(count));
         read(v.data(), v.size() * sizeof(T));
     }
 
   private:
-    const std::vector<char>& b_;
+    const char* data_;
+    std::size_t size_;
     std::size_t at_ = 0;
 };
 
@@ -451,12 +451,12 @@ std::vector<char> PartlyHiddenPairs::classify(RowRange tasks) const {
     return out;
 }
 
-void PartlyHiddenPairs::set_classification(const std::vector<char>& bytes) {
+void PartlyHiddenPairs::set_classification(const char* bytes, std::size_t size) {
     Impl& m = *impl_;
     if (!m.S.outputs.empty()) throw Error("analytic: the pairs are classified already");
     const std::size_t tasks = detail::classification_tasks(m.S);
     std::vector<PairOutput> outputs(tasks);
-    ByteReader r(bytes);
+    ByteReader r(bytes, size);
     for (PairOutput& o : outputs) {
         std::uint64_t counts[7];
         r.read(counts, sizeof(counts));
