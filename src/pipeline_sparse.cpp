@@ -14,6 +14,7 @@
 #include "formfactor/methods/method.h"
 #include "formfactor/scene/closure.h"
 #include "formfactor/visibility/visibility.h"
+#include "sparse_assembly.h"
 
 namespace formfactor {
 
@@ -135,35 +136,27 @@ SparseComputeResult compute_sparse_form_factors(const Scene& scene, const Comput
     SparseComputeResult result;
     const MethodKind kind = options.method ? *options.method : default_method(scene);
     result.traits = method_traits(kind, options.method_options, &scene);
-    SparseRunNeeds needs;
-    needs.patches = n;
-    needs.standard_errors = result.traits.standard_errors;
-    // mc-target's unobstructed values come from the analytic method's row range.
-    needs.block_strip = kind == MethodKind::analytic || kind == MethodKind::mc_target;
-    needs.repair = options.repair.mode != RepairMode::none;
-    // Rows emitted sparse: no rows × N block. Blocks of at most 8,192 rows still keep the rows
-    // waiting for the CSR small and let the projection below stop a run that will not fit.
     const auto method = make_method(kind);
     const bool emit_sparse = method->emits_sparse_rows(scene);
-    needs.rows_sparse = emit_sparse;
-    needs.threads = effective_threads(options.method_options.threads);
+    SparseRunNeeds needs = detail::sparse_run_needs(scene, options, result.traits, emit_sparse);
     const double available = available_memory();
     double budget = sparse.block_memory;
     if (!(budget > 0.0)) budget = available > 0.0 ? std::min(512e6, available / 4) : 512e6;
     needs.block_rows = sparse.block_rows > 0
                            ? std::min(sparse.block_rows, std::max<std::size_t>(n, 1))
                            : sparse_block_rows(needs, budget);
+    // Rows emitted sparse: no rows × N block. Blocks of at most 8,192 rows still keep the rows
+    // waiting for the CSR small and let the projection stop a run that will not fit.
     if (emit_sparse && sparse.block_rows == 0)
         needs.block_rows = method->sparse_rows_at_once()
                                ? std::max<std::size_t>(n, 1)
                                : std::min<std::size_t>(needs.block_rows, 8192);
     result.run.block_rows = needs.block_rows;
-    result.run.estimate_before = estimate_sparse_memory(needs);
-    const std::string advice =
-        "raise the threshold, use a coarser subdivision, or smaller blocks (block_rows)";
-    check_sparse_memory(needs, available, advice);
+    detail::SparseAssembly assembly(
+        needs, sparse.threshold, options.method_options.threads,
+        "raise the threshold, use a coarser subdivision, or smaller blocks (block_rows)");
+    result.run.estimate_before = assembly.estimate_before();
 
-    std::optional<SparseBuilder> builder;  // made with the areas of the first block
     // One ray tracer for every block (a BVH of the whole scene per block was most of a
     // 10^5-patch Monte-Carlo run).
     std::unique_ptr<Visibility> visibility;
@@ -187,39 +180,20 @@ SparseComputeResult compute_sparse_form_factors(const Scene& scene, const Comput
         ComputeResult block = compute_form_factors(scene, bo);
         compute_s += sw.lap();
         announce_phase("threshold");
-        if (!builder)
-            builder.emplace(n, block.form_factors.areas, sparse.threshold,
-                            emit_sparse ? emitted.has_standard_errors()
-                                        : block.form_factors.standard_error.has_value());
         if (emit_sparse)
-            builder->append(emitted, options.method_options.threads);
+            assembly.add(std::move(emitted), block.form_factors.areas);
         else
-            builder->append(block.form_factors, options.method_options.threads);
-        merge_block_report(result.report, block.report, result.run.blocks == 0);
+            assembly.add(b, block.form_factors);
+        emitted = SparseRows{};
+        merge_block_report(result.report, block.report, assembly.blocks() == 1);
         result.threads = block.threads;
-        ++result.run.blocks;
-        // The CSR so far, extrapolated to every row: stop now when it will not fit.
-        SparseRunNeeds projected = needs;
-        projected.nonzeros =
-            double(builder->current().nonzeros()) * double(n) / double(builder->rows());
-        if (emit_sparse) {
-            double entries = 0;
-            for (const auto& row : emitted.values) entries += double(row.size());
-            projected.row_entries = entries / double(std::max<std::size_t>(emitted.size(), 1));
-        }
-        const double total = estimate_sparse_memory(projected).total();
-        result.run.projected_bytes = std::max(result.run.projected_bytes, total);
-        check_sparse_memory(projected, available, advice);
-        // After the first block, room for the projection (+5 %): the arrays then grow without
-        // the copies (and the doubled capacity) of repeated reallocation.
-        if (result.run.blocks == 1 && builder->rows() < n)
-            builder->reserve(static_cast<std::size_t>(1.05 * projected.nonzeros));
         threshold_s += sw.lap();
         progress.advance(bo.rows.size());
     }
     progress.finish();
-    if (!builder) builder.emplace(0, std::vector<double>{}, sparse.threshold, false);
-    result.form_factors = builder->finish();
+    result.run.blocks = assembly.blocks();
+    result.run.projected_bytes = assembly.projected_bytes();
+    result.form_factors = assembly.finish();
     result.timings.add("compute", compute_s);
     result.timings.add("threshold", threshold_s);
     diagnose_and_repair(result, options.repair, closure, sw);
@@ -228,5 +202,98 @@ SparseComputeResult compute_sparse_form_factors(const Scene& scene, const Comput
     result.run.peak_memory_bytes = peak_memory_bytes();
     return result;
 }
+
+namespace detail {
+
+SparseRunNeeds sparse_run_needs(const Scene& scene, const ComputeOptions& options,
+                                const MethodTraits& traits, bool emit_sparse) {
+    const MethodKind kind = options.method ? *options.method : default_method(scene);
+    SparseRunNeeds needs;
+    needs.patches = scene.patches.size();
+    needs.standard_errors = traits.standard_errors;
+    // mc-target's unobstructed values come from the analytic method's row range.
+    needs.block_strip = kind == MethodKind::analytic || kind == MethodKind::mc_target;
+    needs.repair = options.repair.mode != RepairMode::none;
+    needs.rows_sparse = emit_sparse;
+    needs.threads = effective_threads(options.method_options.threads);
+    return needs;
+}
+
+SparseAssembly::SparseAssembly(const SparseRunNeeds& needs, double threshold, int threads,
+                               std::string advice)
+    : needs_(needs),
+      threshold_(threshold),
+      available_(available_memory()),
+      threads_(threads),
+      advice_(std::move(advice)),
+      estimate_before_(estimate_sparse_memory(needs)) {
+    check_sparse_memory(needs_, available_, advice_);
+}
+
+void SparseAssembly::start(const std::vector<double>& areas, bool standard_errors) {
+    if (builder_) return;
+    builder_.emplace(needs_.patches, areas, threshold_, standard_errors);
+}
+
+void SparseAssembly::add(std::size_t first_row, const FormFactors& block) {
+    ++blocks_;
+    start(block.areas, block.standard_error.has_value());
+    if (first_row != builder_->rows())
+        throw Error(fmt::format("sparse rows: a block from row {} where row {} was due", first_row,
+                                builder_->rows()));
+    builder_->append(block, threads_);
+    joined(nullptr);
+}
+
+void SparseAssembly::add(SparseRows rows, const std::vector<double>& areas) {
+    ++blocks_;
+    if (!builder_ && rows.first_row == 0) start(areas, rows.has_standard_errors());
+    const std::size_t first = rows.first_row;
+    if (!waiting_.emplace(first, std::move(rows)).second)
+        throw Error(fmt::format("sparse rows: two blocks from row {}", first));
+    join_waiting();
+}
+
+void SparseAssembly::join_waiting() {
+    while (builder_ && !waiting_.empty() && waiting_.begin()->first == builder_->rows()) {
+        auto node = waiting_.extract(waiting_.begin());
+        builder_->append(node.mapped(), threads_);
+        joined(&node.mapped());
+    }
+}
+
+// The CSR so far, extrapolated to every row: stop now when it will not fit.
+void SparseAssembly::joined(const SparseRows* emitted) {
+    ++joined_blocks_;
+    SparseRunNeeds projected = needs_;
+    projected.nonzeros = double(builder_->current().nonzeros()) * double(needs_.patches) /
+                         double(std::max<std::size_t>(builder_->rows(), 1));
+    if (emitted) {
+        double entries = 0;
+        for (const auto& row : emitted->values) entries += double(row.size());
+        projected.row_entries = entries / double(std::max<std::size_t>(emitted->size(), 1));
+    }
+    const double total = estimate_sparse_memory(projected).total();
+    projected_bytes_ = std::max(projected_bytes_, total);
+    check_sparse_memory(projected, available_, advice_);
+    // After the first block, room for the projection (+5 %): the arrays then grow without
+    // the copies (and the doubled capacity) of repeated reallocation.
+    if (joined_blocks_ == 1 && builder_->rows() < needs_.patches)
+        builder_->reserve(static_cast<std::size_t>(1.05 * projected.nonzeros));
+}
+
+SparseFormFactors SparseAssembly::finish() {
+    if (!builder_) {
+        if (needs_.patches > 0 || !waiting_.empty())
+            throw Error("sparse rows: the block of the first row is missing");
+        builder_.emplace(0, std::vector<double>{}, threshold_, false);
+    }
+    if (!waiting_.empty())
+        throw Error(fmt::format("sparse rows: rows {} to {} are missing", builder_->rows(),
+                                waiting_.begin()->first));
+    return builder_->finish();
+}
+
+}  // namespace detail
 
 }  // namespace formfactor

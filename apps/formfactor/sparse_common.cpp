@@ -92,7 +92,7 @@ void print_sparse_summary(const Scene& scene, const SparseComputeResult& r, cons
     const SparseDiagnostics& d = r.repair ? r.repair->after : r.diagnostics;
     const double n = static_cast<double>(F.n);
     if (r.run.blocks > 0)
-        fmt::print("storage    sparse ({}); threshold {:g}, {} block{} of {} rows\n", why,
+        fmt::print("storage    sparse ({}); threshold {:g}, {} block{} of up to {} rows\n", why,
                    threshold, r.run.blocks, r.run.blocks == 1 ? "" : "s",
                    format_count(double(r.run.block_rows)));
     else  // read from a file

@@ -16,6 +16,7 @@
 #include "formfactor/matrix/memory.h"
 #include "kernels/unobstructed.h"
 #include "mpi_internal.h"
+#include "sparse_assembly.h"
 
 namespace formfactor::distributed {
 
@@ -113,26 +114,26 @@ class DenseSink final : public BlockSink {
     const CancellationFlag& cancel_;
 };
 
-// Sparse jobs: each block's sparse rows kept until all are in, then thresholded in row order.
+// Sparse jobs: each block's sparse rows joined into the CSR as soon as the rows before it are
+// in (rank 0's first block comes first: it gives the areas), with the run's memory check.
 class SparseSink final : public BlockSink {
   public:
     SparseSink(const Job& job, const Scene& scene, const Visibility* visibility,
-               const CancellationFlag& cancel, bool emit_sparse)
+               const CancellationFlag& cancel, bool emit_sparse, detail::SparseAssembly& assembly)
         : job_(job),
           scene_(scene),
           visibility_(visibility),
           cancel_(cancel),
-          emit_sparse_(emit_sparse) {}
+          emit_sparse_(emit_sparse),
+          assembly_(assembly) {}
     void local(const RowRange& rows) override {
         ComputeOptions o = block_options(job_, visibility_, rows, &cancel_, partly_hidden);
         SparseRows emitted;
         if (emit_sparse_) o.sparse_rows = &emitted;
         ComputeResult r = formfactor::compute_form_factors(scene_, o);
-        if (areas.empty()) areas = r.form_factors.areas;
         if (!emit_sparse_) emitted = nonzero_rows(r.form_factors);
         report.add(r.report);
-        const std::lock_guard lock(mutex_);
-        blocks[rows.begin] = std::move(emitted);
+        add(std::move(emitted), r.form_factors.areas);
     }
     void remote(int from, const RowRange& rows, WireReader& r) override {
         (void)from;
@@ -140,20 +141,27 @@ class SparseSink final : public BlockSink {
         SparseRows got = get_sparse_rows(r);
         if (got.first_row != rows.begin || got.size() != rows.size())
             throw Error("distributed: a block of the wrong rows");
-        const std::lock_guard lock(mutex_);
-        blocks[rows.begin] = std::move(got);
+        add(std::move(got), {});
     }
 
-    std::vector<double> areas;
-    std::map<std::size_t, SparseRows> blocks;
     ReportMerger report;
+    /// Seconds spent joining blocks (beside the blocks' work, on rank 0).
+    double join_seconds = 0.0;
 
   private:
+    void add(SparseRows rows, const std::vector<double>& areas) {
+        const std::lock_guard lock(mutex_);
+        Stopwatch sw;
+        assembly_.add(std::move(rows), areas);
+        join_seconds += sw.seconds();
+    }
+
     const Job& job_;
     const Scene& scene_;
     const Visibility* visibility_;
     const CancellationFlag& cancel_;
     bool emit_sparse_;
+    detail::SparseAssembly& assembly_;
     std::mutex mutex_;
 };
 
@@ -307,25 +315,25 @@ SparseComputeResult compute_sparse_form_factors(const Scene& scene, const Comput
                     : rows_for_budget(double(n) * 8.0 *
                                       ((traits.standard_errors ? 2 : 1) + (strip ? 1 : 0)));
     if (sparse.block_rows > 0) max_rows = std::min(max_rows, sparse.block_rows);
+    // Rank 0 holds what one process holds in a sparse run (its own block, the CSR) and the
+    // blocks that came before the rows they follow.
+    SparseRunNeeds needs = detail::sparse_run_needs(scene, options, traits, emit_sparse);
+    needs.block_rows = std::min(max_rows, std::max<std::size_t>(n, 1));
+    detail::SparseAssembly assembly(
+        needs, sparse.threshold, options.method_options.threads,
+        "raise the threshold, use a coarser subdivision, or smaller blocks (block_rows)");
 
     StepTimes timings;
     auto visibility = rank0_visibility(*method, scene, options, timings);
     CancellationFlag cancel;
     SparseSink sink(job, scene,
                     options.prebuilt_visibility ? options.prebuilt_visibility : visibility.get(),
-                    cancel, emit_sparse);
+                    cancel, emit_sparse, assembly);
     Stopwatch sw;
     run_job(job, scene, max_rows, sink, cancel, options.progress);
     timings.add("compute", sw.lap());
-    const bool standard_errors =
-        !sink.blocks.empty() && sink.blocks.begin()->second.has_standard_errors();
-    SparseBuilder builder(n, sink.areas.size() == n ? sink.areas : std::vector<double>(n, 0.0),
-                          sparse.threshold, standard_errors);
-    for (auto& [first, rows] : sink.blocks) {
-        builder.append(rows, options.method_options.threads);
-        rows = SparseRows{};
-    }
-    SparseFormFactors F = builder.finish();
+    SparseFormFactors F = assembly.finish();
+    // Joining the blocks went on beside the blocks' work: what is left of it after them.
     timings.add("threshold", sw.lap());
     SparseComputeResult result =
         sparse_form_factors_from_matrix(scene, std::move(F), options.repair, "distributed");
@@ -335,7 +343,11 @@ SparseComputeResult compute_sparse_form_factors(const Scene& scene, const Comput
     add_shares(result.report);
     result.traits = traits;
     result.run.blocks = g_shares.blocks;
-    result.run.block_rows = max_rows;
+    result.run.block_rows = g_shares.largest_block;
+    result.run.estimate_before = assembly.estimate_before();
+    result.run.projected_bytes = assembly.projected_bytes();
+    needs.nonzeros = double(result.form_factors.nonzeros());
+    result.run.estimate_after = estimate_sparse_memory(needs);
     result.threads = effective_threads(options.method_options.threads);
     return result;
 }

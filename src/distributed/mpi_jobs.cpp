@@ -490,6 +490,7 @@ void run_job(Job job, const Scene& scene, std::size_t max_rows, BlockSink& sink,
     g_shares.rows = rows;
     for (std::size_t r = 0; r < busy.size(); ++r) g_shares.busy_seconds[r] += busy[r];
     g_shares.blocks = schedule.blocks();
+    g_shares.largest_block = schedule.largest();
 }
 
 // The ranks' shares in the method's report.

@@ -93,6 +93,7 @@ struct RankShares {
     std::vector<double> rows;
     std::vector<double> busy_seconds;  ///< rows and partly hidden pairs
     std::size_t blocks = 0;
+    std::size_t largest_block = 0;  ///< rows of the largest block of rows
     /// The analytic method in a scene that may obstruct: partly hidden pairs integrated per
     /// rank (before the rows), and the parts of the list they were handed out in; else empty.
     std::vector<double> pairs;

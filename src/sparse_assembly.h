@@ -1,0 +1,62 @@
+// Rows of a sparse run joined into one CSR in row order, whatever order their blocks come in
+// (one process: in order; rank 0 of an MPI job: as the ranks send them), with the run's memory
+// check: the estimate of the whole run before the first block, and after each block joined the
+// CSR so far extrapolated to every row.
+
+#pragma once
+
+#include <cstddef>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "formfactor/matrix/memory.h"
+#include "formfactor/matrix/sparse.h"
+#include "formfactor/methods/traits.h"
+#include "formfactor/pipeline.h"
+
+namespace formfactor::detail {
+
+/// What a sparse run of `kind` on `scene` holds at its peak, but for its block rows (the
+/// caller's choice): shared by the pipeline's blocks and rank 0 of an MPI job.
+SparseRunNeeds sparse_run_needs(const Scene& scene, const ComputeOptions& options,
+                                const MethodTraits& traits, bool emit_sparse);
+
+class SparseAssembly {
+  public:
+    /// Checks `needs` against the available memory first (ResourceError with `advice`).
+    SparseAssembly(const SparseRunNeeds& needs, double threshold, int threads, std::string advice);
+
+    /// A block of dense rows from `first_row` (FormFactors of the pipeline's row range).
+    void add(std::size_t first_row, const FormFactors& block);
+    /// A block of rows a method emitted sparse (or made sparse for sending).
+    void add(SparseRows rows, const std::vector<double>& areas);
+
+    /// Rows joined so far.
+    std::size_t rows() const { return builder_ ? builder_->rows() : 0; }
+    /// The CSR of every row (throws Error when a block is missing).
+    SparseFormFactors finish();
+
+    const MemoryEstimate& estimate_before() const { return estimate_before_; }
+    double projected_bytes() const { return projected_bytes_; }
+    /// Blocks added so far.
+    std::size_t blocks() const { return blocks_; }
+
+  private:
+    void start(const std::vector<double>& areas, bool standard_errors);
+    void joined(const SparseRows* emitted);
+    void join_waiting();
+
+    SparseRunNeeds needs_;
+    double threshold_, available_;
+    int threads_;
+    std::string advice_;
+    MemoryEstimate estimate_before_;
+    double projected_bytes_ = 0.0;
+    std::size_t blocks_ = 0, joined_blocks_ = 0;
+    std::optional<SparseBuilder> builder_;       // made with the areas of the first block
+    std::map<std::size_t, SparseRows> waiting_;  // blocks that came before the rows they follow
+};
+
+}  // namespace formfactor::detail
