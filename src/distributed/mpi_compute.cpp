@@ -43,19 +43,69 @@ class ReportMerger {
     bool first_ = true;
 };
 
-// Dense jobs: the rows straight into F (blocks are disjoint rows).
-class DenseSink final : public BlockSink {
+// Rank 0's ray tracer for its own blocks: the one given, or one built when the job has gone
+// out, while the other ranks build theirs.
+class Rank0Visibility {
   public:
-    DenseSink(const Job& job, const Scene& scene, const Visibility* visibility,
+    Rank0Visibility(const Method& method, const Scene& scene, const ComputeOptions& options)
+        : scene_(scene), options_(options.visibility), given_(options.prebuilt_visibility) {
+        needed_ = !given_ && method.needs_visibility() && !scene.patches.empty();
+    }
+    void build() {
+        if (!needed_ || own_) return;
+        Stopwatch sw;
+        own_ = make_visibility(scene_, options_);
+        seconds_ = sw.seconds();
+    }
+    const Visibility* get() const { return given_ ? given_ : own_.get(); }
+    /// Adds the build's time and the job's other time as steps "visibility" and "compute".
+    void add_times(StepTimes& timings, double job_seconds) const {
+        if (needed_) timings.add("visibility", seconds_);
+        timings.add("compute", job_seconds - seconds_);
+    }
+
+  private:
+    const Scene& scene_;
+    VisibilityOptions options_;
+    const Visibility* given_;
+    std::unique_ptr<Visibility> own_;
+    bool needed_ = false;
+    double seconds_ = 0.0;
+};
+
+// What every sink of rows has: the job, and rank 0's ray tracer, built in prepare().
+class RowSink : public BlockSink {
+  public:
+    RowSink(const Job& job, const Scene& scene, Rank0Visibility& visibility,
+            const CancellationFlag& cancel)
+        : job_(job), scene_(scene), visibility_(visibility), cancel_(cancel) {}
+    void prepare() override { visibility_.build(); }
+
+  protected:
+    ComputeOptions options_for(const RowRange& rows) const {
+        return block_options(job_, visibility_.get(), rows, &cancel_, partly_hidden);
+    }
+
+    const Job& job_;
+    const Scene& scene_;
+
+  private:
+    Rank0Visibility& visibility_;
+    const CancellationFlag& cancel_;
+};
+
+// Dense jobs: the rows straight into F (blocks are disjoint rows).
+class DenseSink final : public RowSink {
+  public:
+    DenseSink(const Job& job, const Scene& scene, Rank0Visibility& visibility,
               const CancellationFlag& cancel, bool standard_errors)
-        : job_(job), scene_(scene), visibility_(visibility), cancel_(cancel) {
+        : RowSink(job, scene, visibility, cancel) {
         const auto n = static_cast<Eigen::Index>(scene.patches.size());
         ff.F = DenseMatrix::Zero(n, n);
         if (standard_errors) ff.standard_error = DenseMatrix::Zero(n, n);
     }
     void local(const RowRange& rows) override {
-        ComputeResult r = formfactor::compute_form_factors(
-            scene_, block_options(job_, visibility_, rows, &cancel_, partly_hidden));
+        ComputeResult r = formfactor::compute_form_factors(scene_, options_for(rows));
         if (ff.areas.empty()) ff.areas = r.form_factors.areas;
         place(rows, r.form_factors.F.data(), static_cast<std::size_t>(r.form_factors.F.size()),
               ff.F);
@@ -107,27 +157,17 @@ class DenseSink final : public BlockSink {
         if (count != rows.size() * n) throw Error("distributed: a block of the wrong size");
         std::memcpy(M.data() + rows.begin * n, data, count * sizeof(double));
     }
-
-    const Job& job_;
-    const Scene& scene_;
-    const Visibility* visibility_;
-    const CancellationFlag& cancel_;
 };
 
 // Sparse jobs: each block's sparse rows joined into the CSR as soon as the rows before it are
 // in (rank 0's first block comes first: it gives the areas), with the run's memory check.
-class SparseSink final : public BlockSink {
+class SparseSink final : public RowSink {
   public:
-    SparseSink(const Job& job, const Scene& scene, const Visibility* visibility,
+    SparseSink(const Job& job, const Scene& scene, Rank0Visibility& visibility,
                const CancellationFlag& cancel, bool emit_sparse, detail::SparseAssembly& assembly)
-        : job_(job),
-          scene_(scene),
-          visibility_(visibility),
-          cancel_(cancel),
-          emit_sparse_(emit_sparse),
-          assembly_(assembly) {}
+        : RowSink(job, scene, visibility, cancel), emit_sparse_(emit_sparse), assembly_(assembly) {}
     void local(const RowRange& rows) override {
-        ComputeOptions o = block_options(job_, visibility_, rows, &cancel_, partly_hidden);
+        ComputeOptions o = options_for(rows);
         SparseRows emitted;
         if (emit_sparse_) o.sparse_rows = &emitted;
         ComputeResult r = formfactor::compute_form_factors(scene_, o);
@@ -156,10 +196,6 @@ class SparseSink final : public BlockSink {
         join_seconds += sw.seconds();
     }
 
-    const Job& job_;
-    const Scene& scene_;
-    const Visibility* visibility_;
-    const CancellationFlag& cancel_;
     bool emit_sparse_;
     detail::SparseAssembly& assembly_;
     std::mutex mutex_;
@@ -167,20 +203,16 @@ class SparseSink final : public BlockSink {
 
 // Kept jobs: rank 0 keeps its own blocks as every rank does, and learns from every block which
 // rank keeps it and its row sums.
-class KeptSink final : public BlockSink {
+class KeptSink final : public RowSink {
   public:
-    KeptSink(const Job& job, const Scene& scene, const Visibility* visibility,
+    KeptSink(const Job& job, const Scene& scene, Rank0Visibility& visibility,
              const CancellationFlag& cancel, bool emit_sparse)
-        : job_(job),
-          scene_(scene),
-          visibility_(visibility),
-          cancel_(cancel),
-          emit_sparse_(emit_sparse) {
+        : RowSink(job, scene, visibility, cancel), emit_sparse_(emit_sparse) {
         owners.resize(static_cast<std::size_t>(g_size));
         row_sums.assign(scene.patches.size(), 0.0);
     }
     void local(const RowRange& rows) override {
-        const ComputeOptions o = block_options(job_, visibility_, rows, &cancel_, partly_hidden);
+        const ComputeOptions o = options_for(rows);
         MethodReport block_report;
         const std::vector<double> got =
             keep_block(job_, scene_, o, emit_sparse_, block_report, &areas);
@@ -212,24 +244,9 @@ class KeptSink final : public BlockSink {
         weights[rows.begin] = double(rows.size()) + got[rows.size()];
     }
 
-    const Job& job_;
-    const Scene& scene_;
-    const Visibility* visibility_;
-    const CancellationFlag& cancel_;
     bool emit_sparse_;
     std::mutex mutex_;
 };
-
-// Rank 0's ray tracer for its own blocks.
-std::unique_ptr<Visibility> rank0_visibility(const Method& method, const Scene& scene,
-                                             const ComputeOptions& options, StepTimes& timings) {
-    if (options.prebuilt_visibility || !method.needs_visibility() || scene.patches.empty())
-        return nullptr;
-    Stopwatch sw;
-    auto v = make_visibility(scene, options.visibility);
-    timings.add("visibility", sw.lap());
-    return v;
-}
 
 }  // namespace
 
@@ -260,15 +277,13 @@ ComputeResult compute_form_factors(const Scene& scene, const ComputeOptions& opt
     check_memory(needs, available_memory(), "use a coarser subdivision, or sparse storage");
     method->check(scene);
 
-    auto visibility = rank0_visibility(*method, scene, options, result.timings);
+    Rank0Visibility visibility(*method, scene, options);
     // Stops rank 0's own blocks when another rank fails or the process is interrupted.
     CancellationFlag cancel;
-    DenseSink sink(job, scene,
-                   options.prebuilt_visibility ? options.prebuilt_visibility : visibility.get(),
-                   cancel, result.traits.standard_errors);
+    DenseSink sink(job, scene, visibility, cancel, result.traits.standard_errors);
     Stopwatch sw;
     run_job(job, scene, max_rows, sink, cancel, options.progress);
-    result.timings.add("compute", sw.lap());
+    visibility.add_times(result.timings, sw.lap());
     result.form_factors = std::move(sink.ff);
     result.report = sink.report.take();
     add_shares(result.report);
@@ -324,14 +339,12 @@ SparseComputeResult compute_sparse_form_factors(const Scene& scene, const Comput
         "raise the threshold, use a coarser subdivision, or smaller blocks (block_rows)");
 
     StepTimes timings;
-    auto visibility = rank0_visibility(*method, scene, options, timings);
+    Rank0Visibility visibility(*method, scene, options);
     CancellationFlag cancel;
-    SparseSink sink(job, scene,
-                    options.prebuilt_visibility ? options.prebuilt_visibility : visibility.get(),
-                    cancel, emit_sparse, assembly);
+    SparseSink sink(job, scene, visibility, cancel, emit_sparse, assembly);
     Stopwatch sw;
     run_job(job, scene, max_rows, sink, cancel, options.progress);
-    timings.add("compute", sw.lap());
+    visibility.add_times(timings, sw.lap());
     SparseFormFactors F = assembly.finish();
     // Joining the blocks went on beside the blocks' work: what is left of it after them.
     timings.add("threshold", sw.lap());
@@ -385,14 +398,12 @@ DistributedRows compute_distributed_rows(const Scene& scene, const ComputeOption
     kept_rows() = KeptRows{};
     kept_rows().sparse = sparse != nullptr;
     kept_rows().n = n;
-    auto visibility = rank0_visibility(*method, scene, options, out.timings);
+    Rank0Visibility visibility(*method, scene, options);
     CancellationFlag cancel;
-    KeptSink sink(job, scene,
-                  options.prebuilt_visibility ? options.prebuilt_visibility : visibility.get(),
-                  cancel, emit_sparse);
+    KeptSink sink(job, scene, visibility, cancel, emit_sparse);
     Stopwatch sw;
     run_job(job, scene, max_rows, sink, cancel, options.progress);
-    out.timings.add("compute", sw.lap());
+    visibility.add_times(out.timings, sw.lap());
     // Even out the work of a product: blocks move between ranks, never through rank 0.
     Owners owners = std::move(sink.owners);
     const std::vector<Move> moves = balancing_moves(owners, sink.weights);

@@ -89,6 +89,9 @@ bool sparse_job(JobKind kind);
 class BlockSink {
   public:
     virtual ~BlockSink() = default;
+    /// Rank 0's preparation for its own blocks, once its first block is taken and the other
+    /// ranks have theirs (main thread).
+    virtual void prepare() {}
     /// Rank 0's own block (main thread).
     virtual void local(const RowRange& rows) = 0;
     /// Rank `from`'s rows as it sent them (dispatcher thread).

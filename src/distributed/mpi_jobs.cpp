@@ -224,8 +224,8 @@ void dispatch(Schedule& schedule, BlockSink& sink, Failure& failure, Cancellatio
 
 // Rank 0's side of one stage of a job: computes blocks beside the dispatcher until the schedule
 // runs out, and answers every worker until each has been told the stage is over.
-// `prepare`, when set, runs first on rank 0's main thread (the dispatcher already answering)
-// and opens the schedule.
+// The sink's prepare() runs first on rank 0's main thread, its first block taken and the
+// dispatcher already answering; then `prepare`, when set, which opens the schedule.
 void run_stage(Schedule& schedule, BlockSink& sink, Failure& failure, CancellationFlag& job_cancel,
                Progress& progress, std::vector<double>& rows, std::vector<double>& busy,
                const std::function<void()>& prepare = {}) {
@@ -234,6 +234,7 @@ void run_stage(Schedule& schedule, BlockSink& sink, Failure& failure, Cancellati
     if (!prepare) block = schedule.take();
     auto compute_local = [&](bool only_first) {
         try {
+            sink.prepare();
             if (prepare) {
                 prepare();
                 block = schedule.take();
