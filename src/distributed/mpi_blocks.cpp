@@ -62,44 +62,45 @@ std::vector<double> keep_block(const Job& job, const Scene& scene, ComputeOption
 
 namespace {
 
-// The rows of one block as a worker sends them (after status, rows and busy seconds).
+// The report and rows of one block as a worker sends them (after status, rows and busy
+// seconds).
 void put_block(WireWriter& w, const Job& job, const Scene& scene, const Visibility* visibility,
-               const PartlyHiddenPairs* partly_hidden, bool emit_sparse, RowRange rows,
-               MethodReport& report) {
+               const PartlyHiddenPairs* partly_hidden, bool emit_sparse, RowRange rows) {
     ComputeOptions o = block_options(job, visibility, rows, &process_cancellation(), partly_hidden);
     if (keeps_rows(job.kind)) {
-        w.put_vector(keep_block(job, scene, o, emit_sparse, report));
+        MethodReport report;
+        const std::vector<double> kept = keep_block(job, scene, o, emit_sparse, report);
+        put_report(w, report);
+        w.put_vector(kept);
         return;
     }
     if (job.kind == JobKind::sparse && emit_sparse) {
         SparseRows emitted;
         o.sparse_rows = &emitted;
-        report = formfactor::compute_form_factors(scene, o).report;
+        put_report(w, formfactor::compute_form_factors(scene, o).report);
         put_sparse_rows(w, emitted);
-    } else if (job.kind == JobKind::sparse) {
-        const ComputeResult r = formfactor::compute_form_factors(scene, o);
-        report = r.report;
-        put_sparse_rows(w, nonzero_rows(r.form_factors));
-    } else {
-        const ComputeResult r = formfactor::compute_form_factors(scene, o);
-        report = r.report;
-        const FormFactors& ff = r.form_factors;
-        if (job.upper_only) {
-            // Columns [rows.begin, n) only: rank 0 fills the rest (Job::upper_only).
-            const auto n = static_cast<std::size_t>(ff.F.cols());
-            const std::size_t b = rows.clamped(n).begin, m = static_cast<std::size_t>(ff.F.rows());
-            std::vector<double> upper(m * (n - b));
-            for (std::size_t k = 0; k < m; ++k)
-                std::copy_n(ff.F.data() + k * n + b, n - b, upper.data() + k * (n - b));
-            w.put_vector(upper);
-        } else {
-            w.put_array(ff.F.data(), static_cast<std::size_t>(ff.F.size()));
-        }
-        w.put<std::uint8_t>(ff.standard_error.has_value());
-        if (ff.standard_error)
-            w.put_array(ff.standard_error->data(),
-                        static_cast<std::size_t>(ff.standard_error->size()));
+        return;
     }
+    const ComputeResult r = formfactor::compute_form_factors(scene, o);
+    put_report(w, r.report);
+    const FormFactors& ff = r.form_factors;
+    if (job.kind == JobKind::sparse) {
+        put_sparse_rows(w, nonzero_rows(ff));
+        return;
+    }
+    if (job.upper_only) {
+        // Columns [rows.begin, n) only: rank 0 fills the rest (Job::upper_only).
+        const auto n = static_cast<std::size_t>(ff.F.cols());
+        const std::size_t b = rows.clamped(n).begin, m = static_cast<std::size_t>(ff.F.rows());
+        double* upper = w.put_space<double>(m * (n - b));
+        for (std::size_t k = 0; k < m; ++k)
+            std::copy_n(ff.F.data() + k * n + b, n - b, upper + k * (n - b));
+    } else {
+        w.put_array(ff.F.data(), static_cast<std::size_t>(ff.F.size()));
+    }
+    w.put<std::uint8_t>(ff.standard_error.has_value());
+    if (ff.standard_error)
+        w.put_array(ff.standard_error->data(), static_cast<std::size_t>(ff.standard_error->size()));
 }
 
 std::vector<char> ready() {
@@ -180,14 +181,14 @@ void work_on_job(const std::vector<char>& bytes) {
             const RowRange block{std::size_t(assign[0]), std::size_t(assign[1])};
             message = answer([&] {
                 Stopwatch sw;
-                WireWriter out;
-                body(block, out);
-                WireWriter w;
+                WireWriter w(std::move(message));  // the last message's memory, mapped already
                 w.put(Status::rows);
                 w.put<std::uint64_t>(block.begin);
                 w.put<std::uint64_t>(block.end);
-                w.put(sw.seconds());
-                w.bytes().insert(w.bytes().end(), out.bytes().begin(), out.bytes().end());
+                const std::size_t seconds_at = w.bytes().size();
+                w.put(0.0);
+                body(block, w);
+                w.patch(seconds_at, sw.seconds());
                 return std::move(w.bytes());
             });
         }
@@ -224,11 +225,7 @@ void work_on_job(const std::vector<char>& bytes) {
         });
     }
     serve_blocks([&](RowRange rows, WireWriter& out) {
-        WireWriter body;
-        MethodReport report;
-        put_block(body, job, scene, visibility.get(), pairs.get(), emit_sparse, rows, report);
-        put_report(out, report);
-        out.bytes().insert(out.bytes().end(), body.bytes().begin(), body.bytes().end());
+        put_block(out, job, scene, visibility.get(), pairs.get(), emit_sparse, rows);
     });
 }
 

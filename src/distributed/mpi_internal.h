@@ -57,6 +57,8 @@ MPI_Status wait_for(int source, int tag, const CancellationFlag* cancel);
 void complete(MPI_Request& request, std::chrono::microseconds first,
               std::chrono::microseconds most);
 std::vector<char> receive_bytes(const MPI_Status& probed);
+// The same into `into`, whose capacity is kept for the next message.
+void receive_bytes(const MPI_Status& probed, std::vector<char>& into);
 int message_size(const std::vector<char>& bytes);
 void send_bytes(const std::vector<char>& bytes, int dest, int tag);
 // Rank 0: a command and its bytes to every other rank; a worker receives the bytes.

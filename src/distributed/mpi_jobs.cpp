@@ -162,6 +162,7 @@ void dispatch(Schedule& schedule, BlockSink& sink, Failure& failure, Cancellatio
     std::optional<std::chrono::steady_clock::time_point> interrupted;
     // Every message is answered by an assignment: at once, or once the schedule is ready.
     std::vector<int> waiting;
+    std::vector<char> bytes;  // each message in turn, in memory already mapped
     auto answer = [&](int to) {
         const std::optional<RowRange> next = schedule.take();
         const std::int64_t assign[2] = {next ? std::int64_t(next->begin) : 0,
@@ -194,7 +195,7 @@ void dispatch(Schedule& schedule, BlockSink& sink, Failure& failure, Cancellatio
         }
         pause = std::chrono::microseconds(20);
         const int from = probed.MPI_SOURCE;
-        const std::vector<char> bytes = receive_bytes(probed);
+        receive_bytes(probed, bytes);
         WireReader r(bytes.data(), bytes.size());
         const auto status = r.get<Status>();
         if (status == Status::rows) {

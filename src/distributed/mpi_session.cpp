@@ -61,12 +61,17 @@ void complete(MPI_Request& request, std::chrono::microseconds first,
 }
 
 std::vector<char> receive_bytes(const MPI_Status& probed) {
+    std::vector<char> bytes;
+    receive_bytes(probed, bytes);
+    return bytes;
+}
+
+void receive_bytes(const MPI_Status& probed, std::vector<char>& into) {
     int count = 0;
     MPI_Get_count(&probed, MPI_BYTE, &count);
-    std::vector<char> bytes(static_cast<std::size_t>(count));
-    MPI_Recv(bytes.data(), count, MPI_BYTE, probed.MPI_SOURCE, probed.MPI_TAG, g_comm,
+    into.resize(static_cast<std::size_t>(count));
+    MPI_Recv(into.data(), count, MPI_BYTE, probed.MPI_SOURCE, probed.MPI_TAG, g_comm,
              MPI_STATUS_IGNORE);
-    return bytes;
 }
 
 int message_size(const std::vector<char>& bytes) {

@@ -23,6 +23,10 @@ namespace formfactor::distributed {
 /// -Wstringop-overflow and -Warray-bounds.)
 class WireWriter {
   public:
+    WireWriter() = default;
+    /// Writes into `reuse`, emptied: a buffer whose memory is already mapped.
+    explicit WireWriter(std::vector<char> reuse) : bytes_(std::move(reuse)) { bytes_.clear(); }
+
     template <class T>
     void put(const T& v) {
         static_assert(std::is_trivially_copyable_v<T>);
@@ -38,6 +42,22 @@ class WireWriter {
         const std::size_t at = bytes_.size();
         bytes_.resize(at + count * sizeof(T));
         std::memcpy(bytes_.data() + at, data, count * sizeof(T));
+    }
+    /// Room for `count` values of T (their count written first, as put_array() does), for the
+    /// caller to fill before the next put.
+    template <class T>
+    T* put_space(std::size_t count) {
+        static_assert(std::is_trivially_copyable_v<T>);
+        put<std::uint64_t>(count);
+        const std::size_t at = bytes_.size();
+        bytes_.resize(at + count * sizeof(T));
+        return reinterpret_cast<T*>(bytes_.data() + at);
+    }
+    /// Overwrites the value put at byte `at`.
+    template <class T>
+    void patch(std::size_t at, const T& v) {
+        static_assert(std::is_trivially_copyable_v<T>);
+        std::memcpy(bytes_.data() + at, &v, sizeof(T));
     }
     template <class T>
     void put_vector(const std::vector<T>& v) {
