@@ -14,6 +14,7 @@
 #include "formfactor/methods/method.h"
 #include "formfactor/scene/closure.h"
 #include "formfactor/visibility/visibility.h"
+#include "kernels/unobstructed.h"
 #include "sparse_assembly.h"
 
 namespace formfactor {
@@ -30,9 +31,10 @@ void merge_block_report(MethodReport& total, const MethodReport& block, bool fir
         total.pairs->far_field += block.pairs->far_field;
     }
     if (total.rays_cast && block.rays_cast) *total.rays_cast += *block.rays_cast;
-    // Counts of closed-model rays and segments add up, and so does their warning.
-    for (const char* key :
-         {"closed_model_escapes", "recast_rays", "rechecked_segments", "segments_through_model"})
+    // Counts of closed-model rays and segments add up, and so does their warning; so do the
+    // analytic method's far-field evaluations.
+    for (const char* key : {"closed_model_escapes", "recast_rays", "rechecked_segments",
+                            "segments_through_model", "far_field_kernel_evaluations"})
         if (total.details.contains(key) && block.details.contains(key))
             total.details[key] =
                 total.details.at(key).unsigned_integer() + block.details.at(key).unsigned_integer();
@@ -233,6 +235,41 @@ SparseAssembly::SparseAssembly(const SparseRunNeeds& needs, double threshold, in
 void SparseAssembly::start(const std::vector<double>& areas, bool standard_errors) {
     if (builder_) return;
     builder_.emplace(needs_.patches, areas, threshold_, standard_errors);
+    if (lower_) {
+        if (standard_errors) throw Error("sparse rows: reciprocity for rows with standard errors");
+        areas_ = areas;
+        lower_indices_.resize(needs_.patches);
+        lower_values_.resize(needs_.patches);
+    }
+}
+
+// Rows of the upper triangle made whole: each row's entries below the diagonal (in column
+// order, as the rows before it were joined in order) before its own, and its own entries' lower
+// counterparts kept for the rows they belong to.
+void SparseAssembly::complete_rows(SparseRows& rows) {
+    const std::size_t n = needs_.patches;
+    if (areas_.size() != n) throw Error("sparse rows: the blocks gave no areas");
+    for (std::size_t k = 0; k < rows.size(); ++k) {
+        const std::size_t i = rows.first_row + k;
+        std::vector<std::int32_t>& idx = rows.indices[k];
+        std::vector<double>& val = rows.values[k];
+        for (std::size_t e = 0; e < idx.size(); ++e) {
+            const auto j = static_cast<std::size_t>(idx[e]);
+            if (j <= i || j >= n) throw Error("sparse rows: an entry outside the upper triangle");
+            lower_indices_[j].push_back(static_cast<std::int32_t>(i));
+            lower_values_[j].push_back(reciprocal_entry(val[e], areas_[i], areas_[j]));
+        }
+        lower_entries_ += double(idx.size());
+        std::vector<std::int32_t> whole_idx = std::move(lower_indices_[i]);
+        std::vector<double> whole_val = std::move(lower_values_[i]);
+        lower_entries_ -= double(whole_idx.size());
+        whole_idx.insert(whole_idx.end(), idx.begin(), idx.end());
+        whole_val.insert(whole_val.end(), val.begin(), val.end());
+        idx = std::move(whole_idx);
+        val = std::move(whole_val);
+        lower_indices_[i] = {};
+        lower_values_[i] = {};
+    }
 }
 
 void SparseAssembly::add(std::size_t first_row, const FormFactors& block) {
@@ -257,6 +294,7 @@ void SparseAssembly::add(SparseRows rows, const std::vector<double>& areas) {
 void SparseAssembly::join_waiting() {
     while (builder_ && !waiting_.empty() && waiting_.begin()->first == builder_->rows()) {
         auto node = waiting_.extract(waiting_.begin());
+        if (lower_) complete_rows(node.mapped());
         builder_->append(node.mapped(), threads_);
         joined(&node.mapped());
     }
@@ -267,7 +305,8 @@ void SparseAssembly::joined(const SparseRows* emitted) {
     ++joined_blocks_;
     SparseRunNeeds projected = needs_;
     projected.nonzeros = double(builder_->current().nonzeros()) * double(needs_.patches) /
-                         double(std::max<std::size_t>(builder_->rows(), 1));
+                             double(std::max<std::size_t>(builder_->rows(), 1)) +
+                         lower_entries_;  // an entry waiting for its row: as many bytes as in the CSR
     if (emitted) {
         double entries = 0;
         for (const auto& row : emitted->values) entries += double(row.size());

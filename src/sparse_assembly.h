@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <map>
 #include <optional>
 #include <string>
@@ -33,6 +34,12 @@ class SparseAssembly {
     /// A block of rows a method emitted sparse (or made sparse for sending).
     void add(SparseRows rows, const std::vector<double>& areas);
 
+    /// Blocks of the upper triangle from here on (the analytic method over MPI ranks): before a
+    /// row is joined, its entries below the diagonal are made by reciprocity from the entries of
+    /// the rows before it, F_ji = A_i F_ij / A_j, as one process makes them
+    /// (detail::reciprocal_entry()).
+    void fill_lower_by_reciprocity() { lower_ = true; }
+
     /// Rows joined so far.
     std::size_t rows() const { return builder_ ? builder_->rows() : 0; }
     /// The CSR of every row (throws Error when a block is missing).
@@ -47,6 +54,7 @@ class SparseAssembly {
     void start(const std::vector<double>& areas, bool standard_errors);
     void joined(const SparseRows* emitted);
     void join_waiting();
+    void complete_rows(SparseRows& rows);
 
     SparseRunNeeds needs_;
     double threshold_, available_;
@@ -57,6 +65,12 @@ class SparseAssembly {
     std::size_t blocks_ = 0, joined_blocks_ = 0;
     std::optional<SparseBuilder> builder_;       // made with the areas of the first block
     std::map<std::size_t, SparseRows> waiting_;  // blocks that came before the rows they follow
+    // fill_lower_by_reciprocity(): per row not joined yet, its entries below the diagonal so far.
+    bool lower_ = false;
+    std::vector<double> areas_;
+    std::vector<std::vector<std::int32_t>> lower_indices_;
+    std::vector<std::vector<double>> lower_values_;
+    double lower_entries_ = 0.0;
 };
 
 }  // namespace formfactor::detail

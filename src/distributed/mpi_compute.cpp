@@ -324,6 +324,9 @@ SparseComputeResult compute_sparse_form_factors(const Scene& scene, const Comput
     const auto method = make_method(job.method);
     method->check(scene);
     const bool emit_sparse = method->emits_sparse_rows(scene);
+    // The analytic method's dense rows (nothing obstructs): blocks of the upper triangle, rank 0
+    // makes the rest as one process does.
+    job.upper_only = job.method == MethodKind::analytic && !emit_sparse;
     const bool strip = job.method == MethodKind::analytic || job.method == MethodKind::mc_target;
     std::size_t max_rows =
         emit_sparse ? 8192
@@ -334,9 +337,11 @@ SparseComputeResult compute_sparse_form_factors(const Scene& scene, const Comput
     // blocks that came before the rows they follow.
     SparseRunNeeds needs = detail::sparse_run_needs(scene, options, traits, emit_sparse);
     needs.block_rows = std::min(max_rows, std::max<std::size_t>(n, 1));
+    needs.block_strip = needs.block_strip && !job.upper_only;
     detail::SparseAssembly assembly(
         needs, sparse.threshold, options.method_options.threads,
         "raise the threshold, use a coarser subdivision, or smaller blocks (block_rows)");
+    if (job.upper_only) assembly.fill_lower_by_reciprocity();
 
     StepTimes timings;
     Rank0Visibility visibility(*method, scene, options);
