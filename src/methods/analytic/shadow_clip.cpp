@@ -16,33 +16,35 @@ constexpr double kTwoPi = 2.0 * kPi;
 }  // namespace
 
 void clip3(const Poly3& in, const Vec3& n, double off, Poly3& out) {
+    if (!clip3_cut(in.v.data(), in.n, n, off, out)) {
+        out.n = in.n;
+        std::copy(in.v.begin(), in.v.begin() + in.n, out.v.begin());
+    }
+}
+
+bool clip3_cut(const Vec3* v, int count, const Vec3& n, double off, Poly3& out) {
     out.n = 0;
-    if (in.n == 0) return;
+    if (count == 0) return true;
     double d[kCap];
     bool all_in = true, all_out = true;
-    for (int k = 0; k < in.n; ++k) {
-        d[k] = n.dot(in.v[static_cast<std::size_t>(k)]) - off;
+    for (int k = 0; k < count; ++k) {
+        d[k] = n.dot(v[k]) - off;
         all_in = all_in && d[k] >= 0.0;
         all_out = all_out && d[k] < 0.0;
     }
-    if (all_out) return;
-    if (all_in) {
-        out.n = in.n;
-        std::copy(in.v.begin(), in.v.begin() + in.n, out.v.begin());
-        return;
-    }
-    for (int k = 0; k < in.n; ++k) {
-        const int m = k + 1 == in.n ? 0 : k + 1;
-        const Vec3& a = in.v[static_cast<std::size_t>(k)];
+    if (all_out) return true;
+    if (all_in) return false;
+    for (int k = 0; k < count; ++k) {
+        const int m = k + 1 == count ? 0 : k + 1;
+        const Vec3& a = v[k];
         if (d[k] >= 0.0 && out.n < kCap) out.v[static_cast<std::size_t>(out.n++)] = a;
         if ((d[k] > 0.0 && d[m] < 0.0) || (d[k] < 0.0 && d[m] > 0.0)) {
             const double t = d[k] / (d[k] - d[m]);
-            if (out.n < kCap)
-                out.v[static_cast<std::size_t>(out.n++)] =
-                    a + t * (in.v[static_cast<std::size_t>(m)] - a);
+            if (out.n < kCap) out.v[static_cast<std::size_t>(out.n++)] = a + t * (v[m] - a);
         }
     }
     if (out.n < 3) out.n = 0;
+    return true;
 }
 
 void clip2(const Poly2& in, double ax, double ay, double ex, double ey, double sign, Poly2& out) {

@@ -37,6 +37,10 @@ struct Poly2 {
 
 /// Keeps the part of `in` where n·y − off ≥ 0 (Sutherland–Hodgman; convex in, convex out).
 void clip3(const Poly3& in, const Vec3& n, double off, Poly3& out);
+/// clip3() of the convex polygon v[0, count) without the copy when it keeps every vertex:
+/// returns false, leaving `out` as it was, when the part is the polygon itself; else writes the
+/// part to `out` (n = 0 when empty) and returns true.
+bool clip3_cut(const Vec3* v, int count, const Vec3& n, double off, Poly3& out);
 
 /// out = in.
 inline void copy2(const Poly2& in, Poly2& out) {
