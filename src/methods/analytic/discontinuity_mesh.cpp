@@ -310,6 +310,9 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
             // vertex of the receiver or of a sharp blocker) still cuts.
             if ((smooth[x] >> w & 1) && (smooth[x] >> wprev & 1)) continue;
             const Vec3& pw = polys[x].v[static_cast<std::size_t>(w)];
+            // w on the sender's plane (or behind it): no kink in front, whatever the edge.
+            const double hw = ns.dot(pw) - ds;
+            if (!(hw > 0.0)) continue;
             // The event of a blocker vertex w and an edge e happens where, seen from x, w's
             // shadow crosses e's shadow (or e, when e is the receiver's): the crossing point is
             // w's shadow, so F(x → hidden part of r) has a kink there only if w's shadow falls
@@ -358,9 +361,8 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
                     if (!(pos && neg)) continue;
                     // The event happens only on the projection of the edge through the vertex
                     // onto the sender's plane: x, w and a point of e collinear.
-                    const double hw = ns.dot(pw) - ds, h0 = ns.dot(e0) - ds, h1 = ns.dot(e1) - ds;
+                    const double h0 = ns.dot(e0) - ds, h1 = ns.dot(e1) - ds;
                     const double d0 = hw - h0, d1 = hw - h1;
-                    if (!(hw > 0.0)) continue;  // w on the sender's plane: no kink in front
                     if ((d0 > 0.0 && d1 > 0.0) || (d0 < 0.0 && d1 < 0.0)) {
                         const Vec3 x0 = pw + (e0 - pw) * (hw / d0) - o;
                         const Vec3 x1 = pw + (e1 - pw) * (hw / d1) - o;
