@@ -196,26 +196,31 @@ bool Shaft::piece_outside(const Vec3* p, int count, const Plane& pl, bool exact)
     }
     // Separating axis theorem for the remaining axes: an edge of the piece crossed with an edge
     // of the hull (a's and b's edges, and the edges of the side faces between them).
+    // The piece's interval on the axis first, then the hull's: lo1 only falls and hi1 only
+    // rises as its vertices come, so once both ends overlap the piece's the answer is no.
     auto separated = [&](const Vec3& axis) {
         const double len = axis.norm();
         if (!(len > 0.0)) return false;
         double lo1 = 1e300, hi1 = -1e300, lo2 = 1e300, hi2 = -1e300;
-        for (int k = 0; k < na_; ++k) {
-            const double t = axis.dot(a_[k]);
-            lo1 = std::min(lo1, t);
-            hi1 = std::max(hi1, t);
-        }
-        for (int k = 0; k < nb_; ++k) {
-            const double t = axis.dot(b_[k]);
-            lo1 = std::min(lo1, t);
-            hi1 = std::max(hi1, t);
-        }
         for (int k = 0; k < count; ++k) {
             const double t = axis.dot(p[k]);
             lo2 = std::min(lo2, t);
             hi2 = std::max(hi2, t);
         }
         const double m = eps_ * len;
+        auto overlaps = [&] { return !(hi2 <= lo1 + m) && !(hi1 <= lo2 + m); };
+        for (int k = 0; k < na_; ++k) {
+            const double t = axis.dot(a_[k]);
+            lo1 = std::min(lo1, t);
+            hi1 = std::max(hi1, t);
+            if (overlaps()) return false;
+        }
+        for (int k = 0; k < nb_; ++k) {
+            const double t = axis.dot(b_[k]);
+            lo1 = std::min(lo1, t);
+            hi1 = std::max(hi1, t);
+            if (overlaps()) return false;
+        }
         return hi2 <= lo1 + m || hi1 <= lo2 + m;
     };
     for (int k = 0; k < count; ++k) {
