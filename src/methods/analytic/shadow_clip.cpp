@@ -82,8 +82,18 @@ void clip2(const Poly2& in, double ax, double ay, double ex, double ey, double s
 
 void split2(const Poly2& in, double ax, double ay, double ex, double ey, Poly2& left,
             Poly2& right) {
-    left.n = 0;
-    right.n = 0;
+    const int side = split2_cut(in, ax, ay, ex, ey, left, right);
+    if (side == 1) {
+        copy2(in, left);
+        right.n = 0;
+    } else if (side == -1) {
+        left.n = 0;
+        copy2(in, right);
+    }
+}
+
+int split2_cut(const Poly2& in, double ax, double ay, double ex, double ey, Poly2& left,
+               Poly2& right) {
     double d[kCap];
     bool none_neg = true, none_pos = true;  // no d < 0, no d > 0
     for (int k = 0; k < in.n; ++k) {
@@ -94,11 +104,11 @@ void split2(const Poly2& in, double ax, double ay, double ex, double ey, Poly2& 
     }
     // As clip2(): a side with every vertex on the line or beyond it is empty, else one with
     // every vertex on it or on its side is `in` whole.
-    if (none_neg || none_pos) {
-        if (!none_pos) copy2(in, left);
-        if (!none_neg) copy2(in, right);
-        return;
-    }
+    if (none_neg && !none_pos) return 1;
+    if (none_pos && !none_neg) return -1;
+    left.n = 0;
+    right.n = 0;
+    if (none_neg && none_pos) return 0;
     for (int k = 0; k < in.n; ++k) {
         const int m = k + 1 == in.n ? 0 : k + 1;
         const auto ks = static_cast<std::size_t>(k), ms = static_cast<std::size_t>(m);
@@ -126,6 +136,7 @@ void split2(const Poly2& in, double ax, double ay, double ex, double ey, Poly2& 
     }
     if (left.n < 3) left.n = 0;
     if (right.n < 3) right.n = 0;
+    return 0;
 }
 
 double lambert2(const Poly2& q, const Vec3& xl, const Vec3& nl) {
