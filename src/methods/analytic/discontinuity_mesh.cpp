@@ -277,7 +277,8 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
         }
         lines.push_back(l);
     };
-    std::vector<Vec2> s2;
+    thread_local std::vector<Vec2> s2;
+    s2.clear();
     for (const Vec3& v : s.vertices) s2.emplace_back(su.dot(v - o), sv.dot(v - o));
     Poly2 s2p;  // the sender, counter-clockwise, for clipping
     s2p.n = static_cast<int>(std::min<std::size_t>(s2.size(), kCap));
@@ -444,7 +445,8 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
     }
     if (lines.empty()) return convex_s;
     // Cut (in the sender's plane coordinates).
-    std::vector<Poly2> cur, nxt;
+    thread_local std::vector<Poly2> cur, nxt;
+    cur.clear();
     for (const Polygon& p : convex_s) {
         Poly2 q;
         q.n = static_cast<int>(p.size());
@@ -452,7 +454,7 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
             q.x[k] = su.dot(p[k] - o);
             q.y[k] = sv.dot(p[k] - o);
         }
-        cur.push_back(q);
+        append2(cur, q);
     }
     // At most 256 pieces; a mesh graded towards near contact needs more (its parallels cut
     // each other near the sender's corners and the events' lines): 4,096.
@@ -478,15 +480,15 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
                 hit = segment_meets(l, qv, tol);
             }
             if (!hit || cur.size() + nxt.size() >= kMaxPieces) {
-                nxt.push_back(q);
+                append2(nxt, q);
                 continue;
             }
             // A point on the line and its direction (b, −a).
             const double px = l.a * l.c, py = l.b * l.c;
             Poly2 left, right;
             split2(q, px, py, l.b, -l.a, left, right);
-            if (left.n >= 3) nxt.push_back(left);
-            if (right.n >= 3) nxt.push_back(right);
+            if (left.n >= 3) append2(nxt, left);
+            if (right.n >= 3) append2(nxt, right);
         }
         std::swap(cur, nxt);
     }
