@@ -317,7 +317,7 @@ bool BlockerSet::solid_hides(int solid, const Vec3* a, int na, const Vec3* b, in
         return 0;
     };
     thread_local std::vector<signed char> decided;
-    decided.assign(balls ? static_cast<std::size_t>(na * nb) : 0, 0);
+    if (balls) decided.assign(static_cast<std::size_t>(na * nb), 0);
     for (int i = 0; i < na && balls; ++i)
         for (int j = 0; j < nb; ++j) {
             const int bt = ball_test(a[i], b[j]);
