@@ -277,7 +277,8 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
         }
         lines.push_back(l);
     };
-    std::vector<Vec2> s2;
+    thread_local std::vector<Vec2> s2;
+    s2.clear();
     for (const Vec3& v : s.vertices) s2.emplace_back(su.dot(v - o), sv.dot(v - o));
     Poly2 s2p;  // the sender, counter-clockwise, for clipping
     s2p.n = static_cast<int>(std::min<std::size_t>(s2.size(), kCap));
@@ -310,6 +311,9 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
             // vertex of the receiver or of a sharp blocker) still cuts.
             if ((smooth[x] >> w & 1) && (smooth[x] >> wprev & 1)) continue;
             const Vec3& pw = polys[x].v[static_cast<std::size_t>(w)];
+            // w on the sender's plane (or behind it): no kink in front, whatever the edge.
+            const double hw = ns.dot(pw) - ds;
+            if (!(hw > 0.0)) continue;
             // The event of a blocker vertex w and an edge e happens where, seen from x, w's
             // shadow crosses e's shadow (or e, when e is the receiver's): the crossing point is
             // w's shadow, so F(x → hidden part of r) has a kink there only if w's shadow falls
@@ -358,9 +362,8 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
                     if (!(pos && neg)) continue;
                     // The event happens only on the projection of the edge through the vertex
                     // onto the sender's plane: x, w and a point of e collinear.
-                    const double hw = ns.dot(pw) - ds, h0 = ns.dot(e0) - ds, h1 = ns.dot(e1) - ds;
+                    const double h0 = ns.dot(e0) - ds, h1 = ns.dot(e1) - ds;
                     const double d0 = hw - h0, d1 = hw - h1;
-                    if (!(hw > 0.0)) continue;  // w on the sender's plane: no kink in front
                     if ((d0 > 0.0 && d1 > 0.0) || (d0 < 0.0 && d1 < 0.0)) {
                         const Vec3 x0 = pw + (e0 - pw) * (hw / d0) - o;
                         const Vec3 x1 = pw + (e1 - pw) * (hw / d1) - o;
@@ -442,7 +445,8 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
     }
     if (lines.empty()) return convex_s;
     // Cut (in the sender's plane coordinates).
-    std::vector<Poly2> cur, nxt;
+    thread_local std::vector<Poly2> cur, nxt;
+    cur.clear();
     for (const Polygon& p : convex_s) {
         Poly2 q;
         q.n = static_cast<int>(p.size());
@@ -450,7 +454,7 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
             q.x[k] = su.dot(p[k] - o);
             q.y[k] = sv.dot(p[k] - o);
         }
-        cur.push_back(q);
+        append2(cur, q);
     }
     // At most 256 pieces; a mesh graded towards near contact needs more (its parallels cut
     // each other near the sender's corners and the events' lines): 4,096.
@@ -476,15 +480,15 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
                 hit = segment_meets(l, qv, tol);
             }
             if (!hit || cur.size() + nxt.size() >= kMaxPieces) {
-                nxt.push_back(q);
+                append2(nxt, q);
                 continue;
             }
             // A point on the line and its direction (b, −a).
             const double px = l.a * l.c, py = l.b * l.c;
             Poly2 left, right;
             split2(q, px, py, l.b, -l.a, left, right);
-            if (left.n >= 3) nxt.push_back(left);
-            if (right.n >= 3) nxt.push_back(right);
+            if (left.n >= 3) append2(nxt, left);
+            if (right.n >= 3) append2(nxt, right);
         }
         std::swap(cur, nxt);
     }

@@ -180,7 +180,9 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
     // the maps, so half the cells, of a fan of triangles. Slivers below 1e-12 of the sender
     // (rounding pieces of the cut) are not integrated: F(x → r) ≤ 1 bounds what they hold,
     // and that bound goes into the error.
-    std::vector<SenderMap> maps;
+    // Per-pair buffers, reused across the pairs a thread integrates.
+    thread_local std::vector<SenderMap> maps;
+    maps.clear();
     double sliver_error = 0.0;
     auto add_map = [&](const SenderMap& m, double a) {
         if (a <= 1e-12 * area_s) {
@@ -213,7 +215,7 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
     }
     const CellRules rules;
     thread_local std::vector<int> kept;
-    std::vector<int> cell_cand;
+    thread_local std::vector<int> cell_cand;
     const double inv_area = 1.0 / area_s;
 
     auto process = [&](Cell& c) {
@@ -429,7 +431,8 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
     };
 
     auto worse = [](const Cell& a, const Cell& b) { return a.error < b.error; };
-    std::vector<Cell> heap;
+    thread_local std::vector<Cell> heap;
+    heap.clear();
     double total_error = 0.0;
     for (std::size_t k = 0; k < maps.size(); ++k) {
         Cell c;
@@ -441,7 +444,8 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
     std::make_heap(heap.begin(), heap.end(), worse);
     constexpr std::size_t kMaxCells = 4096;
     constexpr int kMaxLevel = 14;
-    std::vector<Cell> done;
+    thread_local std::vector<Cell> done;
+    done.clear();
     while (total_error > target && !heap.empty()) {
         std::pop_heap(heap.begin(), heap.end(), worse);
         Cell c = heap.back();

@@ -188,22 +188,28 @@ std::vector<Vec3> planar_convex_hull(const std::vector<Vec3>& points, const Vec3
 /// point kernel's shadow merge.
 template <class P>
 void convex_hull_2d(std::vector<P>& points, std::vector<P>& hull) {
-    hull.clear();
-    if (points.empty()) return;
+    if (points.empty()) {
+        hull.clear();
+        return;
+    }
     std::sort(points.begin(), points.end(),
               [](const P& a, const P& b) { return a.x < b.x || (a.x == b.x && a.y < b.y); });
     auto cross = [](const P& o, const P& a, const P& b) {
         return (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x);
     };
-    hull.resize(2 * points.size());
+    // Room for the chain, whatever hull held (every element is written before it is read).
+    const std::size_t n = points.size();
+    hull.resize(2 * n);
+    P* h = hull.data();
+    const P* pt = points.data();
     std::size_t m = 0;
-    for (std::size_t k = 0; k < points.size(); ++k) {
-        while (m >= 2 && cross(hull[m - 2], hull[m - 1], points[k]) <= 0) --m;
-        hull[m++] = points[k];
+    for (std::size_t k = 0; k < n; ++k) {
+        while (m >= 2 && cross(h[m - 2], h[m - 1], pt[k]) <= 0) --m;
+        h[m++] = pt[k];
     }
-    for (std::size_t k = points.size() - 1, t = m + 1; k-- > 0;) {
-        while (m >= t && cross(hull[m - 2], hull[m - 1], points[k]) <= 0) --m;
-        hull[m++] = points[k];
+    for (std::size_t k = n - 1, t = m + 1; k-- > 0;) {
+        while (m >= t && cross(h[m - 2], h[m - 1], pt[k]) <= 0) --m;
+        h[m++] = pt[k];
     }
     hull.resize(m > 0 ? m - 1 : 0);
 }

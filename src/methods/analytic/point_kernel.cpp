@@ -313,25 +313,28 @@ void cast_shadows(const Receiver& rc, const Vec3& x, double h, const Poly3& rp, 
                 continue;
             }
         }
-        Poly3* a = &buf[0];
-        Poly3* bp = &buf[1];
-        a->n = pc.count;
-        for (int k = 0; k < pc.count; ++k) a->v[static_cast<std::size_t>(k)] = pv[k];
-        // Between x and the receiver's plane (a piece within eps of that plane hides nothing).
-        clip3(*a, rc.n, rc.d + eps, *bp);
-        for (int s = 0; s < sides && bp->n >= 3; ++s) {
-            clip3(*bp, side[static_cast<std::size_t>(s)], side_off[static_cast<std::size_t>(s)],
-                  *a);
-            std::swap(a, bp);
-        }
-        const Poly3& b = *bp;
-        if (b.n < 3) continue;
+        // The piece's part between x and the receiver's plane (a piece within eps of that plane
+        // hides nothing) and inside the pyramid: the piece's own vertices until a plane cuts it,
+        // then the free one of buf.
+        const Vec3* cv = pv;
+        int cn = pc.count;
+        std::size_t free_buf = 0;
+        auto cut = [&](const Vec3& nrm, double off) {
+            if (!clip3_cut(cv, cn, nrm, off, buf[free_buf])) return;
+            cv = buf[free_buf].v.data();
+            cn = buf[free_buf].n;
+            free_buf ^= 1;
+        };
+        cut(rc.n, rc.d + eps);
+        for (int s = 0; s < sides && cn >= 3; ++s)
+            cut(side[static_cast<std::size_t>(s)], side_off[static_cast<std::size_t>(s)]);
+        if (cn < 3) continue;
         shadows.emplace_back();
         solid_of.push_back(culled_solid ? pc.solid : -2 - pk);
         Poly2& q = shadows.back();
-        q.n = b.n;
-        for (int k = 0; k < b.n; ++k) {
-            const Vec3& y = b.v[static_cast<std::size_t>(k)];
+        q.n = cn;
+        for (int k = 0; k < cn; ++k) {
+            const Vec3& y = cv[k];
             const double den = h - (rc.n.dot(y) - rc.d);
             const double t = den > 1e-300 ? h / den : 1e300;
             const Vec3 w = x + t * (y - x) - rc.o;

@@ -16,33 +16,35 @@ constexpr double kTwoPi = 2.0 * kPi;
 }  // namespace
 
 void clip3(const Poly3& in, const Vec3& n, double off, Poly3& out) {
+    if (!clip3_cut(in.v.data(), in.n, n, off, out)) {
+        out.n = in.n;
+        std::copy(in.v.begin(), in.v.begin() + in.n, out.v.begin());
+    }
+}
+
+bool clip3_cut(const Vec3* v, int count, const Vec3& n, double off, Poly3& out) {
     out.n = 0;
-    if (in.n == 0) return;
+    if (count == 0) return true;
     double d[kCap];
     bool all_in = true, all_out = true;
-    for (int k = 0; k < in.n; ++k) {
-        d[k] = n.dot(in.v[static_cast<std::size_t>(k)]) - off;
+    for (int k = 0; k < count; ++k) {
+        d[k] = n.dot(v[k]) - off;
         all_in = all_in && d[k] >= 0.0;
         all_out = all_out && d[k] < 0.0;
     }
-    if (all_out) return;
-    if (all_in) {
-        out.n = in.n;
-        std::copy(in.v.begin(), in.v.begin() + in.n, out.v.begin());
-        return;
-    }
-    for (int k = 0; k < in.n; ++k) {
-        const int m = k + 1 == in.n ? 0 : k + 1;
-        const Vec3& a = in.v[static_cast<std::size_t>(k)];
+    if (all_out) return true;
+    if (all_in) return false;
+    for (int k = 0; k < count; ++k) {
+        const int m = k + 1 == count ? 0 : k + 1;
+        const Vec3& a = v[k];
         if (d[k] >= 0.0 && out.n < kCap) out.v[static_cast<std::size_t>(out.n++)] = a;
         if ((d[k] > 0.0 && d[m] < 0.0) || (d[k] < 0.0 && d[m] > 0.0)) {
             const double t = d[k] / (d[k] - d[m]);
-            if (out.n < kCap)
-                out.v[static_cast<std::size_t>(out.n++)] =
-                    a + t * (in.v[static_cast<std::size_t>(m)] - a);
+            if (out.n < kCap) out.v[static_cast<std::size_t>(out.n++)] = a + t * (v[m] - a);
         }
     }
     if (out.n < 3) out.n = 0;
+    return true;
 }
 
 void clip2(const Poly2& in, double ax, double ay, double ex, double ey, double sign, Poly2& out) {
@@ -80,8 +82,18 @@ void clip2(const Poly2& in, double ax, double ay, double ex, double ey, double s
 
 void split2(const Poly2& in, double ax, double ay, double ex, double ey, Poly2& left,
             Poly2& right) {
-    left.n = 0;
-    right.n = 0;
+    const int side = split2_cut(in, ax, ay, ex, ey, left, right);
+    if (side == 1) {
+        copy2(in, left);
+        right.n = 0;
+    } else if (side == -1) {
+        left.n = 0;
+        copy2(in, right);
+    }
+}
+
+int split2_cut(const Poly2& in, double ax, double ay, double ex, double ey, Poly2& left,
+               Poly2& right) {
     double d[kCap];
     bool none_neg = true, none_pos = true;  // no d < 0, no d > 0
     for (int k = 0; k < in.n; ++k) {
@@ -92,11 +104,11 @@ void split2(const Poly2& in, double ax, double ay, double ex, double ey, Poly2& 
     }
     // As clip2(): a side with every vertex on the line or beyond it is empty, else one with
     // every vertex on it or on its side is `in` whole.
-    if (none_neg || none_pos) {
-        if (!none_pos) copy2(in, left);
-        if (!none_neg) copy2(in, right);
-        return;
-    }
+    if (none_neg && !none_pos) return 1;
+    if (none_pos && !none_neg) return -1;
+    left.n = 0;
+    right.n = 0;
+    if (none_neg && none_pos) return 0;
     for (int k = 0; k < in.n; ++k) {
         const int m = k + 1 == in.n ? 0 : k + 1;
         const auto ks = static_cast<std::size_t>(k), ms = static_cast<std::size_t>(m);
@@ -124,6 +136,7 @@ void split2(const Poly2& in, double ax, double ay, double ex, double ey, Poly2& 
     }
     if (left.n < 3) left.n = 0;
     if (right.n < 3) right.n = 0;
+    return 0;
 }
 
 double lambert2(const Poly2& q, const Vec3& xl, const Vec3& nl) {

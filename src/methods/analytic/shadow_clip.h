@@ -37,6 +37,10 @@ struct Poly2 {
 
 /// Keeps the part of `in` where n·y − off ≥ 0 (Sutherland–Hodgman; convex in, convex out).
 void clip3(const Poly3& in, const Vec3& n, double off, Poly3& out);
+/// clip3() of the convex polygon v[0, count) without the copy when it keeps every vertex:
+/// returns false, leaving `out` as it was, when the part is the polygon itself; else writes the
+/// part to `out` (n = 0 when empty) and returns true.
+bool clip3_cut(const Vec3* v, int count, const Vec3& n, double off, Poly3& out);
 
 /// out = in.
 inline void copy2(const Poly2& in, Poly2& out) {
@@ -57,6 +61,11 @@ void clip2(const Poly2& in, double ax, double ay, double ex, double ey, double s
 /// Both parts at once: clip2() with sign +1 into `left` and with sign −1 into `right`, the same
 /// vertices bit for bit, each vertex's side found once.
 void split2(const Poly2& in, double ax, double ay, double ex, double ey, Poly2& left, Poly2& right);
+/// split2() without the copy when `in` lies on one side: returns 1 when it is wholly on the left
+/// and −1 when wholly on the right (left and right untouched: the part is `in`, the other side
+/// empty), else 0 with both parts written (either possibly empty).
+int split2_cut(const Poly2& in, double ax, double ay, double ex, double ey, Poly2& left,
+               Poly2& right);
 
 /// Signed area (positive when counter-clockwise).
 inline double area2(const Poly2& p) {
@@ -72,19 +81,26 @@ inline double area2(const Poly2& p) {
 /// f \ s for convex f and convex counter-clockwise s: disjoint convex fragments appended to out.
 /// Returns the area of f ∩ s (what the subtraction took).
 inline double subtract(const Poly2& f, const Poly2& s, std::vector<Poly2>& out) {
+    // The part of f inside the edges so far: f itself until an edge cuts it, then the free one
+    // of buf.
     Poly2 buf[2], outside;
-    copy2(f, buf[0]);
-    Poly2* inside = &buf[0];
-    Poly2* next = &buf[1];
+    const Poly2* inside = &f;
+    std::size_t free_buf = 0;
     for (int k = 0; k < s.n && inside->n >= 3; ++k) {
         const int m = k + 1 == s.n ? 0 : k + 1;
         const auto ks = static_cast<std::size_t>(k), ms = static_cast<std::size_t>(m);
         const double ax = s.x[ks], ay = s.y[ks];
         const double ex = s.x[ms] - ax, ey = s.y[ms] - ay;
         if (ex == 0.0 && ey == 0.0) continue;
-        split2(*inside, ax, ay, ex, ey, *next, outside);
+        const int side = split2_cut(*inside, ax, ay, ex, ey, buf[free_buf], outside);
+        if (side == 1) continue;  // wholly inside this edge
+        if (side == -1) {         // wholly outside: all of it is a fragment
+            if (area2(*inside) > 0.0) append2(out, *inside);
+            return 0.0;
+        }
         if (outside.n >= 3 && area2(outside) > 0.0) append2(out, outside);
-        std::swap(inside, next);
+        inside = &buf[free_buf];
+        free_buf ^= 1;
     }
     return inside->n >= 3 ? std::abs(area2(*inside)) : 0.0;
 }

@@ -153,30 +153,33 @@ bool Shaft::box_outside(const Bounds3& box) const {
 }
 
 bool Shaft::piece_outside(const Vec3* p, int count, const Plane& pl, bool exact) const {
-    double hi_a = -1e300, hi_b = -1e300;
-    for (int k = 0; k < count; ++k) {
-        hi_a = std::max(hi_a, pa_.signed_distance(p[k]));
-        hi_b = std::max(hi_b, pb_.signed_distance(p[k]));
+    // Behind (or within eps of) a's plane or b's: the first vertex in front of both decides.
+    bool front_a = false, front_b = false;
+    for (int k = 0; k < count && !(front_a && front_b); ++k) {
+        front_a = front_a || pa_.signed_distance(p[k]) > eps_;
+        front_b = front_b || pb_.signed_distance(p[k]) > eps_;
     }
-    if (hi_a <= eps_ || hi_b <= eps_) return true;
+    if (!front_a || !front_b) return true;
     for (int s = 0; s < sides_; ++s) {
         double lo = 1e300;
         for (int k = 0; k < count && lo >= -eps_; ++k)
             lo = std::min(lo, side_[s].signed_distance(p[k]));
         if (lo >= -eps_) return true;
     }
-    double lo = 1e300, hi = -1e300;
-    for (int k = 0; k < na_; ++k) {
+    // The piece's plane with a and b on one side (a vertex on each side by more than eps ends
+    // the search).
+    bool below = false, above = false;
+    for (int k = 0; k < na_ && !(below && above); ++k) {
         const double s = pl.signed_distance(a_[k]);
-        lo = std::min(lo, s);
-        hi = std::max(hi, s);
+        below = below || s < -eps_;
+        above = above || s > eps_;
     }
-    for (int k = 0; k < nb_; ++k) {
+    for (int k = 0; k < nb_ && !(below && above); ++k) {
         const double s = pl.signed_distance(b_[k]);
-        lo = std::min(lo, s);
-        hi = std::max(hi, s);
+        below = below || s < -eps_;
+        above = above || s > eps_;
     }
-    if (lo >= -eps_ || hi <= eps_) return true;
+    if (!below || !above) return true;
     if (!exact) return false;
     // The segment between the polygons' centres crosses the piece: it certainly blocks.
     {
@@ -193,26 +196,31 @@ bool Shaft::piece_outside(const Vec3* p, int count, const Plane& pl, bool exact)
     }
     // Separating axis theorem for the remaining axes: an edge of the piece crossed with an edge
     // of the hull (a's and b's edges, and the edges of the side faces between them).
+    // The piece's interval on the axis first, then the hull's: lo1 only falls and hi1 only
+    // rises as its vertices come, so once both ends overlap the piece's the answer is no.
     auto separated = [&](const Vec3& axis) {
         const double len = axis.norm();
         if (!(len > 0.0)) return false;
         double lo1 = 1e300, hi1 = -1e300, lo2 = 1e300, hi2 = -1e300;
-        for (int k = 0; k < na_; ++k) {
-            const double t = axis.dot(a_[k]);
-            lo1 = std::min(lo1, t);
-            hi1 = std::max(hi1, t);
-        }
-        for (int k = 0; k < nb_; ++k) {
-            const double t = axis.dot(b_[k]);
-            lo1 = std::min(lo1, t);
-            hi1 = std::max(hi1, t);
-        }
         for (int k = 0; k < count; ++k) {
             const double t = axis.dot(p[k]);
             lo2 = std::min(lo2, t);
             hi2 = std::max(hi2, t);
         }
         const double m = eps_ * len;
+        auto overlaps = [&] { return !(hi2 <= lo1 + m) && !(hi1 <= lo2 + m); };
+        for (int k = 0; k < na_; ++k) {
+            const double t = axis.dot(a_[k]);
+            lo1 = std::min(lo1, t);
+            hi1 = std::max(hi1, t);
+            if (overlaps()) return false;
+        }
+        for (int k = 0; k < nb_; ++k) {
+            const double t = axis.dot(b_[k]);
+            lo1 = std::min(lo1, t);
+            hi1 = std::max(hi1, t);
+            if (overlaps()) return false;
+        }
         return hi2 <= lo1 + m || hi1 <= lo2 + m;
     };
     for (int k = 0; k < count; ++k) {
