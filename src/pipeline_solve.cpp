@@ -72,10 +72,17 @@ SurfaceFormFactors<SparseFormFactors> per_surface(const Scene& scene, const Spar
 
 SurfaceFormFactors<FormFactors> per_surface(const Scene& scene, const HierarchicalFormFactors& F,
                                             int threads) {
+    return detail::per_surface_of_operator(scene, [&](const PatchGroups& groups) {
+        return F.per_group(groups.group_of_patch, groups.size(), threads);
+    });
+}
+
+SurfaceFormFactors<FormFactors> detail::per_surface_of_operator(
+    const Scene& scene, const std::function<DenseMatrix(const PatchGroups&)>& per_group) {
     SurfaceFormFactors<FormFactors> out;
     out.groups = surface_groups(scene);
     FormFactors& G = out.aggregated.emplace();
-    G.F = F.per_group(out.groups.group_of_patch, out.groups.size(), threads);
+    G.F = per_group(out.groups);
     G.areas.assign(out.groups.size(), 0.0);
     for (std::size_t i = 0; i < scene.patches.size(); ++i)
         G.areas[static_cast<std::size_t>(out.groups.group_of_patch[i])] += scene.patches[i].area;

@@ -357,15 +357,16 @@ TEST_CASE(
     }
 }
 
-TEST_CASE("mpi: a rank that fails building or applying the hierarchical operator ends every rank" *
-          doctest::test_suite("mpi")) {
-    TempDir dir;
-    write_text(dir.file("p.csv"), "surface,temperature\nx0,300\nz1,1000\n");
-    const std::string args =
-        "solve cube --subdivide 6 --storage hierarchical --thermal --properties p.csv --threads 1 "
-        "-o T.csv --report r.json";
-    for (const auto& [variable, failing] : std::vector<std::pair<std::string, std::string>>{
-             {"FORMFACTOR_TEST_FAIL_RANK=1", "1"}, {"FORMFACTOR_TEST_FAIL_SOLVE_RANK=2", "2"}}) {
+namespace {
+
+// `formfactor ARGS` on 3 ranks in `dir`, once with each of `failures` (a VAR=VALUE for every
+// rank, and the rank it makes fail): every run ends within 10 s with exit code 1 and one line
+// from formfactor naming that rank and its injected failure, and writes nothing (the folder
+// keeps its `entries` files).
+void check_injected_failures(const TempDir& dir, const std::string& args,
+                             const std::vector<std::pair<std::string, std::string>>& failures,
+                             std::size_t entries) {
+    for (const auto& [variable, failing] : failures) {
         // Copies: clang's doctest CAPTURE (a lambda) cannot name a structured binding.
         const std::string env = variable, rank = failing;
         CAPTURE(env);
@@ -377,8 +378,61 @@ TEST_CASE("mpi: a rank that fails building or applying the hierarchical operator
         const auto first = r.err.find("formfactor:");
         CHECK(r.err.find("formfactor:", first + 1) == std::string::npos);
         CHECK(r.seconds < 10.0);
-        CHECK(dir.entries() == 1);  // p.csv alone
+        CHECK(dir.entries() == entries);
     }
+}
+
+}  // namespace
+
+TEST_CASE("mpi: a rank that fails building or applying the hierarchical operator ends every rank" *
+          doctest::test_suite("mpi")) {
+    TempDir dir;
+    write_text(dir.file("p.csv"), "surface,temperature\nx0,300\nz1,1000\n");
+    check_injected_failures(
+        dir,
+        "solve cube --subdivide 6 --storage hierarchical --thermal "
+        "--properties p.csv --threads 1 -o T.csv --report r.json",
+        {{"FORMFACTOR_TEST_FAIL_RANK=1", "1"}, {"FORMFACTOR_TEST_FAIL_SOLVE_RANK=2", "2"}},
+        1);  // p.csv alone
+}
+
+TEST_CASE(
+    "mpi: the per-surface matrix of the hierarchical operator over 2 and 3 ranks is one "
+    "process's bit for bit" *
+    doctest::test_suite("mpi")) {
+    // One product with every surface's indicator column, its partial sums handed from rank to
+    // rank in chunk order as a solve's: the tolerance is zero.
+    check_same_files_on_any_rank_count(
+        "compute cube --subdivide 6 --storage hierarchical --per-surface --threads 1 -o S{}.npy "
+        "--report R{}.json",
+        {"S{}.npy"});
+    // The 10 surfaces of the empty Cornell box (an open one) with two threads a rank, and the
+    // report's account of the ranks.
+    check_same_files_on_any_rank_count(
+        "compute cornell-empty --subdivide 6 --storage hierarchical --per-surface --threads 2 "
+        "-o S{}.csv",
+        {"S{}.csv"});
+    TempDir dir;
+    const Run r = run(dir, 2,
+                      "compute cube --subdivide 6 --storage hierarchical --per-surface --threads 1 "
+                      "-o S.npy --report r.json");
+    INFO(said(r));
+    REQUIRE(r.code == 0);
+    const auto report = nlohmann::json::parse(read_text(dir.file("r.json")));
+    CHECK(report["details"]["mpi"]["ranks"] == 2);
+    CHECK(report["details"]["mpi"]["blocks_computed_per_rank"].size() == 2);
+}
+
+TEST_CASE(
+    "mpi: a rank that fails building or applying the operator of the per-surface matrix ends "
+    "every rank and writes nothing" *
+    doctest::test_suite("mpi")) {
+    TempDir dir;
+    check_injected_failures(
+        dir,
+        "compute cube --subdivide 6 --storage hierarchical --per-surface "
+        "--threads 1 -o S.npy --report r.json",
+        {{"FORMFACTOR_TEST_FAIL_RANK=1", "1"}, {"FORMFACTOR_TEST_FAIL_SOLVE_RANK=2", "2"}}, 0);
 }
 
 TEST_CASE(
@@ -482,18 +536,11 @@ TEST_CASE("mpi: a rank that fails during a distributed solve ends every rank wit
           doctest::test_suite("mpi")) {
     TempDir dir;
     write_text(dir.file("p.csv"), "surface,temperature\nx0,300\nz1,1000\n");
-    const Run r = run(dir, 3,
-                      "solve cube --subdivide 4 --thermal --properties p.csv --solver gmres "
-                      "--threads 1 -o T.csv "
-                      "--report r.json",
-                      "FORMFACTOR_TEST_FAIL_SOLVE_RANK=2");
-    INFO(said(r));
-    CHECK(r.code == 1);
-    CHECK(r.err.find("formfactor: rank 2: a failure injected on rank 2") != std::string::npos);
-    const auto first = r.err.find("formfactor:");
-    CHECK(r.err.find("formfactor:", first + 1) == std::string::npos);
-    CHECK(r.seconds < 10.0);
-    CHECK(dir.entries() == 1);  // p.csv alone
+    check_injected_failures(dir,
+                            "solve cube --subdivide 4 --thermal --properties p.csv --solver gmres "
+                            "--threads 1 -o T.csv --report r.json",
+                            {{"FORMFACTOR_TEST_FAIL_SOLVE_RANK=2", "2"}},
+                            1);  // p.csv alone
 }
 
 TEST_CASE("mpi: every zone of a model (one job per zone) gives the same EnergyPlus file" *

@@ -80,7 +80,7 @@ std::vector<double> group_emissivities(const Scene& scene, const PatchGroups& gr
 }
 
 // Hierarchical storage (formfactor/matrix/hierarchical.h): the per-surface matrix from the
-// operator's products (one per surface), F never formed.
+// operator's products (one column per surface), F never formed; over the ranks under mpirun.
 void run_compute_hierarchical(const ComputeArgs& args, OutputTransaction* outer) {
     Stopwatch total;
     if (!rows_per_surface(args))
@@ -104,10 +104,13 @@ void run_compute_hierarchical(const ComputeArgs& args, OutputTransaction* outer)
     StepTimes times;
     Scene scene = prepare_scene(args.scene, times);
     warn_single_patch(scene);
-    const HierarchicalFormFactors H =
-        hierarchical_operator(scene, args.error_target, threads, times);
+    // Under mpirun the blocks are built and applied over the ranks (the same bits as one
+    // process); else the operator is this process's.
+    const HeldOperator held = held_operator(scene, args.error_target, threads, times);
     Stopwatch sw;
-    const SurfaceFormFactors<FormFactors> surfaces = per_surface(scene, H, threads);
+    const SurfaceFormFactors<FormFactors> surfaces =
+        held.spread ? distributed::per_surface(scene, *held.spread, threads)
+                    : per_surface(scene, *held.whole, threads);
     const PatchGroups& groups = surfaces.groups;
     const FormFactors& written = *surfaces.aggregated;
     times.add("per-surface products", sw.lap());
@@ -122,12 +125,13 @@ void run_compute_hierarchical(const ComputeArgs& args, OutputTransaction* outer)
     if (!args.patches.empty())
         tx.stage(args.patches, [&](std::ostream& out) { write_patch_table(out, scene); });
     times.add("write", sw.lap());
-    const HierarchicalStats& hs = H.stats();
+    const HierarchicalStats& hs = held.stats();
     const Diagnostics d = diagnose(written);
     if (!args.report.empty()) {
-        ReportContext ctx =
-            report_context("compute", "analytic (hierarchical operator)", args.scene, times, total,
-                           threads, {{"hierarchical", to_json(hs)}}, {});
+        nlohmann::json details = {{"hierarchical", to_json(hs)}};
+        if (held.spread) details["mpi"] = to_json(*held.spread);
+        ReportContext ctx = report_context("compute", "analytic (hierarchical operator)",
+                                           args.scene, times, total, threads, details, {});
         ctx.options.update(args.method.to_json("analytic"));
         ctx.options["storage"] = "hierarchical";
         ctx.options["error_target"] = args.error_target;

@@ -243,14 +243,11 @@ void solve_hierarchical_scene(const SolveArgs& args, Scene& scene, StepTimes& ti
 
     // Under mpirun the blocks are built and applied over the ranks (the same bits as one
     // process); else the operator is this process's.
-    std::optional<HierarchicalFormFactors> whole;
-    std::optional<distributed::DistributedHierarchical> spread;
-    if (distributed::size() > 1)
-        spread = build_hierarchical_on_ranks(scene, args.error_target, threads, times);
-    else
-        whole.emplace(hierarchical_operator(scene, args.error_target, threads, times));
+    const HeldOperator held = held_operator(scene, args.error_target, threads, times);
+    const std::optional<HierarchicalFormFactors>& whole = held.whole;
+    const std::optional<distributed::DistributedHierarchical>& spread = held.spread;
     sw.lap();
-    const HierarchicalStats hs = spread ? spread->stats : whole->stats();
+    const HierarchicalStats& hs = held.stats();
     OutputTransaction tx;
     const SolveOptions problem = solve_options(args, solver_options);
     const nlohmann::json solve_json =

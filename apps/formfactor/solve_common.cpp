@@ -167,8 +167,6 @@ void print_operator_line(const HierarchicalStats& hs) {
             (8.0 * static_cast<double>(hs.patches) * static_cast<double>(hs.patches)));
 }
 
-}  // namespace
-
 HierarchicalFormFactors hierarchical_operator(const Scene& scene, double error_target, int threads,
                                               StepTimes& times) {
     HierarchicalOptions ho = hierarchical_options(error_target, threads);
@@ -200,6 +198,17 @@ distributed::DistributedHierarchical build_hierarchical_on_ranks(const Scene& sc
         per_rank(H.blocks_held, "{:.0f}"), per_rank(H.chunks_held, "{:.0f}"),
         fmt::format("{:.1f}", H.moved_bytes / 1e6), per_rank(estimated_mb, "{:.0f}"));
     return H;
+}
+
+}  // namespace
+
+HeldOperator held_operator(const Scene& scene, double error_target, int threads, StepTimes& times) {
+    HeldOperator held;
+    if (distributed::size() > 1)
+        held.spread = build_hierarchical_on_ranks(scene, error_target, threads, times);
+    else
+        held.whole.emplace(hierarchical_operator(scene, error_target, threads, times));
+    return held;
 }
 
 nlohmann::json to_json(const distributed::DistributedHierarchical& H) {

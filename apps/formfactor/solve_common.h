@@ -68,16 +68,17 @@ struct SolverArgs {
     SolverOptions options(Storage storage, bool thermal, int threads) const;
 };
 
-/// The hierarchical operator of `scene` at `error_target` (--error-target, checked here) through
-/// the pipeline, progress on the terminal; adds its step to `times` and prints the operator line.
-HierarchicalFormFactors hierarchical_operator(const Scene& scene, double error_target, int threads,
-                                              StepTimes& times);
-/// The operator over the MPI ranks (distributed::build_hierarchical(),
-/// formfactor/distributed/distributed.h): the blocks stay on the ranks; prints the operator line
-/// and a line of what the ranks did.
-distributed::DistributedHierarchical build_hierarchical_on_ranks(const Scene& scene,
-                                                                 double error_target, int threads,
-                                                                 StepTimes& times);
+/// The hierarchical operator of `scene` at `error_target` (--error-target, checked here) as a
+/// command holds it: under mpirun over the ranks (distributed::build_hierarchical(),
+/// formfactor/distributed/distributed.h: the blocks stay on the ranks), else through the pipeline
+/// in this process. Progress on the terminal; adds its step to `times` and prints the operator
+/// line, and over the ranks a line of what the ranks did.
+struct HeldOperator {
+    std::optional<HierarchicalFormFactors> whole;                ///< one process
+    std::optional<distributed::DistributedHierarchical> spread;  ///< over the ranks
+    const HierarchicalStats& stats() const { return spread ? spread->stats : whole->stats(); }
+};
+HeldOperator held_operator(const Scene& scene, double error_target, int threads, StepTimes& times);
 /// The operator's statistics for a report (details.hierarchical / storage).
 nlohmann::json to_json(const HierarchicalStats& s);
 /// What the ranks did for the operator (details.mpi of a report).

@@ -14,6 +14,7 @@
 /// choice of the default solver per storage, and the scene's own facts (a closed model) that
 /// the thermal solve needs.
 
+#include <functional>
 #include <optional>
 
 #include "formfactor/core/timing.h"
@@ -98,6 +99,12 @@ SurfaceFormFactors<FormFactors> per_surface(const Scene& scene, const Hierarchic
                                             int threads = 0);
 
 namespace detail {
+
+/// per_surface() of the hierarchical operator for any way of making its products (the
+/// distributed module's operator spread over the ranks too): `per_group` gives the per-group
+/// factors of the groups it is handed (HierarchicalFormFactors::per_group()).
+SurfaceFormFactors<FormFactors> per_surface_of_operator(
+    const Scene& scene, const std::function<DenseMatrix(const PatchGroups&)>& per_group);
 
 /// The thermal solve's options for `scene` (ThermalOptions::closed from check_closure()).
 ThermalOptions thermal_options(const Scene& scene, const SolveOptions& options);

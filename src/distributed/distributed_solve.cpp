@@ -1,6 +1,7 @@
 // The radiosity and thermal solves on rows spread over the ranks
 // (formfactor/distributed/distributed.h), with or without MPI: the problem is set up on rank 0
-// as on one process, and only the linear solve (solve_rows()) involves every rank.
+// as on one process, and only the linear solve (solve_rows()) involves every rank. The
+// operator's per-surface matrix likewise: aggregated on rank 0, its one product over the ranks.
 
 #include <fmt/format.h>
 
@@ -157,6 +158,15 @@ RadiosityResult solve_radiosity(const DistributedHierarchical& op, const PatchPr
 SolveResult solve(const Scene& scene, const DistributedHierarchical& op,
                   const PatchProperties& props, const SolveOptions& options) {
     return formfactor::detail::solve_problem(scene, op, props, options);
+}
+
+SurfaceFormFactors<FormFactors> per_surface(const Scene& scene, const DistributedHierarchical& op,
+                                            int threads) {
+    return formfactor::detail::per_surface_of_operator(scene, [&](const PatchGroups& groups) {
+        return HierarchicalFormFactors::per_group(
+            op.areas, groups.group_of_patch, groups.size(),
+            [&](const Columns& X, Columns& Y) { multiply_operator(op, X, threads, Y); });
+    });
 }
 
 }  // namespace formfactor::distributed

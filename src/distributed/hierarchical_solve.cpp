@@ -41,6 +41,12 @@ void check_kept_operator(const DistributedHierarchical& op) {
         throw Error("solve: the hierarchical operator was replaced by a later build");
 }
 
+std::string injected_product_failure(int rank) {
+    const char* fail = std::getenv("FORMFACTOR_TEST_FAIL_SOLVE_RANK");
+    if (!fail || std::atoi(fail) != rank) return {};
+    return fmt::format("a failure injected on rank {} (FORMFACTOR_TEST_FAIL_SOLVE_RANK)", rank);
+}
+
 namespace {
 
 // One rank's products: its partials, then the chain; its own failure kept for the report.
@@ -48,12 +54,7 @@ class OperatorRunner {
   public:
     OperatorRunner(const HierarchicalFormFactors* part, int rank, ChunkChain& chain, Eigen::Index n,
                    int threads)
-        : part_(part), rank_(rank), chain_(chain), n_(n), threads_(threads) {
-        // For the tests of a rank failing mid-solve: FORMFACTOR_TEST_FAIL_SOLVE_RANK=K fails
-        // rank K's first product.
-        if (const char* fail = std::getenv("FORMFACTOR_TEST_FAIL_SOLVE_RANK"))
-            fail_ = std::atoi(fail) == rank;
-    }
+        : part_(part), rank_(rank), chain_(chain), n_(n), threads_(threads) {}
 
     void apply(const Columns& x, Columns& y) {
         HierarchicalFormFactors::Partials own;
@@ -62,9 +63,7 @@ class OperatorRunner {
             status = RankStatus::cancelled;
         } else {
             try {
-                if (fail_)
-                    throw Error(fmt::format(
-                        "a failure injected on rank {} (FORMFACTOR_TEST_FAIL_SOLVE_RANK)", rank_));
+                if (!injected_.empty()) throw Error(injected_);
                 if (!part_) throw Error("distributed: this rank holds no hierarchical operator");
                 own = part_->partial_products(x, threads_);
             } catch (const Cancelled&) {
@@ -92,7 +91,7 @@ class OperatorRunner {
     Eigen::Index n_;
     int threads_;
     std::string failure_;
-    bool fail_ = false;
+    std::string injected_ = injected_product_failure(rank_);
 };
 
 // One process: the chain is this process's chunks alone.
@@ -164,6 +163,12 @@ SolverStats solve_operator_here(const DistributedHierarchical& op, const Columns
         if (e.state.status == RankStatus::cancelled) throw Cancelled();
         throw Error(e.own_message);
     }
+}
+
+void multiply_operator_here(const DistributedHierarchical& op, const Columns& X, int threads,
+                            Columns& Y) {
+    check_kept_operator(op);
+    kept_operator()->multiply(X, Y, threads);
 }
 
 }  // namespace formfactor::distributed

@@ -11,6 +11,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <string>
 
 #include "formfactor/distributed/distributed.h"
 #include "formfactor/matrix/hierarchical.h"
@@ -49,6 +50,21 @@ DistributedHierarchical build_operator_here(const Scene& scene, const Hierarchic
 SolverStats solve_operator_here(const DistributedHierarchical& op, const Columns& d,
                                 const Columns& c, const SolverOptions& options, Columns& x,
                                 Columns& fx);
+
+/// Y = F X on this process alone (one rank).
+void multiply_operator_here(const DistributedHierarchical& op, const Columns& X, int threads,
+                            Columns& Y);
+
+/// Y = F X of the operator of the last build_hierarchical(), on rank 0 (which makes every rank
+/// join it, sending them X); on one process its own. Throws Error("rank K: ...") when rank K
+/// failed, Cancelled when a rank was interrupted.
+void multiply_operator(const DistributedHierarchical& op, const Columns& X, int threads,
+                       Columns& Y);
+
+/// For the tests of a rank failing in a product on the operator (a solve's, or the per-surface
+/// products): FORMFACTOR_TEST_FAIL_SOLVE_RANK=K gives rank K the failure's message, empty on
+/// the other ranks.
+std::string injected_product_failure(int rank);
 
 /// Throws Error unless `op` is the operator this process keeps.
 void check_kept_operator(const DistributedHierarchical& op);

@@ -31,7 +31,8 @@ namespace formfactor::distributed {
 constexpr int kTagCommand = 1, kTagResult = 2, kTagAssign = 3, kTagMove = 4, kTagValues = 5,
               kTagChain = 6;
 constexpr std::int64_t kCommandJob = 1, kCommandFinish = 2, kCommandSolve = 3, kCommandMove = 4,
-                       kCommandScatter = 5, kCommandOperator = 6, kCommandOperatorSolve = 7;
+                       kCommandScatter = 5, kCommandOperator = 6, kCommandOperatorSolve = 7,
+                       kCommandOperatorProduct = 8;
 // dense, sparse: the rows go to rank 0; kept_dense, kept_sparse: each rank keeps its rows
 // (compute_distributed_rows()) and sends their row sums.
 enum class JobKind : std::uint8_t { dense, sparse, kept_dense, kept_sparse };
@@ -173,6 +174,9 @@ struct SolveJob {
     }
 };
 
+// An n × k block of columns on the wire: its size, then its values (column-major).
+void put_columns(WireWriter& w, const Columns& m);
+Columns get_columns(WireReader& r);
 std::vector<char> solve_job_bytes(const SolveJob& job);
 SolveJob get_solve_job(const std::vector<char>& bytes);
 void tell_own_failure(const RankStopped& e);
@@ -183,5 +187,6 @@ void work_on_solve(const std::vector<char>& bytes);
 
 void work_on_hierarchical(const std::vector<char>& bytes);
 void work_on_operator_solve(const std::vector<char>& bytes);
+void work_on_operator_product(const std::vector<char>& bytes);
 
 }  // namespace formfactor::distributed

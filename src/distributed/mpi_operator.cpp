@@ -1,8 +1,8 @@
-// The hierarchical operator spread over the ranks (build_hierarchical(), solve_operator();
-// hierarchical_solve.h), a command of its own: every rank makes the partition, computes its
-// share of the blocks and sends the others theirs, and its solves hand a product's running sums
-// from rank to rank in chunk order. Its steps end with agree(), an all-gather of every rank's
-// status.
+// The hierarchical operator spread over the ranks (build_hierarchical(), solve_operator(),
+// multiply_operator(); hierarchical_solve.h), commands of their own: every rank makes the
+// partition, computes its share of the blocks and sends the others theirs, and its solves and
+// products hand a product's running sums from rank to rank in chunk order. Its steps end with
+// agree(), an all-gather of every rank's status.
 
 #include <fmt/format.h>
 
@@ -138,6 +138,31 @@ class MpiChain final : public ChunkChain {
   private:
     std::vector<double> sums_, result_;
 };
+
+// Y = F X over the ranks, every rank with the same X: each rank's partial products of its
+// chunks (`injected`: a failure for the tests), the running sums handed on in chunk order, then
+// agree(). Rank 0 gets Y or throws the first rank's failure; the others return false after one.
+bool product_on_ranks(const Columns& X, int threads, const std::string& injected, Columns& Y) {
+    std::string failure;
+    bool cancelled = false;
+    const HierarchicalFormFactors* part = kept_operator().get();
+    HierarchicalFormFactors::Partials own;
+    guarded_step(
+        [&] {
+            if (!injected.empty()) throw Error(injected);
+            if (!part) throw Error("distributed: this rank holds no hierarchical operator");
+            own = part->partial_products(X, threads);
+        },
+        failure, cancelled);
+    MpiChain chain;
+    chain.product(part, own, X.rows(), X.cols(),
+                  cancelled         ? RankStatus::cancelled
+                  : failure.empty() ? RankStatus::fine
+                                    : RankStatus::failed,
+                  Y);
+    // The chain told every rank whether all went well; agree() tells rank 0 which rank and why.
+    return agree(failure, cancelled);
+}
 
 void put_hierarchical_block(WireWriter& w, const HierarchicalFormFactors::Block& b) {
     w.put(b.p);
@@ -397,20 +422,8 @@ DistributedHierarchical build_on_ranks(const Scene& scene, const HierarchicalOpt
 
     // The row sums: a product with ones over the chain.
     const auto n = static_cast<Eigen::Index>(scene.patches.size());
-    MpiChain chain;
-    const HierarchicalFormFactors* part = kept_operator().get();
-    HierarchicalFormFactors::Partials own;
-    failure.clear();
-    guarded_step([&] { own = part->partial_products(Columns::Ones(n, 1), options.threads); },
-                 failure, cancelled);
     Columns sums;
-    const Exchanged e = chain.product(part, own, n, 1,
-                                      cancelled         ? RankStatus::cancelled
-                                      : failure.empty() ? RankStatus::fine
-                                                        : RankStatus::failed,
-                                      sums);
-    (void)e;  // the chain told every rank; agree() tells rank 0 which rank and why
-    if (!agree(failure, cancelled)) return out;
+    if (!product_on_ranks(Columns::Ones(n, 1), options.threads, {}, sums)) return out;
     st.seconds = wall.seconds();
     out.n = scene.patches.size();
     out.areas = plan->areas();
@@ -460,12 +473,51 @@ void work_on_operator_solve(const std::vector<char>& bytes) {
         // Not converged (and any error of the options): rank 0 meets the same and reports it.
     }
 }
+// A worker's part of a product on the operator (multiply_operator()): X from rank 0, then
+// product_on_ranks().
+void work_on_operator_product(const std::vector<char>& bytes) {
+    std::string failure;
+    bool cancelled = false;
+    int threads = 0;
+    Columns X, Y;
+    guarded_step(
+        [&] {
+            WireReader r(bytes.data(), bytes.size());
+            if (r.get<std::uint64_t>() != kept_operator_id() || !kept_operator())
+                throw Error("distributed: the hierarchical operator is not the one kept");
+            threads = r.get<int>();
+            X = get_columns(r);
+        },
+        failure, cancelled);
+    if (!agree(failure, cancelled)) return;
+    try {
+        product_on_ranks(X, threads, injected_product_failure(g_rank), Y);
+    } catch (const std::exception&) {
+        // A product too large for a message: rank 0 meets the same and reports it.
+    }
+}
+
 DistributedHierarchical build_hierarchical(const Scene& scene, const HierarchicalOptions& options) {
     if (g_size <= 1 || g_rank != 0) return build_operator_here(scene, options);
     const CancellationScope scope(process_cancellation());
     const std::uint64_t id = ++kept_operator_id();
     broadcast_command(kCommandOperator, hierarchical_job_bytes(id, options, scene));
     return build_on_ranks(scene, options, id);
+}
+
+void multiply_operator(const DistributedHierarchical& op, const Columns& X, int threads,
+                       Columns& Y) {
+    if (g_size <= 1 || g_rank != 0) return multiply_operator_here(op, X, threads, Y);
+    check_kept_operator(op);
+    FF_ASSERT(X.rows() == static_cast<Eigen::Index>(op.n));
+    const CancellationScope scope(process_cancellation());
+    WireWriter w;
+    w.put(op.id);
+    w.put(threads);
+    put_columns(w, X);
+    broadcast_command(kCommandOperatorProduct, w.bytes());
+    agree({}, false);
+    product_on_ranks(X, threads, injected_product_failure(0), Y);
 }
 
 SolverStats solve_operator(const DistributedHierarchical& op, const Columns& d, const Columns& c,

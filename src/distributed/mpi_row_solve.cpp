@@ -75,15 +75,29 @@ class MpiExchange final : public Exchange {
 
 }  // namespace
 
+void put_columns(WireWriter& w, const Columns& m) {
+    w.put<std::int64_t>(m.rows());
+    w.put<std::int64_t>(m.cols());
+    w.put_array(m.data(), static_cast<std::size_t>(m.size()));
+}
+
+Columns get_columns(WireReader& r) {
+    const auto rows = r.get<std::int64_t>(), cols = r.get<std::int64_t>();
+    const std::vector<double> v = r.get_vector<double>();
+    if (rows < 0 || cols < 0 || v.size() != static_cast<std::size_t>(rows * cols))
+        throw Error("distributed: columns of the wrong size");
+    Columns m(rows, cols);
+    std::copy(v.begin(), v.end(), m.data());
+    return m;
+}
+
 std::vector<char> solve_job_bytes(const SolveJob& job) {
     WireWriter w;
     w.put(job.kept);
     w.put<std::uint64_t>(job.owners.size());
     for (const auto& blocks : job.owners) w.put_vector(blocks);
-    w.put<std::int64_t>(job.d.rows());
-    w.put<std::int64_t>(job.d.cols());
-    w.put_array(job.d.data(), static_cast<std::size_t>(job.d.size()));
-    w.put_array(job.c.data(), static_cast<std::size_t>(job.c.size()));
+    put_columns(w, job.d);
+    put_columns(w, job.c);
     w.put(job.solver);
     w.put(job.residual);
     w.put(job.max_iterations);
@@ -98,15 +112,10 @@ SolveJob get_solve_job(const std::vector<char>& bytes) {
     job.kept = r.get<std::uint64_t>();
     job.owners.resize(r.get<std::uint64_t>());
     for (auto& blocks : job.owners) blocks = r.get_vector<RowRange>();
-    const auto rows = r.get<std::int64_t>(), cols = r.get<std::int64_t>();
-    job.d.resize(rows, cols);
-    job.c.resize(rows, cols);
-    for (Columns* m : {&job.d, &job.c}) {
-        const std::vector<double> v = r.get_vector<double>();
-        if (v.size() != static_cast<std::size_t>(m->size()))
-            throw Error("distributed: a system of the wrong size");
-        std::copy(v.begin(), v.end(), m->data());
-    }
+    job.d = get_columns(r);
+    job.c = get_columns(r);
+    if (job.c.rows() != job.d.rows() || job.c.cols() != job.d.cols())
+        throw Error("distributed: a system of the wrong size");
     job.solver = r.get<SolverKind>();
     job.residual = r.get<double>();
     job.max_iterations = r.get<long long>();

@@ -176,6 +176,8 @@ int serve() {
             work_on_hierarchical(receive_job());
         else if (command == kCommandOperatorSolve)
             work_on_operator_solve(receive_job());
+        else if (command == kCommandOperatorProduct)
+            work_on_operator_product(receive_job());
         else
             return 0;
     }

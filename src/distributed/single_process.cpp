@@ -85,4 +85,9 @@ SolverStats solve_operator(const DistributedHierarchical& op, const Columns& d, 
     return solve_operator_here(op, d, c, options, x, fx);
 }
 
+void multiply_operator(const DistributedHierarchical& op, const Columns& X, int threads,
+                       Columns& Y) {
+    multiply_operator_here(op, X, threads, Y);
+}
+
 }  // namespace formfactor::distributed

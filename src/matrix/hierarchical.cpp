@@ -166,10 +166,18 @@ DenseMatrix HierarchicalFormFactors::to_dense(int threads) const {
 
 DenseMatrix HierarchicalFormFactors::per_group(const std::vector<int>& group_of_patch,
                                                std::size_t groups, int threads) const {
-    const auto n = static_cast<Eigen::Index>(size());
-    if (group_of_patch.size() != size())
+    return per_group(
+        areas_, group_of_patch, groups,
+        [&](const Eigen::MatrixXd& X, Eigen::MatrixXd& Y) { multiply(X, Y, threads); });
+}
+
+DenseMatrix HierarchicalFormFactors::per_group(const std::vector<double>& areas,
+                                               const std::vector<int>& group_of_patch,
+                                               std::size_t groups, const Product& product) {
+    const auto n = static_cast<Eigen::Index>(areas.size());
+    if (group_of_patch.size() != areas.size())
         throw Error(fmt::format("per-group factors: {} group indices for {} patches",
-                                group_of_patch.size(), size()));
+                                group_of_patch.size(), areas.size()));
     const auto g = static_cast<Eigen::Index>(groups);
     Eigen::MatrixXd X = Eigen::MatrixXd::Zero(n, g), Y;
     for (Eigen::Index i = 0; i < n; ++i) {
@@ -178,12 +186,12 @@ DenseMatrix HierarchicalFormFactors::per_group(const std::vector<int>& group_of_
             throw Error(fmt::format("per-group factors: patch {} in group {}", i, gi));
         X(i, gi) = 1.0;
     }
-    multiply(X, Y, threads);
+    product(X, Y);
     DenseMatrix out = DenseMatrix::Zero(g, g);
     std::vector<double> ag(static_cast<std::size_t>(g), 0.0);
     for (Eigen::Index i = 0; i < n; ++i) {
         const auto gi = static_cast<Eigen::Index>(group_of_patch[static_cast<std::size_t>(i)]);
-        const double a = areas_[static_cast<std::size_t>(i)];
+        const double a = areas[static_cast<std::size_t>(i)];
         ag[static_cast<std::size_t>(gi)] += a;
         out.row(gi) += a * Y.row(i);
     }

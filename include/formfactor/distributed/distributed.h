@@ -224,4 +224,12 @@ RadiosityResult solve_radiosity(const DistributedHierarchical& op, const PatchPr
 SolveResult solve(const Scene& scene, const DistributedHierarchical& op,
                   const PatchProperties& props, const SolveOptions& options);
 
+/// The pipeline's per_surface() (formfactor/pipeline_solve.h) of the operator spread over the
+/// ranks, called on rank 0: one product with every surface's indicator column at once, each
+/// rank's chunks added to the running sums in chunk order as for a solve, so the per-surface
+/// matrix is one process's bit for bit, for any number of ranks and threads. A failure (or an
+/// interruption) on any rank ends every rank's part; rank 0 throws it ("rank K: ...").
+SurfaceFormFactors<FormFactors> per_surface(const Scene& scene, const DistributedHierarchical& op,
+                                            int threads = 0);
+
 }  // namespace formfactor::distributed

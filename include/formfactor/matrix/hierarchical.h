@@ -34,6 +34,7 @@
 #include <Eigen/Core>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "formfactor/matrix/form_factors.h"
@@ -120,6 +121,13 @@ class HierarchicalFormFactors {
     /// 0 ≤ g < groups), from `groups` products with indicator vectors: cost groups × product.
     DenseMatrix per_group(const std::vector<int>& group_of_patch, std::size_t groups,
                           int threads = 0) const;
+    /// Y = F X for an n × k X (an operator's multiply(), or its product over the ranks).
+    using Product = std::function<void(const Eigen::MatrixXd& X, Eigen::MatrixXd& Y)>;
+    /// per_group() of an operator held elsewhere (spread over ranks): one call of `product`
+    /// with every group's indicator column at once; `areas` are A_i in scene order.
+    static DenseMatrix per_group(const std::vector<double>& areas,
+                                 const std::vector<int>& group_of_patch, std::size_t groups,
+                                 const Product& product);
 
     /// A product in pieces, as multiply() does it and ranks share it: the partial products
     /// of this operator's chunks (in cluster order: y of the blocks F_PQ, z of their
