@@ -4,10 +4,13 @@
 #include <doctest/doctest.h>
 #include <hdf5.h>
 
+#include <chrono>
 #include <cstdint>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "formfactor/core/error.h"
@@ -180,6 +183,24 @@ TEST_CASE("sparse io: bad extension or directory writes nothing") {
     CHECK(is_sparse_matrix_path("a/F.MTX"));
     CHECK(is_sparse_matrix_path("F.h5"));
     CHECK_FALSE(is_sparse_matrix_path("F.npy"));
+}
+
+TEST_CASE("sparse io: the same F written to .h5 a second later has the same bytes") {
+    // HDF5 stamps objects with their times unless told not to (seconds).
+    const SparseComputeResult r = city_sparse(1e-4);
+    const Scene scene = city_scene(1);
+    const TempDir dir;
+    SparseFileInfo info;
+    info.patches = &scene.patches;  // the group of patch arrays too
+    write_sparse_matrix(dir.file("A.h5"), r.form_factors, info);
+    std::this_thread::sleep_for(std::chrono::milliseconds(1100));
+    write_sparse_matrix(dir.file("B.h5"), r.form_factors, info);
+    auto bytes = [&](const char* name) {
+        std::ifstream in(dir.file(name), std::ios::binary);
+        return std::string(std::istreambuf_iterator<char>(in), {});
+    };
+    REQUIRE(!bytes("A.h5").empty());
+    CHECK(bytes("A.h5") == bytes("B.h5"));
 }
 
 TEST_CASE("sparse io: read_sparse_matrix gives back what the writers wrote, bit for bit") {

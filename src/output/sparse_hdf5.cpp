@@ -58,7 +58,16 @@ class QuietErrors {
 
 class Writer {
   public:
-    Writer(const std::string& target) : target_(target) {}
+    // Objects are created without modification times, so that the same F makes the same bytes
+    // (one process or many ranks, today or tomorrow).
+    Writer(const std::string& target)
+        : target_(target),
+          dataset_props_(check(H5Pcreate(H5P_DATASET_CREATE), "properties"), H5Pclose),
+          group_props_(check(H5Pcreate(H5P_GROUP_CREATE), "properties"), H5Pclose) {
+        check(H5Pset_obj_track_times(dataset_props_.get(), false), "properties");
+        check(H5Pset_obj_track_times(group_props_.get(), false), "properties");
+    }
+    hid_t group_props() const { return group_props_.get(); }
 
     hid_t check(hid_t id, const char* what) const {
         if (id < 0) fail(what);
@@ -79,7 +88,8 @@ class Writer {
         const hsize_t dims[2] = {rows, cols};
         const Handle space(check(H5Screate_simple(rank, dims, nullptr), name), H5Sclose);
         const Handle set(
-            check(H5Dcreate2(loc, name, type, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+            check(H5Dcreate2(loc, name, type, space.get(), H5P_DEFAULT, dataset_props_.get(),
+                             H5P_DEFAULT),
                   name),
             H5Dclose);
         const std::size_t elem = H5Tget_size(type);
@@ -113,7 +123,8 @@ class Writer {
     }
 
   private:
-    std::string target_;
+    std::string target_;  // first: check() names it
+    Handle dataset_props_, group_props_;
 };
 
 }  // namespace
@@ -139,7 +150,8 @@ void write_sparse_hdf5(const std::string& file, const std::string& target,
     w.dataset(root, "computed_row_sum", H5T_NATIVE_DOUBLE, F.computed_row_sums.data(), n);
     if (info.patches) {
         const Handle g(
-            w.check(H5Gcreate2(root, "patches", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), "patches"),
+            w.check(H5Gcreate2(root, "patches", H5P_DEFAULT, w.group_props(), H5P_DEFAULT),
+                    "patches"),
             H5Gclose);
         const std::vector<Patch>& p = *info.patches;
         std::vector<std::int32_t> surface(p.size());
