@@ -555,7 +555,8 @@ void run_compute(const ComputeArgs& args, OutputTransaction* outer) {
     times.add("write", sw.lap());
 
     const int threads = effective_threads(args.method.options.threads);
-    const Diagnostics d = diagnose(ff);
+    // Of the matrix written: the pipeline's, after the repair when there was one.
+    const Diagnostics& d = repaired ? repaired->after : computed.raw;
     if (!args.report.empty()) {
         ReportContext ctx = report_context("compute", to_string(method), args.scene, times, total,
                                            threads, details, traits.reciprocity);
