@@ -386,7 +386,13 @@ bool receiver_in_front(const Receiver& rc, const Vec3& x, const Vec3& nx, double
                        Poly2& whole) {
     h = rc.n.dot(x) - rc.d;
     if (!(h > 0.0)) return false;
-    clip3(rc.poly, nx, nx.dot(x), rp);
+    if (!clip3_cut(rc.poly.v.data(), rc.poly.n, nx, nx.dot(x), rp)) {
+        // All of the receiver is in front: its coordinates are known.
+        rp.n = rc.poly.n;
+        std::copy(rc.poly.v.begin(), rc.poly.v.begin() + rp.n, rp.v.begin());
+        copy2(rc.flat, whole);
+        return rp.n >= 3;
+    }
     if (rp.n < 3) return false;
     whole.n = rp.n;
     for (int k = 0; k < rp.n; ++k) {
