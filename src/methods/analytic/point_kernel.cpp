@@ -468,12 +468,25 @@ PointResult evaluate_point(const Receiver& rc, const Vec3& x, const Vec3& nx,
         double covered = 0.0;  // the union's area
         boxes.resize(shadows.size());
         for (std::size_t k = 0; k < shadows.size(); ++k) boxes[k] = box_of(shadows[k]);
+        auto takes_nothing = [&](std::size_t l, std::size_t k) {
+            return (solid_of[k] >= 0 && solid_of[k] == solid_of[l]) || apart(boxes[l], boxes[k]);
+        };
         for (std::size_t k = 0; k < shadows.size(); ++k) {
+            // No earlier shadow to subtract: shadow k is its own fragment.
+            std::size_t first_cut = 0;
+            while (first_cut < k && takes_nothing(first_cut, k)) ++first_cut;
+            if (first_cut == k) {
+                const double af = area2(shadows[k]);
+                if (af > tiny_area) {
+                    res.hidden += lambert2(shadows[k], xl, nl);
+                    covered += af;
+                }
+                continue;
+            }
             frags.clear();
             append2(frags, shadows[k]);
-            for (std::size_t l = 0; l < k && !frags.empty(); ++l) {
-                if (solid_of[k] >= 0 && solid_of[k] == solid_of[l]) continue;
-                if (apart(boxes[l], boxes[k])) continue;
+            for (std::size_t l = first_cut; l < k && !frags.empty(); ++l) {
+                if (takes_nothing(l, k)) continue;
                 next.clear();
                 for (const Poly2& f : frags) subtract(f, shadows[l], next);
                 std::swap(frags, next);
