@@ -88,17 +88,22 @@ void merge_solid_shadows(std::vector<Poly2>& shadows, std::vector<int>& solid_of
     by_solid.clear();
     for (std::size_t k = 0; k < n; ++k)
         if (solid_of[k] >= 0) by_solid.emplace_back(solid_of[k], static_cast<int>(k));
+    // Both lists usually come in order already (the pieces of a solid are candidates in runs).
+    // The order of one solid's raw points does not matter: its hull sorts them.
+    if (!std::is_sorted(by_solid.begin(), by_solid.end()))
+        std::sort(by_solid.begin(), by_solid.end());
     if (raw.empty()) {
         if (by_solid.size() < 2) return;
-        std::sort(by_solid.begin(), by_solid.end());
         bool repeated = false;
         for (std::size_t g = 1; g < by_solid.size() && !repeated; ++g)
             repeated = by_solid[g].first == by_solid[g - 1].first;
         if (!repeated) return;
     } else {
-        std::sort(by_solid.begin(), by_solid.end());
-        std::sort(raw.begin(), raw.end(),
-                  [](const SolidPoint& p, const SolidPoint& q) { return p.solid < q.solid; });
+        const auto by_solid_index = [](const SolidPoint& p, const SolidPoint& q) {
+            return p.solid < q.solid;
+        };
+        if (!std::is_sorted(raw.begin(), raw.end(), by_solid_index))
+            std::sort(raw.begin(), raw.end(), by_solid_index);
     }
     struct P {
         double x, y;
