@@ -341,6 +341,8 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
                 const bool only_seen = filter && !filter_off &&
                                        std::abs(plane_of[y].signed_distance(pw)) > tol_coplanar;
                 if (only_seen && on_plane) continue;  // a vertex in r's plane, off r
+                // Kept only where w's shadow falls on r, and it falls nowhere on r.
+                if (only_seen && !seen_some) continue;
                 if (solid_of[x] >= 0 && solid_of[x] == solid_of[y] &&
                     std::abs(plane_of[y].signed_distance(pw)) > tol_coplanar)
                     continue;  // two faces of one convex solid, no face-plane event

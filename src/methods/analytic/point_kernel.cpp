@@ -88,17 +88,22 @@ void merge_solid_shadows(std::vector<Poly2>& shadows, std::vector<int>& solid_of
     by_solid.clear();
     for (std::size_t k = 0; k < n; ++k)
         if (solid_of[k] >= 0) by_solid.emplace_back(solid_of[k], static_cast<int>(k));
+    // Both lists usually come in order already (the pieces of a solid are candidates in runs).
+    // The order of one solid's raw points does not matter: its hull sorts them.
+    if (!std::is_sorted(by_solid.begin(), by_solid.end()))
+        std::sort(by_solid.begin(), by_solid.end());
     if (raw.empty()) {
         if (by_solid.size() < 2) return;
-        std::sort(by_solid.begin(), by_solid.end());
         bool repeated = false;
         for (std::size_t g = 1; g < by_solid.size() && !repeated; ++g)
             repeated = by_solid[g].first == by_solid[g - 1].first;
         if (!repeated) return;
     } else {
-        std::sort(by_solid.begin(), by_solid.end());
-        std::sort(raw.begin(), raw.end(),
-                  [](const SolidPoint& p, const SolidPoint& q) { return p.solid < q.solid; });
+        const auto by_solid_index = [](const SolidPoint& p, const SolidPoint& q) {
+            return p.solid < q.solid;
+        };
+        if (!std::is_sorted(raw.begin(), raw.end(), by_solid_index))
+            std::sort(raw.begin(), raw.end(), by_solid_index);
     }
     struct P {
         double x, y;
@@ -386,7 +391,13 @@ bool receiver_in_front(const Receiver& rc, const Vec3& x, const Vec3& nx, double
                        Poly2& whole) {
     h = rc.n.dot(x) - rc.d;
     if (!(h > 0.0)) return false;
-    clip3(rc.poly, nx, nx.dot(x), rp);
+    if (!clip3_cut(rc.poly.v.data(), rc.poly.n, nx, nx.dot(x), rp)) {
+        // All of the receiver is in front: its coordinates are known.
+        rp.n = rc.poly.n;
+        std::copy(rc.poly.v.begin(), rc.poly.v.begin() + rp.n, rp.v.begin());
+        copy2(rc.flat, whole);
+        return rp.n >= 3;
+    }
     if (rp.n < 3) return false;
     whole.n = rp.n;
     for (int k = 0; k < rp.n; ++k) {
@@ -462,12 +473,25 @@ PointResult evaluate_point(const Receiver& rc, const Vec3& x, const Vec3& nx,
         double covered = 0.0;  // the union's area
         boxes.resize(shadows.size());
         for (std::size_t k = 0; k < shadows.size(); ++k) boxes[k] = box_of(shadows[k]);
+        auto takes_nothing = [&](std::size_t l, std::size_t k) {
+            return (solid_of[k] >= 0 && solid_of[k] == solid_of[l]) || apart(boxes[l], boxes[k]);
+        };
         for (std::size_t k = 0; k < shadows.size(); ++k) {
+            // No earlier shadow to subtract: shadow k is its own fragment.
+            std::size_t first_cut = 0;
+            while (first_cut < k && takes_nothing(first_cut, k)) ++first_cut;
+            if (first_cut == k) {
+                const double af = area2(shadows[k]);
+                if (af > tiny_area) {
+                    res.hidden += lambert2(shadows[k], xl, nl);
+                    covered += af;
+                }
+                continue;
+            }
             frags.clear();
             append2(frags, shadows[k]);
-            for (std::size_t l = 0; l < k && !frags.empty(); ++l) {
-                if (solid_of[k] >= 0 && solid_of[k] == solid_of[l]) continue;
-                if (apart(boxes[l], boxes[k])) continue;
+            for (std::size_t l = first_cut; l < k && !frags.empty(); ++l) {
+                if (takes_nothing(l, k)) continue;
                 next.clear();
                 for (const Poly2& f : frags) subtract(f, shadows[l], next);
                 std::swap(frags, next);

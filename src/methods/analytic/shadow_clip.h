@@ -109,11 +109,13 @@ inline double subtract(const Poly2& f, const Poly2& s, std::vector<Poly2>& out) 
 /// coordinates), seen from the point xl = (u, v, height) with unit normal nl (local coordinates).
 double lambert2(const Poly2& q, const Vec3& xl, const Vec3& nl);
 
-/// The receiver of a pair, prepared once: convex polygon and its plane frame.
+/// The receiver of a pair, prepared once: convex polygon, its plane frame, and the polygon in
+/// that frame's coordinates (u·(y − o), v·(y − o) per vertex y).
 struct Receiver {
     Poly3 poly;
     Vec3 n, o, u, v;
     double d = 0;
+    Poly2 flat;
     explicit Receiver(const Polygon& r) {
         FF_ASSERT(r.size() <= static_cast<std::size_t>(kCap));
         poly.n = static_cast<int>(r.size());
@@ -122,6 +124,12 @@ struct Receiver {
         o = r[0];
         d = n.dot(o);
         orthonormal_basis(n, u, v);
+        flat.n = poly.n;
+        for (std::size_t k = 0; k < r.size(); ++k) {
+            const Vec3 w = poly.v[k] - o;
+            flat.x[k] = u.dot(w);
+            flat.y[k] = v.dot(w);
+        }
     }
 };
 
