@@ -304,9 +304,10 @@ void SparseAssembly::join_waiting() {
 void SparseAssembly::joined(const SparseRows* emitted) {
     ++joined_blocks_;
     SparseRunNeeds projected = needs_;
-    projected.nonzeros = double(builder_->current().nonzeros()) * double(needs_.patches) /
-                             double(std::max<std::size_t>(builder_->rows(), 1)) +
-                         lower_entries_;  // an entry waiting for its row: as many bytes as in the CSR
+    projected.nonzeros =
+        double(builder_->current().nonzeros()) * double(needs_.patches) /
+            double(std::max<std::size_t>(builder_->rows(), 1)) +
+        lower_entries_;  // an entry waiting for its row: as many bytes as in the CSR
     if (emitted) {
         double entries = 0;
         for (const auto& row : emitted->values) entries += double(row.size());

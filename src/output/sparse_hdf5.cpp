@@ -87,11 +87,10 @@ class Writer {
         const int rank = cols == 1 ? 1 : 2;
         const hsize_t dims[2] = {rows, cols};
         const Handle space(check(H5Screate_simple(rank, dims, nullptr), name), H5Sclose);
-        const Handle set(
-            check(H5Dcreate2(loc, name, type, space.get(), H5P_DEFAULT, dataset_props_.get(),
-                             H5P_DEFAULT),
-                  name),
-            H5Dclose);
+        const Handle set(check(H5Dcreate2(loc, name, type, space.get(), H5P_DEFAULT,
+                                          dataset_props_.get(), H5P_DEFAULT),
+                               name),
+                         H5Dclose);
         const std::size_t elem = H5Tget_size(type);
         const hsize_t step = std::max<hsize_t>(1, kSlice / cols);
         for (hsize_t r = 0; r < rows; r += step) {
