@@ -154,9 +154,7 @@ SparseComputeResult compute_sparse_form_factors(const Scene& scene, const Comput
                                ? std::max<std::size_t>(n, 1)
                                : std::min<std::size_t>(needs.block_rows, 8192);
     result.run.block_rows = needs.block_rows;
-    detail::SparseAssembly assembly(
-        needs, sparse.threshold, options.method_options.threads,
-        "raise the threshold, use a coarser subdivision, or smaller blocks (block_rows)");
+    detail::SparseAssembly assembly(needs, sparse.threshold, options.method_options.threads);
     result.run.estimate_before = assembly.estimate_before();
 
     // One ray tracer for every block (a BVH of the whole scene per block was most of a
@@ -207,6 +205,12 @@ SparseComputeResult compute_sparse_form_factors(const Scene& scene, const Comput
 
 namespace detail {
 
+namespace {
+// What a sparse run that will not fit can do instead (the memory message's last words).
+constexpr const char* kSparseAdvice =
+    "raise the threshold, use a coarser subdivision, or smaller blocks (block_rows)";
+}  // namespace
+
 SparseRunNeeds sparse_run_needs(const Scene& scene, const ComputeOptions& options,
                                 const MethodTraits& traits, bool emit_sparse) {
     const MethodKind kind = options.method ? *options.method : default_method(scene);
@@ -221,15 +225,13 @@ SparseRunNeeds sparse_run_needs(const Scene& scene, const ComputeOptions& option
     return needs;
 }
 
-SparseAssembly::SparseAssembly(const SparseRunNeeds& needs, double threshold, int threads,
-                               std::string advice)
+SparseAssembly::SparseAssembly(const SparseRunNeeds& needs, double threshold, int threads)
     : needs_(needs),
       threshold_(threshold),
       available_(available_memory()),
       threads_(threads),
-      advice_(std::move(advice)),
       estimate_before_(estimate_sparse_memory(needs)) {
-    check_sparse_memory(needs_, available_, advice_);
+    check_sparse_memory(needs_, available_, kSparseAdvice);
 }
 
 void SparseAssembly::start(const std::vector<double>& areas, bool standard_errors) {
@@ -265,10 +267,8 @@ void SparseAssembly::complete_rows(SparseRows& rows) {
         lower_entries_ -= double(whole_idx.size());
         whole_idx.insert(whole_idx.end(), idx.begin(), idx.end());
         whole_val.insert(whole_val.end(), val.begin(), val.end());
-        idx = std::move(whole_idx);
+        idx = std::move(whole_idx);  // lower_*_[i] are left empty by the moves
         val = std::move(whole_val);
-        lower_indices_[i] = {};
-        lower_values_[i] = {};
     }
 }
 
@@ -315,7 +315,7 @@ void SparseAssembly::joined(const SparseRows* emitted) {
     }
     const double total = estimate_sparse_memory(projected).total();
     projected_bytes_ = std::max(projected_bytes_, total);
-    check_sparse_memory(projected, available_, advice_);
+    check_sparse_memory(projected, available_, kSparseAdvice);
     // After the first block, room for the projection (+5 %): the arrays then grow without
     // the copies (and the doubled capacity) of repeated reallocation.
     if (joined_blocks_ == 1 && builder_->rows() < needs_.patches)

@@ -26,8 +26,8 @@ SparseRunNeeds sparse_run_needs(const Scene& scene, const ComputeOptions& option
 
 class SparseAssembly {
   public:
-    /// Checks `needs` against the available memory first (ResourceError with `advice`).
-    SparseAssembly(const SparseRunNeeds& needs, double threshold, int threads, std::string advice);
+    /// Checks `needs` against the available memory first (ResourceError).
+    SparseAssembly(const SparseRunNeeds& needs, double threshold, int threads);
 
     /// A block of dense rows from `first_row` (FormFactors of the pipeline's row range).
     void add(std::size_t first_row, const FormFactors& block);
@@ -59,7 +59,6 @@ class SparseAssembly {
     SparseRunNeeds needs_;
     double threshold_, available_;
     int threads_;
-    std::string advice_;
     MemoryEstimate estimate_before_;
     double projected_bytes_ = 0.0;
     std::size_t blocks_ = 0, joined_blocks_ = 0;

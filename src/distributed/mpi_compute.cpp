@@ -185,15 +185,11 @@ class SparseSink final : public RowSink {
     }
 
     ReportMerger report;
-    /// Seconds spent joining blocks (beside the blocks' work, on rank 0).
-    double join_seconds = 0.0;
 
   private:
     void add(SparseRows rows, const std::vector<double>& areas) {
         const std::lock_guard lock(mutex_);
-        Stopwatch sw;
         assembly_.add(std::move(rows), areas);
-        join_seconds += sw.seconds();
     }
 
     bool emit_sparse_;
@@ -338,9 +334,7 @@ SparseComputeResult compute_sparse_form_factors(const Scene& scene, const Comput
     SparseRunNeeds needs = detail::sparse_run_needs(scene, options, traits, emit_sparse);
     needs.block_rows = std::min(max_rows, std::max<std::size_t>(n, 1));
     needs.block_strip = needs.block_strip && !job.upper_only;
-    detail::SparseAssembly assembly(
-        needs, sparse.threshold, options.method_options.threads,
-        "raise the threshold, use a coarser subdivision, or smaller blocks (block_rows)");
+    detail::SparseAssembly assembly(needs, sparse.threshold, options.method_options.threads);
     if (job.upper_only) assembly.fill_lower_by_reciprocity();
 
     StepTimes timings;
