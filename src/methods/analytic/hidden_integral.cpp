@@ -34,6 +34,13 @@ namespace {
 // it such a shadow is a sliver along a shadow boundary, whose part the normal estimate covers.
 constexpr int kSuspiciousLevels = 4;
 
+// A cell whose bracket (cell_bracket()) is at most this share of the pair's target takes a
+// value inside it from one point, integrated only if the pair's error needs it. Measured on the
+// 1,066-triangle urban array at 1e-4 (1 thread): 0.05 → 5.89 M points, 0.2 → 5.59 M, 1 → 5.49 M
+// (7.47 M without), the time least at 0.2 (14.0 → 12.2 s); at 1 more cells are bracketed only to
+// be integrated after all.
+constexpr double kCellBracket = 0.2;
+
 // Squared distance between the segments p0 p1 and q0 q1 (the closest pair of points, clamped
 // to both segments).
 double segment_distance2(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1) {
@@ -119,6 +126,35 @@ double polygon_distance(const Vec3* a, int na, const Vec3* b, int nb) {
 }
 
 }  // namespace
+
+double point_factor_bound(const Vec3* cell, int np, const Vec3& ns, const Receiver& rc,
+                          double limit) {
+    // cos θ_x = (height of y above the sender's plane) / d, the same for every x of the cell;
+    // cos θ_r = (height of x above r's plane) / d.
+    double h_receiver = 0.0, h_cell = 0.0;
+    for (int k = 0; k < rc.poly.n; ++k)
+        h_receiver = std::max(h_receiver, ns.dot(rc.poly.v[static_cast<std::size_t>(k)] - cell[0]));
+    for (int k = 0; k < np; ++k) h_cell = std::max(h_cell, rc.n.dot(cell[k]) - rc.d);
+    if (!(h_cell > 0.0) || !(h_receiver > 0.0)) return 0.0;
+    double area_r = 0.0;
+    for (int k = 1; k + 1 < rc.poly.n; ++k)
+        area_r += 0.5 * (rc.poly.v[static_cast<std::size_t>(k)] - rc.poly.v[0])
+                            .cross(rc.poly.v[static_cast<std::size_t>(k + 1)] - rc.poly.v[0])
+                            .norm();
+    auto bound_at = [&](double d) {
+        if (!(d > 0.0)) return 1.0;
+        return std::min(1.0, area_r / (kPi * d * d) * std::min(1.0, h_receiver / d) *
+                                 std::min(1.0, h_cell / d));
+    };
+    // The distance between the centroids is at least d_min: the bound at it is at most the
+    // bound, and when that already exceeds `limit`, the caller has its answer.
+    Vec3 cc = Vec3::Zero(), cr = Vec3::Zero();
+    for (int k = 0; k < np; ++k) cc += cell[k];
+    for (int k = 0; k < rc.poly.n; ++k) cr += rc.poly.v[static_cast<std::size_t>(k)];
+    const double below = bound_at((cc / np - cr / rc.poly.n).norm());
+    if (below > limit) return below;
+    return bound_at(polygon_distance(cell, np, rc.poly.v.data(), rc.poly.n));
+}
 
 double point_hidden(const Vec3& x, const Vec3& n, const Polygon& r, const BlockerSet& blockers,
                     const int* cand, int count, double eps, double* unobstructed) {
@@ -218,7 +254,9 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
     thread_local std::vector<int> cell_cand;
     const double inv_area = 1.0 / area_s;
 
-    auto process = [&](Cell& c) {
+    // bracket_ok: the cell may be settled by its bracket (not when the heap returns it for
+    // integration).
+    auto process = [&](Cell& c, bool bracket_ok) {
         const SenderMap& m = maps[static_cast<std::size_t>(c.map)];
         Vec3 corner[4] = {m.at(c.u0, c.v0), m.at(c.u1, c.v0), m.at(c.u1, c.v1), m.at(c.u0, c.v1)};
         Vec3 poly[4];
@@ -245,6 +283,30 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
                 frac += rules.g2.w[i] * rules.g2.w[j] *
                         m.jacobian(c.u0 + du * rules.g2.x[i], c.v0 + dv * rules.g2.x[j]);
         frac *= scale;
+        // The cell's bracket: its hidden part lies between 0 and its unobstructed part, at most
+        // frac × (a bound on F(x → r) over the cell). Where that is a small share of the target,
+        // a value inside it from the cell's midpoint, its error the larger distance to the
+        // bracket's ends, is enough until the pair's total error says otherwise: then the heap
+        // returns the cell and it is integrated (slivers of the event split, cells far from the
+        // receiver: on the urban array at 1e-4, 158k of 500k cells end so).
+        c.bracketed = false;
+        if (bracket_ok) {
+            const double b =
+                frac * point_factor_bound(poly, np, ns, rc, kCellBracket * target / frac);
+            if (b <= kCellBracket * target) {
+                const bool hidden = cls == ShaftClass::kHidden;
+                const double um = 0.5 * (c.u0 + c.u1), vm = 0.5 * (c.v0 + c.v1);
+                const PointResult pr =
+                    evaluate_point(rc, m.at(um, vm), ns, blockers, hidden ? nullptr : kept.data(),
+                                   hidden ? 0 : static_cast<int>(kept.size()), eps, hidden);
+                ++out.points;
+                const double h = hidden ? pr.unobstructed : pr.hidden;
+                c.value = std::clamp(h * m.jacobian(um, vm) * scale, 0.0, b);
+                c.error = std::max(c.value, b - c.value);
+                c.bracketed = true;
+                return;
+            }
+        }
         // Hidden: the cell's whole unobstructed part. F(x → r) is smooth on the cell: orders 2
         // and 3 of it agreeing kAgreement times better than the cell's share of the target (as
         // for a partly hidden cell below) give its integral for 13 evaluations of Lambert's
@@ -437,7 +499,7 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
     for (std::size_t k = 0; k < maps.size(); ++k) {
         Cell c;
         c.map = static_cast<int>(k);
-        process(c);
+        process(c, true);
         total_error += c.error;
         heap.push_back(c);
     }
@@ -457,6 +519,14 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
             continue;
         }
         total_error -= c.error;
+        if (c.bracketed) {
+            // Its bracket is the largest error left: integrate it, on the same cell.
+            process(c, false);
+            total_error += c.error;
+            heap.push_back(c);
+            std::push_heap(heap.begin(), heap.end(), worse);
+            continue;
+        }
         const double um = 0.5 * (c.u0 + c.u1), vm = 0.5 * (c.v0 + c.v1);
         const double us[3] = {c.u0, um, c.u1}, vs[3] = {c.v0, vm, c.v1};
         for (int i = 0; i < 2; ++i)
@@ -468,7 +538,7 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
                 ch.v0 = vs[j];
                 ch.v1 = vs[j + 1];
                 ch.level = c.level + 1;
-                process(ch);
+                process(ch, true);
                 total_error += ch.error;
                 heap.push_back(ch);
                 std::push_heap(heap.begin(), heap.end(), worse);
@@ -484,6 +554,7 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
         out.hidden += c.value;
         err += c.error;
         out.max_level = std::max(out.max_level, c.level);
+        if (c.bracketed) ++out.bracketed;
     }
     out.error = err + sliver_error;
     out.cells = done.size();

@@ -223,6 +223,7 @@ struct HiddenIntegral {
     std::size_t points = 0;         ///< point evaluations
     std::size_t closed_forms = 0;   ///< cells in an umbra, integrated in closed form
     std::size_t proven_hidden = 0;  ///< of those, cells found hidden by their corners' umbrae
+    std::size_t bracketed = 0;      ///< final cells settled by their brackets, not integrated
     bool capped = false;            ///< stopped at the cell limit before meeting the target
 };
 

@@ -1,8 +1,9 @@
 #pragma once
 // What the integration over a sender shares (hidden_integral.cpp, umbrae.cpp): the tensor
 // Gauss–Legendre rules of a cell, the map of a convex sender piece from the unit square, a cell
-// of that square, and the umbra tests of a cell.
+// of that square, the umbra tests of a cell and the bound on F from its points that brackets it.
 
+#include <cmath>
 #include <vector>
 
 #include "kernels/analytic_internal.h"
@@ -50,7 +51,17 @@ struct Cell {
     double u0 = 0, u1 = 1, v0 = 0, v1 = 1;
     int level = 0;
     double value = 0, error = 0;
+    bool bracketed = false;  // value and error from the cell's bracket; not integrated yet
 };
+
+/// An upper bound on F(x → r) over the points x of the convex cell poly[0, np) in the sender's
+/// plane (unit normal ns), from the heights of each above the other's plane and their distance:
+/// F = (1/π) ∫_r cos θ_x cos θ_r / d² dA with d ≥ d_min, cos θ_x ≤ h_r / d_min (h_r the
+/// receiver's largest height above the sender's plane), cos θ_r ≤ h_x / d_min (h_x the cell's
+/// largest above r's plane); at most 1, and 1 where the cell touches r. A result above `limit`
+/// may be less than the bound (the callers want it only when it is at most `limit`).
+double point_factor_bound(const Vec3* poly, int np, const Vec3& ns, const Receiver& rc,
+                          double limit = INFINITY);
 
 /// True when no point of the convex cell poly[0, np) (in the sender's plane, normal nx) sees any
 /// of the receiver: the umbrae of the occluders (from the cell's corners) cover it (umbrae.cpp).
