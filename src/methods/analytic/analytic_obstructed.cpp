@@ -1,25 +1,17 @@
 // The obstruction pass of the `analytic` method: after the classification of patch pairs
-// (classification.cpp), every partly hidden pair is settled, the cheapest way that meets the
-// tolerance first: its bracket [0, unobstructed], the umbrae of its occluders (umbrae.cpp), or
-// the adaptive integration of its hidden part (hidden_integral.cpp); in the dense matrix, in a
-// block of rows, or in sparse rows; and the partly hidden pairs computed apart from the rows
-// (formfactor/methods/partly_hidden.h). See docs/analytic.md, "Obstructed scenes".
-//
-// The file is long (over 600 lines) because those four paths share the settling of one pair
-// (integrate_partial()) and its statistics, which are private to it.
+// (classification.cpp), the fully hidden pairs are set to 0 and every partly hidden pair is
+// settled by integrate_partial() (partial_pair.h: the exact unobstructed value less its hidden
+// part, by its bracket [0, unobstructed], the umbrae of its occluders, or Walton's adaptive
+// integration, NISTIR 6925), in the dense matrix, in a block of rows, or in sparse rows; and
+// the partly hidden pairs computed apart from the rows (formfactor/methods/partly_hidden.h).
+// See docs/analytic.md, "Obstructed scenes".
 
 #include <fmt/format.h>
-#include <tbb/enumerable_thread_specific.h>
 
 #include <algorithm>
-#include <array>
-#include <atomic>
 #include <chrono>
-#include <cmath>
 #include <cstdint>
 #include <cstring>
-#include <limits>
-#include <map>
 #include <memory>
 #include <string>
 #include <tuple>
@@ -34,241 +26,29 @@
 #include "formfactor/methods/partly_hidden.h"
 #include "methods/analytic/analytic_method.h"
 #include "methods/analytic/classification.h"
-#include "methods/analytic/obstructed_internal.h"
+#include "methods/analytic/partial_pair.h"
 
 namespace formfactor {
 
 namespace {
 
-using detail::BlockerSet;
+using detail::add_pair;
+using detail::checked_tolerance;
 using detail::Clock;
 using detail::ClusterTree;
+using detail::combined;
 using detail::for_each_patch_pair;
+using detail::integrate_partial;
 using detail::NodePair;
 using detail::Obstructions;
 using detail::PairOutput;
 using detail::PartialPair;
+using detail::PartialValue;
 using detail::prepare_obstructions;
+using detail::report_obstructions;
 using detail::seconds;
-
-double checked_tolerance(const MethodOptions& options) {
-    const double tol = options.obstructed_tolerance;
-    if (!(tol > 0.0) || !std::isfinite(tol))
-        throw OptionError("tolerance", "must be a positive number (absolute error per entry)");
-    return tol;
-}
-
-// What the integration of one partly hidden pair did (small: room n = 32 has 800k such pairs).
-struct PairStats {
-    double error = 0;
-    std::size_t points = 0, cells = 0, closed_forms = 0, proven_hidden = 0;
-    int level = 0, capped = 0;
-    bool integrated = false, changed = false, bracketed = false, settled_by_umbrae = false;
-};
-
-// The same summed over pairs (per thread, then over threads: sums, maxima and counts, the same
-// whatever the order).
-using PartialStats = PartlyHiddenStats;
-constexpr int kLevels = PartlyHiddenStats::kLevels;
-void add_pair(PartialStats& total, const PairStats& p) {
-    total.points += p.points;
-    total.cells += p.cells;
-    total.closed_forms += p.closed_forms;
-    total.proven_hidden += p.proven_hidden;
-    total.capped += static_cast<std::size_t>(p.capped);
-    total.bracketed += p.bracketed ? 1 : 0;
-    total.settled_by_umbrae += p.settled_by_umbrae ? 1 : 0;
-    if (!p.integrated) return;
-    total.changed += p.changed ? 1 : 0;
-    total.max_error = std::max(total.max_error, p.error);
-    ++total.levels[static_cast<std::size_t>(std::min(p.level, kLevels))];
-}
-
-// A partly hidden pair's entries: F_sr = f (s the smaller patch), F_rs = back.
-struct PartialValue {
-    std::size_t s = 0, r = 0;
-    double f = 0, back = 0;
-    bool integrated = false;  // false: the unobstructed value is 0, nothing to correct
-    PairStats stats;
-};
-
-// Per-thread sums of PairStats.
-using ThreadStats = tbb::enumerable_thread_specific<PartialStats>;
-PartialStats combined(ThreadStats& per_thread) {
-    PartialStats total;
-    for (const PartialStats& s : per_thread) total.add(s);
-    return total;
-}
-
-// The sender cut into four: a triangle at its edges' midpoints, a quad at its edges' midpoints
-// and its centre (the other polygons whole).
-std::vector<Polygon> quarters(const Polygon& p) {
-    const std::size_t n = p.size();
-    if (n != 3 && n != 4) return {p};
-    std::vector<Polygon> out(4);
-    auto mid = [&](std::size_t a) { return 0.5 * (p[a] + p[(a + 1) % n]); };
-    if (n == 3) {
-        out[0].vertices = {p[0], mid(0), mid(2)};
-        out[1].vertices = {mid(0), p[1], mid(1)};
-        out[2].vertices = {mid(2), mid(1), p[2]};
-        out[3].vertices = {mid(0), mid(1), mid(2)};
-        return out;
-    }
-    const Vec3 c = 0.25 * (p[0] + p[1] + p[2] + p[3]);
-    for (std::size_t k = 0; k < 4; ++k) out[k].vertices = {p[k], mid(k), c, mid((k + 3) % 4)};
-    return out;
-}
-
-// A partly hidden pair whose unobstructed value is at most the tolerance is placed inside its
-// bracket [0, unobstructed] without integration (see integrate_partial()). Not twice the
-// tolerance: a value moved to the middle of a wider bracket errs the same way in every small
-// pair of a row (an urban array's row sums drifted by 6e-4 at 1e-4).
-constexpr double kBracketShare = 1.0;
-
-// A partly hidden pair whose visible part is bounded by at most this share of the tolerance
-// (visible_bound()) takes its estimate inside the bound without integration. Not the whole
-// tolerance: the estimate (4 points) misses the slivers of light near the umbrae's edges the
-// same way in every pair of a row, and a closed room's rows of such pairs fell 1.4e-4 short of
-// 1 at 1e-4 with the whole tolerance; at 0.3 they are as close to 1 as when integrated.
-constexpr double kUmbraShare = 0.3;
-
-// A sender whose own umbra bound is within this factor of its share is tried again as four
-// quarters (on the 1,066-triangle urban array at 1e-4: 4,162 more pairs settled, 13% less time;
-// trying every sender costs more than it settles).
-constexpr double kQuartersReach = 16.0;
-
-// The sender s (the smaller patch; the lower index of two equal ones) and the receiver r of a
-// partly hidden pair.
-std::pair<std::size_t, std::size_t> sender_receiver(const Scene& scene, const PartialPair& pp) {
-    std::size_t s = static_cast<std::size_t>(pp.i), r = static_cast<std::size_t>(pp.j);
-    const double as = scene.patches[s].area, ar = scene.patches[r].area;
-    if (ar < as || (ar == as && r < s)) std::swap(s, r);
-    return {s, r};
-}
-
-// The unobstructed value less the integrated hidden part, over the smaller patch of the pair
-// (reciprocity gives the other entry, with a smaller error). unobstructed(s, r): the exact
-// unobstructed F_sr. One code path for the dense matrix, a block of rows and sparse rows.
-
-template <class Unobstructed>
-PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const PartialPair& pp,
-                               const std::vector<int>& cand, double tol,
-                               const Unobstructed& unobstructed) {
-    PartialValue v;
-    const auto [s, r] = sender_receiver(scene, pp);
-    v.s = s;
-    v.r = r;
-    const double a_s = scene.patches[s].area, a_r = scene.patches[r].area;
-    const double unobs = unobstructed(s, r);
-    if (!(unobs > 0.0)) return v;
-    PairStats& st = v.stats;
-    const Polygon& ps = scene.patches[s].polygon;
-    const std::vector<Polygon> parts = BlockerSet::convex_parts(scene.patches[r].polygon);
-    v.integrated = st.integrated = true;
-    if (unobs <= kBracketShare * tol) {
-        // The bracket 0 ≤ F_sr ≤ unobs holds whatever the blockers do: any value v in it is
-        // within max(v, unobs − v) ≤ tol of F_sr. The value is a low-order estimate, so that
-        // the small pairs of a row do not all err the same way (the midpoint would).
-        double hidden = 0.0;
-        for (const Polygon& pr : parts)
-            hidden += detail::hidden_estimate(ps, pr, S.blockers, cand.data() + pp.cand_first,
-                                              pp.cand_count, S.eps, st.points);
-        const double lo = std::max(0.0, unobs - tol), hi = std::min(unobs, tol);
-        v.f = std::clamp(unobs - hidden, lo, hi);
-        st.changed = v.f != unobs;
-        st.bracketed = true;
-        st.error = std::max(v.f, unobs - v.f);
-        v.back = a_r > 0.0 ? v.f * a_s / a_r : 0.0;
-        return v;
-    }
-    // Nearly hidden pairs (most partly hidden pairs among buildings): what the sender sees past
-    // the umbrae of the occluders bounds the pair's value; within kUmbraShare of the tolerance,
-    // the value is placed inside [0, bound] without the event split and its integration.
-    // The sender whole first; where its bound is within a few times the share, its four
-    // quarters (umbrae from a smaller sender are larger).
-    double bound = 0.0, seen = 0.0;
-    auto bounded_by = [&](const std::vector<Polygon>& senders) {
-        bound = 0.0;
-        seen = 0.0;
-        for (const Polygon& sp : senders) {
-            const double w = area(sp) / a_s;
-            for (const Polygon& pr : parts) {
-                const detail::VisibleBound b =
-                    detail::visible_bound(sp, pr, S.blockers, cand.data() + pp.cand_first,
-                                          pp.cand_count, S.eps, (kUmbraShare * tol - bound) / w);
-                st.points += b.points;
-                bound += w * b.bound;
-                seen += w * b.estimate;
-                if (!b.ok || bound > kUmbraShare * tol) return false;
-            }
-        }
-        return true;
-    };
-    bool bounded = bounded_by({ps});
-    if (!bounded && bound > 0.0 && bound <= kQuartersReach * kUmbraShare * tol)
-        bounded = bounded_by(quarters(ps));
-    if (bounded) {
-        v.f = std::clamp(seen, 0.0, bound);
-        st.changed = v.f != unobs;
-        st.settled_by_umbrae = true;
-        st.error = std::max(v.f, bound - v.f);
-        v.back = a_r > 0.0 ? v.f * a_s / a_r : 0.0;
-        return v;
-    }
-    double hidden_sum = 0.0, err = 0.0;
-    int level = 0;
-    for (const Polygon& pr : parts) {
-        const detail::HiddenIntegral h =
-            detail::hidden_integral(ps, pr, S.blockers, cand.data() + pp.cand_first, pp.cand_count,
-                                    tol / static_cast<double>(parts.size()), S.eps);
-        hidden_sum += h.hidden;
-        err += h.error;
-        level = std::max(level, h.max_level);
-        st.points += h.points;
-        st.cells += h.cells;
-        st.closed_forms += h.closed_forms;
-        st.proven_hidden += h.proven_hidden;
-        if (h.capped) ++st.capped;
-    }
-    v.f = std::clamp(unobs - hidden_sum, 0.0, unobs);
-    st.changed = v.f != unobs;
-    v.back = a_r > 0.0 ? v.f * a_s / a_r : 0.0;
-    st.error = err;
-    st.level = level;
-    return v;
-}
-
-// details["obstructions"] (docs/analytic.md): the blockers, the pair classes, the integration.
-void report_obstructions(const Obstructions& S, const PartialStats& total, std::size_t node_pairs,
-                         std::size_t visible, std::size_t hidden, std::size_t partial, double tol,
-                         int threads, Fields& o) {
-    Fields levels = Fields::object();
-    for (int l = 0; l <= kLevels; ++l)
-        if (total.levels[static_cast<std::size_t>(l)] > 0)
-            levels[std::to_string(l)] = total.levels[static_cast<std::size_t>(l)];
-    o["blocker_pieces"] = S.blockers.size();
-    o["plane_groups"] = S.trees.size();
-    o["obstruction_plane_groups"] = S.otrees.size();
-    o["merged_blocker_pieces"] = S.merged_pieces;
-    o["node_pairs_tested"] = node_pairs;
-    o["patch_pairs_visible"] = visible;
-    o["patch_pairs_hidden"] = hidden;
-    o["patch_pairs_partly_hidden"] = partial;
-    o["partly_hidden_pairs_changed"] = total.changed;
-    o["refinement_levels"] = levels;
-    o["cells"] = total.cells;
-    o["point_evaluations"] = total.points;
-    o["umbra_cells"] = total.closed_forms;
-    o["umbra_cells_proven_by_corners"] = total.proven_hidden;
-    o["capped_pairs"] = total.capped;
-    o["partly_hidden_pairs_bracketed"] = total.bracketed;
-    o["partly_hidden_pairs_settled_by_umbrae"] = total.settled_by_umbrae;
-    o["tolerance"] = tol;
-    o["max_error_estimate"] = total.max_error;
-    o["threads"] = threads;
-    o["seconds_setup"] = S.seconds_setup;
-    o["seconds_classification"] = S.seconds_classification;
-}
+using detail::sender_receiver;
+using detail::ThreadStats;
 
 // The partly hidden pass: body(k) for every pair k < count, in an order whose first pairs are
 // spread evenly over the list (every stride-th), so that they are a sample of the whole: the
@@ -326,19 +106,6 @@ void partly_hidden_pass(std::size_t count, const MethodContext& ctx, double tol,
 }
 
 }  // namespace
-
-void PartlyHiddenStats::add(const PartlyHiddenStats& o) {
-    for (std::size_t l = 0; l < levels.size(); ++l) levels[l] += o.levels[l];
-    max_error = std::max(max_error, o.max_error);
-    points += o.points;
-    cells += o.cells;
-    closed_forms += o.closed_forms;
-    proven_hidden += o.proven_hidden;
-    capped += o.capped;
-    changed += o.changed;
-    bracketed += o.bracketed;
-    settled_by_umbrae += o.settled_by_umbrae;
-}
 
 struct PartlyHiddenPairs::Impl {
     Impl(const Scene& sc, const MethodOptions& o) : scene(sc), options(o) {}
