@@ -5,9 +5,10 @@
 // occluders (umbrae.cpp: the conservative visibility bounds of Lischinski, Smits & Greenberg
 // 1994), or the adaptive integration of its hidden part (hidden_integral.cpp: Walton's adaptive
 // method, NISTIR 6925). integrate_partial() is the one code path of the dense matrix, a block of
-// rows, sparse rows and the partly hidden pairs computed apart from the rows
-// (analytic_obstructed.cpp); partial_pair.cpp holds the rest: the sender's quarters, and the
-// statistics of the pairs summed and reported. See docs/analytic.md, "Obstructed scenes".
+// rows and sparse rows (analytic_obstructed.cpp) and of the partly hidden pairs computed apart
+// from the rows (partly_hidden_pairs.cpp); partial_pair.cpp holds the rest: the sender's
+// quarters, and the statistics of the pairs summed and reported. See docs/analytic.md,
+// "Obstructed scenes".
 
 #include <tbb/enumerable_thread_specific.h>
 
