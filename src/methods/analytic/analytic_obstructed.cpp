@@ -1,29 +1,18 @@
 // The obstruction pass of the `analytic` method: after the classification of patch pairs
-// (classification.cpp), every partly hidden pair is settled, the cheapest way that meets the
-// tolerance first: its bracket [0, unobstructed], the umbrae of its occluders (umbrae.cpp), or
-// the adaptive integration of its hidden part (hidden_integral.cpp); in the dense matrix, in a
-// block of rows, or in sparse rows; and the partly hidden pairs computed apart from the rows
-// (formfactor/methods/partly_hidden.h). See docs/analytic.md, "Obstructed scenes".
-//
-// The file is long (over 600 lines) because those four paths share the settling of one pair
-// (integrate_partial()) and its statistics, which are private to it.
+// (classification.cpp), the fully hidden pairs are set to 0 and every partly hidden pair is
+// settled by integrate_partial() (partial_pair.h: the exact unobstructed value less its hidden
+// part, by its bracket [0, unobstructed], the umbrae of its occluders, or Walton's adaptive
+// integration, NISTIR 6925), in the dense matrix, in a block of rows, or in sparse rows; or
+// its value is taken from the partly hidden pairs computed apart from the rows
+// (partly_hidden_pairs.cpp, formfactor/methods/partly_hidden.h). See docs/analytic.md,
+// "Obstructed scenes".
 
 #include <fmt/format.h>
-#include <tbb/enumerable_thread_specific.h>
 
 #include <algorithm>
-#include <array>
-#include <atomic>
 #include <chrono>
-#include <cmath>
 #include <cstdint>
-#include <cstring>
-#include <limits>
-#include <map>
-#include <memory>
 #include <string>
-#include <tuple>
-#include <utility>
 #include <vector>
 
 #include "formfactor/core/error.h"
@@ -34,248 +23,36 @@
 #include "formfactor/methods/partly_hidden.h"
 #include "methods/analytic/analytic_method.h"
 #include "methods/analytic/classification.h"
-#include "methods/analytic/obstructed_internal.h"
+#include "methods/analytic/partial_pair.h"
+#include "methods/analytic/partly_hidden_pairs.h"
 
 namespace formfactor {
 
 namespace {
 
-using detail::BlockerSet;
+using detail::add_pair;
+using detail::checked_tolerance;
 using detail::Clock;
 using detail::ClusterTree;
+using detail::combined;
 using detail::for_each_patch_pair;
+using detail::integrate_partial;
+using detail::kSampledPairs;
 using detail::NodePair;
 using detail::Obstructions;
 using detail::PairOutput;
 using detail::PartialPair;
+using detail::PartialValue;
 using detail::prepare_obstructions;
+using detail::report_obstructions;
 using detail::seconds;
-
-double checked_tolerance(const MethodOptions& options) {
-    const double tol = options.obstructed_tolerance;
-    if (!(tol > 0.0) || !std::isfinite(tol))
-        throw OptionError("tolerance", "must be a positive number (absolute error per entry)");
-    return tol;
-}
-
-// What the integration of one partly hidden pair did (small: room n = 32 has 800k such pairs).
-struct PairStats {
-    double error = 0;
-    std::size_t points = 0, cells = 0, closed_forms = 0, proven_hidden = 0;
-    int level = 0, capped = 0;
-    bool integrated = false, changed = false, bracketed = false, settled_by_umbrae = false;
-};
-
-// The same summed over pairs (per thread, then over threads: sums, maxima and counts, the same
-// whatever the order).
-using PartialStats = PartlyHiddenStats;
-constexpr int kLevels = PartlyHiddenStats::kLevels;
-void add_pair(PartialStats& total, const PairStats& p) {
-    total.points += p.points;
-    total.cells += p.cells;
-    total.closed_forms += p.closed_forms;
-    total.proven_hidden += p.proven_hidden;
-    total.capped += static_cast<std::size_t>(p.capped);
-    total.bracketed += p.bracketed ? 1 : 0;
-    total.settled_by_umbrae += p.settled_by_umbrae ? 1 : 0;
-    if (!p.integrated) return;
-    total.changed += p.changed ? 1 : 0;
-    total.max_error = std::max(total.max_error, p.error);
-    ++total.levels[static_cast<std::size_t>(std::min(p.level, kLevels))];
-}
-
-// A partly hidden pair's entries: F_sr = f (s the smaller patch), F_rs = back.
-struct PartialValue {
-    std::size_t s = 0, r = 0;
-    double f = 0, back = 0;
-    bool integrated = false;  // false: the unobstructed value is 0, nothing to correct
-    PairStats stats;
-};
-
-// Per-thread sums of PairStats.
-using ThreadStats = tbb::enumerable_thread_specific<PartialStats>;
-PartialStats combined(ThreadStats& per_thread) {
-    PartialStats total;
-    for (const PartialStats& s : per_thread) total.add(s);
-    return total;
-}
-
-// The sender cut into four: a triangle at its edges' midpoints, a quad at its edges' midpoints
-// and its centre (the other polygons whole).
-std::vector<Polygon> quarters(const Polygon& p) {
-    const std::size_t n = p.size();
-    if (n != 3 && n != 4) return {p};
-    std::vector<Polygon> out(4);
-    auto mid = [&](std::size_t a) { return 0.5 * (p[a] + p[(a + 1) % n]); };
-    if (n == 3) {
-        out[0].vertices = {p[0], mid(0), mid(2)};
-        out[1].vertices = {mid(0), p[1], mid(1)};
-        out[2].vertices = {mid(2), mid(1), p[2]};
-        out[3].vertices = {mid(0), mid(1), mid(2)};
-        return out;
-    }
-    const Vec3 c = 0.25 * (p[0] + p[1] + p[2] + p[3]);
-    for (std::size_t k = 0; k < 4; ++k) out[k].vertices = {p[k], mid(k), c, mid((k + 3) % 4)};
-    return out;
-}
-
-// A partly hidden pair whose unobstructed value is at most the tolerance is placed inside its
-// bracket [0, unobstructed] without integration (see integrate_partial()). Not twice the
-// tolerance: a value moved to the middle of a wider bracket errs the same way in every small
-// pair of a row (an urban array's row sums drifted by 6e-4 at 1e-4).
-constexpr double kBracketShare = 1.0;
-
-// A partly hidden pair whose visible part is bounded by at most this share of the tolerance
-// (visible_bound()) takes its estimate inside the bound without integration. Not the whole
-// tolerance: the estimate (4 points) misses the slivers of light near the umbrae's edges the
-// same way in every pair of a row, and a closed room's rows of such pairs fell 1.4e-4 short of
-// 1 at 1e-4 with the whole tolerance; at 0.3 they are as close to 1 as when integrated.
-constexpr double kUmbraShare = 0.3;
-
-// A sender whose own umbra bound is within this factor of its share is tried again as four
-// quarters (on the 1,066-triangle urban array at 1e-4: 4,162 more pairs settled, 13% less time;
-// trying every sender costs more than it settles).
-constexpr double kQuartersReach = 16.0;
-
-// The sender s (the smaller patch; the lower index of two equal ones) and the receiver r of a
-// partly hidden pair.
-std::pair<std::size_t, std::size_t> sender_receiver(const Scene& scene, const PartialPair& pp) {
-    std::size_t s = static_cast<std::size_t>(pp.i), r = static_cast<std::size_t>(pp.j);
-    const double as = scene.patches[s].area, ar = scene.patches[r].area;
-    if (ar < as || (ar == as && r < s)) std::swap(s, r);
-    return {s, r};
-}
-
-// The unobstructed value less the integrated hidden part, over the smaller patch of the pair
-// (reciprocity gives the other entry, with a smaller error). unobstructed(s, r): the exact
-// unobstructed F_sr. One code path for the dense matrix, a block of rows and sparse rows.
-
-template <class Unobstructed>
-PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const PartialPair& pp,
-                               const std::vector<int>& cand, double tol,
-                               const Unobstructed& unobstructed) {
-    PartialValue v;
-    const auto [s, r] = sender_receiver(scene, pp);
-    v.s = s;
-    v.r = r;
-    const double a_s = scene.patches[s].area, a_r = scene.patches[r].area;
-    const double unobs = unobstructed(s, r);
-    if (!(unobs > 0.0)) return v;
-    PairStats& st = v.stats;
-    const Polygon& ps = scene.patches[s].polygon;
-    const std::vector<Polygon> parts = BlockerSet::convex_parts(scene.patches[r].polygon);
-    v.integrated = st.integrated = true;
-    if (unobs <= kBracketShare * tol) {
-        // The bracket 0 ≤ F_sr ≤ unobs holds whatever the blockers do: any value v in it is
-        // within max(v, unobs − v) ≤ tol of F_sr. The value is a low-order estimate, so that
-        // the small pairs of a row do not all err the same way (the midpoint would).
-        double hidden = 0.0;
-        for (const Polygon& pr : parts)
-            hidden += detail::hidden_estimate(ps, pr, S.blockers, cand.data() + pp.cand_first,
-                                              pp.cand_count, S.eps, st.points);
-        const double lo = std::max(0.0, unobs - tol), hi = std::min(unobs, tol);
-        v.f = std::clamp(unobs - hidden, lo, hi);
-        st.changed = v.f != unobs;
-        st.bracketed = true;
-        st.error = std::max(v.f, unobs - v.f);
-        v.back = a_r > 0.0 ? v.f * a_s / a_r : 0.0;
-        return v;
-    }
-    // Nearly hidden pairs (most partly hidden pairs among buildings): what the sender sees past
-    // the umbrae of the occluders bounds the pair's value; within kUmbraShare of the tolerance,
-    // the value is placed inside [0, bound] without the event split and its integration.
-    // The sender whole first; where its bound is within a few times the share, its four
-    // quarters (umbrae from a smaller sender are larger).
-    double bound = 0.0, seen = 0.0;
-    auto bounded_by = [&](const std::vector<Polygon>& senders) {
-        bound = 0.0;
-        seen = 0.0;
-        for (const Polygon& sp : senders) {
-            const double w = area(sp) / a_s;
-            for (const Polygon& pr : parts) {
-                const detail::VisibleBound b =
-                    detail::visible_bound(sp, pr, S.blockers, cand.data() + pp.cand_first,
-                                          pp.cand_count, S.eps, (kUmbraShare * tol - bound) / w);
-                st.points += b.points;
-                bound += w * b.bound;
-                seen += w * b.estimate;
-                if (!b.ok || bound > kUmbraShare * tol) return false;
-            }
-        }
-        return true;
-    };
-    bool bounded = bounded_by({ps});
-    if (!bounded && bound > 0.0 && bound <= kQuartersReach * kUmbraShare * tol)
-        bounded = bounded_by(quarters(ps));
-    if (bounded) {
-        v.f = std::clamp(seen, 0.0, bound);
-        st.changed = v.f != unobs;
-        st.settled_by_umbrae = true;
-        st.error = std::max(v.f, bound - v.f);
-        v.back = a_r > 0.0 ? v.f * a_s / a_r : 0.0;
-        return v;
-    }
-    double hidden_sum = 0.0, err = 0.0;
-    int level = 0;
-    for (const Polygon& pr : parts) {
-        const detail::HiddenIntegral h =
-            detail::hidden_integral(ps, pr, S.blockers, cand.data() + pp.cand_first, pp.cand_count,
-                                    tol / static_cast<double>(parts.size()), S.eps);
-        hidden_sum += h.hidden;
-        err += h.error;
-        level = std::max(level, h.max_level);
-        st.points += h.points;
-        st.cells += h.cells;
-        st.closed_forms += h.closed_forms;
-        st.proven_hidden += h.proven_hidden;
-        if (h.capped) ++st.capped;
-    }
-    v.f = std::clamp(unobs - hidden_sum, 0.0, unobs);
-    st.changed = v.f != unobs;
-    v.back = a_r > 0.0 ? v.f * a_s / a_r : 0.0;
-    st.error = err;
-    st.level = level;
-    return v;
-}
-
-// details["obstructions"] (docs/analytic.md): the blockers, the pair classes, the integration.
-void report_obstructions(const Obstructions& S, const PartialStats& total, std::size_t node_pairs,
-                         std::size_t visible, std::size_t hidden, std::size_t partial, double tol,
-                         int threads, Fields& o) {
-    Fields levels = Fields::object();
-    for (int l = 0; l <= kLevels; ++l)
-        if (total.levels[static_cast<std::size_t>(l)] > 0)
-            levels[std::to_string(l)] = total.levels[static_cast<std::size_t>(l)];
-    o["blocker_pieces"] = S.blockers.size();
-    o["plane_groups"] = S.trees.size();
-    o["obstruction_plane_groups"] = S.otrees.size();
-    o["merged_blocker_pieces"] = S.merged_pieces;
-    o["node_pairs_tested"] = node_pairs;
-    o["patch_pairs_visible"] = visible;
-    o["patch_pairs_hidden"] = hidden;
-    o["patch_pairs_partly_hidden"] = partial;
-    o["partly_hidden_pairs_changed"] = total.changed;
-    o["refinement_levels"] = levels;
-    o["cells"] = total.cells;
-    o["point_evaluations"] = total.points;
-    o["umbra_cells"] = total.closed_forms;
-    o["umbra_cells_proven_by_corners"] = total.proven_hidden;
-    o["capped_pairs"] = total.capped;
-    o["partly_hidden_pairs_bracketed"] = total.bracketed;
-    o["partly_hidden_pairs_settled_by_umbrae"] = total.settled_by_umbrae;
-    o["tolerance"] = tol;
-    o["max_error_estimate"] = total.max_error;
-    o["threads"] = threads;
-    o["seconds_setup"] = S.seconds_setup;
-    o["seconds_classification"] = S.seconds_classification;
-}
+using detail::ThreadStats;
 
 // The partly hidden pass: body(k) for every pair k < count, in an order whose first pairs are
 // spread evenly over the list (every stride-th), so that they are a sample of the whole: the
 // progress bar's rate holds from the start, and the time they take, scaled, is the pass's.
 // That estimate goes into the report before the rest runs and, when long, to the user with what
 // would cost less. The values do not depend on the order.
-constexpr std::size_t kSampledPairs = 256;
 constexpr double kNoteSeconds = 30.0;
 
 std::string duration_text(double s) {
@@ -326,262 +103,6 @@ void partly_hidden_pass(std::size_t count, const MethodContext& ctx, double tol,
 }
 
 }  // namespace
-
-void PartlyHiddenStats::add(const PartlyHiddenStats& o) {
-    for (std::size_t l = 0; l < levels.size(); ++l) levels[l] += o.levels[l];
-    max_error = std::max(max_error, o.max_error);
-    points += o.points;
-    cells += o.cells;
-    closed_forms += o.closed_forms;
-    proven_hidden += o.proven_hidden;
-    capped += o.capped;
-    changed += o.changed;
-    bracketed += o.bracketed;
-    settled_by_umbrae += o.settled_by_umbrae;
-}
-
-struct PartlyHiddenPairs::Impl {
-    Impl(const Scene& sc, const MethodOptions& o) : scene(sc), options(o) {}
-    const Scene& scene;
-    MethodOptions options;
-    bool sparse = false;
-    double tol = 0, visible_tol = 0;
-    Obstructions S;
-    // Every partly hidden pair in the classification's order (the order apply_obstructions()
-    // and sparse_obstructed_rows() list them in), with the output holding its candidates.
-    std::vector<PartialPair> partial;
-    std::vector<std::size_t> cand_task;
-    std::vector<std::size_t> order;  // integrate()'s positions → pairs
-    // The patches' table of the unobstructed values, for every part and block of rows.
-    std::shared_ptr<const detail::PatchTable> table;
-
-    // partial, cand_task and order from S.outputs.
-    void list_pairs();
-    PartlyHiddenValues values;  // by pair, once set
-    bool has_values = false;
-
-    // values as integrate_partial() gives them, for pair k.
-    PartialValue value(std::size_t k) const {
-        PartialValue v;
-        std::tie(v.s, v.r) = sender_receiver(scene, partial[k]);
-        v.f = values.f[k];
-        v.back = values.back[k];
-        v.integrated = values.integrated[k] != 0;
-        return v;
-    }
-};
-
-PartlyHiddenPairs::PartlyHiddenPairs(const Scene& scene, const MethodOptions& options, bool sparse,
-                                     bool classify)
-    : impl_(std::make_unique<Impl>(scene, options)) {
-    Impl& m = *impl_;
-    m.visible_tol = AnalyticMethod::visible_tolerance(options, true);
-    m.sparse = sparse;
-    m.tol = checked_tolerance(options);
-    const MethodContext ctx{scene, options, nullptr, nullptr, RowRange{}, nullptr, nullptr};
-    if (classify)
-        prepare_obstructions(ctx, sparse, m.S);
-    else
-        prepare_blockers(ctx, m.S);
-    {
-        std::vector<const Polygon*> polys(scene.patches.size());
-        for (std::size_t p = 0; p < polys.size(); ++p) polys[p] = &scene.patches[p].polygon;
-        m.table = detail::make_patch_table(polys, options.threads);
-    }
-    if (classify) m.list_pairs();
-}
-
-// The bytes of classify(): per task, seven counts (hidden, visible, partial and candidate
-// entries, node pairs, visible and hidden patch pairs), then the four arrays as they are in
-// memory.
-namespace {
-
-template <class T>
-void put_array(std::vector<char>& out, const std::vector<T>& v) {
-    const char* p = reinterpret_cast<const char*>(v.data());
-    out.insert(out.end(), p, p + v.size() * sizeof(T));
-}
-
-class ByteReader {
-  public:
-    ByteReader(const char* data, std::size_t size) : data_(data), size_(size) {}
-    bool done() const { return at_ == size_; }
-    void read(void* dst, std::size_t bytes) {
-        if (bytes > size_ - at_) throw Error("analytic: a classification cut short");
-        if (bytes == 0) return;  // dst may be an empty vector's null data()
-        std::memcpy(dst, data_ + at_, bytes);
-        at_ += bytes;
-    }
-    template <class T>
-    void array(std::vector<T>& v, std::uint64_t count) {
-        if (count > (size_ - at_) / sizeof(T)) throw Error("analytic: a classification cut short");
-        v.resize(static_cast<std::size_t>(count));
-        read(v.data(), v.size() * sizeof(T));
-    }
-
-  private:
-    const char* data_;
-    std::size_t size_;
-    std::size_t at_ = 0;
-};
-
-}  // namespace
-
-std::size_t PartlyHiddenPairs::classification_tasks() const {
-    return detail::classification_tasks(impl_->S);
-}
-
-std::vector<char> PartlyHiddenPairs::classify(RowRange tasks) const {
-    const Impl& m = *impl_;
-    tasks = tasks.clamped(detail::classification_tasks(m.S));
-    std::vector<PairOutput> outputs(tasks.size());
-    detail::classify_tasks(m.S, tasks, m.sparse, m.options.threads, outputs.data());
-    std::vector<char> out;
-    for (const PairOutput& o : outputs) {
-        const std::uint64_t counts[7] = {
-            o.hidden.size(), o.visible.size(),      o.partial.size(),    o.cand.size(),
-            o.node_pairs,    o.visible_patch_pairs, o.hidden_patch_pairs};
-        const char* c = reinterpret_cast<const char*>(counts);
-        out.insert(out.end(), c, c + sizeof(counts));
-        put_array(out, o.hidden);
-        put_array(out, o.visible);
-        put_array(out, o.partial);
-        put_array(out, o.cand);
-    }
-    return out;
-}
-
-void PartlyHiddenPairs::set_classification(const char* bytes, std::size_t size) {
-    Impl& m = *impl_;
-    if (!m.S.outputs.empty()) throw Error("analytic: the pairs are classified already");
-    const std::size_t tasks = detail::classification_tasks(m.S);
-    std::vector<PairOutput> outputs(tasks);
-    ByteReader r(bytes, size);
-    for (PairOutput& o : outputs) {
-        std::uint64_t counts[7];
-        r.read(counts, sizeof(counts));
-        r.array(o.hidden, counts[0]);
-        r.array(o.visible, counts[1]);
-        r.array(o.partial, counts[2]);
-        r.array(o.cand, counts[3]);
-        o.node_pairs = static_cast<std::size_t>(counts[4]);
-        o.visible_patch_pairs = static_cast<std::size_t>(counts[5]);
-        o.hidden_patch_pairs = static_cast<std::size_t>(counts[6]);
-        for (const PartialPair& p : o.partial)
-            if (p.cand_first > o.cand.size() ||
-                static_cast<std::size_t>(p.cand_count) > o.cand.size() - p.cand_first)
-                throw Error("analytic: a classification with candidates out of range");
-    }
-    if (!r.done()) throw Error("analytic: a classification of more tasks than the scene has");
-    m.S.outputs = std::move(outputs);
-    m.list_pairs();
-}
-
-void PartlyHiddenPairs::Impl::list_pairs() {
-    Impl& m = *this;
-    for (std::size_t k = 0; k < m.S.outputs.size(); ++k)
-        for (const PartialPair& p : m.S.outputs[k].partial) {
-            m.partial.push_back(p);
-            m.cand_task.push_back(k);
-        }
-    // Neighbouring pairs in the list often share their blockers and cost alike (the pairs of
-    // two surfaces); a part of every stride-th pair is a sample of the whole list.
-    const std::size_t count = m.partial.size();
-    const std::size_t stride = std::max<std::size_t>(1, count / kSampledPairs);
-    m.order.reserve(count);
-    for (std::size_t r = 0; r < stride; ++r)
-        for (std::size_t k = r; k < count; k += stride) m.order.push_back(k);
-}
-
-PartlyHiddenPairs::~PartlyHiddenPairs() = default;
-
-std::size_t PartlyHiddenPairs::count() const { return impl_->partial.size(); }
-
-bool PartlyHiddenPairs::has_values() const { return impl_->has_values; }
-
-PartlyHiddenValues PartlyHiddenPairs::integrate(RowRange part) const {
-    const Impl& m = *impl_;
-    const Scene& scene = m.scene;
-    const std::size_t n = scene.patches.size();
-    part = part.clamped(m.partial.size());
-    // The part's unobstructed values, bit for bit the ones of the rows (kernels/unobstructed.h).
-    std::vector<std::vector<std::int32_t>> cols(n);
-    for (std::size_t q = part.begin; q < part.end; ++q) {
-        const PartialPair& p = m.partial[m.order[q]];
-        cols[static_cast<std::size_t>(std::min(p.i, p.j))].push_back(std::max(p.i, p.j));
-    }
-    parallel_for(n, m.options.threads, [&](std::size_t a) {
-        std::sort(cols[a].begin(), cols[a].end());
-        cols[a].erase(std::unique(cols[a].begin(), cols[a].end()), cols[a].end());
-    });
-    std::vector<const Polygon*> polys(n);
-    for (std::size_t p = 0; p < n; ++p) polys[p] = &scene.patches[p].polygon;
-    std::vector<std::vector<double>> upper;
-    std::vector<double> areas;
-    detail::unobstructed_pairs(polys, m.visible_tol, m.options.threads, nullptr, cols, upper, areas,
-                               m.table.get());
-    auto at = [&](std::size_t a, std::size_t c) {
-        const auto it =
-            std::lower_bound(cols[a].begin(), cols[a].end(), static_cast<std::int32_t>(c));
-        FF_ASSERT(it != cols[a].end() && *it == static_cast<std::int32_t>(c));
-        return upper[a][static_cast<std::size_t>(it - cols[a].begin())];
-    };
-    PartlyHiddenValues out;
-    out.f.assign(part.size(), 0.0);
-    out.back.assign(part.size(), 0.0);
-    out.integrated.assign(part.size(), 0);
-    ThreadStats stats;
-    parallel_for(part.size(), m.options.threads, [&](std::size_t q) {
-        const std::size_t k = m.order[part.begin + q];
-        const PartialValue v = integrate_partial(
-            scene, m.S, m.partial[k], m.S.outputs[m.cand_task[k]].cand, m.tol,
-            [&](std::size_t s, std::size_t r) {
-                return s < r ? at(s, r) : detail::reciprocal_entry(at(r, s), areas[r], areas[s]);
-            });
-        out.f[q] = v.f;
-        out.back[q] = v.back;
-        out.integrated[q] = v.integrated ? 1 : 0;
-        add_pair(stats.local(), v.stats);
-    });
-    out.stats = combined(stats);
-    return out;
-}
-
-void PartlyHiddenPairs::write_lower_values(DenseMatrix& F) const {
-    const Impl& m = *impl_;
-    const auto n = static_cast<std::size_t>(m.scene.patches.size());
-    if (!m.has_values || m.sparse)
-        throw Error("analytic: no dense values of the partly hidden pairs");
-    if (static_cast<std::size_t>(F.rows()) != n || static_cast<std::size_t>(F.cols()) != n)
-        throw Error("analytic: the lower values of the partly hidden pairs need the whole F");
-    double* out = F.data();
-    for (std::size_t k = 0; k < m.partial.size(); ++k) {
-        const PartialValue v = m.value(k);
-        if (!v.integrated) continue;
-        if (v.s > v.r)
-            out[v.s * n + v.r] = v.f;
-        else
-            out[v.r * n + v.s] = v.back;
-    }
-}
-
-void PartlyHiddenPairs::set_values(PartlyHiddenValues all) {
-    Impl& m = *impl_;
-    const std::size_t count = m.partial.size();
-    if (all.f.size() != count || all.back.size() != count || all.integrated.size() != count)
-        throw Error("analytic: the values of the wrong number of partly hidden pairs");
-    PartlyHiddenValues& v = m.values;
-    v.f.resize(count);
-    v.back.resize(count);
-    v.integrated.resize(count);
-    for (std::size_t q = 0; q < count; ++q) {
-        v.f[m.order[q]] = all.f[q];
-        v.back[m.order[q]] = all.back[q];
-        v.integrated[m.order[q]] = all.integrated[q];
-    }
-    v.stats = all.stats;
-    m.has_values = true;
-}
 
 // The partly hidden pairs given beforehand (ctx.partly_hidden), checked against the run; null
 // when they are to be computed here.

@@ -1,0 +1,201 @@
+#pragma once
+// The settling of one partly hidden pair by the `analytic` method (not public API). After the
+// classification of patch pairs (classification.cpp), every partly hidden pair is settled, the
+// cheapest way that meets the tolerance first: its bracket [0, unobstructed], the umbrae of its
+// occluders (umbrae.cpp: the conservative visibility bounds of Lischinski, Smits & Greenberg
+// 1994), or the adaptive integration of its hidden part (hidden_integral.cpp: Walton's adaptive
+// method, NISTIR 6925). integrate_partial() is the one code path of the dense matrix, a block of
+// rows and sparse rows (analytic_obstructed.cpp) and of the partly hidden pairs computed apart
+// from the rows (partly_hidden_pairs.cpp); partial_pair.cpp holds the rest: the sender's
+// quarters, and the statistics of the pairs summed and reported. See docs/analytic.md,
+// "Obstructed scenes".
+
+#include <tbb/enumerable_thread_specific.h>
+
+#include <algorithm>
+#include <cstddef>
+#include <utility>
+#include <vector>
+
+#include "formfactor/core/fields.h"
+#include "formfactor/geometry/polygon.h"
+#include "formfactor/methods/method.h"
+#include "formfactor/methods/partly_hidden.h"
+#include "formfactor/scene/scene.h"
+#include "methods/analytic/classification.h"
+#include "methods/analytic/obstructed_internal.h"
+
+namespace formfactor::detail {
+
+// options.obstructed_tolerance, the absolute error per entry of the partly hidden pairs; an
+// OptionError unless it is a positive number.
+double checked_tolerance(const MethodOptions& options);
+
+// What the integration of one partly hidden pair did (small: room n = 32 has 800k such pairs).
+struct PairStats {
+    double error = 0;
+    std::size_t points = 0, cells = 0, closed_forms = 0, proven_hidden = 0;
+    int level = 0, capped = 0;
+    bool integrated = false, changed = false, bracketed = false, settled_by_umbrae = false;
+};
+
+// The same summed over pairs (per thread, then over threads: sums, maxima and counts, the same
+// whatever the order).
+using PartialStats = PartlyHiddenStats;
+inline constexpr int kLevels = PartlyHiddenStats::kLevels;
+inline void add_pair(PartialStats& total, const PairStats& p) {
+    total.points += p.points;
+    total.cells += p.cells;
+    total.closed_forms += p.closed_forms;
+    total.proven_hidden += p.proven_hidden;
+    total.capped += static_cast<std::size_t>(p.capped);
+    total.bracketed += p.bracketed ? 1 : 0;
+    total.settled_by_umbrae += p.settled_by_umbrae ? 1 : 0;
+    if (!p.integrated) return;
+    total.changed += p.changed ? 1 : 0;
+    total.max_error = std::max(total.max_error, p.error);
+    ++total.levels[static_cast<std::size_t>(std::min(p.level, kLevels))];
+}
+
+// A partly hidden pair's entries: F_sr = f (s the smaller patch), F_rs = back.
+struct PartialValue {
+    std::size_t s = 0, r = 0;
+    double f = 0, back = 0;
+    bool integrated = false;  // false: the unobstructed value is 0, nothing to correct
+    PairStats stats;
+};
+
+// Per-thread sums of PairStats.
+using ThreadStats = tbb::enumerable_thread_specific<PartialStats>;
+PartialStats combined(ThreadStats& per_thread);
+
+// The sender cut into four: a triangle at its edges' midpoints, a quad at its edges' midpoints
+// and its centre (the other polygons whole).
+std::vector<Polygon> quarters(const Polygon& p);
+
+// A partly hidden pair whose unobstructed value is at most the tolerance is placed inside its
+// bracket [0, unobstructed] without integration (see integrate_partial()). Not twice the
+// tolerance: a value moved to the middle of a wider bracket errs the same way in every small
+// pair of a row (an urban array's row sums drifted by 6e-4 at 1e-4).
+inline constexpr double kBracketShare = 1.0;
+
+// A partly hidden pair whose visible part is bounded by at most this share of the tolerance
+// (visible_bound()) takes its estimate inside the bound without integration. Not the whole
+// tolerance: the estimate (4 points) misses the slivers of light near the umbrae's edges the
+// same way in every pair of a row, and a closed room's rows of such pairs fell 1.4e-4 short of
+// 1 at 1e-4 with the whole tolerance; at 0.3 they are as close to 1 as when integrated.
+inline constexpr double kUmbraShare = 0.3;
+
+// A sender whose own umbra bound is within this factor of its share is tried again as four
+// quarters (on the 1,066-triangle urban array at 1e-4: 4,162 more pairs settled, 13% less time;
+// trying every sender costs more than it settles).
+inline constexpr double kQuartersReach = 16.0;
+
+// The sender s (the smaller patch; the lower index of two equal ones) and the receiver r of a
+// partly hidden pair.
+inline std::pair<std::size_t, std::size_t> sender_receiver(const Scene& scene,
+                                                           const PartialPair& pp) {
+    std::size_t s = static_cast<std::size_t>(pp.i), r = static_cast<std::size_t>(pp.j);
+    const double as = scene.patches[s].area, ar = scene.patches[r].area;
+    if (ar < as || (ar == as && r < s)) std::swap(s, r);
+    return {s, r};
+}
+
+// The unobstructed value less the integrated hidden part, over the smaller patch of the pair
+// (reciprocity gives the other entry, with a smaller error). unobstructed(s, r): the exact
+// unobstructed F_sr. One code path for the dense matrix, a block of rows, sparse rows and the
+// partly hidden pairs apart from the rows.
+template <class Unobstructed>
+PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const PartialPair& pp,
+                               const std::vector<int>& cand, double tol,
+                               const Unobstructed& unobstructed) {
+    PartialValue v;
+    const auto [s, r] = sender_receiver(scene, pp);
+    v.s = s;
+    v.r = r;
+    const double a_s = scene.patches[s].area, a_r = scene.patches[r].area;
+    const double unobs = unobstructed(s, r);
+    if (!(unobs > 0.0)) return v;
+    PairStats& st = v.stats;
+    const Polygon& ps = scene.patches[s].polygon;
+    const std::vector<Polygon> parts = BlockerSet::convex_parts(scene.patches[r].polygon);
+    v.integrated = st.integrated = true;
+    if (unobs <= kBracketShare * tol) {
+        // The bracket 0 ≤ F_sr ≤ unobs holds whatever the blockers do: any value v in it is
+        // within max(v, unobs − v) ≤ tol of F_sr. The value is a low-order estimate, so that
+        // the small pairs of a row do not all err the same way (the midpoint would).
+        double hidden = 0.0;
+        for (const Polygon& pr : parts)
+            hidden += detail::hidden_estimate(ps, pr, S.blockers, cand.data() + pp.cand_first,
+                                              pp.cand_count, S.eps, st.points);
+        const double lo = std::max(0.0, unobs - tol), hi = std::min(unobs, tol);
+        v.f = std::clamp(unobs - hidden, lo, hi);
+        st.changed = v.f != unobs;
+        st.bracketed = true;
+        st.error = std::max(v.f, unobs - v.f);
+        v.back = a_r > 0.0 ? v.f * a_s / a_r : 0.0;
+        return v;
+    }
+    // Nearly hidden pairs (most partly hidden pairs among buildings): what the sender sees past
+    // the umbrae of the occluders bounds the pair's value; within kUmbraShare of the tolerance,
+    // the value is placed inside [0, bound] without the event split and its integration.
+    // The sender whole first; where its bound is within a few times the share, its four
+    // quarters (umbrae from a smaller sender are larger).
+    double bound = 0.0, seen = 0.0;
+    auto bounded_by = [&](const std::vector<Polygon>& senders) {
+        bound = 0.0;
+        seen = 0.0;
+        for (const Polygon& sp : senders) {
+            const double w = area(sp) / a_s;
+            for (const Polygon& pr : parts) {
+                const detail::VisibleBound b =
+                    detail::visible_bound(sp, pr, S.blockers, cand.data() + pp.cand_first,
+                                          pp.cand_count, S.eps, (kUmbraShare * tol - bound) / w);
+                st.points += b.points;
+                bound += w * b.bound;
+                seen += w * b.estimate;
+                if (!b.ok || bound > kUmbraShare * tol) return false;
+            }
+        }
+        return true;
+    };
+    bool bounded = bounded_by({ps});
+    if (!bounded && bound > 0.0 && bound <= kQuartersReach * kUmbraShare * tol)
+        bounded = bounded_by(quarters(ps));
+    if (bounded) {
+        v.f = std::clamp(seen, 0.0, bound);
+        st.changed = v.f != unobs;
+        st.settled_by_umbrae = true;
+        st.error = std::max(v.f, bound - v.f);
+        v.back = a_r > 0.0 ? v.f * a_s / a_r : 0.0;
+        return v;
+    }
+    double hidden_sum = 0.0, err = 0.0;
+    int level = 0;
+    for (const Polygon& pr : parts) {
+        const detail::HiddenIntegral h =
+            detail::hidden_integral(ps, pr, S.blockers, cand.data() + pp.cand_first, pp.cand_count,
+                                    tol / static_cast<double>(parts.size()), S.eps);
+        hidden_sum += h.hidden;
+        err += h.error;
+        level = std::max(level, h.max_level);
+        st.points += h.points;
+        st.cells += h.cells;
+        st.closed_forms += h.closed_forms;
+        st.proven_hidden += h.proven_hidden;
+        if (h.capped) ++st.capped;
+    }
+    v.f = std::clamp(unobs - hidden_sum, 0.0, unobs);
+    st.changed = v.f != unobs;
+    v.back = a_r > 0.0 ? v.f * a_s / a_r : 0.0;
+    st.error = err;
+    st.level = level;
+    return v;
+}
+
+// details["obstructions"] (docs/analytic.md): the blockers, the pair classes, the integration.
+void report_obstructions(const Obstructions& S, const PartialStats& total, std::size_t node_pairs,
+                         std::size_t visible, std::size_t hidden, std::size_t partial, double tol,
+                         int threads, Fields& o);
+
+}  // namespace formfactor::detail

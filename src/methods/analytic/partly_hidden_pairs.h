@@ -1,0 +1,62 @@
+#pragma once
+// What PartlyHiddenPairs holds (formfactor/methods/partly_hidden.h; not public API): the
+// classification of a scene that may obstruct, its list of partly hidden pairs, and their values
+// once set. partly_hidden_pairs.cpp computes it; the passes of analytic_obstructed.cpp take the
+// values from it when it is given (MethodContext::partly_hidden). See docs/analytic.md,
+// "Obstructed scenes".
+
+#include <cstddef>
+#include <memory>
+#include <tuple>
+#include <vector>
+
+#include "formfactor/methods/method.h"
+#include "formfactor/methods/partly_hidden.h"
+#include "formfactor/scene/scene.h"
+#include "kernels/unobstructed.h"
+#include "methods/analytic/classification.h"
+#include "methods/analytic/partial_pair.h"
+
+namespace formfactor {
+
+namespace detail {
+
+// A sample of a list of partly hidden pairs: every (count / kSampledPairs)-th pair. The partly
+// hidden pass runs it first, for its time estimate (analytic_obstructed.cpp), and
+// PartlyHiddenPairs::integrate() takes its parts of an order that starts with it.
+inline constexpr std::size_t kSampledPairs = 256;
+
+}  // namespace detail
+
+struct PartlyHiddenPairs::Impl {
+    Impl(const Scene& sc, const MethodOptions& o) : scene(sc), options(o) {}
+    const Scene& scene;
+    MethodOptions options;
+    bool sparse = false;
+    double tol = 0, visible_tol = 0;
+    detail::Obstructions S;
+    // Every partly hidden pair in the classification's order (the order apply_obstructions()
+    // and sparse_obstructed_rows() list them in), with the output holding its candidates.
+    std::vector<detail::PartialPair> partial;
+    std::vector<std::size_t> cand_task;
+    std::vector<std::size_t> order;  // integrate()'s positions → pairs
+    // The patches' table of the unobstructed values, for every part and block of rows.
+    std::shared_ptr<const detail::PatchTable> table;
+
+    // partial, cand_task and order from S.outputs.
+    void list_pairs();
+    PartlyHiddenValues values;  // by pair, once set
+    bool has_values = false;
+
+    // values as integrate_partial() gives them, for pair k.
+    detail::PartialValue value(std::size_t k) const {
+        detail::PartialValue v;
+        std::tie(v.s, v.r) = detail::sender_receiver(scene, partial[k]);
+        v.f = values.f[k];
+        v.back = values.back[k];
+        v.integrated = values.integrated[k] != 0;
+        return v;
+    }
+};
+
+}  // namespace formfactor
