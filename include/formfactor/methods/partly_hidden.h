@@ -27,7 +27,7 @@ struct PartlyHiddenStats {
     std::array<std::size_t, kLevels + 1> levels{};  ///< integrated pairs per refinement level
     double max_error = 0;
     std::size_t points = 0, cells = 0, closed_forms = 0, proven_hidden = 0, capped = 0, changed = 0,
-                bracketed = 0, settled_by_umbrae = 0;
+                bracketed = 0, settled_by_umbrae = 0, cells_bracketed = 0;
     void add(const PartlyHiddenStats& o);
 };
 

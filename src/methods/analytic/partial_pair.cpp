@@ -73,6 +73,7 @@ void report_obstructions(const Obstructions& S, const PartialStats& total, std::
     o["point_evaluations"] = total.points;
     o["umbra_cells"] = total.closed_forms;
     o["umbra_cells_proven_by_corners"] = total.proven_hidden;
+    o["cells_bracketed"] = total.cells_bracketed;
     o["capped_pairs"] = total.capped;
     o["partly_hidden_pairs_bracketed"] = total.bracketed;
     o["partly_hidden_pairs_settled_by_umbrae"] = total.settled_by_umbrae;
@@ -92,6 +93,7 @@ void PartlyHiddenStats::add(const PartlyHiddenStats& o) {
     cells += o.cells;
     closed_forms += o.closed_forms;
     proven_hidden += o.proven_hidden;
+    cells_bracketed += o.cells_bracketed;
     capped += o.capped;
     changed += o.changed;
     bracketed += o.bracketed;

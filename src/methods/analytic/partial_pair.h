@@ -34,7 +34,7 @@ double checked_tolerance(const MethodOptions& options);
 // What the integration of one partly hidden pair did (small: room n = 32 has 800k such pairs).
 struct PairStats {
     double error = 0;
-    std::size_t points = 0, cells = 0, closed_forms = 0, proven_hidden = 0;
+    std::size_t points = 0, cells = 0, closed_forms = 0, proven_hidden = 0, cells_bracketed = 0;
     int level = 0, capped = 0;
     bool integrated = false, changed = false, bracketed = false, settled_by_umbrae = false;
 };
@@ -48,6 +48,7 @@ inline void add_pair(PartialStats& total, const PairStats& p) {
     total.cells += p.cells;
     total.closed_forms += p.closed_forms;
     total.proven_hidden += p.proven_hidden;
+    total.cells_bracketed += p.cells_bracketed;
     total.capped += static_cast<std::size_t>(p.capped);
     total.bracketed += p.bracketed ? 1 : 0;
     total.settled_by_umbrae += p.settled_by_umbrae ? 1 : 0;
@@ -183,6 +184,7 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
         st.cells += h.cells;
         st.closed_forms += h.closed_forms;
         st.proven_hidden += h.proven_hidden;
+        st.cells_bracketed += h.bracketed;
         if (h.capped) ++st.capped;
     }
     v.f = std::clamp(unobs - hidden_sum, 0.0, unobs);
