@@ -136,10 +136,17 @@ void AnalyticMethod::apply_obstructions(const MethodContext& ctx, FormFactors& o
     std::vector<PartialPair> partial;
     std::vector<std::size_t> cand_task, index;  // index: the pair's place in the whole list
     std::size_t node_pairs = 0, vis = 0, hid = 0;
+    // A block of rows takes only the partly hidden pairs with a patch in it (3.), each with its
+    // place in the whole list.
+    std::size_t whole = 0;
     for (std::size_t k = 0; k < outputs.size(); ++k) {
         hidden.insert(hidden.end(), outputs[k].hidden.begin(), outputs[k].hidden.end());
         for (const PartialPair& p : outputs[k].partial) {
-            index.push_back(partial.size());
+            const std::size_t at = whole++;
+            if (block && !block->rows.contains(static_cast<std::size_t>(p.i)) &&
+                !block->rows.contains(static_cast<std::size_t>(p.j)))
+                continue;
+            index.push_back(at);
             partial.push_back(p);
             cand_task.push_back(k);
         }
@@ -148,35 +155,35 @@ void AnalyticMethod::apply_obstructions(const MethodContext& ctx, FormFactors& o
         hid += outputs[k].hidden_patch_pairs;
     }
     parallel_for(hidden.size(), options.threads, [&](std::size_t k) {
+        if (block) {
+            // The rows of each node that are in the block, not every patch pair of the two.
+            const NodePair& np = hidden[k];
+            const ClusterTree& TA = trees[static_cast<std::size_t>(np.ta)];
+            const ClusterTree& TB = trees[static_cast<std::size_t>(np.tb)];
+            const auto& A = TA.nodes[static_cast<std::size_t>(np.a)];
+            const auto& B = TB.nodes[static_cast<std::size_t>(np.b)];
+            auto rows_of = [&](const ClusterTree& T, const ClusterTree::Node& P,
+                               const ClusterTree& U, const ClusterTree::Node& Q) {
+                for (int x = P.first; x < P.first + P.count; ++x) {
+                    const auto i = static_cast<std::size_t>(T.order[static_cast<std::size_t>(x)]);
+                    if (!block->rows.contains(i)) continue;
+                    for (int y = Q.first; y < Q.first + Q.count; ++y)
+                        block->set(
+                            i, static_cast<std::size_t>(U.order[static_cast<std::size_t>(y)]), 0.0);
+                }
+            };
+            rows_of(TA, A, TB, B);
+            rows_of(TB, B, TA, A);
+            return;
+        }
         for_each_patch_pair(trees, hidden[k], [&](std::size_t i, std::size_t j) {
-            if (block) {
-                block->set(i, j, 0.0);
-                block->set(j, i, 0.0);
-            } else {
-                F[i * n + j] = 0.0;
-                F[j * n + i] = 0.0;
-            }
+            F[i * n + j] = 0.0;
+            F[j * n + i] = 0.0;
         });
     });
 
     // 3. Partly hidden pairs: exact unobstructed value minus the integrated hidden part, over
     // the smaller patch of the pair (reciprocity gives the other entry, with a smaller error).
-    if (block) {
-        // A block of rows: only the pairs with a patch in it.
-        std::size_t kept = 0;
-        for (std::size_t k = 0; k < partial.size(); ++k) {
-            const auto i = static_cast<std::size_t>(partial[k].i);
-            const auto j = static_cast<std::size_t>(partial[k].j);
-            if (!block->rows.contains(i) && !block->rows.contains(j)) continue;
-            partial[kept] = partial[k];
-            cand_task[kept] = cand_task[k];
-            index[kept] = index[k];
-            ++kept;
-        }
-        partial.resize(kept);
-        cand_task.resize(kept);
-        index.resize(kept);
-    }
     ThreadStats stats;
     Fields& o = details["obstructions"];
     auto pair_value = [&](std::size_t k) {
