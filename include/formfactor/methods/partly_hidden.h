@@ -59,9 +59,11 @@ class PartlyHiddenPairs {
 
     /// The classification's tasks (one per unordered pair of plane groups of patches).
     std::size_t classification_tasks() const;
-    /// The classification of tasks [tasks.begin, tasks.end), as bytes for
-    /// set_classification() (a process running the same binary on the same scene and
-    /// options reads them). In parallel (options.threads); polls current_cancellation().
+    /// The classification of the tasks at positions [tasks.begin, tasks.end) of an order that
+    /// starts with the costliest (by an estimate), as bytes for set_classification() (a
+    /// process running the same binary on the same scene and options reads them): positions
+    /// shared out in order then end with small tasks. In parallel (options.threads); polls
+    /// current_cancellation(). Only on pairs made with classify = false.
     std::vector<char> classify(RowRange tasks) const;
     /// Every task's classification: the bytes of classify() for consecutive ranges that cover
     /// [0, classification_tasks()), concatenated in order. Then as if classified here (the

@@ -9,11 +9,14 @@
 #include "methods/analytic/classification.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
+#include <numeric>
 #include <vector>
 
 #include "formfactor/core/cancel.h"
+#include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
 #include "formfactor/core/phase.h"
 
@@ -301,22 +304,73 @@ std::size_t classification_tasks(const Obstructions& S) {
     return g < 2 ? 0 : g * (g - 1) / 2;
 }
 
-void classify_tasks(const Obstructions& S, RowRange tasks, bool record_visible, int threads,
-                    PairOutput* out) {
-    // Task k is the k-th unordered pair (a, b), a < b, of plane groups in row order.
+namespace {
+
+// Task k is the k-th unordered pair (a, b), a < b, of plane groups in row order.
+std::vector<std::array<int, 2>> task_groups(const Obstructions& S) {
     const std::size_t g = S.trees.size();
-    tasks = tasks.clamped(classification_tasks(S));
-    std::vector<std::array<int, 2>> spairs;
-    spairs.reserve(tasks.size());
-    std::size_t k = 0;
-    for (std::size_t a = 0; a < g && k < tasks.end; ++a)
-        for (std::size_t b = a + 1; b < g && k < tasks.end; ++b, ++k)
-            if (k >= tasks.begin) spairs.push_back({static_cast<int>(a), static_cast<int>(b)});
+    std::vector<std::array<int, 2>> groups;
+    groups.reserve(classification_tasks(S));
+    for (std::size_t a = 0; a < g; ++a)
+        for (std::size_t b = a + 1; b < g; ++b)
+            groups.push_back({static_cast<int>(a), static_cast<int>(b)});
+    return groups;
+}
+
+void classify_groups(const Obstructions& S, const std::vector<std::array<int, 2>>& spairs,
+                     bool record_visible, int threads, PairOutput* out) {
     const CancellationFlag& cancel = current_cancellation();
     parallel_for(spairs.size(), threads, [&](std::size_t q) {
         Classifier c(S.trees, S.blockers, S.eps, cancel, record_visible);
         c.surface_pair(spairs[q][0], spairs[q][1], out[q]);
     });
+}
+
+}  // namespace
+
+void classify_tasks(const Obstructions& S, RowRange tasks, bool record_visible, int threads,
+                    PairOutput* out) {
+    tasks = tasks.clamped(classification_tasks(S));
+    const std::vector<std::array<int, 2>> all = task_groups(S);
+    const std::vector<std::array<int, 2>> spairs(
+        all.begin() + static_cast<std::ptrdiff_t>(tasks.begin),
+        all.begin() + static_cast<std::ptrdiff_t>(tasks.end));
+    classify_groups(S, spairs, record_visible, threads, out);
+}
+
+void classify_task_list(const Obstructions& S, const std::size_t* tasks, std::size_t count,
+                        bool record_visible, int threads, PairOutput* out) {
+    const std::vector<std::array<int, 2>> all = task_groups(S);
+    std::vector<std::array<int, 2>> spairs(count);
+    for (std::size_t q = 0; q < count; ++q) {
+        if (tasks[q] >= all.size()) throw Error("analytic: a classification task out of range");
+        spairs[q] = all[tasks[q]];
+    }
+    classify_groups(S, spairs, record_visible, threads, out);
+}
+
+std::vector<std::size_t> classification_order(const Obstructions& S) {
+    const std::vector<std::array<int, 2>> groups = task_groups(S);
+    std::vector<double> cost(groups.size(), 0.0);
+    std::vector<int> pool;
+    for (std::size_t k = 0; k < groups.size(); ++k) {
+        const ClusterTree& TA = S.trees[static_cast<std::size_t>(groups[k][0])];
+        const ClusterTree& TB = S.trees[static_cast<std::size_t>(groups[k][1])];
+        const auto& A = TA.nodes[0];
+        const auto& B = TB.nodes[0];
+        Shaft sh;
+        sh.build(A.hull.data(), static_cast<int>(A.hull.size()), TA.normal, B.hull.data(),
+                 static_cast<int>(B.hull.size()), TB.normal, S.eps);
+        if (sh.facing_away()) continue;
+        pool.clear();
+        S.blockers.query(sh, TA.blocker_id, TB.blocker_id, pool);
+        cost[k] = double(A.count) * double(B.count) * (1.0 + double(pool.size()));
+    }
+    std::vector<std::size_t> order(groups.size());
+    std::iota(order.begin(), order.end(), std::size_t{0});
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::size_t a, std::size_t b) { return cost[a] > cost[b]; });
+    return order;
 }
 
 void prepare_obstructions(const MethodContext& ctx, bool record_visible, Obstructions& S) {

@@ -92,6 +92,13 @@ void prepare_blockers(const MethodContext& ctx, Obstructions& S);
 std::size_t classification_tasks(const Obstructions& S);
 void classify_tasks(const Obstructions& S, RowRange tasks, bool record_visible, int threads,
                     PairOutput* out);
+/// The tasks by their estimated cost, the largest first (the patch pairs of the two groups
+/// times one plus the blocker pieces in the shaft between them; ties in task order): a
+/// classification shared out task by task in this order ends with small tasks.
+std::vector<std::size_t> classification_order(const Obstructions& S);
+/// The outputs of tasks[0, count) (task indices) into out[0, count), as classify_tasks().
+void classify_task_list(const Obstructions& S, const std::size_t* tasks, std::size_t count,
+                        bool record_visible, int threads, PairOutput* out);
 
 // f(i, j) for every patch pair (i of node a, j of node b) of a node pair.
 template <class F>

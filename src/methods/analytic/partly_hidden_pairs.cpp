@@ -47,10 +47,12 @@ PartlyHiddenPairs::PartlyHiddenPairs(const Scene& scene, const MethodOptions& op
     m.sparse = sparse;
     m.tol = checked_tolerance(options);
     const MethodContext ctx{scene, options, nullptr, nullptr, RowRange{}, nullptr, nullptr};
-    if (classify)
+    if (classify) {
         prepare_obstructions(ctx, sparse, m.S);
-    else
+    } else {
         prepare_blockers(ctx, m.S);
+        m.task_order = detail::classification_order(m.S);
+    }
     {
         std::vector<const Polygon*> polys(scene.patches.size());
         for (std::size_t p = 0; p < polys.size(); ++p) polys[p] = &scene.patches[p].polygon;
@@ -102,8 +104,11 @@ std::size_t PartlyHiddenPairs::classification_tasks() const {
 std::vector<char> PartlyHiddenPairs::classify(RowRange tasks) const {
     const Impl& m = *impl_;
     tasks = tasks.clamped(detail::classification_tasks(m.S));
+    if (m.task_order.size() != detail::classification_tasks(m.S))
+        throw Error("analytic: classify() on pairs classified whole");
     std::vector<PairOutput> outputs(tasks.size());
-    detail::classify_tasks(m.S, tasks, m.sparse, m.options.threads, outputs.data());
+    detail::classify_task_list(m.S, m.task_order.data() + tasks.begin, tasks.size(), m.sparse,
+                               m.options.threads, outputs.data());
     std::vector<char> out;
     for (const PairOutput& o : outputs) {
         const std::uint64_t counts[7] = {
@@ -123,9 +128,11 @@ void PartlyHiddenPairs::set_classification(const char* bytes, std::size_t size) 
     Impl& m = *impl_;
     if (!m.S.outputs.empty()) throw Error("analytic: the pairs are classified already");
     const std::size_t tasks = detail::classification_tasks(m.S);
+    if (m.task_order.size() != tasks) throw Error("analytic: the pairs are classified already");
     std::vector<PairOutput> outputs(tasks);
     ByteReader r(bytes, size);
-    for (PairOutput& o : outputs) {
+    for (std::size_t position = 0; position < tasks; ++position) {
+        PairOutput& o = outputs[m.task_order[position]];
         std::uint64_t counts[7];
         r.read(counts, sizeof(counts));
         r.array(o.hidden, counts[0]);

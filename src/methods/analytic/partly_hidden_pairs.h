@@ -40,6 +40,8 @@ struct PartlyHiddenPairs::Impl {
     std::vector<detail::PartialPair> partial;
     std::vector<std::size_t> cand_task;
     std::vector<std::size_t> order;  // integrate()'s positions → pairs
+    // classify()'s positions → tasks (detail::classification_order(); classify = false only).
+    std::vector<std::size_t> task_order;
     // The patches' table of the unobstructed values, for every part and block of rows.
     std::shared_ptr<const detail::PatchTable> table;
 
