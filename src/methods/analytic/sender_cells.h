@@ -54,6 +54,10 @@ struct Cell {
     bool bracketed = false;  // value and error from the cell's bracket; not integrated yet
 };
 
+/// A lower bound on the distance between the planar convex polygons a[0, na) and b[0, nb)
+/// (exact when they do not intersect; 0 when they meet) (cell_bounds.cpp).
+double polygon_distance(const Vec3* a, int na, const Vec3* b, int nb);
+
 /// An upper bound on F(x → r) over the points x of the convex cell poly[0, np) in the sender's
 /// plane (unit normal ns), from the heights of each above the other's plane and their distance:
 /// F = (1/π) ∫_r cos θ_x cos θ_r / d² dA with d ≥ d_min, cos θ_x ≤ h_r / d_min (h_r the
