@@ -449,6 +449,27 @@ TEST_CASE("obstructed roots: a faceted sphere is one convex solid, and hides wha
     CHECK(d1["obstructions"]["patch_pairs_partly_hidden"].get<long long>() > 0);
 }
 
+namespace {
+
+// A street of `boxes` boxes of random heights along x (closed solids) into bs; every piece a
+// candidate.
+std::vector<int> street_of_boxes(BlockerSet& bs, int boxes, std::mt19937& rng) {
+    std::uniform_real_distribution<double> u01(0.0, 1.0);
+    int id = 0;
+    for (int b = 0; b < boxes; ++b) {
+        const double x0 = -3.0 + 2.0 * b + 0.5 * u01(rng), y0 = -1.0 + u01(rng);
+        add_box(bs, Vec3(x0, y0, 0.0), Vec3(x0 + 1.0, y0 + 1.5 + u01(rng), 0.3 + 2.0 * u01(rng)), 1,
+                id);
+    }
+    bs.build();
+    bs.mark_closed_solids({}, 1e-9);
+    std::vector<int> cand(bs.size());
+    for (std::size_t k = 0; k < cand.size(); ++k) cand[k] = static_cast<int>(k);
+    return cand;
+}
+
+}  // namespace
+
 TEST_CASE("obstructed roots: the umbra bound is never below what the sender sees") {
     // A ground triangle and a wall facing it across a street of boxes of random heights (a few
     // sit low enough to let light over them): the sender's corners' umbrae bound what it sees.
@@ -457,18 +478,8 @@ TEST_CASE("obstructed roots: the umbra bound is never below what the sender sees
     int settled = 0, hidden_whole = 0, partial = 0;
     for (int trial = 0; trial < 60; ++trial) {
         BlockerSet bs;
-        int id = 0;
-        const int boxes = 1 + trial % 3;
-        for (int b = 0; b < boxes; ++b) {
-            const double x0 = -3.0 + 2.0 * b + 0.5 * u01(rng), y0 = -1.0 + u01(rng);
-            add_box(bs, Vec3(x0, y0, 0.0),
-                    Vec3(x0 + 1.0, y0 + 1.5 + u01(rng), 0.3 + 2.0 * u01(rng)), 1, id);
-        }
-        bs.build();
-        bs.mark_closed_solids({}, 1e-9);
-        const int n = static_cast<int>(bs.size());
-        std::vector<int> cand(bs.size());
-        for (int k = 0; k < n; ++k) cand[static_cast<std::size_t>(k)] = k;
+        const std::vector<int> cand = street_of_boxes(bs, 1 + trial % 3, rng);
+        const int n = static_cast<int>(cand.size());
         const double sx = 2.0 + u01(rng), sy = u01(rng);
         const Polygon s = poly({Vec3(sx, sy, 0), Vec3(sx + 0.7, sy, 0), Vec3(sx, sy + 0.7, 0)});
         const double wz = 0.5 * u01(rng);
@@ -544,17 +555,8 @@ TEST_CASE("obstructed roots: cells settled by their brackets keep the error with
     int pairs = 0;
     for (int trial = 0; trial < 24; ++trial) {
         BlockerSet bs;
-        int id = 0;
-        for (int b = 0; b < 3; ++b) {
-            const double x0 = -3.0 + 2.0 * b + 0.5 * u01(rng), y0 = -1.0 + u01(rng);
-            add_box(bs, Vec3(x0, y0, 0.0),
-                    Vec3(x0 + 1.0, y0 + 1.5 + u01(rng), 0.3 + 2.0 * u01(rng)), 1, id);
-        }
-        bs.build();
-        bs.mark_closed_solids({}, 1e-9);
-        const int n = static_cast<int>(bs.size());
-        std::vector<int> cand(bs.size());
-        for (int k = 0; k < n; ++k) cand[static_cast<std::size_t>(k)] = k;
+        const std::vector<int> cand = street_of_boxes(bs, 3, rng);
+        const int n = static_cast<int>(cand.size());
         const double sx = 2.5 + u01(rng), sy = u01(rng);
         const Polygon s = poly({Vec3(sx, sy, 0), Vec3(sx + 1.0, sy, 0), Vec3(sx, sy + 1.0, 0)});
         const double wz = 0.5 * u01(rng);

@@ -100,7 +100,6 @@ double polygon_distance(const Vec3* a, int na, const Vec3* b, int nb) {
     return std::sqrt(best);
 }
 
-
 double point_factor_bound(const Vec3* cell, int np, const Vec3& ns, const Receiver& rc,
                           double limit) {
     // cos θ_x = (height of y above the sender's plane) / d, the same for every x of the cell;

@@ -121,6 +121,14 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
     const Polygon& ps = scene.patches[s].polygon;
     const std::vector<Polygon> parts = BlockerSet::convex_parts(scene.patches[r].polygon);
     v.integrated = st.integrated = true;
+    // The value f placed inside a bracket [0, top]: its error the larger distance to the ends.
+    auto placed = [&](double f, double top) {
+        v.f = f;
+        st.changed = v.f != unobs;
+        st.error = std::max(v.f, top - v.f);
+        v.back = a_r > 0.0 ? v.f * a_s / a_r : 0.0;
+        return v;
+    };
     if (unobs <= kBracketShare * tol) {
         // The bracket 0 ≤ F_sr ≤ unobs holds whatever the blockers do: any value v in it is
         // within max(v, unobs − v) ≤ tol of F_sr. The value is a low-order estimate, so that
@@ -130,12 +138,8 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
             hidden += detail::hidden_estimate(ps, pr, S.blockers, cand.data() + pp.cand_first,
                                               pp.cand_count, S.eps, st.points);
         const double lo = std::max(0.0, unobs - tol), hi = std::min(unobs, tol);
-        v.f = std::clamp(unobs - hidden, lo, hi);
-        st.changed = v.f != unobs;
         st.bracketed = true;
-        st.error = std::max(v.f, unobs - v.f);
-        v.back = a_r > 0.0 ? v.f * a_s / a_r : 0.0;
-        return v;
+        return placed(std::clamp(unobs - hidden, lo, hi), unobs);
     }
     // Nearly hidden pairs (most partly hidden pairs among buildings): what the sender sees past
     // the umbrae of the occluders bounds the pair's value; within kUmbraShare of the tolerance,
@@ -164,12 +168,8 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
     if (!bounded && bound > 0.0 && bound <= kQuartersReach * kUmbraShare * tol)
         bounded = bounded_by(quarters(ps));
     if (bounded) {
-        v.f = std::clamp(seen, 0.0, bound);
-        st.changed = v.f != unobs;
         st.settled_by_umbrae = true;
-        st.error = std::max(v.f, bound - v.f);
-        v.back = a_r > 0.0 ? v.f * a_s / a_r : 0.0;
-        return v;
+        return placed(std::clamp(seen, 0.0, bound), bound);
     }
     double hidden_sum = 0.0, err = 0.0;
     int level = 0;
