@@ -112,6 +112,22 @@ bool tiled_hull(const ClusterTree& T, const ClusterTree::Node& nd,
     return std::abs(sum - a) <= 1e-9 * a;
 }
 
+// The blocker pieces (into pool) that the tree finds in the shaft between the roots of the
+// plane groups ta and tb; false when the groups face away from each other.
+bool root_candidates(const std::vector<ClusterTree>& trees, const BlockerSet& blockers, double eps,
+                     int ta, int tb, std::vector<int>& pool) {
+    const ClusterTree& TA = trees[static_cast<std::size_t>(ta)];
+    const ClusterTree& TB = trees[static_cast<std::size_t>(tb)];
+    const auto& A = TA.nodes[0];
+    const auto& B = TB.nodes[0];
+    Shaft sh;
+    sh.build(A.hull.data(), static_cast<int>(A.hull.size()), TA.normal, B.hull.data(),
+             static_cast<int>(B.hull.size()), TB.normal, eps);
+    if (sh.facing_away()) return false;
+    blockers.query(sh, TA.blocker_id, TB.blocker_id, pool);
+    return true;
+}
+
 class Classifier {
   public:
     Classifier(const std::vector<ClusterTree>& trees, const BlockerSet& blockers, double eps,
@@ -124,16 +140,7 @@ class Classifier {
 
     void surface_pair(int ta, int tb, PairOutput& out) {
         pool_.clear();
-        const auto& A = trees_[static_cast<std::size_t>(ta)].nodes[0];
-        const auto& B = trees_[static_cast<std::size_t>(tb)].nodes[0];
-        Shaft sh;
-        sh.build(A.hull.data(), static_cast<int>(A.hull.size()),
-                 trees_[static_cast<std::size_t>(ta)].normal, B.hull.data(),
-                 static_cast<int>(B.hull.size()), trees_[static_cast<std::size_t>(tb)].normal,
-                 eps_);
-        if (sh.facing_away()) return;
-        blockers_.query(sh, trees_[static_cast<std::size_t>(ta)].blocker_id,
-                        trees_[static_cast<std::size_t>(tb)].blocker_id, pool_);
+        if (!root_candidates(trees_, blockers_, eps_, ta, tb, pool_)) return;
         recurse(ta, 0, tb, 0, 0, pool_.size(), out);
     }
 
@@ -317,26 +324,7 @@ std::vector<std::array<int, 2>> task_groups(const Obstructions& S) {
     return groups;
 }
 
-void classify_groups(const Obstructions& S, const std::vector<std::array<int, 2>>& spairs,
-                     bool record_visible, int threads, PairOutput* out) {
-    const CancellationFlag& cancel = current_cancellation();
-    parallel_for(spairs.size(), threads, [&](std::size_t q) {
-        Classifier c(S.trees, S.blockers, S.eps, cancel, record_visible);
-        c.surface_pair(spairs[q][0], spairs[q][1], out[q]);
-    });
-}
-
 }  // namespace
-
-void classify_tasks(const Obstructions& S, RowRange tasks, bool record_visible, int threads,
-                    PairOutput* out) {
-    tasks = tasks.clamped(classification_tasks(S));
-    const std::vector<std::array<int, 2>> all = task_groups(S);
-    const std::vector<std::array<int, 2>> spairs(
-        all.begin() + static_cast<std::ptrdiff_t>(tasks.begin),
-        all.begin() + static_cast<std::ptrdiff_t>(tasks.end));
-    classify_groups(S, spairs, record_visible, threads, out);
-}
 
 void classify_task_list(const Obstructions& S, const std::size_t* tasks, std::size_t count,
                         bool record_visible, int threads, PairOutput* out) {
@@ -346,7 +334,19 @@ void classify_task_list(const Obstructions& S, const std::size_t* tasks, std::si
         if (tasks[q] >= all.size()) throw Error("analytic: a classification task out of range");
         spairs[q] = all[tasks[q]];
     }
-    classify_groups(S, spairs, record_visible, threads, out);
+    const CancellationFlag& cancel = current_cancellation();
+    parallel_for(spairs.size(), threads, [&](std::size_t q) {
+        Classifier c(S.trees, S.blockers, S.eps, cancel, record_visible);
+        c.surface_pair(spairs[q][0], spairs[q][1], out[q]);
+    });
+}
+
+void classify_tasks(const Obstructions& S, RowRange tasks, bool record_visible, int threads,
+                    PairOutput* out) {
+    tasks = tasks.clamped(classification_tasks(S));
+    std::vector<std::size_t> list(tasks.size());
+    std::iota(list.begin(), list.end(), tasks.begin);
+    classify_task_list(S, list.data(), list.size(), record_visible, threads, out);
 }
 
 std::vector<std::size_t> classification_order(const Obstructions& S) {
@@ -354,17 +354,13 @@ std::vector<std::size_t> classification_order(const Obstructions& S) {
     std::vector<double> cost(groups.size(), 0.0);
     std::vector<int> pool;
     for (std::size_t k = 0; k < groups.size(); ++k) {
-        const ClusterTree& TA = S.trees[static_cast<std::size_t>(groups[k][0])];
-        const ClusterTree& TB = S.trees[static_cast<std::size_t>(groups[k][1])];
-        const auto& A = TA.nodes[0];
-        const auto& B = TB.nodes[0];
-        Shaft sh;
-        sh.build(A.hull.data(), static_cast<int>(A.hull.size()), TA.normal, B.hull.data(),
-                 static_cast<int>(B.hull.size()), TB.normal, S.eps);
-        if (sh.facing_away()) continue;
         pool.clear();
-        S.blockers.query(sh, TA.blocker_id, TB.blocker_id, pool);
-        cost[k] = double(A.count) * double(B.count) * (1.0 + double(pool.size()));
+        if (!root_candidates(S.trees, S.blockers, S.eps, groups[k][0], groups[k][1], pool))
+            continue;
+        const double pairs =
+            double(S.trees[static_cast<std::size_t>(groups[k][0])].nodes[0].count) *
+            double(S.trees[static_cast<std::size_t>(groups[k][1])].nodes[0].count);
+        cost[k] = pairs * (1.0 + double(pool.size()));
     }
     std::vector<std::size_t> order(groups.size());
     std::iota(order.begin(), order.end(), std::size_t{0});
