@@ -5,8 +5,10 @@
 
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
+#include <tuple>
 
 #include "formfactor/matrix/form_factors.h"
 #include "formfactor/matrix/reciprocity.h"
@@ -75,6 +77,69 @@ TEST_CASE("reciprocity: two tiny entries make the worst pair 1 but not the matri
     REQUIRE(bad.within);
     CHECK_FALSE(*bad.within);
     CHECK(bad.text.find("NOT within") == 0);
+}
+
+TEST_CASE("reciprocity: a matrix of uneven size read in strips gives the definition's measures") {
+    // 150 patches (not a multiple of the strips of 64 rows nor of their steps of 8), noisy
+    // entries with standard errors, a NaN, a negative entry, one above 1 and pairs tied for the
+    // worst defect: the first of them in row-major order is reported, as a row-by-row scan has it.
+    const int n = 150;
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    FormFactors ff = reciprocal(n);
+    DenseMatrix se(n, n);
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j) {
+            ff.F(i, j) *= 1.0 + 0.1 * (u(rng) - 0.5);
+            se(i, j) = ff.F(i, j) > 0.0 ? 0.01 * ff.F(i, j) : 0.0;
+        }
+    ff.F(5, 140) = 0.3;  // F_{140,5} = 0: defect 1, tied with the pairs below
+    ff.F(70, 90) = 0.2;
+    ff.F(90, 70) = 0.0;
+    ff.F(2, 149) = 0.1;
+    ff.F(149, 2) = 0.0;
+    ff.F(10, 11) = std::nan("");
+    ff.F(12, 13) = -0.01;
+    ff.F(13, 12) = -0.01 * ff.areas[12] / ff.areas[13];
+    ff.F(100, 101) = 1.5;
+    ff.standard_error = se;
+    const Diagnostics d = diagnose(ff);
+    // The definition, pair by pair.
+    double worst = 0.0, z_worst = 0.0, defect_sum = 0.0, exchange = 0.0;
+    std::size_t wi = 0, wj = 0, nonfinite = 0, negative = 0, above = 0;
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j) {
+            const double f = ff.F(i, j);
+            if (!std::isfinite(f)) {
+                ++nonfinite;
+                continue;
+            }
+            negative += f < 0.0;
+            above += f > 1.0;
+            const double a = ff.areas[std::size_t(i)] * f;
+            exchange += a;
+            const double g = ff.F(j, i);
+            if (j <= i || !std::isfinite(g)) continue;
+            const double b = ff.areas[std::size_t(j)] * g, diff = std::abs(a - b);
+            defect_sum += 2.0 * diff;
+            const double m = std::max(std::abs(a), std::abs(b));
+            const double defect = m > 0.0 ? diff / m : 0.0;
+            if (defect > worst) std::tie(worst, wi, wj) = std::tuple(defect, i, j);
+            const double si = ff.areas[std::size_t(i)] * se(i, j);
+            const double sj = ff.areas[std::size_t(j)] * se(j, i);
+            if (si > 0.0 && sj > 0.0) z_worst = std::max(z_worst, diff / std::hypot(si, sj));
+        }
+    CHECK(d.max_reciprocity_defect == 1.0);
+    CHECK(d.reciprocity_i == 2u);
+    CHECK(d.reciprocity_j == 149u);
+    CHECK(wi == d.reciprocity_i);
+    CHECK(wj == d.reciprocity_j);
+    CHECK(d.nonfinite_entries == nonfinite);
+    CHECK(d.negative_entries == negative);
+    CHECK(d.entries_above_one == above);
+    CHECK(d.reciprocity_area_weighted == doctest::Approx(defect_sum / exchange).epsilon(1e-12));
+    REQUIRE(d.has_z);
+    CHECK(d.z_max >= z_worst);
 }
 
 TEST_CASE("reciprocity: Monte-Carlo noise of the stated size is consistent with chance") {
