@@ -144,6 +144,21 @@ class Classifier {
         recurse(ta, 0, tb, 0, 0, pool_.size(), out);
     }
 
+    /// What the classification of the pair of groups (ta, tb) will cost, from its first levels:
+    /// it runs until node pairs hold at most `coarse` patch pairs, and adds up the node pairs
+    /// it tested and, for each node pair still partly hidden there, its patch pairs times one
+    /// plus its candidates (what the levels below test, and integrate later).
+    double estimate(int ta, int tb, std::size_t coarse) {
+        pool_.clear();
+        if (!root_candidates(trees_, blockers_, eps_, ta, tb, pool_)) return 0.0;
+        coarse_ = std::max<std::size_t>(coarse, 1);
+        undecided_ = 0.0;
+        PairOutput scratch;
+        recurse(ta, 0, tb, 0, 0, pool_.size(), scratch);
+        coarse_ = 0;
+        return double(scratch.node_pairs) + undecided_;
+    }
+
   private:
     const std::vector<ClusterTree>& trees_;
     const BlockerSet& blockers_;
@@ -151,6 +166,8 @@ class Classifier {
     const CancellationFlag& cancel_;
     bool record_visible_ = false;
     std::vector<int> pool_, kept_;
+    std::size_t coarse_ = 0;  // estimate(): the size of node pairs it stops at (0: classify)
+    double undecided_ = 0.0;
 
     void recurse(int ta, int a, int tb, int b, std::size_t first, std::size_t count,
                  PairOutput& out) {
@@ -180,6 +197,10 @@ class Classifier {
         if (cls == ShaftClass::kVisible) {
             out.visible_patch_pairs += pairs;
             if (record_visible_) out.visible.push_back({ta, a, tb, b});
+            return;
+        }
+        if (coarse_ > 0 && pairs <= coarse_) {
+            undecided_ += double(pairs) * (1.0 + double(kept_.size()));
             return;
         }
         if (leaves) {
@@ -352,15 +373,15 @@ void classify_tasks(const Obstructions& S, RowRange tasks, bool record_visible, 
 std::vector<std::size_t> classification_order(const Obstructions& S) {
     const std::vector<std::array<int, 2>> groups = task_groups(S);
     std::vector<double> cost(groups.size(), 0.0);
-    std::vector<int> pool;
+    // The first levels of each task's classification, down to about 256 node pairs: the patch
+    // pairs times the blocker pieces of the root shaft would rank alike all 15 pairs of walls of
+    // room-32, whose classifications take from 0.1 to 0.6 s.
+    Classifier c(S.trees, S.blockers, S.eps, current_cancellation());
     for (std::size_t k = 0; k < groups.size(); ++k) {
-        pool.clear();
-        if (!root_candidates(S.trees, S.blockers, S.eps, groups[k][0], groups[k][1], pool))
-            continue;
-        const double pairs =
-            double(S.trees[static_cast<std::size_t>(groups[k][0])].nodes[0].count) *
-            double(S.trees[static_cast<std::size_t>(groups[k][1])].nodes[0].count);
-        cost[k] = pairs * (1.0 + double(pool.size()));
+        const std::size_t pairs =
+            std::size_t(S.trees[static_cast<std::size_t>(groups[k][0])].nodes[0].count) *
+            std::size_t(S.trees[static_cast<std::size_t>(groups[k][1])].nodes[0].count);
+        cost[k] = c.estimate(groups[k][0], groups[k][1], pairs / 256);
     }
     std::vector<std::size_t> order(groups.size());
     std::iota(order.begin(), order.end(), std::size_t{0});

@@ -92,8 +92,8 @@ void prepare_blockers(const MethodContext& ctx, Obstructions& S);
 std::size_t classification_tasks(const Obstructions& S);
 void classify_tasks(const Obstructions& S, RowRange tasks, bool record_visible, int threads,
                     PairOutput* out);
-/// The tasks by their estimated cost, the largest first (the patch pairs of the two groups
-/// times one plus the blocker pieces in the shaft between them; ties in task order): a
+/// The tasks by their estimated cost, the largest first (ties in task order), from the first
+/// levels of each one's classification (node pairs of down to 1/256 of its patch pairs): a
 /// classification shared out task by task in this order ends with small tasks.
 std::vector<std::size_t> classification_order(const Obstructions& S);
 /// The outputs of tasks[0, count) (task indices) into out[0, count), as classify_tasks().
