@@ -121,13 +121,6 @@ void work_on_job(const std::vector<char>& bytes);
 
 // ---- Kept rows: their moves between ranks and their scatter (mpi_row_owners.cpp) ----
 
-// A block of kept rows that changes rank.
-struct Move {
-    RowRange rows;
-    std::int32_t from = 0, to = 0;
-};
-
-std::vector<Move> balancing_moves(Owners& owners, const std::map<std::size_t, double>& weights);
 std::string make_moves(const std::vector<Move>& moves);
 std::vector<char> moves_bytes(const std::vector<Move>& moves);
 std::vector<std::int32_t> gather_move_status(const std::string& failure);

@@ -15,44 +15,6 @@
 
 namespace formfactor::distributed {
 
-// The moves that even out the work of a product over the ranks: the rows follow the cost of
-// computing them, which may differ from a product's (rows, or stored entries) many times over.
-// While it helps, the busiest rank gives the least busy one its largest block that lowers the
-// larger of the two loads. Deterministic: the same blocks give the same moves.
-std::vector<Move> balancing_moves(Owners& owners, const std::map<std::size_t, double>& weights) {
-    const std::size_t ranks = owners.size();
-    std::vector<double> load(ranks, 0.0);
-    for (std::size_t r = 0; r < ranks; ++r)
-        for (const RowRange& b : owners[r]) load[r] += weights.at(b.begin);
-    std::vector<Move> moves;
-    for (std::size_t step = 0; step < weights.size(); ++step) {
-        const auto most = std::size_t(std::max_element(load.begin(), load.end()) - load.begin());
-        const auto least = std::size_t(std::min_element(load.begin(), load.end()) - load.begin());
-        const double gap = load[most] - load[least];
-        // A block of weight w < gap lowers max(load[most], load[least] + w).
-        std::optional<std::size_t> pick;
-        double best = 0.0;
-        for (std::size_t k = 0; k < owners[most].size(); ++k) {
-            const double w = weights.at(owners[most][k].begin);
-            if (w < gap && w > best) {
-                best = w;
-                pick = k;
-            }
-        }
-        if (!pick || best < 0.02 * load[most]) break;
-        const RowRange b = owners[most][*pick];
-        owners[most].erase(owners[most].begin() + std::ptrdiff_t(*pick));
-        owners[least].push_back(b);
-        load[most] -= best;
-        load[least] += best;
-        moves.push_back({b, std::int32_t(most), std::int32_t(least)});
-    }
-    for (auto& blocks : owners)
-        std::sort(blocks.begin(), blocks.end(),
-                  [](const RowRange& a, const RowRange& b) { return a.begin < b.begin; });
-    return moves;
-}
-
 namespace {
 
 void put_kept_block(WireWriter& w, const KeptBlock& b, std::size_t n) {
@@ -92,41 +54,65 @@ KeptBlock get_kept_block(WireReader& r, std::size_t n) {
 // the failure of this rank, or empty.
 std::string make_moves(const std::vector<Move>& moves) {
     KeptRows& kept = kept_rows();
-    try {
-        std::vector<std::vector<char>> sent;
-        std::vector<MPI_Request> requests;
-        sent.reserve(moves.size());
-        for (const Move& m : moves) {
-            if (m.from != g_rank) continue;
+    std::string failure;
+    auto fail = [&](std::string what) {
+        if (failure.empty()) failure = std::move(what);
+    };
+    // Every move is a message, even when this rank cannot send its block (an empty one then):
+    // its receiver must not wait for a block that will not come.
+    std::vector<std::vector<char>> sent;
+    std::vector<MPI_Request> requests;
+    sent.reserve(moves.size());
+    requests.reserve(moves.size());
+    for (const Move& m : moves) {
+        if (m.from != g_rank) continue;
+        sent.emplace_back();
+        try {
             const auto it =
                 std::find_if(kept.blocks.begin(), kept.blocks.end(),
                              [&](const KeptBlock& b) { return b.rows.begin == m.rows.begin; });
-            if (it == kept.blocks.end()) throw Error("distributed: a block to move is not here");
+            if (it == kept.blocks.end())
+                throw Error(fmt::format("distributed: the block of rows {}..{} to move is not here",
+                                        m.rows.begin, m.rows.end));
             WireWriter w;
             put_kept_block(w, *it, kept.n);
-            sent.push_back(std::move(w.bytes()));
+            sent.back() = std::move(w.bytes());
             kept.blocks.erase(it);
-            requests.emplace_back();
-            MPI_Isend(sent.back().data(), message_size(sent.back()), MPI_BYTE, m.to, kTagMove,
-                      g_comm, &requests.back());
+        } catch (const std::bad_alloc&) {
+            sent.back().clear();
+            fail(kOutOfMemory);
+        } catch (const std::exception& e) {
+            sent.back().clear();
+            fail(e.what());
         }
-        for (const Move& m : moves) {
-            if (m.to != g_rank) continue;
+        requests.emplace_back();
+        MPI_Isend(sent.back().data(), message_size(sent.back()), MPI_BYTE, m.to, kTagMove, g_comm,
+                  &requests.back());
+    }
+    // Every block this rank gets is received, after a failure too (so that no sender waits).
+    for (const Move& m : moves) {
+        if (m.to != g_rank) continue;
+        try {
             const std::vector<char> bytes = receive_bytes(wait_for(m.from, kTagMove, nullptr));
+            if (bytes.empty())
+                throw Error(
+                    fmt::format("distributed: rank {} could not send the block of rows "
+                                "{}..{}",
+                                m.from, m.rows.begin, m.rows.end));
+            if (!failure.empty()) continue;
             WireReader r(bytes.data(), bytes.size());
             kept.blocks.push_back(get_kept_block(r, kept.n));
+        } catch (const std::bad_alloc&) {
+            fail(kOutOfMemory);
+        } catch (const std::exception& e) {
+            fail(e.what());
         }
-        for (MPI_Request& q : requests)
-            complete(q, std::chrono::microseconds(20), std::chrono::microseconds(1000));
-        std::sort(
-            kept.blocks.begin(), kept.blocks.end(),
-            [](const KeptBlock& a, const KeptBlock& b) { return a.rows.begin < b.rows.begin; });
-        return {};
-    } catch (const std::bad_alloc&) {
-        return kOutOfMemory;
-    } catch (const std::exception& e) {
-        return e.what();
     }
+    for (MPI_Request& q : requests)
+        complete(q, std::chrono::microseconds(20), std::chrono::microseconds(1000));
+    std::sort(kept.blocks.begin(), kept.blocks.end(),
+              [](const KeptBlock& a, const KeptBlock& b) { return a.rows.begin < b.rows.begin; });
+    return failure;
 }
 
 std::vector<char> moves_bytes(const std::vector<Move>& moves) {

@@ -11,6 +11,7 @@
 #include <cstring>
 #include <limits>
 #include <new>
+#include <optional>
 
 #include "formfactor/core/cancel.h"
 #include "formfactor/core/error.h"
@@ -467,6 +468,54 @@ SolverStats solve_rows_here(const DistributedRows& rows, const Columns& d, const
         if (e.state.status == RankStatus::cancelled) throw Cancelled();
         throw Error(e.own_message);
     }
+}
+
+// The rows follow the cost of computing them, which may differ from a product's (rows, or stored
+// entries) many times over. While it helps, the busiest rank gives the least busy one its
+// largest block that lowers the larger of the two loads. Deterministic: the same blocks give
+// the same moves.
+std::vector<Move> balancing_moves(Owners& owners, const std::map<std::size_t, double>& weights) {
+    const std::size_t ranks = owners.size();
+    std::vector<double> load(ranks, 0.0);
+    for (std::size_t r = 0; r < ranks; ++r)
+        for (const RowRange& b : owners[r]) load[r] += weights.at(b.begin);
+    std::vector<Move> moves;
+    for (std::size_t step = 0; step < weights.size(); ++step) {
+        const auto most = std::size_t(std::max_element(load.begin(), load.end()) - load.begin());
+        const auto least = std::size_t(std::min_element(load.begin(), load.end()) - load.begin());
+        const double gap = load[most] - load[least];
+        // A block of weight w < gap lowers max(load[most], load[least] + w).
+        std::optional<std::size_t> pick;
+        double best = 0.0;
+        for (std::size_t k = 0; k < owners[most].size(); ++k) {
+            const double w = weights.at(owners[most][k].begin);
+            if (w < gap && w > best) {
+                best = w;
+                pick = k;
+            }
+        }
+        if (!pick || best < 0.02 * load[most]) break;
+        const RowRange b = owners[most][*pick];
+        owners[most].erase(owners[most].begin() + std::ptrdiff_t(*pick));
+        owners[least].push_back(b);
+        load[most] -= best;
+        load[least] += best;
+        // A block that moved already goes on from its first rank: make_moves() sends only
+        // what a rank holds before the moves (a chain 1 → 2 → 0 left rank 2 sending a block
+        // it had not received, and ranks 0 and 1 waiting for it).
+        const auto moved = std::find_if(moves.begin(), moves.end(),
+                                        [&](const Move& m) { return m.rows.begin == b.begin; });
+        if (moved == moves.end())
+            moves.push_back({b, std::int32_t(most), std::int32_t(least)});
+        else if (moved->from == std::int32_t(least))
+            moves.erase(moved);  // back where it was
+        else
+            moved->to = std::int32_t(least);
+    }
+    for (auto& blocks : owners)
+        std::sort(blocks.begin(), blocks.end(),
+                  [](const RowRange& a, const RowRange& b) { return a.begin < b.begin; });
+    return moves;
 }
 
 }  // namespace formfactor::distributed

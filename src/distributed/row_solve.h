@@ -16,6 +16,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -70,6 +71,17 @@ std::size_t kept_entries(const KeptBlock& block, std::size_t n, bool sparse);
 
 /// The row blocks of every rank (ascending within a rank).
 using Owners = std::vector<std::vector<RowRange>>;
+
+/// A block of kept rows that changes rank.
+struct Move {
+    RowRange rows;
+    std::int32_t from = 0, to = 0;
+};
+
+/// The moves that even out the work of a product over the ranks (weights: per block, by its
+/// first row), applied to `owners`. Each block moves at most once, from the rank that holds
+/// it: a rank gives only blocks it has before the moves.
+std::vector<Move> balancing_moves(Owners& owners, const std::map<std::size_t, double>& weights);
 
 /// How a rank is doing as an iteration's vector is exchanged.
 enum class RankStatus : int { fine = 0, cancelled = 1, failed = 2 };
