@@ -64,6 +64,19 @@ def test_hierarchical_operator_over_a_communicator_equals_one_process(ranks):
                 "thermal gmres, errors") in done.stdout, done.stdout
 
 
+@pytest.mark.parametrize("ranks", [2, 3])
+def test_a_rank_failing_in_a_product_on_the_operator_raises_on_every_rank(ranks):
+    failing = ranks - 1
+    done = subprocess.run(_mpirun() + ["-x", "FORMFACTOR_TEST_FAIL_SOLVE_RANK", "-np", str(ranks),
+                                        sys.executable,
+                                        os.path.join(HERE, "mpi_hierarchical_failure.py")],
+                          capture_output=True, text=True, timeout=300,
+                          env=dict(os.environ, FORMFACTOR_TEST_FAIL_SOLVE_RANK=str(failing)))
+    assert done.returncode == 0, done.stdout + done.stderr
+    for rank in range(ranks):
+        assert f"rank {rank}: the failure of rank {failing} raised" in done.stdout, done.stdout
+
+
 def test_hierarchical_over_one_rank_equals_the_operator_alone():
     pytest.importorskip("mpi4py")
     if not formfactor._core.built_with_mpi:
