@@ -688,6 +688,8 @@ py::dict hierarchical_stats(const HierarchicalStats& st) {
 /// its size, areas, row sums, stats and id.
 PyHierarchical spread_operator(const PyScene& s, const HierarchicalOptions& o,
                                const py::object& progress, const py::object& comm) {
+    // Bad options: the OptionError of one process, on every rank before any message.
+    check_hierarchical_options(o);
     const py::object sent = on_every_rank(comm, [&]() -> py::object {
         const distributed::DistributedHierarchical H = run_released(
             [&](CancellationFlag&, ProgressSink* sink) {

@@ -95,6 +95,12 @@ for comm_arg, message in [(None, "pass that communicator"), (comm.Dup(), "not th
     if comm_arg is not None:
         comm_arg.Free()
 try:
+    scene.hierarchical(0.0, comm=comm)
+except formfactor.OptionError as e:
+    assert str(e).startswith("tolerance: "), str(e)
+else:
+    raise AssertionError("tolerance 0 was accepted")
+try:
     formfactor.load("room-2-obstruction").hierarchical(comm=comm)
 except formfactor.Error as e:
     assert "obstruction" in str(e), str(e)
