@@ -13,6 +13,7 @@
 #include <random>
 
 #include "formfactor/core/error.h"
+#include "formfactor/distributed/distributed.h"
 #include "formfactor/matrix/memory.h"
 #include "formfactor/methods/hierarchical_build.h"
 #include "formfactor/pipeline.h"
@@ -337,6 +338,45 @@ TEST_CASE("hierarchical: per-surface factors from the operator") {
     for (std::size_t r = 0; r < g; ++r) E.row(static_cast<Eigen::Index>(r)) /= ag[r];
     CHECK((G - E).cwiseAbs().maxCoeff() <= 1e-6);
     CHECK_THROWS_AS(H.per_group(std::vector<int>(3, 0), 1), Error);
+}
+
+TEST_CASE("hierarchical: to_dense of an operator held elsewhere is to_dense's, from its products") {
+    const Scene s = room_scene(8, RoomBox::kNone);
+    HierarchicalOptions o;
+    o.leaf_size = 8;
+    const HierarchicalFormFactors H = build_hierarchical(s, o);
+    std::size_t products = 0;
+    const DenseMatrix D = HierarchicalFormFactors::to_dense(
+        H.size(), [&](const Eigen::MatrixXd& X, Eigen::MatrixXd& Y) {
+            ++products;
+            H.multiply(X, Y);
+        });
+    CHECK(D == H.to_dense());
+    CHECK(products == (H.size() + 63) / 64);
+}
+
+TEST_CASE("hierarchical: the product of the operator kept for the ranks is multiply()'s") {
+    // One process (no mpirun): distributed::build_hierarchical() keeps the whole operator here.
+    const Scene s = room_scene(8, RoomBox::kNone);
+    HierarchicalOptions o;
+    o.leaf_size = 8;
+    o.threads = 1;
+    const distributed::DistributedHierarchical kept = distributed::build_hierarchical(s, o);
+    const HierarchicalFormFactors H = build_hierarchical(s, o);
+    const auto n = static_cast<Eigen::Index>(H.size());
+    const Eigen::MatrixXd X = Eigen::MatrixXd::Random(n, 3);
+    Eigen::MatrixXd Y1, Y2;
+    distributed::multiply(kept, X, Y1, 2);
+    H.multiply(X, Y2, 1);
+    CHECK(Y1 == Y2);
+    CHECK_THROWS_WITH_AS(distributed::multiply(kept, Eigen::MatrixXd::Ones(3, 1), Y1),
+                         doctest::Contains("X has 3 rows"), Error);
+    // A later build replaces it.
+    const distributed::DistributedHierarchical later = distributed::build_hierarchical(s, o);
+    CHECK_THROWS_WITH_AS(distributed::multiply(kept, X, Y1),
+                         doctest::Contains("replaced by a later build"), Error);
+    distributed::multiply(later, X, Y1);
+    CHECK(Y1 == Y2);
 }
 
 TEST_CASE("hierarchical: obstructed scenes and bad options are refused") {

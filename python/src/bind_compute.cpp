@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <exception>
 #include <type_traits>
 
 #include "bindings.h"
@@ -29,6 +30,36 @@ void open_communicator(const py::object& comm, std::optional<distributed::Commun
 
 void serve_rank0() {
     run_released([](CancellationFlag&, ProgressSink*) { return distributed::serve(); }, py::none());
+}
+
+py::object on_every_rank(const py::object& comm, const std::function<py::object()>& work) {
+    py::object value = py::none();
+    std::exception_ptr failure;
+    std::string message;
+    bool rank0 = false;
+    {
+        std::optional<distributed::Communicator> scope;
+        open_communicator(comm, scope);
+        rank0 = distributed::rank() == 0;
+        try {
+            if (rank0)
+                value = work();
+            else
+                serve_rank0();
+        } catch (const std::exception& e) {
+            failure = std::current_exception();
+            message = e.what();
+        }
+    }
+    // The scope has ended (no rank serves any more): rank 0's outcome to every rank.
+    const py::object sent = comm.attr("bcast")(
+        rank0 ? py::object(py::make_tuple(failure != nullptr, message, value)) : py::none(),
+        py::arg("root") = 0);
+    // Rank 0's failure as it was; a rank's own (an interruption while it served) likewise.
+    if (failure) std::rethrow_exception(failure);
+    const auto outcome = sent.cast<py::tuple>();
+    if (outcome[0].cast<bool>()) throw Error(outcome[1].cast<std::string>());
+    return outcome[2];
 }
 
 namespace {

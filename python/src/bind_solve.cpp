@@ -165,9 +165,11 @@ const Keyword<SolveArgs> kSolveRadiosityKeywords[] = {
      "rank calls with the same arguments; only rank 0's F is read (the others may pass None). "
      "With ``gauss-seidel``, ``gmres`` or ``jacobi`` on a matrix, rank 0 sends each rank a block "
      "of rows of F and every rank iterates on its own rows: jacobi and gmres give the one "
-     "process's result bit for bit, gauss-seidel one within ``residual`` of it. Other solvers and "
-     "the operator run on rank 0 alone. Rank 0 gets the result, the others None "
-     "(docs/cluster.md).",
+     "process's result bit for bit, gauss-seidel one within ``residual`` of it. An operator "
+     "built with ``comm=`` (Scene.hierarchical) must be given this communicator and is solved "
+     "over its ranks (gmres or jacobi), bit for bit the one process's; other solvers and an "
+     "operator built without ``comm=`` run on rank 0 alone. Rank 0 gets the result, the others "
+     "None (docs/cluster.md).",
      nullptr},
 };
 
@@ -328,12 +330,27 @@ bool distributes(const SolverOptions& o) {
 }
 
 /// The hierarchical operator passed as F, or null; checked against the scene.
-const HierarchicalFormFactors* operator_of(const PyScene& s, const py::object& F) {
+const PyHierarchical* operator_of(const PyScene& s, const py::object& F) {
     if (!py::isinstance<PyHierarchical>(F)) return nullptr;
     const PyHierarchical& h = F.cast<const PyHierarchical&>();
-    if (h.op->size() != s.scene->patches.size())
+    if (h.size() != s.scene->patches.size())
         throw OptionError("F", "is the operator of another scene (sizes differ)");
-    return h.op.get();
+    return &h;
+}
+
+/// An operator spread over the ranks of a communicator is solved over those ranks: comm= must
+/// be that communicator. Checked on every rank before any message, so every rank raises alike.
+void check_operator_comm(const py::object& F, const py::object& comm) {
+    if (!py::isinstance<PyHierarchical>(F)) return;
+    const PyHierarchical& h = F.cast<const PyHierarchical&>();
+    if (!h.spread) return;
+    if (comm.is_none())
+        throw OptionError(
+            "comm",
+            "F is an operator built over a communicator (Scene.hierarchical(comm=...)): "
+            "pass that communicator as comm=");
+    if (py::hasattr(comm, "py2f") && !comm.attr("py2f")().equal(h.comm.attr("py2f")()))
+        throw OptionError("comm", "is not the communicator F was built over");
 }
 
 /// What solve_radiosity() and solve_thermal() begin with: the communicator opened for the call
@@ -346,16 +363,20 @@ class SolveInput {
     SolveInput(const py::object& scene_arg_value, const py::object& F,
                const py::object& comm_arg_value)
         : scene(scene_arg(scene_arg_value)) {
+        check_operator_comm(F, comm_arg_value);
         open_communicator(comm_arg_value, comm_);
         if (comm_ && distributed::rank() != 0) {
             serve_rank0();
             return;
         }
         rank0_ = true;
-        op_ = operator_of(scene, F);
-        sparse_ = op_ ? std::nullopt : sparse_of(scene, F);
-        if (!op_ && !sparse_) dense_ = form_factors_of(scene, F);
-        n = op_ ? op_->size() : sparse_ ? sparse_->n : dense_.size();
+        if (const PyHierarchical* h = operator_of(scene, F)) {
+            op_ = h->op.get();
+            spread_ = h->spread.get();
+        }
+        sparse_ = op_ || spread_ ? std::nullopt : sparse_of(scene, F);
+        if (!op_ && !spread_ && !sparse_) dense_ = form_factors_of(scene, F);
+        n = op_ ? op_->size() : spread_ ? spread_->n : sparse_ ? sparse_->n : dense_.size();
     }
     SolveInput(const SolveInput&) = delete;
     SolveInput& operator=(const SolveInput&) = delete;
@@ -365,14 +386,15 @@ class SolveInput {
 
     /// How the F given is held.
     Storage storage() const {
-        return op_ ? Storage::hierarchical : sparse_ ? Storage::sparse : Storage::dense;
+        return op_ || spread_ ? Storage::hierarchical : sparse_ ? Storage::sparse : Storage::dense;
     }
 
     /// The pipeline's solve of `o` on the F given, or with F's rows spread over the
     /// communicator's ranks when there is one and the solver iterates on a matrix
-    /// (distributes()).
+    /// (distributes()), or over the ranks that hold an operator spread over them.
     SolveResult solve(const PatchProperties& props, const SolveOptions& o) const {
         const Scene& s = *scene.scene;
+        if (spread_) return distributed::solve(s, *spread_, props, o);
         if (comm_ && !op_ && distributes(o.solver))
             return distributed::solve(s,
                                       sparse_ ? distributed::distribute_rows(*sparse_)
@@ -395,6 +417,7 @@ class SolveInput {
     std::optional<distributed::Communicator> comm_;
     bool rank0_ = false;
     const HierarchicalFormFactors* op_ = nullptr;
+    const distributed::DistributedHierarchical* spread_ = nullptr;
     std::optional<SparseFormFactors> sparse_;
     FormFactors dense_;
 };
@@ -542,22 +565,51 @@ py::array_t<double> exchange_factors_call(const NoOptions&, const std::vector<py
 
 }  // namespace
 
+/// `make(product)` on rank 0 of an operator spread over the ranks of its communicator, with
+/// `product` F X over the ranks, the GIL released; its result on every rank (on_every_rank()).
+Eigen::MatrixXd on_ranks(
+    const PyHierarchical& h, int threads,
+    const std::function<Eigen::MatrixXd(const HierarchicalFormFactors::Product&)>& make) {
+    const py::object got = on_every_rank(h.comm, [&]() -> py::object {
+        const Eigen::MatrixXd M = run_released([&](CancellationFlag&, ProgressSink*) {
+            return make([&](const Eigen::MatrixXd& X, Eigen::MatrixXd& Y) {
+                distributed::multiply(*h.spread, X, Y, threads);
+            });
+        });
+        // Column-major: (columns, rows) in C order.
+        py::array_t<double> out({M.cols(), M.rows()});
+        std::copy(M.data(), M.data() + M.size(), out.mutable_data());
+        return out;
+    });
+    const auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(got);
+    FF_ASSERT(a && a.ndim() == 2);
+    return Eigen::Map<const Eigen::MatrixXd>(a.data(), a.shape(1), a.shape(0));
+}
+
 /// F x for x of shape (N,) or (N, k); `adjoint`: Fᵀ x, which reciprocity makes A ∘ F (x / A).
+/// An operator spread over ranks: every rank calls with the same x (rank 0's is used) and gets
+/// the product.
 py::array_t<double> product(const PyHierarchical& h, const py::object& x, int threads,
                             bool adjoint) {
     const auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(x);
-    const auto n = static_cast<py::ssize_t>(h.op->size());
+    const auto n = static_cast<py::ssize_t>(h.size());
     if (!a || (a.ndim() != 1 && a.ndim() != 2) || a.shape(0) != n)
         throw OptionError("x", fmt::format("must have shape ({0},) or ({0}, k)", n));
     const Eigen::Index k = a.ndim() == 1 ? 1 : a.shape(1);
-    const std::vector<double>& areas = h.op->areas();
+    const std::vector<double>& areas = h.areas();
     Eigen::MatrixXd X(n, k), Y;
     for (Eigen::Index i = 0; i < n; ++i)
         for (Eigen::Index c = 0; c < k; ++c)
             X(i, c) = adjoint ? a.data()[i * k + c] / areas[static_cast<std::size_t>(i)]
                               : a.data()[i * k + c];
     if (!X.allFinite()) throw OptionError("x", "has values that are not finite");
-    {
+    if (h.spread) {
+        Y = on_ranks(h, threads, [&](const HierarchicalFormFactors::Product& p) {
+            Eigen::MatrixXd out;
+            p(X, out);
+            return out;
+        });
+    } else {
         py::gil_scoped_release nogil;
         h.op->multiply(X, Y, threads);
     }
@@ -586,6 +638,17 @@ const Keyword<HierarchicalOptions> kHierarchicalKeywords[] = {
     {"threads", "int", "0", "worker threads (0: all cores).",
      [](const py::object& v, HierarchicalOptions& o) { o.threads = arg<int>(v, "threads"); }},
     {"progress", "_Progress", "None", kProgressDoc, nullptr},
+    {"comm", "Optional[Any]", "None",
+     "an mpi4py communicator (``MPI.COMM_WORLD``) to build the operator over its ranks under "
+     "mpirun: every rank calls with the same arguments and gets the operator, whose blocks stay "
+     "spread over the ranks (each rank computes a share and holds a run of them). Its products "
+     "(``op @ x``, ``matvec``, the products of ``as_linear_operator()``, ``per_surface``, "
+     "``to_dense``) are then calls that every rank makes together with the same arguments (rank "
+     "0's x is used), and every rank gets the result, bit for bit the one process's. Solve it "
+     "with ``solve_radiosity(scene, op, comm=comm)`` or ``solve_thermal`` (the same "
+     "communicator; rank 0 gets the result, the others None). A process holds one operator over "
+     "ranks at a time: a later build replaces it (docs/cluster.md).",
+     nullptr},
 };
 
 const Signature<HierarchicalOptions> kHierarchical{
@@ -594,7 +657,8 @@ const Signature<HierarchicalOptions> kHierarchical{
     "obstructions (closed rooms, furnaces, convex cavities): far cluster pairs as low-rank blocks, "
     "near ones exact, F never formed (docs/hierarchical.md). Pass it as F to solve_radiosity and "
     "solve_thermal (GMRES by default), apply it with ``op @ x``, or use "
-    "``op.as_linear_operator()`` with SciPy. Raises Error for a scene with obstructions.",
+    "``op.as_linear_operator()`` with SciPy. Raises Error for a scene with obstructions. With "
+    "``comm=`` the build and every product run over the communicator's ranks.",
     kHierarchicalKeywords};
 
 py::dict hierarchical_stats(const HierarchicalStats& st) {
@@ -619,6 +683,45 @@ py::dict hierarchical_stats(const HierarchicalStats& st) {
     return d;
 }
 
+/// Scene.hierarchical(comm=...): the operator built over the ranks of `comm`, on every rank.
+/// Rank 0 builds (the others serve it) and sends every rank what the operator is to Python:
+/// its size, areas, row sums, stats and id.
+PyHierarchical spread_operator(const PyScene& s, const HierarchicalOptions& o,
+                               const py::object& progress, const py::object& comm) {
+    // Bad options: the OptionError of one process, on every rank before any message.
+    check_hierarchical_options(o);
+    const py::object sent = on_every_rank(comm, [&]() -> py::object {
+        const distributed::DistributedHierarchical H = run_released(
+            [&](CancellationFlag&, ProgressSink* sink) {
+                HierarchicalOptions run = o;
+                run.progress = sink;
+                return distributed::build_hierarchical(*s.scene, run);
+            },
+            progress);
+        // And what the ranks did, under the names of the CLI report's details.mpi.
+        py::dict st = hierarchical_stats(H.stats);
+        st["ranks"] = comm.attr("Get_size")();
+        st["blocks_computed_per_rank"] = H.blocks_built;
+        st["busy_seconds_per_rank"] = H.build_seconds;
+        st["blocks_held_per_rank"] = H.blocks_held;
+        st["chunks_held_per_rank"] = H.chunks_held;
+        st["moved_bytes"] = H.moved_bytes;
+        return py::make_tuple(H.n, H.id, array_of(H.areas), array_of(H.row_sums), st);
+    });
+    const auto t = sent.cast<py::tuple>();
+    auto H = std::make_shared<distributed::DistributedHierarchical>();
+    H->n = t[0].cast<std::size_t>();
+    H->id = t[1].cast<std::uint64_t>();
+    H->areas = t[2].cast<std::vector<double>>();
+    H->row_sums = t[3].cast<std::vector<double>>();
+    if (H->n != s.scene->patches.size())
+        throw Error("Scene.hierarchical: rank 0's scene has another number of patches");
+    PyHierarchical out{s.scene, nullptr, std::move(H)};
+    out.comm = comm;
+    out.spread_stats = t[4];
+    return out;
+}
+
 void bind_hierarchical(py::module_& m) {
     py::class_<PyHierarchical>(m, "HierarchicalOperator", R"doc(
 The hierarchical (H-matrix) form-factor operator of a scene without obstructions: F applied to
@@ -627,14 +730,21 @@ vectors without forming it (docs/hierarchical.md). ``op @ x`` or ``op.matvec(x)`
 ``as_linear_operator()`` gives a scipy.sparse.linalg.LinearOperator.
 )doc")
         .def_property_readonly(
-            "shape",
-            [](const PyHierarchical& h) { return py::make_tuple(h.op->size(), h.op->size()); })
+            "shape", [](const PyHierarchical& h) { return py::make_tuple(h.size(), h.size()); })
         .def_property_readonly(
-            "areas", [](const PyHierarchical& h) { return array_of(h.op->areas()); },
+            "areas", [](const PyHierarchical& h) { return array_of(h.areas()); },
             "Patch areas (N,)")
         .def_property_readonly(
-            "stats", [](const PyHierarchical& h) { return hierarchical_stats(h.op->stats()); },
-            "What the build made: blocks by kind, ranks, entries computed, bytes, seconds")
+            "stats",
+            [](const PyHierarchical& h) -> py::dict {
+                if (h.spread) return py::dict(h.spread_stats.attr("copy")());
+                return hierarchical_stats(h.op->stats());
+            },
+            "What the build made: blocks by kind, ranks, entries computed, bytes, seconds (built "
+            "over ranks: the whole operator's, and what each rank computed and holds)")
+        .def_property_readonly(
+            "comm", [](const PyHierarchical& h) { return h.comm; },
+            "The mpi4py communicator the operator is spread over (None: whole in this process)")
         .def(
             "matvec",
             [](const PyHierarchical& h, const py::object& x, const py::object& threads) {
@@ -654,7 +764,7 @@ vectors without forming it (docs/hierarchical.md). ``op @ x`` or ``op.matvec(x)`
                     [h](const py::object& x) { return product(h, x, 0, false); });
                 const py::cpp_function rmatvec(
                     [h](const py::object& y) { return product(h, y, 0, true); });
-                const auto n = h.op->size();
+                const auto n = h.size();
                 return linear_operator(
                     py::make_tuple(n, n), py::arg("matvec") = matvec, py::arg("rmatvec") = rmatvec,
                     py::arg("matmat") = matvec,
@@ -666,6 +776,8 @@ vectors without forming it (docs/hierarchical.md). ``op @ x`` or ``op.matvec(x)`
             "row_sums",
             [](const PyHierarchical& h, const py::object& threads_arg) {
                 const int threads = arg<int>(threads_arg, "threads");
+                // Over ranks: made by the build (a product with ones over the ranks).
+                if (h.spread) return array_of(h.spread->row_sums);
                 std::vector<double> r;
                 {
                     py::gil_scoped_release nogil;
@@ -682,7 +794,12 @@ vectors without forming it (docs/hierarchical.md). ``op @ x`` or ``op.matvec(x)`
                 for (const Patch& p : h.scene->patches) group.push_back(p.surface);
                 const std::size_t g = h.scene->surfaces.size();
                 DenseMatrix G;
-                {
+                if (h.spread) {
+                    G = on_ranks(h, threads, [&](const HierarchicalFormFactors::Product& p) {
+                        return Eigen::MatrixXd(
+                            HierarchicalFormFactors::per_group(h.spread->areas, group, g, p));
+                    });
+                } else {
                     py::gil_scoped_release nogil;
                     G = h.op->per_group(group, g, threads);
                 }
@@ -697,11 +814,15 @@ vectors without forming it (docs/hierarchical.md). ``op @ x`` or ``op.matvec(x)`
             [](const PyHierarchical& h, const py::object& threads_arg) {
                 const int threads = arg<int>(threads_arg, "threads");
                 DenseMatrix F;
-                {
+                if (h.spread) {
+                    F = on_ranks(h, threads, [&](const HierarchicalFormFactors::Product& p) {
+                        return Eigen::MatrixXd(HierarchicalFormFactors::to_dense(h.size(), p));
+                    });
+                } else {
                     py::gil_scoped_release nogil;
                     F = h.op->to_dense(threads);
                 }
-                const std::size_t n = h.op->size();
+                const std::size_t n = h.size();
                 py::array_t<double> out({n, n});
                 std::copy(F.data(), F.data() + F.size(), out.mutable_data());
                 return out;
@@ -712,15 +833,20 @@ vectors without forming it (docs/hierarchical.md). ``op @ x`` or ``op.matvec(x)`
         scene, kHierarchical,
         [](const py::object& self, HierarchicalOptions& o, const std::vector<py::object>& values) {
             const PyScene& s = self.cast<const PyScene&>();
-            auto op = run_released(
-                [&](CancellationFlag&, ProgressSink* sink) {
-                    HierarchicalOptions run = o;
-                    run.progress = sink;
-                    return std::make_shared<const HierarchicalFormFactors>(
-                        compute_hierarchical_operator(*s.scene, run));
-                },
-                value_of(kHierarchical, values, "progress"));
-            return PyHierarchical{s.scene, std::move(op)};
+            const py::object progress = value_of(kHierarchical, values, "progress");
+            const py::object comm = value_of(kHierarchical, values, "comm");
+            if (comm.is_none()) {
+                auto op = run_released(
+                    [&](CancellationFlag&, ProgressSink* sink) {
+                        HierarchicalOptions run = o;
+                        run.progress = sink;
+                        return std::make_shared<const HierarchicalFormFactors>(
+                            compute_hierarchical_operator(*s.scene, run));
+                    },
+                    progress);
+                return PyHierarchical{s.scene, std::move(op), nullptr};
+            }
+            return spread_operator(s, o, progress, comm);
         });
 }
 

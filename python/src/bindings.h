@@ -8,6 +8,7 @@
 #include <pybind11/stl.h>
 
 #include <chrono>
+#include <functional>
 #include <future>
 #include <memory>
 #include <mutex>
@@ -46,11 +47,31 @@ struct PyResult {
     mutable std::optional<std::string> report_json;
 };
 
-/// The hierarchical operator of a scene (formfactor/matrix/hierarchical.h).
+/// The hierarchical operator of a scene (formfactor/matrix/hierarchical.h): whole in this
+/// process, or spread over the ranks of an mpi4py communicator (Scene.hierarchical(comm=...)).
 struct PyHierarchical {
     std::shared_ptr<const Scene> scene;
+    /// The whole operator; null when it is spread over ranks.
     std::shared_ptr<const HierarchicalFormFactors> op;
+    /// Spread over the ranks of `comm`: the operator as rank 0 knows it (on the other ranks its
+    /// size, areas, row sums and id, as rank 0 sent them); its blocks stay on their ranks until
+    /// the next build over ranks in this process. Null when whole.
+    std::shared_ptr<const distributed::DistributedHierarchical> spread;
+    /// The mpi4py communicator of a spread operator (None when whole), and the whole
+    /// operator's stats as rank 0 made them (a dict).
+    py::object comm = py::none();
+    py::object spread_stats = py::none();
+
+    std::size_t size() const { return op ? op->size() : spread->n; }
+    const std::vector<double>& areas() const { return op ? op->areas() : spread->areas; }
 };
+
+/// Every rank of the mpi4py communicator `comm` calls together: rank 0 runs `work` while the
+/// other ranks serve it (serve_rank0()), then rank 0's outcome goes to every rank. Its value (a
+/// picklable Python object) is returned on every rank; its error is raised on rank 0 as it was
+/// and on the others as an Error with its message. `comm` that is not a communicator: the
+/// OptionError of open_communicator() on every rank, before any message.
+py::object on_every_rank(const py::object& comm, const std::function<py::object()>& work);
 
 /// `value` as a T, or an OptionError naming the keyword (a string for samples=, say, must not
 /// surface as pybind11's "Unable to cast"). Every keyword of the module is checked here, so that

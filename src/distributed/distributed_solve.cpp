@@ -169,4 +169,12 @@ SurfaceFormFactors<FormFactors> per_surface(const Scene& scene, const Distribute
     });
 }
 
+void multiply(const DistributedHierarchical& op, const Eigen::MatrixXd& X, Eigen::MatrixXd& Y,
+              int threads) {
+    if (static_cast<std::size_t>(X.rows()) != op.n)
+        throw Error(
+            fmt::format("multiply: X has {} rows, the operator {} patches", X.rows(), op.n));
+    multiply_operator(op, X, threads, Y);
+}
+
 }  // namespace formfactor::distributed

@@ -38,7 +38,9 @@ std::uint64_t& kept_operator_id() {
 void check_kept_operator(const DistributedHierarchical& op) {
     if (op.id == 0 || op.id != kept_operator_id() || !kept_operator() ||
         kept_operator()->size() != op.n)
-        throw Error("solve: the hierarchical operator was replaced by a later build");
+        throw Error(
+            "the hierarchical operator over the ranks was replaced by a later build (a process "
+            "holds one at a time)");
 }
 
 std::string injected_product_failure(int rank) {

@@ -499,6 +499,8 @@ void work_on_operator_product(const std::vector<char>& bytes) {
 
 DistributedHierarchical build_hierarchical(const Scene& scene, const HierarchicalOptions& options) {
     if (g_size <= 1 || g_rank != 0) return build_operator_here(scene, options);
+    // Bad options as one process reports them (an OptionError), before any rank starts.
+    check_hierarchical_options(options);
     const CancellationScope scope(process_cancellation());
     const std::uint64_t id = ++kept_operator_id();
     broadcast_command(kCommandOperator, hierarchical_job_bytes(id, options, scene));

@@ -150,7 +150,12 @@ std::vector<double> HierarchicalFormFactors::row_sums(int threads) const {
 }
 
 DenseMatrix HierarchicalFormFactors::to_dense(int threads) const {
-    const auto n = static_cast<Eigen::Index>(size());
+    return to_dense(size(),
+                    [&](const Eigen::MatrixXd& X, Eigen::MatrixXd& Y) { multiply(X, Y, threads); });
+}
+
+DenseMatrix HierarchicalFormFactors::to_dense(std::size_t patches, const Product& product) {
+    const auto n = static_cast<Eigen::Index>(patches);
     DenseMatrix F(n, n);
     // Column blocks of the identity, a few at a time.
     constexpr Eigen::Index kCols = 64;
@@ -158,7 +163,7 @@ DenseMatrix HierarchicalFormFactors::to_dense(int threads) const {
         const Eigen::Index w = std::min(kCols, n - c0);
         Eigen::MatrixXd X = Eigen::MatrixXd::Zero(n, w), Y;
         for (Eigen::Index j = 0; j < w; ++j) X(c0 + j, j) = 1.0;
-        multiply(X, Y, threads);
+        product(X, Y);
         F.middleCols(c0, w) = Y;
     }
     return F;

@@ -533,12 +533,7 @@ bool fill_low_rank(const Builder& b, Block& blk, double tol, std::size_t& comput
 }
 
 void check(const Scene& scene, const HierarchicalOptions& options) {
-    if (!(options.tolerance > 0.0 && options.tolerance <= 0.1))
-        throw OptionError("tolerance", "the hierarchical error target must be in (0, 0.1]");
-    if (!(options.eta > 0.0) || !std::isfinite(options.eta))
-        throw OptionError("eta", "must be a positive number");
-    if (options.leaf_size < 1 || options.leaf_size > 4096)
-        throw OptionError("leaf_size", "must be between 1 and 4096");
+    check_hierarchical_options(options);
     const std::size_t n = scene.patches.size();
     if (n == 0) throw Error("hierarchical: the scene has no patches");
     if (n >= (1ull << 31)) throw Error("hierarchical: more than 2^31 patches");
@@ -648,6 +643,15 @@ void count_work(const std::vector<std::size_t>& computed, const std::vector<char
 }
 
 }  // namespace
+
+void check_hierarchical_options(const HierarchicalOptions& options) {
+    if (!(options.tolerance > 0.0 && options.tolerance <= 0.1))
+        throw OptionError("tolerance", "the hierarchical error target must be in (0, 0.1]");
+    if (!(options.eta > 0.0) || !std::isfinite(options.eta))
+        throw OptionError("eta", "must be a positive number");
+    if (options.leaf_size < 1 || options.leaf_size > 4096)
+        throw OptionError("leaf_size", "must be between 1 and 4096");
+}
 
 bool hierarchical_accepts(const Scene& scene) { return !may_obstruct(scene, kNearlyInPlane); }
 

@@ -232,4 +232,14 @@ SolveResult solve(const Scene& scene, const DistributedHierarchical& op,
 SurfaceFormFactors<FormFactors> per_surface(const Scene& scene, const DistributedHierarchical& op,
                                             int threads = 0);
 
+/// Y = F X (X n × k, one column per vector) with the operator spread over the ranks, called on
+/// rank 0 (the others in serve()): X is sent to every rank, and each rank's chunks are added to
+/// the running sums in chunk order as for a solve, so Y is HierarchicalFormFactors::multiply()'s
+/// on one process bit for bit, for any number of ranks and threads. Error when `op` is not the
+/// operator of this process's last build_hierarchical(); a failure (or an interruption) on any
+/// rank ends every rank's part, and rank 0 throws it ("rank K: ..."). On one rank: this
+/// process's product.
+void multiply(const DistributedHierarchical& op, const Eigen::MatrixXd& X, Eigen::MatrixXd& Y,
+              int threads = 0);
+
 }  // namespace formfactor::distributed

@@ -128,6 +128,10 @@ class HierarchicalFormFactors {
     static DenseMatrix per_group(const std::vector<double>& areas,
                                  const std::vector<int>& group_of_patch, std::size_t groups,
                                  const Product& product);
+    /// to_dense() of an operator of `patches` patches held elsewhere (spread over ranks):
+    /// `product` of the identity's columns, a few at a time, as to_dense() makes them (the same
+    /// bits when `product` is multiply()'s).
+    static DenseMatrix to_dense(std::size_t patches, const Product& product);
 
     /// A product in pieces, as multiply() does it and ranks share it: the partial products
     /// of this operator's chunks (in cluster order: y of the blocks F_PQ, z of their

@@ -92,6 +92,10 @@ class HierarchicalPlan {
 void count_block_values(const std::vector<std::uint32_t>& ranks,
                         const std::vector<std::size_t>& values, HierarchicalStats& stats);
 
+/// Throws the OptionError of build_hierarchical() for a bad tolerance, eta or leaf_size (before
+/// any work: what a build over ranks checks before the ranks start).
+void check_hierarchical_options(const HierarchicalOptions& options);
+
 /// Builds the operator of the scene's patches. Throws OptionError for bad options, Error for a
 /// scene with obstructions (see matrix/hierarchical.h), ResourceError when the estimated memory
 /// does not fit.
