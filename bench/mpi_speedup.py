@@ -14,8 +14,13 @@ Cases (--cases, default both):
   city-58   `compute city-58 --method mc-hemisphere --samples 4000 --threshold 1e-4 -o F.h5`
             (97,905 patches, an open city; a dense F would need 77 GB).
 
+Open MPI's transport: on one machine the ranks talk through shared memory, and the benchmark
+selects it (OMPI_MCA_pml=ob1, OMPI_MCA_btl=self,vader, unless set already); Open MPI's default
+first probes UCX, which adds about 0.2 s to every start here. --default-transport keeps
+Open MPI's choice.
+
 Usage: bench/mpi_speedup.py [--formfactor build/bin/formfactor] [--runs 3] [--cases room-32]
-       [--workdir DIR] [--mpirun 'mpirun --oversubscribe']
+       [--workdir DIR] [--mpirun 'mpirun --oversubscribe'] [--default-transport]
 """
 
 import argparse
@@ -58,7 +63,12 @@ def main():
     ap.add_argument("--cases", nargs="+", default=list(CASES), choices=list(CASES))
     ap.add_argument("--workdir", default=None)
     ap.add_argument("--mpirun", default="mpirun --oversubscribe")
+    ap.add_argument("--default-transport", action="store_true",
+                    help="keep Open MPI's choice of transport (it probes UCX first)")
     args = ap.parse_args()
+    if not args.default_transport:
+        os.environ.setdefault("OMPI_MCA_pml", "ob1")
+        os.environ.setdefault("OMPI_MCA_btl", "self,vader")
     work = Path(args.workdir or tempfile.mkdtemp(prefix="ff-mpi-"))
     work.mkdir(parents=True, exist_ok=True)
     mpirun = shlex.split(args.mpirun) + ["--bind-to", "none", "-np", "2"]
