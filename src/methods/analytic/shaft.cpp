@@ -7,7 +7,6 @@
 #include <iterator>
 #include <vector>
 
-#include "core/fast_atan.h"
 #include "methods/analytic/obstructed_internal.h"
 #include "methods/analytic/shadow_clip.h"
 
@@ -53,19 +52,22 @@ void Shaft::build(const Vec3* a, int na, const Vec3& normal_a, const Vec3* b, in
                 int best = -1;
                 double best_angle = 0.0, by = 0.0;
                 bool front = true;
-                const double tn = t.norm();
+                const double tn = t.norm(), inv_tn2 = 1.0 / (tn * tn);
                 for (int w = 0; w < nq && front; ++w) {
                     const Vec3 d = q[w] - e0;
-                    const double x = r.dot(d) / tn, y = own.dot(d);
+                    const double x = r.dot(d), y = own.dot(d);
                     if (y < -eps) front = false;
                     // On the edge's line (distance from the line, not the cross-section
                     // coordinates: `own` is not exactly normal to an edge of a slightly
                     // non-planar polygon).
-                    if ((d - t * (t.dot(d) / (tn * tn))).squaredNorm() <= eps * eps) continue;
+                    if ((d - t * (t.dot(d) * inv_tn2)).squaredNorm() <= eps * eps) continue;
                     // The angle above p's plane, in [0, π]: a cross-product comparison cannot
                     // order two directions 180° apart (vertices of q in p's plane on both sides
-                    // of the edge, as where a wall meets the floor).
-                    const double angle = atan2_upper(std::max(y, 0.0), x);
+                    // of the edge, as where a wall meets the floor). Compared as the pseudo-angle
+                    // 1 − x / (|x| + y), increasing with it over [0, π] (r has length tn: y
+                    // scaled to match).
+                    const double yt = std::max(y, 0.0) * tn;
+                    const double angle = 1.0 - x / (std::abs(x) + yt);
                     if (best < 0 || angle < best_angle) {
                         best = w;
                         best_angle = angle;
