@@ -29,52 +29,52 @@ def _mpirun():
     return command
 
 
+def _run_script(script, ranks, env=None):
+    """`script` (in this folder) under mpirun with `ranks` ranks; fails the test unless it
+    exits 0. Returns what it printed. `env`: variables exported to every rank."""
+    extra = []
+    for name in env or {}:
+        extra += ["-x", name]
+    done = subprocess.run(_mpirun() + extra + ["-np", str(ranks), sys.executable,
+                                                os.path.join(HERE, script)],
+                          capture_output=True, text=True, timeout=300,
+                          env=dict(os.environ, **(env or {})))
+    assert done.returncode == 0, done.stdout + done.stderr
+    return done.stdout
+
+
 @pytest.mark.parametrize("ranks", [2, 3])
 def test_form_factors_over_a_communicator_equal_one_process(ranks):
-    done = subprocess.run(_mpirun() + ["-np", str(ranks), sys.executable,
-                                        os.path.join(HERE, "mpi_compute.py")],
-                          capture_output=True, text=True, timeout=300)
-    assert done.returncode == 0, done.stdout + done.stderr
-    assert f"same on {ranks} ranks" in done.stdout
+    assert f"same on {ranks} ranks" in _run_script("mpi_compute.py", ranks)
 
 
 @pytest.mark.parametrize("ranks", [2, 3])
 def test_solves_over_a_communicator_equal_one_process(ranks):
-    done = subprocess.run(_mpirun() + ["-np", str(ranks), sys.executable,
-                                        os.path.join(HERE, "mpi_solve.py")],
-                          capture_output=True, text=True, timeout=300)
-    assert done.returncode == 0, done.stdout + done.stderr
-    assert f"solved the same on {ranks} ranks" in done.stdout
+    out = _run_script("mpi_solve.py", ranks)
+    assert f"solved the same on {ranks} ranks" in out
     # Every case ran: thermal and radiosity, dense and sparse, each iterative solver, direct.
-    assert done.stdout.count("gmres") == 4 and done.stdout.count("jacobi") == 4
-    assert "thermal sparse gauss-seidel" in done.stdout
-    assert "thermal dense direct" in done.stdout
+    assert out.count("gmres") == 4 and out.count("jacobi") == 4
+    assert "thermal sparse gauss-seidel" in out
+    assert "thermal dense direct" in out
 
 
 @pytest.mark.parametrize("ranks", [2, 3])
 def test_hierarchical_operator_over_a_communicator_equals_one_process(ranks):
-    done = subprocess.run(_mpirun() + ["-np", str(ranks), sys.executable,
-                                        os.path.join(HERE, "mpi_hierarchical.py")],
-                          capture_output=True, text=True, timeout=300)
-    assert done.returncode == 0, done.stdout + done.stderr
-    assert f"hierarchical the same on {ranks} ranks" in done.stdout
+    out = _run_script("mpi_hierarchical.py", ranks)
+    assert f"hierarchical the same on {ranks} ranks" in out
     # Every rank checked its products (every rank gets them), the solves and the errors.
     for rank in range(ranks):
         assert (f"rank {rank}: products, scipy gmres, radiosity gmres, radiosity jacobi, "
-                "thermal gmres, errors") in done.stdout, done.stdout
+                "thermal gmres, errors") in out, out
 
 
 @pytest.mark.parametrize("ranks", [2, 3])
 def test_a_rank_failing_in_a_product_on_the_operator_raises_on_every_rank(ranks):
     failing = ranks - 1
-    done = subprocess.run(_mpirun() + ["-x", "FORMFACTOR_TEST_FAIL_SOLVE_RANK", "-np", str(ranks),
-                                        sys.executable,
-                                        os.path.join(HERE, "mpi_hierarchical_failure.py")],
-                          capture_output=True, text=True, timeout=300,
-                          env=dict(os.environ, FORMFACTOR_TEST_FAIL_SOLVE_RANK=str(failing)))
-    assert done.returncode == 0, done.stdout + done.stderr
+    out = _run_script("mpi_hierarchical_failure.py", ranks,
+                      env={"FORMFACTOR_TEST_FAIL_SOLVE_RANK": str(failing)})
     for rank in range(ranks):
-        assert f"rank {rank}: the failure of rank {failing} raised" in done.stdout, done.stdout
+        assert f"rank {rank}: the failure of rank {failing} raised" in out, out
 
 
 def test_hierarchical_over_one_rank_equals_the_operator_alone():
