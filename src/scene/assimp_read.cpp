@@ -95,20 +95,29 @@ class AssimpReader {
         } kill_logger;
         Assimp::Importer importer;
         require_a_reader_by_content(importer, ext);
-        const aiScene* sc = nullptr;
-        try {
-            // No post-processing that changes the geometry: faces as the file has them (PLY and
-            // OFF polygons stay polygons), and assimp's check of its own data structure.
-            sc = importer.ReadFile(path_, aiProcess_ValidateDataStructure);
-        } catch (const std::exception& e) {
-            throw InputError(path_, 0, std::string("cannot read the mesh: ") + e.what());
-        }
-        if (sc == nullptr)
-            throw InputError(path_, 0,
-                             "cannot read the mesh (Open Asset Import: " +
-                                 detail::trim(importer.GetErrorString()) + ")");
-        if (!logged.empty())
-            throw InputError(path_, 0, "bad mesh (Open Asset Import: " + logged + ")");
+        // A reader that logged an error went on with a guess, which may leave its data
+        // inconsistent (an OFF whose faces were all dropped): it is refused before assimp's own
+        // check of its data structure walks that data.
+        auto step = [&](auto&& call) {
+            const aiScene* result = nullptr;
+            try {
+                result = call();
+            } catch (const std::exception& e) {
+                throw InputError(path_, 0, std::string("cannot read the mesh: ") + e.what());
+            }
+            if (result == nullptr)
+                throw InputError(path_, 0,
+                                 "cannot read the mesh (Open Asset Import: " +
+                                     detail::trim(importer.GetErrorString()) + ")");
+            if (!logged.empty())
+                throw InputError(path_, 0, "bad mesh (Open Asset Import: " + logged + ")");
+            return result;
+        };
+        // No post-processing that changes the geometry: faces as the file has them (PLY and OFF
+        // polygons stay polygons).
+        step([&] { return importer.ReadFile(path_, 0); });
+        const aiScene* sc =
+            step([&] { return importer.ApplyPostProcessing(aiProcess_ValidateDataStructure); });
         if (sc->mFlags & AI_SCENE_FLAGS_INCOMPLETE)
             throw InputError(path_, 0, "the file holds no complete mesh");
         scene_.name = path_;
