@@ -162,6 +162,49 @@ TEST_CASE(
     }
 }
 
+TEST_CASE(
+    "obstructed roots: a pair's hidden part integrated over either patch agrees by reciprocity, "
+    "and the event lines cut the two patches differently") {
+    // Floor patches to wall patches of the unit room past the floating box: H_sr over s, and
+    // H_rs over r times A_r / A_s (integrate_partial() takes the side the event lines cut into
+    // fewer pieces). The wall patches are twice the floor patches' area.
+    BlockerSet bs;
+    int id = 0;
+    add_box(bs, Vec3(.3, .3, .1), Vec3(.7, .7, .5), 1, id);
+    bs.build();
+    bs.mark_closed_solids({}, 1e-9);
+    std::vector<int> cand(bs.size());
+    for (std::size_t k = 0; k < cand.size(); ++k) cand[k] = static_cast<int>(k);
+    const int n = static_cast<int>(cand.size());
+    int differ = 0, fewer_on_wall = 0, pairs = 0, shaded = 0;
+    for (int i = 0; i < 4; ++i) {
+        const double x = 0.25 * i;
+        const Polygon s =
+            poly({Vec3(x, .25, 0), Vec3(x + .25, .25, 0), Vec3(x + .25, .5, 0), Vec3(x, .5, 0)});
+        for (int j = 0; j < 2; ++j) {
+            const double z = 0.5 * j;
+            const Polygon r =
+                poly({Vec3(0, .5, z), Vec3(0, .75, z), Vec3(0, .75, z + .5), Vec3(0, .5, z + .5)});
+            const std::size_t ps = event_pieces(s, r, bs, cand.data(), n, 1e-11).size();
+            const std::size_t pr = event_pieces(r, s, bs, cand.data(), n, 1e-11).size();
+            const HiddenIntegral over_s = hidden_integral(s, r, bs, cand.data(), n, 1e-9, 1e-11);
+            const HiddenIntegral over_r = hidden_integral(r, s, bs, cand.data(), n, 1e-9, 1e-11);
+            CAPTURE(i);
+            CAPTURE(j);
+            CHECK(std::abs(over_s.hidden - over_r.hidden * area(r) / area(s)) <=
+                  over_s.error + over_r.error);
+            ++pairs;
+            shaded += over_s.hidden > 1e-3;
+            differ += ps != pr;
+            fewer_on_wall += pr < ps;
+        }
+    }
+    CHECK(pairs == 8);
+    CHECK(shaded > 0);
+    CHECK(differ > 0);
+    CHECK(fewer_on_wall > 0);
+}
+
 TEST_CASE("obstructed roots: a box as obstruction records blocks like the box as faces") {
     // room-N-obstruction gives the box as 6 obstruction faces; the same box as (n/2)² records
     // per face must be grouped by plane and merged into the same pieces, with the same matrix

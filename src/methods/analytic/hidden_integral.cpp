@@ -74,8 +74,14 @@ double hidden_estimate(const Polygon& s, const Polygon& r, const BlockerSet& blo
     return sum;
 }
 
+std::vector<Polygon> event_pieces(const Polygon& s, const Polygon& r, const BlockerSet& blockers,
+                                  const int* cand, int n, double eps) {
+    return split_by_events(s, normal(s), Receiver(r), blockers, cand, n, eps);
+}
+
 HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const BlockerSet& blockers,
-                               const int* cand, int n, double target, double eps) {
+                               const int* cand, int n, double target, double eps,
+                               const std::vector<Polygon>* cut) {
     HiddenIntegral out;
     const double area_s = area(s);
     if (!(area_s > 0.0) || n == 0) return out;
@@ -97,7 +103,9 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
     const double sin2_receiver = sin_receiver * sin_receiver;
     // Sender pieces: the sender cut along the lines where the integrand has kinks, then
     // triangles (or the sender's own quad when nothing cuts it).
-    const std::vector<Polygon> pieces = split_by_events(s, ns, rc, blockers, cand, n, eps);
+    std::vector<Polygon> own_cut;
+    if (cut == nullptr) own_cut = split_by_events(s, ns, rc, blockers, cand, n, eps);
+    const std::vector<Polygon>& pieces = cut != nullptr ? *cut : own_cut;
     // Each convex piece is mapped from the unit square by quads (0, k, k+1, k+2) of its fan
     // (convex, as parts of a convex polygon) and a last triangle when the count is odd: half
     // the maps, so half the cells, of a fan of triangles. Slivers below 1e-12 of the sender

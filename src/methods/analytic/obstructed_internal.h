@@ -230,9 +230,16 @@ struct HiddenIntegral {
 /// 1/A_s ∫_s F_{dA_x → (r ∩ shadows of the pieces seen from x)} dA_x: the part of F_sr that the
 /// candidate pieces hide, by adaptive subdivision of the sender (Gauss 2×2 against 3×3 per
 /// cell, cells classified by their own shafts first), until the estimated error ≤ target.
-/// s and r: planar convex polygons (counter-clockwise about their normals).
+/// s and r: planar convex polygons (counter-clockwise about their normals). `cut`, when given:
+/// split_by_events(s, normal(s), Receiver(r), blockers, cand, n, eps), computed already.
 HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const BlockerSet& blockers,
-                               const int* cand, int n, double target, double eps);
+                               const int* cand, int n, double target, double eps,
+                               const std::vector<Polygon>* cut = nullptr);
+
+/// split_by_events() of the sender s towards the receiver r (convex polygons): what
+/// hidden_integral(s, r, ...) integrates over, for its `cut`.
+std::vector<Polygon> event_pieces(const Polygon& s, const Polygon& r, const BlockerSet& blockers,
+                                  const int* cand, int n, double eps);
 
 /// A bound on what the sender s sees of r past the candidate pieces (1/A_s ∫_s F(x → visible
 /// part of r) dA_x ≤ bound): F from s to r less the umbrae of the occluders, the points of r
