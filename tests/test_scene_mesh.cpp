@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "core/text.h"
 #include "formfactor/core/error.h"
 #include "formfactor/geometry/polygon.h"
 #include "formfactor/matrix/aggregate.h"
@@ -107,6 +108,18 @@ TEST_CASE("mesh: glTF nodes are surfaces, translated, with base colour and emiss
         CHECK(a.reflectance.isApprox(Rgb(0.25, 0.5, 0.75)));
         CHECK(a.emission.isZero());
         CHECK(b.emission.isApprox(Rgb(1, 0.5, 0.25)));
+    }
+}
+
+TEST_CASE("mesh: the PLY and OFF checks take plain decimals as numbers, and nothing else") {
+    for (const char* w : {"0", "-1", "+2.5", "1.", ".5", "1e-3", "2.5E+10", "-0.0e0"}) {
+        CAPTURE(w);
+        CHECK(formfactor::detail::is_plain_decimal(w));
+    }
+    for (const char* w : {"", "-", ".", "e5", "1e", "1e+", "1.5.2", "1,5", "0x1p3", "nan", "inf",
+                          "-inf", "1x", "+-1", " 1", "1 "}) {
+        CAPTURE(w);
+        CHECK_FALSE(formfactor::detail::is_plain_decimal(w));
     }
 }
 

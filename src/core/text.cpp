@@ -75,6 +75,25 @@ std::string trim(std::string_view s) {
 
 bool parse_double(std::string_view w, double& out) { return parse_whole(w, out); }
 
+bool is_plain_decimal(std::string_view w) {
+    auto digits = [&w](std::size_t& i) {
+        const std::size_t start = i;
+        while (i < w.size() && w[i] >= '0' && w[i] <= '9') ++i;
+        return i - start;
+    };
+    std::size_t i = 0;
+    if (i < w.size() && (w[i] == '+' || w[i] == '-')) ++i;
+    std::size_t mantissa = digits(i);
+    if (i < w.size() && w[i] == '.') mantissa += digits(++i);
+    if (mantissa == 0) return false;
+    if (i < w.size() && (w[i] == 'e' || w[i] == 'E')) {
+        ++i;
+        if (i < w.size() && (w[i] == '+' || w[i] == '-')) ++i;
+        if (digits(i) == 0) return false;
+    }
+    return i == w.size();
+}
+
 bool parse_int(std::string_view w, int& out) { return parse_whole(w, out); }
 
 bool parse_size(std::string_view w, std::size_t& out) {

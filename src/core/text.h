@@ -28,6 +28,11 @@ std::string trim(std::string_view s);
 /// parse and are left to the caller to reject; "+-1", "1x", "" and surrounding spaces do not).
 bool parse_double(std::string_view w, double& out);
 
+/// Whether a whole word is a plain decimal number, the form every text reader takes the same
+/// way: [sign] digits [. digits] [(e|E) [sign] digits], a digit before or after the point, no
+/// nan, inf or hex. (Open Asset Import's readers read other forms differently or throw.)
+bool is_plain_decimal(std::string_view w);
+
 /// Parses a whole word as an int ("+3" accepted); false on anything else, overflow included.
 bool parse_int(std::string_view w, int& out);
 

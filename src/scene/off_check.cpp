@@ -9,6 +9,7 @@
 #include <string_view>
 #include <vector>
 
+#include "core/text.h"
 #include "formfactor/core/error.h"
 
 namespace formfactor::detail {
@@ -194,7 +195,7 @@ class OffCheck {
                                          std::to_string(words.size()) + " of its " +
                                          std::to_string(vertex_words) + " coordinates");
                 for (int c = 0; c < vertex_words; ++c)
-                    if (!is_number(words[c]))
+                    if (!is_plain_decimal(words[c]))
                         throw InputError(path_, line,
                                          "vertex " + std::to_string(index + 1) + ": '" +
                                              shown(words[c]) + "' is not a number");
@@ -253,28 +254,6 @@ class OffCheck {
         long long v = 0;
         for (char c : w) v = 10 * v + (c - '0');
         return v;
-    }
-
-    // A finite decimal number as Open Asset Import's reader takes it: [sign] digits [. digits]
-    // [e [sign] digits], with digits before or after the point.
-    static bool is_number(std::string_view w) {
-        std::size_t i = 0;
-        if (i < w.size() && (w[i] == '+' || w[i] == '-')) ++i;
-        std::size_t digits = 0;
-        while (i < w.size() && w[i] >= '0' && w[i] <= '9') ++i, ++digits;
-        if (i < w.size() && w[i] == '.') {
-            ++i;
-            while (i < w.size() && w[i] >= '0' && w[i] <= '9') ++i, ++digits;
-        }
-        if (digits == 0) return false;
-        if (i < w.size() && (w[i] == 'e' || w[i] == 'E')) {
-            ++i;
-            if (i < w.size() && (w[i] == '+' || w[i] == '-')) ++i;
-            std::size_t exponent = 0;
-            while (i < w.size() && w[i] >= '0' && w[i] <= '9') ++i, ++exponent;
-            if (exponent == 0) return false;
-        }
-        return i == w.size();
     }
 
     // A word as a message shows it: at most 32 bytes, control bytes as '?'.

@@ -96,23 +96,8 @@ bool word_fits(std::string_view w, const Type& t, long long* value = nullptr) {
         if (value != nullptr) *value = v;
         return true;
     }
-    std::size_t i = 0;
-    if (i < w.size() && (w[i] == '+' || w[i] == '-')) ++i;
-    std::size_t digits = 0;
-    while (i < w.size() && w[i] >= '0' && w[i] <= '9') ++i, ++digits;
-    if (i < w.size() && w[i] == '.') {
-        ++i;
-        while (i < w.size() && w[i] >= '0' && w[i] <= '9') ++i, ++digits;
-    }
-    if (digits == 0) return false;
-    if (i < w.size() && (w[i] == 'e' || w[i] == 'E')) {
-        ++i;
-        if (i < w.size() && (w[i] == '+' || w[i] == '-')) ++i;
-        if (!is_digits(w.substr(i))) return false;
-        i = w.size();
-    }
     double d = 0;
-    return i == w.size() && parse_double(w, d);
+    return is_plain_decimal(w) && parse_double(w, d);
 }
 
 std::string type_list() {
