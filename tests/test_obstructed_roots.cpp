@@ -11,6 +11,7 @@
 
 #include "formfactor/kernels/analytic.h"
 #include "formfactor/methods/method.h"
+#include "formfactor/pipeline.h"
 #include "formfactor/scene/room.h"
 #include "formfactor/scene/scene.h"
 #include "methods/analytic/obstructed_internal.h"
@@ -19,6 +20,7 @@
 #include "support/closed_rooms.h"
 #include "support/method_runner.h"
 #include "support/scenes.h"
+#include "support/temp_dir.h"
 
 using formfactor::testing::run_method;
 using formfactor::testing::scene_of;
@@ -203,6 +205,88 @@ TEST_CASE(
     CHECK(shaded > 0);
     CHECK(differ > 0);
     CHECK(fewer_on_wall > 0);
+}
+
+TEST_CASE(
+    "obstructed roots: an L-shaped floor past a box sees the wall as its two rectangles do "
+    "together") {
+    // A non-convex patch in a partly hidden pair whose event lines cut the wall into fewer
+    // pieces: integrate_partial() must still integrate over the L (the receiver of the integral
+    // must be convex; taken over the wall, F(wall → L) came out 0.04862 for 0.04644). The same
+    // floor as two rectangles: F(wall → L) is the sum, F(L → wall) the area-weighted mean.
+    using formfactor::testing::write_text;
+    formfactor::testing::TempDir dir;
+    write_text(dir.file("l.obj"),
+               "v 0 0 0\n"
+               "v 2 0 0\n"
+               "v 2 1 0\n"
+               "v 1 1 0\n"
+               "v 1 2 0\n"
+               "v 0 2 0\n"
+               "v 0 3 0\n"
+               "v 2 3 0\n"
+               "v 2 3 2\n"
+               "v 0 3 2\n"
+               "v 0.92 0.57 0.09\n"
+               "v 1.36 0.57 0.09\n"
+               "v 0.92 0.77 0.09\n"
+               "v 1.36 0.77 0.09\n"
+               "v 0.92 0.57 0.86\n"
+               "v 1.36 0.57 0.86\n"
+               "v 0.92 0.77 0.86\n"
+               "v 1.36 0.77 0.86\n"
+               "g floor\n"
+               "f 1 2 3 4 5 6\n"
+               "g wall\n"
+               "f 7 8 9 10\n"
+               "g obstruction\n"
+               "f 11 13 14 12\n"
+               "f 15 16 18 17\n"
+               "f 11 12 16 15\n"
+               "f 13 17 18 14\n"
+               "f 11 15 17 13\n"
+               "f 12 14 18 16\n");
+    write_text(dir.file("split.obj"),
+               "v 0 0 0\n"
+               "v 2 0 0\n"
+               "v 2 1 0\n"
+               "v 1 1 0\n"
+               "v 1 2 0\n"
+               "v 0 2 0\n"
+               "v 0 3 0\n"
+               "v 2 3 0\n"
+               "v 2 3 2\n"
+               "v 0 3 2\n"
+               "v 0.92 0.57 0.09\n"
+               "v 1.36 0.57 0.09\n"
+               "v 0.92 0.77 0.09\n"
+               "v 1.36 0.77 0.09\n"
+               "v 0.92 0.57 0.86\n"
+               "v 1.36 0.57 0.86\n"
+               "v 0.92 0.77 0.86\n"
+               "v 1.36 0.77 0.86\n"
+               "v 0 1 0\n"
+               "g floorA\n"
+               "f 1 2 3 19\n"
+               "g floorB\n"
+               "f 19 4 5 6\n"
+               "g wall\n"
+               "f 7 8 9 10\n"
+               "g obstruction\n"
+               "f 11 13 14 12\n"
+               "f 15 16 18 17\n"
+               "f 11 12 16 15\n"
+               "f 13 17 18 14\n"
+               "f 11 15 17 13\n"
+               "f 12 14 18 16\n");
+    const DenseMatrix l = compute_form_factors(load_scene(dir.file("l.obj"))).form_factors.F;
+    const DenseMatrix p = compute_form_factors(load_scene(dir.file("split.obj"))).form_factors.F;
+    REQUIRE(l.rows() == 2);
+    REQUIRE(p.rows() == 3);
+    CHECK(l(1, 0) > 0.03);  // the box hides part of the floor from the wall, not all
+    // Each partly hidden entry within 1e-6 (the default tolerance): the sum within 2e-6.
+    CHECK(std::abs(l(1, 0) - (p(2, 0) + p(2, 1))) <= 3e-6);
+    CHECK(std::abs(l(0, 1) - (2.0 * p(0, 2) + p(1, 2)) / 3.0) <= 3e-6);
 }
 
 TEST_CASE("obstructed roots: a box as obstruction records blocks like the box as faces") {

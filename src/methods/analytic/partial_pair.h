@@ -183,8 +183,8 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
         return placed(std::clamp(seen, 0.0, bound), bound);
     }
     // The side to integrate over: the one the event lines cut into fewer pieces, since the
-    // cells, and so the work, follow the pieces. Over r only when r is convex, at most
-    // kSideAreaRatio times as large as s, and s's cut has kSideMinPieces pieces or more; its
+    // cells, and so the work, follow the pieces. Over r only when both patches are convex, r at
+    // most kSideAreaRatio times as large as s, and s's cut has kSideMinPieces pieces or more; its
     // hidden part H_rs = H_sr a_s / a_r is then integrated to tol a_s / a_r, so that F_sr stays
     // within tol.
     const int* pair_cand = cand.data() + pp.cand_first;
@@ -196,7 +196,10 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
     }
     const Polygon& pr_whole = scene.patches[r].polygon;
     bool over_r = false;
-    if (pieces_s >= kSideMinPieces && parts.size() == 1 && a_r <= kSideAreaRatio * a_s) {
+    // (s becomes the receiver, which hidden_integral() and the event cut take convex: a patch
+    // of a non-convex surface, an L-shaped floor, stays the sender.)
+    if (pieces_s >= kSideMinPieces && parts.size() == 1 && a_r <= kSideAreaRatio * a_s &&
+        BlockerSet::convex_parts(ps).size() == 1) {
         cut_r.push_back(
             detail::event_pieces(pr_whole, ps, S.blockers, pair_cand, pp.cand_count, S.eps));
         over_r = cut_r.back().size() < pieces_s;
