@@ -266,21 +266,11 @@ class OffCheck {
 
     // A count: a whole number below 2³¹.
     long long count(std::string_view w, const char* what, int line) const {
-        long long v = 0;
-        bool ok = !w.empty() && w.size() <= 10;
-        for (char c : w) {
-            if (c < '0' || c > '9') ok = false;
-            if (ok) v = 10 * v + (c - '0');
-        }
-        if (!ok || v > 2147483647LL) {
-            std::string shown(w.substr(0, 32));
-            for (char& c : shown)
-                if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = '?';
+        if (!is_whole(w) || whole(w) > 2147483647LL)
             throw InputError(path_, line,
-                             std::string("the count of ") + what + " '" + shown +
+                             std::string("the count of ") + what + " '" + shown(w) +
                                  "' is not a whole number below 2^31");
-        }
-        return v;
+        return whole(w);
     }
 
     std::string path_;
