@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "formfactor/kernels/analytic.h"
@@ -216,69 +217,21 @@ TEST_CASE(
     // floor as two rectangles: F(wall → L) is the sum, F(L → wall) the area-weighted mean.
     using formfactor::testing::write_text;
     formfactor::testing::TempDir dir;
-    write_text(dir.file("l.obj"),
-               "v 0 0 0\n"
-               "v 2 0 0\n"
-               "v 2 1 0\n"
-               "v 1 1 0\n"
-               "v 1 2 0\n"
-               "v 0 2 0\n"
-               "v 0 3 0\n"
-               "v 2 3 0\n"
-               "v 2 3 2\n"
-               "v 0 3 2\n"
-               "v 0.92 0.57 0.09\n"
-               "v 1.36 0.57 0.09\n"
-               "v 0.92 0.77 0.09\n"
-               "v 1.36 0.77 0.09\n"
-               "v 0.92 0.57 0.86\n"
-               "v 1.36 0.57 0.86\n"
-               "v 0.92 0.77 0.86\n"
-               "v 1.36 0.77 0.86\n"
-               "g floor\n"
-               "f 1 2 3 4 5 6\n"
-               "g wall\n"
-               "f 7 8 9 10\n"
-               "g obstruction\n"
-               "f 11 13 14 12\n"
-               "f 15 16 18 17\n"
-               "f 11 12 16 15\n"
-               "f 13 17 18 14\n"
-               "f 11 15 17 13\n"
-               "f 12 14 18 16\n");
+    // The floor's corners (1-6), the wall's (7-10), the box's (11-18) and the floor's split
+    // point (19); then the floor as one L or as two rectangles, and the same wall and box.
+    const std::string corners =
+        "v 0 0 0\nv 2 0 0\nv 2 1 0\nv 1 1 0\nv 1 2 0\nv 0 2 0\n"
+        "v 0 3 0\nv 2 3 0\nv 2 3 2\nv 0 3 2\n"
+        "v 0.92 0.57 0.09\nv 1.36 0.57 0.09\nv 0.92 0.77 0.09\nv 1.36 0.77 0.09\n"
+        "v 0.92 0.57 0.86\nv 1.36 0.57 0.86\nv 0.92 0.77 0.86\nv 1.36 0.77 0.86\n"
+        "v 0 1 0\n";
+    const std::string wall_and_box =
+        "g wall\nf 7 8 9 10\n"
+        "g obstruction\nf 11 13 14 12\nf 15 16 18 17\nf 11 12 16 15\nf 13 17 18 14\n"
+        "f 11 15 17 13\nf 12 14 18 16\n";
+    write_text(dir.file("l.obj"), corners + "g floor\nf 1 2 3 4 5 6\n" + wall_and_box);
     write_text(dir.file("split.obj"),
-               "v 0 0 0\n"
-               "v 2 0 0\n"
-               "v 2 1 0\n"
-               "v 1 1 0\n"
-               "v 1 2 0\n"
-               "v 0 2 0\n"
-               "v 0 3 0\n"
-               "v 2 3 0\n"
-               "v 2 3 2\n"
-               "v 0 3 2\n"
-               "v 0.92 0.57 0.09\n"
-               "v 1.36 0.57 0.09\n"
-               "v 0.92 0.77 0.09\n"
-               "v 1.36 0.77 0.09\n"
-               "v 0.92 0.57 0.86\n"
-               "v 1.36 0.57 0.86\n"
-               "v 0.92 0.77 0.86\n"
-               "v 1.36 0.77 0.86\n"
-               "v 0 1 0\n"
-               "g floorA\n"
-               "f 1 2 3 19\n"
-               "g floorB\n"
-               "f 19 4 5 6\n"
-               "g wall\n"
-               "f 7 8 9 10\n"
-               "g obstruction\n"
-               "f 11 13 14 12\n"
-               "f 15 16 18 17\n"
-               "f 11 12 16 15\n"
-               "f 13 17 18 14\n"
-               "f 11 15 17 13\n"
-               "f 12 14 18 16\n");
+               corners + "g floorA\nf 1 2 3 19\ng floorB\nf 19 4 5 6\n" + wall_and_box);
     const DenseMatrix l = compute_form_factors(load_scene(dir.file("l.obj"))).form_factors.F;
     const DenseMatrix p = compute_form_factors(load_scene(dir.file("split.obj"))).form_factors.F;
     REQUIRE(l.rows() == 2);
