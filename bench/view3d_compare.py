@@ -7,7 +7,10 @@ so that both programs report the same matrix):
              radiating S records (faces (N/2) x (N/2)): the built-in `room-N`;
   room-N-O   the same room with the box as six whole O records: `room-N-obstruction`
              (--o-split: (N/2) x (N/2) O records per face, as tests/data/repro/ has them);
-  cornell-M  the Cornell box (formfactor's built-in `cornell`, 20 surfaces) M x M per surface.
+  cornell-M  the Cornell box (formfactor's built-in `cornell`, 20 surfaces) M x M per surface;
+  urban-N    N x N box buildings of random heights on a ground, every rectangle two triangles;
+  sphere-M, cylinder-M  a faceted sphere or cylinder (triangles) in a closed box room;
+  with --triangulate the rooms and the Cornell box have every quad as two triangles (`-tri`).
 runs `view3d IN.vs3 OUT` (list=0, out=1: its binary float32 matrix; encl=0: no enclosure
 adjustment, the raw matrix) and `formfactor compute IN.vs3 -o F.npy --threads 1` on each, and
 prints wall and CPU times, peak memory and the differences between the two matrices (every
@@ -193,6 +196,37 @@ def sphere_in_box(m, seed=0):
     return s, []
 
 
+def cylinder_in_box(m):
+    """Curved geometry: the closed box room of sphere_in_box() around a faceted cylinder of
+    radius 0.2 and height 0.5 about the room's vertical axis (m facets around, m / 2 bands along
+    the axis, every quad as two triangles, each cap a fan of m triangles; facing out).
+    m^2 + 2 m + 192 facets (m = 44: 2,216)."""
+    s = sphere_in_box(0)[0]
+    c, r, z0, z1 = (0.5, 0.5), 0.2, 0.25, 0.75
+    bands = max(1, m // 2)
+
+    def pt(j, z):
+        ph = 2 * np.pi * j / m
+        return (c[0] + r * np.cos(ph), c[1] + r * np.sin(ph), z)
+    for k in range(bands):
+        za, zb = z0 + (z1 - z0) * k / bands, z0 + (z1 - z0) * (k + 1) / bands
+        for j in range(m):
+            a, b, cc, d = pt(j, za), pt(j + 1, za), pt(j + 1, zb), pt(j, zb)
+            s += [[a, b, cc], [a, cc, d]]
+    for j in range(m):
+        s.append([(c[0], c[1], z1), pt(j, z1), pt(j + 1, z1)])  # top, +z
+        s.append([(c[0], c[1], z0), pt(j + 1, z0), pt(j, z0)])  # bottom, -z
+    return s, []
+
+
+def triangulated(polys):
+    """Every quad as two triangles (0, 1, 2) and (0, 2, 3), as meshing tools write them."""
+    out = []
+    for p in polys:
+        out += [[p[0], p[1], p[2]], [p[0], p[2], p[3]]] if len(p) == 4 else [p]
+    return out
+
+
 def cornell(m):
     return [q for p in CORNELL for q in split(p, m)], []
 
@@ -337,6 +371,10 @@ def main():
                     help="urban arrays n x n of triangulated buildings (9: 1,010 facets)")
     ap.add_argument("--sphere", type=int, default=0,
                     help="faceted sphere of m bands in a box (22: 2,040 facets; 0: skip)")
+    ap.add_argument("--cylinder", type=int, default=0,
+                    help="faceted cylinder of m facets around in a box (44: 2,216 facets; 0: skip)")
+    ap.add_argument("--triangulate", action="store_true",
+                    help="the rooms and the Cornell box with every quad as two triangles")
     ap.add_argument("--tolerances", type=float, nargs="*", default=[],
                     help="run formfactor at each --tolerance; the tightest is the reference "
                     "for the measured error of the others")
@@ -359,19 +397,27 @@ def main():
         if not os.access(exe, os.X_OK):
             ap.error(f"not executable: {exe}")
 
+    def tri(make):
+        if not args.triangulate:
+            return make
+        return lambda: tuple(triangulated(p) for p in make())
+    t = "-tri" if args.triangulate else ""
     cases = []
     for n in args.rooms:
         for box in (["S", "O"] if args.box == "both" else [args.box]):
-            cases.append((f"room-{n}-{box}", lambda n=n, box=box: room(n, box, args.o_split),
+            cases.append((f"room-{n}-{box}{t}", tri(lambda n=n, box=box: room(n, box, args.o_split)),
                           f"room n={n} box={box}"))
     if args.cornell > 0:
         m = args.cornell
-        cases.append((f"cornell-{m}", lambda m=m: cornell(m), f"Cornell box {m}x{m}"))
+        cases.append((f"cornell-{m}{t}", tri(lambda m=m: cornell(m)), f"Cornell box {m}x{m}"))
     for n in args.urban:
         cases.append((f"urban-{n}", lambda n=n: urban(n), f"urban array {n}x{n}"))
     if args.sphere > 0:
         m = args.sphere
         cases.append((f"sphere-{m}", lambda m=m: sphere_in_box(m), f"sphere {m} in a box"))
+    if args.cylinder > 0:
+        m = args.cylinder
+        cases.append((f"cylinder-{m}", lambda m=m: cylinder_in_box(m), f"cylinder {m} in a box"))
     tolerances = sorted(args.tolerances) or [None]
 
     tmp = None
