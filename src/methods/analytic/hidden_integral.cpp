@@ -208,8 +208,7 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
         // formula; else the closed form, whose edge integrals resolved to 1e-16 cost many times
         // more.
         // A cell that sees nothing of the receiver: its whole unobstructed part.
-        // known_q2: order 2 of it when the caller has it already (< 0: not).
-        auto whole_cell = [&](double known_q2) {
+        auto whole_cell = [&]() {
             ++out.closed_forms;
             double q2 = 0.0, q3 = 0.0;
             auto unobstructed_rule = [&](const GaussRule& g, int order, double& q) {
@@ -224,10 +223,7 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
                         ++out.points;
                     }
             };
-            if (known_q2 >= 0.0)
-                q2 = known_q2;
-            else
-                unobstructed_rule(rules.g2, kLowOrder, q2);
+            unobstructed_rule(rules.g2, kLowOrder, q2);
             unobstructed_rule(rules.g3, kMidOrder, q3);
             const double e23 = std::abs(q3 - q2) * scale;
             if (kAgreement * e23 <= target * frac) {
@@ -241,7 +237,7 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
             c.error = 1e-12 * area(cp) * inv_area;
         };
         if (cls == ShaftClass::kHidden) {
-            whole_cell(-1.0);
+            whole_cell();
             return;
         }
         // Pieces that face the cell first: the shadows of the others (the back faces of a closed
@@ -282,12 +278,14 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
         // both are off (seen: orders 2 and 3 within 4e-8 of each other and 1.75e-6 from the
         // integral, which order 4 gets to 1.2e-7); three rules must all agree.
         double q4 = 0.0;
-        auto rule = [&](const GaussRule& g, int order, double& q) {
+        // first: the rule's first point, when the caller has it already.
+        auto rule = [&](const GaussRule& g, int order, double& q,
+                        const PointResult* first = nullptr) {
             for (int i = 0; i < order; ++i)
                 for (int j = 0; j < order; ++j) {
                     const double u = c.u0 + du * g.x[static_cast<std::size_t>(i)];
                     const double v = c.v0 + dv * g.x[static_cast<std::size_t>(j)];
-                    const PointResult pr = f(u, v);
+                    const PointResult pr = i == 0 && j == 0 && first ? *first : f(u, v);
                     const double val = pr.hidden;
                     any_hidden = any_hidden || pr.hidden > 0.0;
                     any_visible = any_visible || !pr.all_hidden;
@@ -295,17 +293,21 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
                          m.jacobian(u, v) * val;
                 }
         };
-        rule(rules.g2, kLowOrder, q2);
-        const bool shadow_at_order2 = any_hidden;
-        if (any_hidden && !any_visible &&
+        // Order 2's first point first: where it sees nothing of the receiver, the umbrae of the
+        // candidates may cover the receiver from the whole cell (no gap of light between their
+        // shadows anywhere in it): a hidden cell after all, found without order 2's other three
+        // points (on the urban array at 1e-4, 66k of 428k cells; 0.97× the time of trying only
+        // where all four of them see nothing).
+        const PointResult first = f(c.u0 + du * rules.g2.x[0], c.v0 + dv * rules.g2.x[0]);
+        if (first.all_hidden && first.hidden > 0.0 &&
             cell_hidden(rc, poly, np, ns, blockers, cell_cand.data(),
                         static_cast<int>(cell_cand.size()), eps)) {
-            // The umbrae of the candidates cover the receiver from the whole cell (no gap of
-            // light between their shadows anywhere in it): a hidden cell after all.
             ++out.proven_hidden;
-            whole_cell(q2);  // order 2 saw nothing: its hidden part was the whole
+            whole_cell();
             return;
         }
+        rule(rules.g2, kLowOrder, q2, &first);
+        const bool shadow_at_order2 = any_hidden;
         if (any_hidden && !any_visible) {
             // Orders 2 and 4 first where order 2's points see nothing of the receiver (in the
             // shadow of several buildings together: most cells of a partly hidden pair in an
