@@ -235,6 +235,25 @@ TEST_SUITE("obstructed-references") {
         check_room_obstruction_hidden_pairs(8);
     }
 
+    TEST_CASE(
+        "obstructed inputs: point_umbra.vs3 - a pair whose umbra is one point is not settled as "
+        "hidden") {
+        const Scene s = load_scene(repro("point_umbra.vs3"));
+        REQUIRE(s.patches.size() == 2);
+        std::vector<Polygon> box;
+        for (const Surface& sf : s.surfaces)
+            if (sf.obstruction) box.push_back(sf.polygon);
+        REQUIRE(box.size() == 216);
+        // The reference: the adaptive integration alone (no classification, no umbrae), tight.
+        const double reference =
+            polygon_to_polygon_obstructed(s.patches[0].polygon, s.patches[1].polygon, box, 1e-9)
+                .value;
+        REQUIRE(reference > 6e-4);
+        const AnalyticRun a = run_analytic(s);
+        MESSAGE("F[0,1] " << a.ff.F(0, 1) << ", reference " << reference);
+        CHECK(std::abs(a.ff.F(0, 1) - reference) <= a.bound + 1e-9);
+    }
+
     TEST_CASE("obstructed inputs: hidden_pair.obj - light through a closed sphere is 0") {
         const Scene s = load_scene(repro("hidden_pair.obj"));
         REQUIRE(s.patches.size() == 2);

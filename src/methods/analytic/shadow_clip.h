@@ -79,19 +79,23 @@ inline double area2(const Poly2& p) {
 }
 
 /// f \ s for convex f and convex counter-clockwise s: disjoint convex fragments appended to out.
-/// Returns the area of f ∩ s (what the subtraction took).
+/// Returns the area of f ∩ s (what the subtraction took). An s whose vertices all coincide (a
+/// shadow or an umbra that shrank to the point where a blocker touches the receiver's edge)
+/// takes nothing.
 inline double subtract(const Poly2& f, const Poly2& s, std::vector<Poly2>& out) {
     // The part of f inside the edges so far: f itself until an edge cuts it, then the free one
     // of buf.
     Poly2 buf[2], outside;
     const Poly2* inside = &f;
     std::size_t free_buf = 0;
+    bool any_edge = false;
     for (int k = 0; k < s.n && inside->n >= 3; ++k) {
         const int m = k + 1 == s.n ? 0 : k + 1;
         const auto ks = static_cast<std::size_t>(k), ms = static_cast<std::size_t>(m);
         const double ax = s.x[ks], ay = s.y[ks];
         const double ex = s.x[ms] - ax, ey = s.y[ms] - ay;
         if (ex == 0.0 && ey == 0.0) continue;
+        any_edge = true;
         const int side = split2_cut(*inside, ax, ay, ex, ey, buf[free_buf], outside);
         if (side == 1) continue;  // wholly inside this edge
         if (side == -1) {         // wholly outside: all of it is a fragment
@@ -101,6 +105,10 @@ inline double subtract(const Poly2& f, const Poly2& s, std::vector<Poly2>& out) 
         if (outside.n >= 3 && area2(outside) > 0.0) append2(out, outside);
         inside = &buf[free_buf];
         free_buf ^= 1;
+    }
+    if (!any_edge) {
+        if (f.n >= 3 && area2(f) > 0.0) append2(out, f);
+        return 0.0;
     }
     return inside->n >= 3 ? std::abs(area2(*inside)) : 0.0;
 }
