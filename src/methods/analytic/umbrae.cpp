@@ -79,16 +79,21 @@ bool umbra_remainder(const Receiver& rc, const Vec3* poly, int np, const Vec3& n
             }
             const Poly2& q = shadows[static_cast<std::size_t>(c)][static_cast<std::size_t>(at)];
             const double sign = area2(q) > 0.0 ? 1.0 : -1.0;
+            bool any_edge = false;
             for (int e = 0; e < q.n && cur->n >= 3; ++e) {
                 const auto a = static_cast<std::size_t>(e);
                 const auto b = static_cast<std::size_t>(e + 1 == q.n ? 0 : e + 1);
                 const double ex = q.x[b] - q.x[a], ey = q.y[b] - q.y[a];
                 if (ex == 0.0 && ey == 0.0) continue;
+                any_edge = true;
                 clip2(*cur, q.x[a], q.y[a], ex, ey, sign, *tmp);
                 std::swap(cur, tmp);
             }
+            // A shadow shrunk to one point (its vertices all equal) leaves no umbra, not the
+            // shadows so far.
+            if (!any_edge) cur->n = 0;
         }
-        if (cur->n < 3) continue;
+        if (cur->n < 3 || area2(*cur) == 0.0) continue;
         if (area2(*cur) < 0.0) {
             std::reverse(cur->x.begin(), cur->x.begin() + cur->n);
             std::reverse(cur->y.begin(), cur->y.begin() + cur->n);
