@@ -93,8 +93,9 @@ bool umbra_remainder(const Receiver& rc, const Vec3* poly, int np, const Vec3& n
             // shadows so far.
             if (!any_edge) cur->n = 0;
         }
-        if (cur->n < 3 || area2(*cur) == 0.0) continue;
-        if (area2(*cur) < 0.0) {
+        const double cur_area = cur->n >= 3 ? area2(*cur) : 0.0;
+        if (cur_area == 0.0) continue;
+        if (cur_area < 0.0) {
             std::reverse(cur->x.begin(), cur->x.begin() + cur->n);
             std::reverse(cur->y.begin(), cur->y.begin() + cur->n);
         }
