@@ -357,29 +357,24 @@ void cast_shadows(const Receiver& rc, const Vec3& x, double h, const Poly3& rp, 
             std::reverse(q.y.begin(), q.y.begin() + q.n);
         }
     }
-    // The unclipped faces' vertices, but for those inside the region they cover: a vertex whose
-    // two edges in this face both border another such face of the solid. Around a vertex whose
+    // Of the unclipped faces' vertices, those on the boundary of the region they cover, each
+    // once: the start of an edge towards a face that is not among them. Around a vertex whose
     // faces are all projected unclipped, their projections (front faces of a convex solid seen
-    // from outside) cover a neighbourhood of its projection, so it is no corner of the hull;
-    // every other vertex lies on an edge towards a face that is not, and that edge's face keeps
-    // it. (A neighbour unknown, −1, keeps the vertex.)
+    // from outside) cover a neighbourhood of its projection, so it is no corner of the hull. The
+    // region's boundary edges, directed as their faces go round (a closed solid's faces agree),
+    // form closed loops, so every vertex on it starts one of them; the vertex is not taken again
+    // from the face whose edge ends there (half the hull's points to sort on a faceted sphere).
+    // (A neighbour unknown, −1, counts as a face that is not among them.)
     for (const int pk : raw_faces) {
         const auto& pc = blockers.piece(pk);
         const Vec3* pv = blockers.vertices(pk);
-        auto inner = [&](int e) {
-            const int nb = blockers.neighbor(pk, e);
-            return nb >= 0 && raw_mark[static_cast<std::size_t>(nb)] == raw_epoch;
-        };
-        bool inner_prev = inner(pc.count - 1);
         for (int k = 0; k < pc.count; ++k) {
-            const bool inner_next = inner(k);
-            if (!(inner_prev && inner_next)) {
-                const Vec3& y = pv[k];
-                const double den = h - (rc.n.dot(y) - rc.d);
-                const Vec3 w = x + (h / den) * (y - x) - rc.o;
-                raw.push_back({pc.solid, rc.u.dot(w), rc.v.dot(w)});
-            }
-            inner_prev = inner_next;
+            const int nb = blockers.neighbor(pk, k);
+            if (nb >= 0 && raw_mark[static_cast<std::size_t>(nb)] == raw_epoch) continue;
+            const Vec3& y = pv[k];
+            const double den = h - (rc.n.dot(y) - rc.d);
+            const Vec3 w = x + (h / den) * (y - x) - rc.o;
+            raw.push_back({pc.solid, rc.u.dot(w), rc.v.dot(w)});
         }
     }
     merge_solid_shadows(shadows, solid_of, raw, whole);
