@@ -147,6 +147,7 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
     const CellRules rules;
     thread_local std::vector<int> kept;
     thread_local std::vector<int> cell_cand;
+    thread_local std::vector<int> facing;  // the candidates that some point of a cell faces
     const double inv_area = 1.0 / area_s;
 
     // bracket_ok: the cell may be settled by its bracket (not when the heap returns it for
@@ -197,10 +198,33 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
                 return;
             }
         }
+        // The back faces of culled solids that face away from every point of the cell are left
+        // out before its shaft: a segment from a point of the cell that meets such a solid
+        // enters it through a face in front of that point, which meets the shaft too, so the
+        // cell's class is the same without them, and no point of the cell sees them (the far
+        // side of a faceted sphere: half of its faces are not tested against the shaft).
+        thread_local std::vector<std::pair<int, bool>> culls;  // (solid, culls_polygon())
+        culls.clear();
+        auto back_everywhere = [&](int k) {
+            const auto& pc = blockers.piece(k);
+            if (!pc.cull_back && pc.solid < 0) return false;
+            for (int q = 0; q < np; ++q)
+                if (pc.plane.signed_distance(poly[q]) > 0.0) return false;
+            if (pc.cull_back) return true;
+            for (const auto& [so, yes] : culls)
+                if (so == pc.solid) return yes;
+            const bool yes = blockers.culls_polygon(k, poly, np);
+            culls.emplace_back(pc.solid, yes);
+            return yes;
+        };
+        facing.clear();
+        for (int c = 0; c < n; ++c)
+            if (!back_everywhere(cand[c])) facing.push_back(cand[c]);
         Shaft sh;
         sh.build(poly, np, ns, rc.poly.v.data(), rc.poly.n, rc.n, eps);
         if (sh.facing_away()) return;
-        const ShaftClass cls = classify_shaft(sh, blockers, cand, n, kept, false);
+        const ShaftClass cls = classify_shaft(sh, blockers, facing.data(),
+                                              static_cast<int>(facing.size()), kept, false);
         if (cls == ShaftClass::kVisible) return;
         // Hidden: the cell's whole unobstructed part. F(x → r) is smooth on the cell: orders 2
         // and 3 of it agreeing kAgreement times better than the cell's share of the target (as
@@ -241,30 +265,12 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
             return;
         }
         // Pieces that face the cell first: the shadows of the others (the back faces of a closed
-        // solid) then mostly vanish in the union. A back face for every point of the cell, of a
-        // solid whose culling holds over the whole cell, is skipped at every point
-        // (evaluate_point()): it is left out here once rather than looked at from each point
-        // (a faceted sphere's far side).
+        // solid) then mostly vanish in the union.
         cell_cand.clear();
         const Vec3 mid = m.at(0.5 * (c.u0 + c.u1), 0.5 * (c.v0 + c.v1));
-        thread_local std::vector<std::pair<int, bool>> culls;  // (solid, culls_polygon())
-        culls.clear();
-        auto back_everywhere = [&](int k) {
-            const auto& pc = blockers.piece(k);
-            for (int q = 0; q < np; ++q)
-                if (pc.plane.signed_distance(poly[q]) > 0.0) return false;
-            if (pc.cull_back) return true;
-            if (pc.solid < 0) return false;
-            for (const auto& [so, yes] : culls)
-                if (so == pc.solid) return yes;
-            const bool yes = blockers.culls_polygon(k, poly, np);
-            culls.emplace_back(pc.solid, yes);
-            return yes;
-        };
         for (int pass = 0; pass < 2; ++pass)
             for (int k : kept)
-                if ((blockers.piece(k).plane.signed_distance(mid) > 0.0) == (pass == 0) &&
-                    (pass == 0 || !back_everywhere(k)))
+                if ((blockers.piece(k).plane.signed_distance(mid) > 0.0) == (pass == 0))
                     cell_cand.push_back(k);
         double q2 = 0.0, q3 = 0.0, u3 = 0.0;
         bool any_hidden = false, any_visible = false;
