@@ -218,8 +218,8 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
             return yes;
         };
         facing.clear();
-        for (int c = 0; c < n; ++c)
-            if (!back_everywhere(cand[c])) facing.push_back(cand[c]);
+        for (int j = 0; j < n; ++j)
+            if (!back_everywhere(cand[j])) facing.push_back(cand[j]);
         Shaft sh;
         sh.build(poly, np, ns, rc.poly.v.data(), rc.poly.n, rc.n, eps);
         if (sh.facing_away()) return;
