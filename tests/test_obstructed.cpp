@@ -451,6 +451,13 @@ TEST_CASE("obstructed: analytic agrees with mc-target on the room (independent c
     CHECK(hidden_pairs_changed > 0);  // the box does hide something
 }
 
+namespace {
+// max over the rows of |Σ_j F_ij − 1|: what a closed scene's rows must keep within the tolerance.
+double largest_row_deviation(const DenseMatrix& F) {
+    return (F.rowwise().sum().array() - 1.0).abs().maxCoeff();
+}
+}  // namespace
+
 TEST_CASE("obstructed: a closed room of triangles sums its rows to 1 within the tolerance at 1e-4" *
           doctest::test_suite("slow")) {
     // The room n = 16 with every patch as two triangles, as meshing tools write it (3,840
@@ -471,9 +478,7 @@ TEST_CASE("obstructed: a closed room of triangles sums its rows to 1 within the 
     o.tolerance = o.obstructed_tolerance = 1e-4;  // as --tolerance 1e-4
     nlohmann::json d;
     const FormFactors f = run_method(*make_method("analytic"), s, o, d);
-    double worst = 0.0;
-    for (Eigen::Index i = 0; i < f.F.rows(); ++i)
-        worst = std::max(worst, std::abs(f.F.row(i).sum() - 1.0));
+    const double worst = largest_row_deviation(f.F);
     MESSAGE("largest |row sum − 1| at tolerance 1e-4: " << worst);
     CHECK(worst <= 1e-4);
 }
@@ -491,9 +496,7 @@ TEST_CASE("obstructed: the closed room n = 32 sums its rows to 1 within the tole
     nlohmann::json d;
     const FormFactors f = run_method(*make_method("analytic"), room, o, d);
     CHECK(d["obstructions"]["partly_hidden_pairs_settled_by_umbrae"].get<std::size_t>() > 100000);
-    double worst = 0.0;
-    for (Eigen::Index i = 0; i < f.F.rows(); ++i)
-        worst = std::max(worst, std::abs(f.F.row(i).sum() - 1.0));
+    const double worst = largest_row_deviation(f.F);
     MESSAGE("largest |row sum − 1| at tolerance 1e-4: " << worst);
     CHECK(worst <= 1e-4);
 }

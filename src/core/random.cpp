@@ -104,10 +104,6 @@ std::uint32_t permute(std::uint32_t i, std::uint32_t l, std::uint32_t p) {
 constexpr std::uint32_t kBases[4] = {2, 3, 5, 7};
 constexpr double kOneMinus = 0x1.fffffffffffffp-1;
 
-double uniform(std::uint64_t key, std::uint64_t counter) {
-    return to_unit(splitmix64(key + counter * 0x9e3779b97f4a7c15ULL));
-}
-
 }  // namespace
 
 SamplerKind parse_sampler(const std::string& name) {

@@ -31,6 +31,12 @@ constexpr std::uint64_t stream_key(std::uint64_t seed, std::uint64_t i, std::uin
 /// A double in [0, 1) from the top 53 bits of a 64-bit word.
 constexpr double to_unit(std::uint64_t bits) { return static_cast<double>(bits >> 11) * 0x1.0p-53; }
 
+/// The uniform number in [0, 1) at position `counter` of the stream `key` (a Weyl sequence
+/// through SplitMix64).
+constexpr double uniform(std::uint64_t key, std::uint64_t counter) {
+    return to_unit(splitmix64(key + counter * 0x9e3779b97f4a7c15ULL));
+}
+
 /// The point sets the Monte-Carlo methods can draw from (MethodOptions::sampler).
 enum class SamplerKind {
     sobol,       ///< Sobol (Joe–Kuo direction numbers), Owen-scrambled per stream (default)

@@ -227,19 +227,6 @@ struct HiddenIntegral {
     bool capped = false;            ///< stopped at the cell limit before meeting the target
 };
 
-/// A number in [0, 1) that the seed and the key fix (splitmix64): where in a sender the points
-/// lie whose values place a pair's result inside its umbra bound (visible_bound()). Fixed points
-/// (the 2 × 2 Gauss points) err the same way in the similar pairs of a row; points drawn
-/// uniformly give an unbiased estimate, the same on every run and thread count (the seed is the
-/// pair's).
-inline double placement_uniform(std::uint64_t seed, std::uint64_t key) {
-    std::uint64_t z = seed + 0x9e3779b97f4a7c15ULL * (key + 1);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-    z ^= z >> 31;
-    return static_cast<double>(z >> 11) * 0x1.0p-53;
-}
-
 /// 1/A_s ∫_s F_{dA_x → (r ∩ shadows of the pieces seen from x)} dA_x: the part of F_sr that the
 /// candidate pieces hide, by adaptive subdivision of the sender (Gauss 2×2 against 3×3 per
 /// cell, cells classified by their own shafts first), until the estimated error ≤ target.
@@ -259,8 +246,9 @@ std::vector<Polygon> event_pieces(const Polygon& s, const Polygon& r, const Bloc
 /// hidden from every corner of s by one convex solid or piece (cell_hidden()'s test), by Gauss
 /// rules of orders 2 and 3 with kAgreement × their difference added. `ok` is false when no
 /// occluder has an umbra; the bound is left once it exceeds give_up. `estimate`: the visible
-/// part at one point drawn in each quarter of the unit square that maps onto s (the seed's,
-/// placement_uniform()), inside [0, bound] (only when bound ≤ give_up).
+/// part at one point drawn in each quarter of the unit square that maps onto s (the stream
+/// `seed` of uniform(): fixed points would err the same way in the similar pairs of a row),
+/// inside [0, bound] (only when bound ≤ give_up).
 struct VisibleBound {
     bool ok = false;
     double bound = 0, estimate = 0;

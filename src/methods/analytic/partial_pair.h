@@ -88,7 +88,7 @@ inline constexpr double kBracketShare = 0.3;
 // (visible_bound()) takes its estimate inside the bound without integration. Not the whole
 // tolerance: the estimate (4 points) misses slivers of light near the umbrae's edges, and a
 // closed room's rows of such pairs fell 1.4e-4 short of 1 at 1e-4 with the whole tolerance; at
-// 0.3, with the points drawn anew in each pair (placement_uniform()), the rows of the room
+// 0.3, with the points drawn anew in each pair (uniform()'s streams), the rows of the room
 // n = 32 are within 8.5e-5 of 1 (at the 2 × 2 Gauss points of every pair, 1.39e-4).
 inline constexpr double kUmbraShare = 0.3;
 
@@ -134,7 +134,7 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
     const double unobs = unobstructed(s, r);
     if (!(unobs > 0.0)) return v;
     PairStats& st = v.stats;
-    // Where the values placed inside their brackets are sampled (placement_uniform()).
+    // The stream of uniform() that places the pair's value inside its umbra bound.
     const std::uint64_t seed =
         (static_cast<std::uint64_t>(s) << 32) ^ static_cast<std::uint64_t>(r);
     const Polygon& ps = scene.patches[s].polygon;

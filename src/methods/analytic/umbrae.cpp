@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "formfactor/core/random.h"
 #include "methods/analytic/point_kernel.h"
 #include "methods/analytic/sender_cells.h"
 
@@ -201,8 +202,8 @@ VisibleBound visible_bound(const Polygon& s, const Polygon& r, const BlockerSet&
     for (int i = 0; i < 2; ++i)
         for (int j = 0; j < 2; ++j) {
             const auto key = static_cast<std::uint64_t>(2 * (2 * i + j));
-            const double u = 0.5 * (i + placement_uniform(seed, key));
-            const double v = 0.5 * (j + placement_uniform(seed, key + 1));
+            const double u = 0.5 * (i + uniform(seed, key));
+            const double v = 0.5 * (j + uniform(seed, key + 1));
             const PointResult pr = evaluate_point(rc, m.at(u, v), ns, blockers, cand, n, eps, true);
             ++out.points;
             seen += 0.25 * m.jacobian(u, v) * std::max(0.0, pr.unobstructed - pr.hidden);
