@@ -183,34 +183,69 @@ bool Shaft::piece_outside(const Vec3* p, int count, const Plane& pl, bool exact)
     }
     if (!below || !above) return true;
     if (!exact) return false;
-    // The segment between the polygons' centres crosses the piece: it certainly blocks.
+    // A segment between a point of a and a point of b that crosses the piece well inside (by
+    // kCrossMargin × eps off its plane at both ends and from its edges): the piece certainly
+    // meets the shaft. The centres' segment first, then those between the centres, vertices and
+    // edges' midpoints of a and b: most pieces that meet a patch pair's shaft are found so, for
+    // a few dot products each instead of the separating axes below (on a triangulated urban
+    // array of 3,026 facets, 12.0 M of 14.4 M such pieces).
     {
-        const double s0 = pl.signed_distance(ca_), s1 = pl.signed_distance(cb_);
-        if ((s0 > eps_ && s1 < -eps_) || (s0 < -eps_ && s1 > eps_)) {
-            const Vec3 z = ca_ + (cb_ - ca_) * (s0 / (s0 - s1));
-            bool inside = true;
-            for (int k = 0; k < count && inside; ++k) {
-                const Vec3 e = p[k + 1 == count ? 0 : k + 1] - p[k];
-                inside = e.cross(z - p[k]).dot(pl.n) > eps_ * e.norm();
-            }
-            if (inside) return false;
+        constexpr double kCrossMargin = 4.0;
+        const double margin = kCrossMargin * eps_;
+        Vec3 inward[kMaxPieceVertices];  // n × e_k, pointing into the piece
+        double edge_margin[kMaxPieceVertices];
+        const int ne = std::min(count, kMaxPieceVertices);
+        for (int k = 0; k < ne; ++k) {
+            const Vec3 e = p[k + 1 == count ? 0 : k + 1] - p[k];
+            inward[k] = pl.n.cross(e);
+            edge_margin[k] = margin * e.norm();
+        }
+        auto crosses = [&](const Vec3& x, double sx, const Vec3& y, double sy) {
+            if (!((sx > margin && sy < -margin) || (sx < -margin && sy > margin))) return false;
+            const Vec3 z = x + (y - x) * (sx / (sx - sy));
+            for (int k = 0; k < ne; ++k)
+                if (!(inward[k].dot(z - p[k]) > edge_margin[k])) return false;
+            return true;
+        };
+        if (ne == count && na_ <= kMaxPieceVertices && nb_ <= kMaxPieceVertices) {
+            if (crosses(ca_, pl.signed_distance(ca_), cb_, pl.signed_distance(cb_))) return false;
+            // Points of each polygon: its centre, vertices and edges' midpoints.
+            Vec3 pa[2 * kMaxPieceVertices + 1], pb[2 * kMaxPieceVertices + 1];
+            double sa[2 * kMaxPieceVertices + 1], sb[2 * kMaxPieceVertices + 1];
+            auto points = [&](const Vec3* v, int nv, const Vec3& c, Vec3* out, double* sd) {
+                int m = 0;
+                out[m++] = c;
+                for (int k = 0; k < nv; ++k) {
+                    out[m++] = v[k];
+                    out[m++] = 0.5 * (v[k] + v[k + 1 == nv ? 0 : k + 1]);
+                }
+                for (int k = 0; k < m; ++k) sd[k] = pl.signed_distance(out[k]);
+                return m;
+            };
+            const int ma = points(a_, na_, ca_, pa, sa), mb = points(b_, nb_, cb_, pb, sb);
+            for (int i = 0; i < ma; ++i)
+                for (int j = (i == 0 ? 1 : 0); j < mb; ++j)
+                    if (crosses(pa[i], sa[i], pb[j], sb[j])) return false;
         }
     }
     // Separating axis theorem for the remaining axes: an edge of the piece crossed with an edge
     // of the hull (a's and b's edges, and the edges of the side faces between them).
     // The piece's interval on the axis first, then the hull's: lo1 only falls and hi1 only
     // rises as its vertices come, so once both ends overlap the piece's the answer is no.
+    // The early exits compare with a margin at least m = eps |axis| (eps times the axis's L1
+    // norm): overlapping by more than it, the intervals overlap by more than m; the square
+    // root of |axis| is taken only for the last comparison.
     auto separated = [&](const Vec3& axis) {
-        const double len = axis.norm();
-        if (!(len > 0.0)) return false;
+        const double l1 = std::abs(axis.x()) + std::abs(axis.y()) + std::abs(axis.z());
+        if (!(l1 > 0.0)) return false;
         double lo1 = 1e300, hi1 = -1e300, lo2 = 1e300, hi2 = -1e300;
         for (int k = 0; k < count; ++k) {
             const double t = axis.dot(p[k]);
             lo2 = std::min(lo2, t);
             hi2 = std::max(hi2, t);
         }
-        const double m = eps_ * len;
-        auto overlaps = [&] { return !(hi2 <= lo1 + m) && !(hi1 <= lo2 + m); };
+        const double m_above = eps_ * l1;
+        auto overlaps = [&] { return !(hi2 <= lo1 + m_above) && !(hi1 <= lo2 + m_above); };
         for (int k = 0; k < na_; ++k) {
             const double t = axis.dot(a_[k]);
             lo1 = std::min(lo1, t);
@@ -223,6 +258,7 @@ bool Shaft::piece_outside(const Vec3* p, int count, const Plane& pl, bool exact)
             hi1 = std::max(hi1, t);
             if (overlaps()) return false;
         }
+        const double m = eps_ * axis.norm();
         return hi2 <= lo1 + m || hi1 <= lo2 + m;
     };
     for (int k = 0; k < count; ++k) {
