@@ -586,6 +586,55 @@ TEST_CASE("obstructed roots: the umbra bound is never below what the sender sees
     CHECK(partial >= 3);
 }
 
+TEST_CASE("obstructed roots: the umbra bound of a cell is never below what the cell sees") {
+    // Quarter cells of a ground triangle's map across a street of boxes from a wall: what the
+    // cell sees of the wall (its unobstructed part less a tight integration of its hidden part)
+    // stays below cell_umbra()'s bound, and a cell it calls hidden sees nothing.
+    std::mt19937 rng(13);
+    std::uniform_real_distribution<double> u01(0.0, 1.0);
+    int hidden = 0, bounded = 0;
+    for (int trial = 0; trial < 40; ++trial) {
+        BlockerSet bs;
+        const std::vector<int> cand = street_of_boxes(bs, 1 + trial % 3, rng);
+        const int n = static_cast<int>(cand.size());
+        const double sx = 2.0 + u01(rng), sy = u01(rng), wz = 0.5 * u01(rng);
+        const Polygon s = poly({Vec3(sx, sy, 0), Vec3(sx + 0.7, sy, 0), Vec3(sx, sy + 0.7, 0)});
+        const Polygon r =
+            poly({Vec3(-5, 0, wz), Vec3(-5, 1, wz), Vec3(-5, 1, wz + 1), Vec3(-5, 0, wz + 1)});
+        const Receiver rc(r);
+        SenderMap m;
+        m.p0 = s[0];
+        m.p1 = s[1];
+        m.p2 = s[2];
+        m.tri_j = (m.p1 - m.p0).cross(m.p2 - m.p1).norm();
+        for (int q = 0; q < 4; ++q) {
+            const double u0 = 0.5 * (q % 2), v0 = 0.5 * (q / 2), u1 = u0 + 0.5, v1 = v0 + 0.5;
+            const Vec3 corner[4] = {m.at(u0, v0), m.at(u1, v0), m.at(u1, v1), m.at(u0, v1)};
+            // The collapsed map's cells at u0 = 0 are triangles: their corner (0, v) repeats.
+            Polygon cell;
+            for (const Vec3& c : corner)
+                if (cell.vertices.empty() || (c - cell.vertices.back()).norm() > 0.0)
+                    cell.vertices.push_back(c);
+            const double scale = 0.25 / area(s);
+            const CellUmbra cu = cell_umbra(rc, m, u0, u1, v0, v1, cell.vertices.data(),
+                                            static_cast<int>(cell.size()), Vec3(0, 0, 1), bs,
+                                            cand.data(), n, 1e-12, scale, INFINITY);
+            if (!cu.ok) continue;
+            const HiddenIntegral h = hidden_integral(cell, r, bs, cand.data(), n, 1e-10, 1e-12);
+            const double seen = area(cell) / area(s) * (polygon_to_polygon(cell, r) - h.hidden);
+            if (cu.hidden) {
+                ++hidden;
+                CHECK(std::abs(seen) <= 1e-9);
+            } else {
+                ++bounded;
+                CHECK(seen <= cu.bound + 1e-9);
+            }
+        }
+    }
+    CHECK(hidden >= 5);
+    CHECK(bounded >= 5);
+}
+
 TEST_CASE("obstructed roots: the point factor bound of a cell is never below F from its points") {
     // Cells (convex quads in the plane z = 0) and receivers of every orientation, near and far:
     // F(x → r) at points spread over the cell stays below point_factor_bound().

@@ -232,9 +232,11 @@ struct HiddenIntegral {
 /// cell, cells classified by their own shafts first), until the estimated error ≤ target.
 /// s and r: planar convex polygons (counter-clockwise about their normals). `cut`, when given:
 /// split_by_events(s, normal(s), Receiver(r), blockers, cand, n, eps), computed already.
+/// `seed`: the stream of uniform() that places the points of cells settled by their umbrae
+/// (the pair's own, so that the result is the same on any thread count).
 HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const BlockerSet& blockers,
                                const int* cand, int n, double target, double eps,
-                               const std::vector<Polygon>* cut = nullptr);
+                               const std::vector<Polygon>* cut = nullptr, std::uint64_t seed = 0);
 
 /// split_by_events() of the sender s towards the receiver r (convex polygons): what
 /// hidden_integral(s, r, ...) integrates over, for its `cut`.
@@ -243,7 +245,7 @@ std::vector<Polygon> event_pieces(const Polygon& s, const Polygon& r, const Bloc
 
 /// A bound on what the sender s sees of r past the candidate pieces (1/A_s ∫_s F(x → visible
 /// part of r) dA_x ≤ bound): F from s to r less the umbrae of the occluders, the points of r
-/// hidden from every corner of s by one convex solid or piece (cell_hidden()'s test), by Gauss
+/// hidden from every corner of s by one convex solid or piece (cell_umbra()'s test), by Gauss
 /// rules of orders 2 and 3 with kAgreement × their difference added. `ok` is false when no
 /// occluder has an umbra; the bound is left once it exceeds give_up. `estimate`: the visible
 /// part at one point drawn in each quarter of the unit square that maps onto s (the stream

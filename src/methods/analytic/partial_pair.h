@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "formfactor/core/fields.h"
+#include "formfactor/core/random.h"
 #include "formfactor/geometry/polygon.h"
 #include "formfactor/methods/method.h"
 #include "formfactor/methods/partly_hidden.h"
@@ -221,9 +222,10 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
     double hidden_sum = 0.0, err = 0.0;
     int level = 0;
     for (std::size_t k = 0; k < receivers.size(); ++k) {
-        const detail::HiddenIntegral h = detail::hidden_integral(
-            sender, receivers[k], S.blockers, pair_cand, pp.cand_count,
-            tol / to_sr / static_cast<double>(receivers.size()), S.eps, &cuts[k]);
+        const detail::HiddenIntegral h =
+            detail::hidden_integral(sender, receivers[k], S.blockers, pair_cand, pp.cand_count,
+                                    tol / to_sr / static_cast<double>(receivers.size()), S.eps,
+                                    &cuts[k], stream_key(seed, k, 0));
         hidden_sum += h.hidden * to_sr;
         err += h.error * to_sr;
         level = std::max(level, h.max_level);

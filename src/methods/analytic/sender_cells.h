@@ -67,9 +67,20 @@ double polygon_distance(const Vec3* a, int na, const Vec3* b, int nb);
 double point_factor_bound(const Vec3* poly, int np, const Vec3& ns, const Receiver& rc,
                           double limit = INFINITY);
 
-/// True when no point of the convex cell poly[0, np) (in the sender's plane, normal nx) sees any
-/// of the receiver: the umbrae of the occluders (from the cell's corners) cover it (umbrae.cpp).
-bool cell_hidden(const Receiver& rc, const Vec3* poly, int np, const Vec3& nx,
-                 const BlockerSet& blockers, const int* cand, int count, double eps);
+/// What the cell [u0, u1] × [v0, v1] of the map m (corners poly[0, np), in the sender's plane,
+/// unit normal nx) sees of the receiver past the umbrae of the candidates (umbrae.cpp). ok:
+/// some occluder has an umbra from every corner; hidden: the umbrae cover the receiver, no point
+/// of the cell sees any of it; else `bound` bounds the cell's visible part (1/A_s) ∫_cell
+/// F(x → r) dA_x from above by what the umbrae leave of r (orders 2 and 3 of that smooth
+/// integrand, plus kAgreement times their difference), scaled as the cell's rules are (`scale`:
+/// the cell's du dv over the sender's area); left once above give_up (none when it is 0).
+struct CellUmbra {
+    bool ok = false, hidden = false;
+    double bound = 0.0;
+};
+CellUmbra cell_umbra(const Receiver& rc, const SenderMap& m, double u0, double u1, double v0,
+                     double v1, const Vec3* poly, int np, const Vec3& nx,
+                     const BlockerSet& blockers, const int* cand, int count, double eps,
+                     double scale, double give_up);
 
 }  // namespace formfactor::detail

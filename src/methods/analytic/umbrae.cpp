@@ -1,7 +1,8 @@
 // Umbrae of a sender: the part of the receiver that an occluder (a convex solid, or a piece
 // alone) hides from every point of a convex sender cell is the intersection of its shadows from
-// the cell's corners. A cell whose umbrae cover the receiver sees none of it (cell_hidden());
-// what they leave bounds what the cell sees (visible_bound()): the conservative visibility
+// the cell's corners. A cell whose umbrae cover the receiver sees none of it, and what they
+// leave bounds what a cell (cell_umbra()) or a sender (visible_bound()) sees: the conservative
+// visibility
 // bounds of Lischinski, Smits & Greenberg (1994), here from exact shadow polygons. See
 // docs/analytic.md, "Pairs settled by their umbrae".
 
@@ -153,10 +154,25 @@ double fragments_rule(const SenderMap& m, double u0, double u1, double v0, doubl
 
 }  // namespace
 
-bool cell_hidden(const Receiver& rc, const Vec3* poly, int np, const Vec3& nx,
-                 const BlockerSet& blockers, const int* cand, int count, double eps) {
+CellUmbra cell_umbra(const Receiver& rc, const SenderMap& m, double u0, double u1, double v0,
+                     double v1, const Vec3* poly, int np, const Vec3& nx,
+                     const BlockerSet& blockers, const int* cand, int count, double eps,
+                     double scale, double give_up) {
+    CellUmbra out;
     thread_local std::vector<Poly2> frags;
-    return umbra_remainder(rc, poly, np, nx, blockers, cand, count, eps, frags) && frags.empty();
+    if (!umbra_remainder(rc, poly, np, nx, blockers, cand, count, eps, frags)) return out;
+    out.ok = true;
+    out.hidden = frags.empty();
+    if (out.hidden || !(give_up > 0.0)) return out;
+    const CellRules rules;
+    const double q2 = fragments_rule(m, u0, u1, v0, v1, rules.g2, kLowOrder, rc, nx, frags, scale);
+    if (q2 > give_up) {
+        out.bound = q2;
+        return out;
+    }
+    const double q3 = fragments_rule(m, u0, u1, v0, v1, rules.g3, kMidOrder, rc, nx, frags, scale);
+    out.bound = q3 + kAgreement * std::abs(q3 - q2);
+    return out;
 }
 
 VisibleBound visible_bound(const Polygon& s, const Polygon& r, const BlockerSet& blockers,
