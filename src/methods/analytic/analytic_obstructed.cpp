@@ -37,7 +37,6 @@ using detail::ClusterTree;
 using detail::combined;
 using detail::for_each_patch_pair;
 using detail::integrate_partial;
-using detail::kSampledPairs;
 using detail::NodePair;
 using detail::Obstructions;
 using detail::PairOutput;
@@ -45,6 +44,7 @@ using detail::PartialPair;
 using detail::PartialValue;
 using detail::prepare_obstructions;
 using detail::report_obstructions;
+using detail::sample_stride;
 using detail::seconds;
 using detail::ThreadStats;
 
@@ -65,7 +65,7 @@ template <class Body>
 void partly_hidden_pass(std::size_t count, const MethodContext& ctx, double tol, Fields& o,
                         const Body& body) {
     const MethodOptions& options = ctx.options;
-    const std::size_t stride = std::max<std::size_t>(1, count / kSampledPairs);
+    const std::size_t stride = sample_stride(count);
     std::vector<std::size_t> order;
     order.reserve(count);
     for (std::size_t r = 0; r < stride; ++r)

@@ -30,11 +30,11 @@ using detail::add_pair;
 using detail::checked_tolerance;
 using detail::combined;
 using detail::integrate_partial;
-using detail::kSampledPairs;
 using detail::PairOutput;
 using detail::PartialPair;
 using detail::PartialValue;
 using detail::prepare_obstructions;
+using detail::sample_stride;
 using detail::ThreadStats;
 
 }  // namespace
@@ -162,7 +162,7 @@ void PartlyHiddenPairs::Impl::list_pairs() {
     // Neighbouring pairs in the list often share their blockers and cost alike (the pairs of
     // two surfaces); a part of every stride-th pair is a sample of the whole list.
     const std::size_t count = m.partial.size();
-    const std::size_t stride = std::max<std::size_t>(1, count / kSampledPairs);
+    const std::size_t stride = sample_stride(count);
     m.order.reserve(count);
     for (std::size_t r = 0; r < stride; ++r)
         for (std::size_t k = r; k < count; k += stride) m.order.push_back(k);
