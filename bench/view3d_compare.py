@@ -347,10 +347,12 @@ def compare(name, vs3, n, args, work, view3d, V, tolerance=None):
 
 def print_line(name, tol, n, r):
     v, f = r["view3d"], r["formfactor"]
-    ratio = v["cpu"] / f["cpu"] if f.get("cpu") else float("nan")
+    # No ratio to a run that failed: its time is how long it took to give up.
+    ratio = v["cpu"] / f["cpu"] if f.get("cpu") and v.get("rc", 0) == 0 else float("nan")
+    ratio_text = f"{ratio:>8.1f}x" if ratio == ratio else f"{'fails' if v.get('rc') else '-':>9}"
     line = (f"{name:<14} {tol or 0:>6.0e} {n:>5} | {v['wall']:>10.2f}s {v['cpu']:>7.2f}s "
             f"{v['peak_mb']:>6.0f} | {f['wall']:>14.2f}s {f.get('cpu', float('nan')):>7.2f}s "
-            f"{f.get('peak_mb', float('nan')):>6.0f} | {ratio:>8.1f}x |")
+            f"{f.get('peak_mb', float('nan')):>6.0f} | {ratio_text} |")
     d = r.get("diff")
     if d:
         line += (f" {d['max']:>9.2e} {str(tuple(d['at'])):>11} {d['mean']:>9.2e}"
