@@ -174,7 +174,10 @@ SparseComputeResult compute_sparse_form_factors(const Scene& scene, const Comput
         ComputeOptions bo = options;
         bo.rows = RowRange{b, std::min(n, b + needs.block_rows)};
         bo.repair = RepairOptions{};
-        bo.progress = nullptr;
+        // One block (the analytic method's sparse rows come at once): the method's own phases
+        // reach the sink, with its bar's time left and its note of what the partly hidden pass
+        // will cost; with several, only the blocks count.
+        bo.progress = needs.block_rows >= n ? options.progress : nullptr;
         bo.prebuilt_visibility = vis;
         bo.sparse_rows = emit_sparse ? &emitted : nullptr;
         ComputeResult block = compute_form_factors(scene, bo);

@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <fstream>
 #include <iterator>
+#include <set>
 #include <string>
 #include <thread>
 #include <vector>
@@ -19,6 +20,7 @@
 #include "formfactor/core/progress.h"
 #include "formfactor/methods/partly_hidden.h"
 #include "formfactor/pipeline.h"
+#include "formfactor/pipeline_sparse.h"
 #include "formfactor/scene/scene.h"
 #include "support/cli_runner.h"
 #include "support/temp_dir.h"
@@ -262,6 +264,27 @@ TEST_CASE("pipeline: the default method, typed report, nothing drawn unless aske
     REQUIRE(mc.report.rays_cast);
     CHECK(*mc.report.rays_cast == 512 * s.patches.size());
     CHECK(mc.form_factors.standard_error);
+}
+
+TEST_CASE("pipeline: sparse analytic rows in one block show the method's own phases") {
+    // The partly hidden pass's bar (and its note of what it will cost, when long) reaches the
+    // caller's sink when the rows come as one block, as in a dense run.
+    class LabelSink final : public ProgressSink {
+      public:
+        void update(const std::string& label, std::size_t, std::size_t, double) override {
+            labels.insert(label);
+        }
+        void finish(const std::string&) override {}
+        std::set<std::string> labels;
+    };
+    const Scene s = cornell(3);
+    LabelSink sink;
+    ComputeOptions o = options_for(MethodKind::analytic);
+    o.progress = &sink;
+    const SparseComputeResult r = compute_sparse_form_factors(s, o, SparseOptions{});
+    REQUIRE(r.run.blocks == 1);
+    CHECK(sink.labels.count("analytic (obstructed)") == 1);
+    CHECK(sink.labels.count("sparse rows") == 1);
 }
 
 TEST_CASE("pipeline: a computation stops at its own cancellation flag") {
