@@ -327,19 +327,9 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
                 const std::uint64_t key = stream_key(seed, static_cast<std::uint64_t>(c.map),
                                                      std::bit_cast<std::uint64_t>(c.u0),
                                                      std::bit_cast<std::uint64_t>(c.v0));
-                double seen = 0.0;
-                for (int i = 0; i < 2; ++i)
-                    for (int j = 0; j < 2; ++j) {
-                        const auto at = static_cast<std::uint64_t>(2 * (2 * i + j));
-                        const double u = c.u0 + 0.5 * du * (i + uniform(key, at));
-                        const double v = c.v0 + 0.5 * dv * (j + uniform(key, at + 1));
-                        ++out.points;
-                        const PointResult pr =
-                            evaluate_point(rc, m.at(u, v), ns, blockers, cell_cand.data(),
-                                           static_cast<int>(cell_cand.size()), eps, true);
-                        seen +=
-                            0.25 * m.jacobian(u, v) * std::max(0.0, pr.unobstructed - pr.hidden);
-                    }
+                const double seen = seen_at_drawn_points(
+                    rc, m, c.u0, c.u1, c.v0, c.v1, ns, blockers, cell_cand.data(),
+                    static_cast<int>(cell_cand.size()), eps, key, out.points);
                 const double visible = std::clamp(seen * scale, 0.0, cu.bound);
                 c.value -= visible;
                 c.error += std::max(visible, cu.bound - visible);

@@ -4,6 +4,8 @@
 // of that square, the umbra tests of a cell and the bound on F from its points that brackets it.
 
 #include <cmath>
+#include <cstddef>
+#include <cstdint>
 #include <vector>
 
 #include "kernels/analytic_internal.h"
@@ -82,5 +84,13 @@ CellUmbra cell_umbra(const Receiver& rc, const SenderMap& m, double u0, double u
                      double v1, const Vec3* poly, int np, const Vec3& nx,
                      const BlockerSet& blockers, const int* cand, int count, double eps,
                      double scale, double give_up);
+
+/// The mean of J(u, v) F(x(u, v) → what the candidates leave of the receiver) at one point
+/// drawn in each quarter of the cell [u0, u1] × [v0, v1] of the map m (stratified: unbiased),
+/// the points from the stream `key` of uniform(); times the cell's du dv, an estimate of
+/// ∫_cell F(x → visible part of r) dA_x. `points` counts the evaluations (umbrae.cpp).
+double seen_at_drawn_points(const Receiver& rc, const SenderMap& m, double u0, double u1, double v0,
+                            double v1, const Vec3& ns, const BlockerSet& blockers, const int* cand,
+                            int n, double eps, std::uint64_t key, std::size_t& points);
 
 }  // namespace formfactor::detail

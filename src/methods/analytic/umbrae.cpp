@@ -214,18 +214,27 @@ VisibleBound visible_bound(const Polygon& s, const Polygon& r, const BlockerSet&
     // square (stratified sampling: an unbiased estimate, inside the bound). The 2 × 2 Gauss
     // points fall at the same place in every pair of a row, and where the light is a sliver
     // along the umbrae's edges they missed it in all of them.
+    const double seen = seen_at_drawn_points(rc, m, 0.0, 1.0, 0.0, 1.0, ns, blockers, cand, n, eps,
+                                             seed, out.points);
+    out.estimate = std::clamp(seen / area_s, 0.0, out.bound);
+    return out;
+}
+
+double seen_at_drawn_points(const Receiver& rc, const SenderMap& m, double u0, double u1, double v0,
+                            double v1, const Vec3& ns, const BlockerSet& blockers, const int* cand,
+                            int n, double eps, std::uint64_t key, std::size_t& points) {
+    const double du = u1 - u0, dv = v1 - v0;
     double seen = 0.0;
     for (int i = 0; i < 2; ++i)
         for (int j = 0; j < 2; ++j) {
-            const auto key = static_cast<std::uint64_t>(2 * (2 * i + j));
-            const double u = 0.5 * (i + uniform(seed, key));
-            const double v = 0.5 * (j + uniform(seed, key + 1));
+            const auto at = static_cast<std::uint64_t>(2 * (2 * i + j));
+            const double u = u0 + 0.5 * du * (i + uniform(key, at));
+            const double v = v0 + 0.5 * dv * (j + uniform(key, at + 1));
             const PointResult pr = evaluate_point(rc, m.at(u, v), ns, blockers, cand, n, eps, true);
-            ++out.points;
+            ++points;
             seen += 0.25 * m.jacobian(u, v) * std::max(0.0, pr.unobstructed - pr.hidden);
         }
-    out.estimate = std::clamp(seen / area_s, 0.0, out.bound);
-    return out;
+    return seen;
 }
 
 }  // namespace formfactor::detail
