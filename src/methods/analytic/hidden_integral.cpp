@@ -315,7 +315,7 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
         if (first.all_hidden && first.hidden > 0.0) {
             const CellUmbra cu = cell_umbra(rc, m, c.u0, c.u1, c.v0, c.v1, poly, np, ns, blockers,
                                             cell_cand.data(), static_cast<int>(cell_cand.size()),
-                                            eps, scale, bracket_ok ? kCellBracket * target : 0.0);
+                                            eps, scale, bracket_ok ? kCellBracket * target : NAN);
             if (cu.hidden) {
                 ++out.proven_hidden;
                 whole_cell();

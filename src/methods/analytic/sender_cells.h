@@ -75,7 +75,7 @@ double point_factor_bound(const Vec3* poly, int np, const Vec3& ns, const Receiv
 /// of the cell sees any of it; else `bound` bounds the cell's visible part (1/A_s) ∫_cell
 /// F(x → r) dA_x from above by what the umbrae leave of r (orders 2 and 3 of that smooth
 /// integrand, plus kAgreement times their difference), scaled as the cell's rules are (`scale`:
-/// the cell's du dv over the sender's area); left once above give_up (none when it is 0).
+/// the cell's du dv over the sender's area); left once above give_up (none when it is NaN).
 struct CellUmbra {
     bool ok = false, hidden = false;
     double bound = 0.0;

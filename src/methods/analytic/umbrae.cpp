@@ -163,7 +163,7 @@ CellUmbra cell_umbra(const Receiver& rc, const SenderMap& m, double u0, double u
     if (!umbra_remainder(rc, poly, np, nx, blockers, cand, count, eps, frags)) return out;
     out.ok = true;
     out.hidden = frags.empty();
-    if (out.hidden || !(give_up > 0.0)) return out;
+    if (out.hidden || std::isnan(give_up)) return out;
     const CellRules rules;
     const double q2 = fragments_rule(m, u0, u1, v0, v1, rules.g2, kLowOrder, rc, nx, frags, scale);
     if (q2 > give_up) {
@@ -183,10 +183,6 @@ VisibleBound visible_bound(const Polygon& s, const Polygon& r, const BlockerSet&
     if (!(area_s > 0.0) || n == 0 || np < 3 || np > 4) return out;
     const Vec3 ns = normal(s);
     const Receiver rc(r);
-    thread_local std::vector<Poly2> frags;
-    if (!umbra_remainder(rc, s.vertices.data(), np, ns, blockers, cand, n, eps, frags)) return out;
-    out.ok = true;
-    if (frags.empty()) return out;
     SenderMap m;
     m.p0 = s[0];
     m.p1 = s[1];
@@ -197,19 +193,12 @@ VisibleBound visible_bound(const Polygon& s, const Polygon& r, const BlockerSet&
     } else {
         m.tri_j = (m.p1 - m.p0).cross(m.p2 - m.p1).norm();
     }
-    const double scale = 1.0 / area_s;
-    auto rule = [&](const GaussRule& g, int order) {
-        return fragments_rule(m, 0.0, 1.0, 0.0, 1.0, g, order, rc, ns, frags, scale);
-    };
-    const CellRules rules;
-    const double q2 = rule(rules.g2, kLowOrder);
-    if (q2 > give_up) {
-        out.bound = q2;
-        return out;
-    }
-    const double q3 = rule(rules.g3, kMidOrder);
-    out.bound = q3 + kAgreement * std::abs(q3 - q2);
-    if (out.bound > give_up) return out;
+    // The whole sender as the one cell of its map.
+    const CellUmbra cu = cell_umbra(rc, m, 0.0, 1.0, 0.0, 1.0, s.vertices.data(), np, ns, blockers,
+                                    cand, n, eps, 1.0 / area_s, give_up);
+    out.ok = cu.ok;
+    out.bound = cu.bound;
+    if (!cu.ok || cu.hidden || out.bound > give_up) return out;
     // What the sender sees past the blockers, at one point drawn in each quarter of the unit
     // square (stratified sampling: an unbiased estimate, inside the bound). The 2 × 2 Gauss
     // points fall at the same place in every pair of a row, and where the light is a sliver
