@@ -253,10 +253,11 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
     }
     {
         // Before the pair lists exist: a column, its upper and lower value and (at most) two
-        // row entries per pair that sees anything, ~36 bytes; a closed room of 10⁵ patches
-        // with a box would want ~10¹⁰ pairs.
+        // row entries per pair that sees anything, ~36 bytes, and the list of the partly
+        // hidden ones (40 bytes each); a closed room of 10⁵ patches with a box would want
+        // ~10¹⁰ pairs.
         const double pairs = double(vis) + double(partial_pairs);
-        const double need = 36.0 * pairs + 96.0 * double(partial_pairs);
+        const double need = 36.0 * pairs + 40.0 * double(partial_pairs);
         const double available = available_memory();
         if (available > 0.0 && need > available)
             throw ResourceError(fmt::format(
@@ -321,25 +322,12 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
         return static_cast<std::size_t>(at - cols[a].begin());
     };
     // The partly hidden pairs: the unobstructed value less the integrated hidden part, as the
-    // dense pass computes it.
+    // dense pass computes it, written into the pair's slot as it comes (each unordered pair is
+    // listed once, so no two threads write the same slot; a list of the values would hold ~100
+    // bytes per pair, more than the pairs' lists, at the peak).
     ThreadStats stats;
-    std::vector<PartialValue> values(partial.size());
-    Fields& obs = report.details["obstructions"];
-    if (given) {
-        parallel_for(partial.size(), options.threads,
-                     [&](std::size_t k) { values[k] = given->value(index[k]); });
-    } else {
-        partly_hidden_pass(partial.size(), ctx, tol, obs, [&](std::size_t k) {
-            values[k] =
-                integrate_partial(scene, S, partial[k], S.outputs[cand_task[k]].cand, tol,
-                                  [&](std::size_t s, std::size_t r) {
-                                      return s < r ? upper[s][slot(s, r)] : lower[r][slot(r, s)];
-                                  });
-            add_pair(stats.local(), values[k].stats);
-        });
-    }
-    for (const PartialValue& v : values) {
-        if (!v.integrated) continue;
+    auto store = [&](const PartialValue& v) {
+        if (!v.integrated) return;
         if (v.s < v.r) {
             const std::size_t k = slot(v.s, v.r);
             upper[v.s][k] = v.f;
@@ -349,7 +337,29 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
             upper[v.r][k] = v.back;
             lower[v.r][k] = v.f;
         }
+    };
+    Fields& obs = report.details["obstructions"];
+    if (given) {
+        parallel_for(partial.size(), options.threads,
+                     [&](std::size_t k) { store(given->value(index[k])); });
+    } else {
+        partly_hidden_pass(partial.size(), ctx, tol, obs, [&](std::size_t k) {
+            const PartialValue v =
+                integrate_partial(scene, S, partial[k], S.outputs[cand_task[k]].cand, tol,
+                                  [&](std::size_t s, std::size_t r) {
+                                      return s < r ? upper[s][slot(s, r)] : lower[r][slot(r, s)];
+                                  });
+            add_pair(stats.local(), v.stats);
+            store(v);
+        });
     }
+    // The classification's lists (the candidates of every partly hidden pair) are done with
+    // before the rows are built.
+    const std::size_t partial_count = partial.size();
+    std::vector<PartialPair>().swap(partial);
+    std::vector<std::size_t>().swap(cand_task);
+    std::vector<std::size_t>().swap(index);
+    if (!given) std::vector<PairOutput>().swap(own.outputs);
     const auto t_done = Clock::now();
     // The rows: entries F_ic (c > i) from row i's pairs, F_ia (a < i) from the pairs (a, i),
     // columns ascending, zeros left out.
@@ -383,7 +393,7 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
     details["unobstructed_pairs_computed"] = ust.zero + ust.exact + ust.far;
     Fields& o = details["obstructions"];
     report_obstructions(S, given ? given->values.stats : combined(stats), node_pairs, vis, hid,
-                        given ? given->partial.size() : partial.size(), tol,
+                        given ? given->partial.size() : partial_count, tol,
                         effective_threads(options.threads), o);
     o["seconds_partly_hidden"] = seconds(t_classified, t_done);
     report.error_bound_per_entry =

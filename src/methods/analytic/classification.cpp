@@ -207,9 +207,18 @@ class Classifier {
             PartialPair p;
             p.i = TA.order[static_cast<std::size_t>(A.first)];
             p.j = TB.order[static_cast<std::size_t>(B.first)];
-            p.cand_first = out.cand.size();
             p.cand_count = static_cast<int>(kept_.size());
-            out.cand.insert(out.cand.end(), kept_.begin(), kept_.end());
+            // The pairs of one node pair often keep the same pieces: the list of the pair
+            // before is shared when it is the same (a city's candidates are ~80 bytes a pair).
+            const PartialPair* before = out.partial.empty() ? nullptr : &out.partial.back();
+            if (before && before->cand_count == p.cand_count &&
+                std::equal(kept_.begin(), kept_.end(),
+                           out.cand.begin() + static_cast<std::ptrdiff_t>(before->cand_first))) {
+                p.cand_first = before->cand_first;
+            } else {
+                p.cand_first = out.cand.size();
+                out.cand.insert(out.cand.end(), kept_.begin(), kept_.end());
+            }
             out.partial.push_back(p);
             return;
         }
