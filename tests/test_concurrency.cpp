@@ -4,8 +4,11 @@
 
 #include <doctest/doctest.h>
 
+#include <chrono>
 #include <functional>
 #include <latch>
+#include <mutex>
+#include <set>
 #include <string>
 #include <thread>
 #include <vector>
@@ -157,4 +160,26 @@ TEST_CASE("threads: a cancellation request stops parallel_for with Cancelled" *
                         100, 1, [&](std::size_t) { ++ran; }, flag),
                     Cancelled);
     CHECK(ran.load() == 0);
+}
+
+TEST_CASE(
+    "threads: parallel_for_each runs every iteration once, and costly ones that come "
+    "together on more than one thread" *
+    doctest::test_suite("threads")) {
+    // Eight slow iterations first, then many quick ones: in chunks, the slow ones would all
+    // run on the thread that took the first chunk.
+    constexpr std::size_t n = 4000, slow = 8;
+    std::vector<std::atomic<int>> ran(n);
+    std::mutex m;
+    std::set<std::thread::id> slow_threads;
+    parallel_for_each(n, 2, [&](std::size_t i) {
+        ++ran[i];
+        if (i < slow) {
+            std::this_thread::sleep_for(std::chrono::milliseconds(40));
+            std::lock_guard<std::mutex> lock(m);
+            slow_threads.insert(std::this_thread::get_id());
+        }
+    });
+    for (std::size_t i = 0; i < n; ++i) REQUIRE(ran[i].load() == 1);
+    CHECK(slow_threads.size() == 2);
 }

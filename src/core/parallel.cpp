@@ -34,8 +34,10 @@ int effective_threads(int threads) {
     return hw > 0 ? hw : 1;
 }
 
-void parallel_for(std::size_t n, int threads, const std::function<void(std::size_t)>& body,
-                  const CancellationFlag& cancel) {
+namespace {
+
+void run_parallel(std::size_t n, int threads, const std::function<void(std::size_t)>& body,
+                  const CancellationFlag& cancel, bool each) {
     cancel.throw_if_requested();
     if (n == 0) return;
     std::exception_ptr first_error;
@@ -69,8 +71,13 @@ void parallel_for(std::size_t n, int threads, const std::function<void(std::size
         for (std::thread& th : pool) th.join();
     } else {
         tbb::task_arena arena(t);
-        arena.execute(
-            [&] { tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1), run_range); });
+        arena.execute([&] {
+            if (each)
+                tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1), run_range,
+                                  tbb::simple_partitioner());
+            else
+                tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1), run_range);
+        });
     }
     // Read under the lock the workers wrote it under (ThreadSanitizer cannot see TBB's join).
     std::exception_ptr error;
@@ -79,6 +86,18 @@ void parallel_for(std::size_t n, int threads, const std::function<void(std::size
         error = first_error;
     }
     if (error) std::rethrow_exception(error);
+}
+
+}  // namespace
+
+void parallel_for(std::size_t n, int threads, const std::function<void(std::size_t)>& body,
+                  const CancellationFlag& cancel) {
+    run_parallel(n, threads, body, cancel, false);
+}
+
+void parallel_for_each(std::size_t n, int threads, const std::function<void(std::size_t)>& body,
+                       const CancellationFlag& cancel) {
+    run_parallel(n, threads, body, cancel, true);
 }
 
 }  // namespace formfactor

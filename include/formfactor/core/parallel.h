@@ -20,6 +20,13 @@ namespace formfactor {
 void parallel_for(std::size_t n, int threads, const std::function<void(std::size_t)>& body,
                   const CancellationFlag& cancel = current_cancellation());
 
+/// parallel_for() with every iteration handed out on its own, for a few iterations of very
+/// unequal cost (the classification's surface pairs: on a city, the ground against one row of
+/// walls takes a second, most pairs a millisecond): in chunks, the costly ones that come
+/// together would run one after the other on one thread while the others wait.
+void parallel_for_each(std::size_t n, int threads, const std::function<void(std::size_t)>& body,
+                       const CancellationFlag& cancel = current_cancellation());
+
 /// Number of threads `threads` means on this machine (0 → hardware concurrency).
 int effective_threads(int threads);
 

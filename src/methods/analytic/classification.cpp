@@ -365,7 +365,7 @@ void classify_task_list(const Obstructions& S, const std::size_t* tasks, std::si
         spairs[q] = all[tasks[q]];
     }
     const CancellationFlag& cancel = current_cancellation();
-    parallel_for(spairs.size(), threads, [&](std::size_t q) {
+    parallel_for_each(spairs.size(), threads, [&](std::size_t q) {
         Classifier c(S.trees, S.blockers, S.eps, cancel, record_visible);
         c.surface_pair(spairs[q][0], spairs[q][1], out[q]);
     });
