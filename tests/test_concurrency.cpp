@@ -163,8 +163,8 @@ TEST_CASE("threads: a cancellation request stops parallel_for with Cancelled" *
 }
 
 TEST_CASE(
-    "threads: parallel_for_each runs every iteration once, and costly ones that come "
-    "together on more than one thread" *
+    "threads: parallel_for_each runs every iteration once and spreads costly ones that come "
+    "together over both threads" *
     doctest::test_suite("threads")) {
     // Eight slow iterations first, then many quick ones: in chunks, the slow ones would all
     // run on the thread that took the first chunk.
