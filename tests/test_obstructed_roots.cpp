@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <string>
 #include <vector>
@@ -15,6 +16,7 @@
 #include "formfactor/pipeline.h"
 #include "formfactor/scene/room.h"
 #include "formfactor/scene/scene.h"
+#include "methods/analytic/classification.h"
 #include "methods/analytic/obstructed_internal.h"
 #include "methods/analytic/sender_cells.h"
 #include "methods/analytic/shadow_clip.h"
@@ -842,4 +844,39 @@ TEST_CASE(
     }
     CHECK(checked == 20000);
     CHECK(cut > 5000);  // most lines cut the polygon: both branches of split2() are exercised
+}
+
+TEST_CASE("candidate lists: each pair's pieces decode as they were stored, and a cut list fails") {
+    // Lists as the classification keeps them (close indices, in a BVH's order, not sorted),
+    // with large jumps both ways and the largest index an int holds.
+    std::mt19937 rng(7);
+    std::vector<std::vector<int>> lists;
+    for (int l = 0; l < 200; ++l) {
+        std::vector<int> ids;
+        int at = static_cast<int>(rng() % 100000);
+        const int n = static_cast<int>(rng() % 40);
+        for (int k = 0; k < n; ++k) {
+            at = std::max(0, at + static_cast<int>(rng() % 64) - 32);
+            if (rng() % 10 == 0) at = static_cast<int>(rng() % 2000000000);
+            ids.push_back(at);
+        }
+        lists.push_back(ids);
+    }
+    lists.push_back({std::numeric_limits<int>::max(), 0, std::numeric_limits<int>::max()});
+    detail::CandidateLists stored;
+    std::vector<std::size_t> first;
+    for (const std::vector<int>& ids : lists) first.push_back(stored.append(ids));
+    std::size_t ints = 0;
+    for (const std::vector<int>& ids : lists) ints += ids.size();
+    CHECK(stored.bytes.size() < 2 * ints);  // mostly one byte a piece
+    std::vector<int> got;
+    for (std::size_t l = 0; l < lists.size(); ++l) {
+        REQUIRE(stored.decode(first[l], static_cast<int>(lists[l].size()), got));
+        CHECK(got == lists[l]);
+    }
+    // The last list cut short, and a count beyond the bytes.
+    detail::CandidateLists cut = stored;
+    cut.bytes.pop_back();
+    CHECK_FALSE(cut.decode(first.back(), 3, got));
+    CHECK_FALSE(stored.decode(first.back(), 4, got));
 }

@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <numeric>
 #include <vector>
@@ -166,6 +167,8 @@ class Classifier {
     const CancellationFlag& cancel_;
     bool record_visible_ = false;
     std::vector<int> pool_, kept_;
+    std::vector<int> last_kept_;            // the list of the last partly hidden pair stored
+    const PairOutput* last_out_ = nullptr;  // ... and where
     std::size_t coarse_ = 0;  // estimate(): the size of node pairs it stops at (0: classify)
     double undecided_ = 0.0;
 
@@ -209,15 +212,13 @@ class Classifier {
             p.j = TB.order[static_cast<std::size_t>(B.first)];
             p.cand_count = static_cast<int>(kept_.size());
             // The pairs of one node pair often keep the same pieces: the list of the pair
-            // before is shared when it is the same (a city's candidates are ~80 bytes a pair).
-            const PartialPair* before = out.partial.empty() ? nullptr : &out.partial.back();
-            if (before && before->cand_count == p.cand_count &&
-                std::equal(kept_.begin(), kept_.end(),
-                           out.cand.begin() + static_cast<std::ptrdiff_t>(before->cand_first))) {
-                p.cand_first = before->cand_first;
+            // before is shared when it is the same.
+            if (!out.partial.empty() && last_out_ == &out && last_kept_ == kept_) {
+                p.cand_first = out.partial.back().cand_first;
             } else {
-                p.cand_first = out.cand.size();
-                out.cand.insert(out.cand.end(), kept_.begin(), kept_.end());
+                p.cand_first = out.cand.append(kept_);
+                last_kept_ = kept_;
+                last_out_ = &out;
             }
             out.partial.push_back(p);
             return;
@@ -356,6 +357,41 @@ std::vector<std::array<int, 2>> task_groups(const Obstructions& S) {
 
 }  // namespace
 
+std::size_t CandidateLists::append(const std::vector<int>& ids) {
+    const std::size_t first = bytes.size();
+    std::int64_t prev = 0;
+    for (const int id : ids) {
+        const std::int64_t d = std::int64_t{id} - prev;
+        prev = id;
+        auto z = static_cast<std::uint64_t>((d << 1) ^ (d >> 63));  // zigzag
+        while (z >= 0x80) {
+            bytes.push_back(static_cast<std::uint8_t>(z | 0x80));
+            z >>= 7;
+        }
+        bytes.push_back(static_cast<std::uint8_t>(z));
+    }
+    return first;
+}
+
+bool CandidateLists::decode(std::size_t first, int count, std::vector<int>& ids) const {
+    ids.resize(static_cast<std::size_t>(std::max(count, 0)));
+    std::size_t at = first;
+    std::int64_t prev = 0;
+    for (int k = 0; k < count; ++k) {
+        std::uint64_t z = 0;
+        for (int shift = 0;; shift += 7) {
+            if (at >= bytes.size() || shift > 35) return false;
+            const std::uint8_t b = bytes[at++];
+            z |= static_cast<std::uint64_t>(b & 0x7f) << shift;
+            if (!(b & 0x80)) break;
+        }
+        prev += static_cast<std::int64_t>(z >> 1) ^ -static_cast<std::int64_t>(z & 1);
+        if (prev < 0 || prev > std::numeric_limits<int>::max()) return false;
+        ids[static_cast<std::size_t>(k)] = static_cast<int>(prev);
+    }
+    return true;
+}
+
 void classify_task_list(const Obstructions& S, const std::size_t* tasks, std::size_t count,
                         bool record_visible, int threads, PairOutput* out) {
     const std::vector<std::array<int, 2>> all = task_groups(S);
@@ -368,6 +404,12 @@ void classify_task_list(const Obstructions& S, const std::size_t* tasks, std::si
     parallel_for_each(spairs.size(), threads, [&](std::size_t q) {
         Classifier c(S.trees, S.blockers, S.eps, cancel, record_visible);
         c.surface_pair(spairs[q][0], spairs[q][1], out[q]);
+        // The lists stay until the partly hidden pass is done: without the room their growth
+        // left (on a city, 44% more than the candidates).
+        out[q].partial.shrink_to_fit();
+        out[q].cand.bytes.shrink_to_fit();
+        out[q].hidden.shrink_to_fit();
+        out[q].visible.shrink_to_fit();
     });
 }
 

@@ -18,6 +18,7 @@
 #include <utility>
 #include <vector>
 
+#include "formfactor/core/error.h"
 #include "formfactor/core/fields.h"
 #include "formfactor/core/random.h"
 #include "formfactor/geometry/polygon.h"
@@ -133,7 +134,7 @@ inline std::pair<std::size_t, std::size_t> sender_receiver(const Scene& scene,
 // partly hidden pairs apart from the rows.
 template <class Unobstructed>
 PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const PartialPair& pp,
-                               const std::vector<int>& cand, double tol,
+                               const CandidateLists& lists, double tol,
                                const Unobstructed& unobstructed) {
     PartialValue v;
     const auto [s, r] = sender_receiver(scene, pp);
@@ -142,6 +143,11 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
     const double a_s = scene.patches[s].area, a_r = scene.patches[r].area;
     const double unobs = unobstructed(s, r);
     if (!(unobs > 0.0)) return v;
+    // The pair's candidate pieces, decoded (the lists of a task are stored as varints).
+    thread_local std::vector<int> ids;
+    if (!lists.decode(pp.cand_first, pp.cand_count, ids))
+        throw Error("analytic: the candidate pieces of a partly hidden pair are out of range");
+    const int* pair_cand = ids.data();
     PairStats& st = v.stats;
     // The stream of uniform() that places the pair's value inside its umbra bound.
     const std::uint64_t seed =
@@ -163,8 +169,8 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
         // the small pairs of a row do not all err the same way (the midpoint would).
         double hidden = 0.0;
         for (const Polygon& pr : parts)
-            hidden += detail::hidden_estimate(ps, pr, S.blockers, cand.data() + pp.cand_first,
-                                              pp.cand_count, S.eps, st.points);
+            hidden += detail::hidden_estimate(ps, pr, S.blockers, pair_cand, pp.cand_count, S.eps,
+                                              st.points);
         const double lo = std::max(0.0, unobs - tol), hi = std::min(unobs, tol);
         st.bracketed = true;
         return placed(std::clamp(unobs - hidden, lo, hi), unobs);
@@ -182,7 +188,7 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
             const double w = area(sp) / a_s;
             for (const Polygon& pr : parts) {
                 const detail::VisibleBound b = detail::visible_bound(
-                    sp, pr, S.blockers, cand.data() + pp.cand_first, pp.cand_count, S.eps,
+                    sp, pr, S.blockers, pair_cand, pp.cand_count, S.eps,
                     (kUmbraShare * tol - bound) / w,
                     seed + 7 * static_cast<std::uint64_t>(&sp - senders.data()));
                 st.points += b.points;
@@ -200,9 +206,8 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
     {
         const Vec3 xc = centroid(ps), ns = normal(ps);
         for (const Polygon& pr : parts) {
-            const detail::PointResult c =
-                detail::evaluate_point(detail::Receiver(pr), xc, ns, S.blockers,
-                                       cand.data() + pp.cand_first, pp.cand_count, S.eps, true);
+            const detail::PointResult c = detail::evaluate_point(
+                detail::Receiver(pr), xc, ns, S.blockers, pair_cand, pp.cand_count, S.eps, true);
             ++st.points;
             seen_at_centre += std::max(0.0, c.unobstructed - c.hidden);
         }
@@ -219,7 +224,6 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
     // most kSideAreaRatio times as large as s, and s's cut has kSideMinPieces pieces or more; its
     // hidden part H_rs = H_sr a_s / a_r is then integrated to tol a_s / a_r, so that F_sr stays
     // within tol.
-    const int* pair_cand = cand.data() + pp.cand_first;
     std::vector<std::vector<Polygon>> cut_s, cut_r;
     std::size_t pieces_s = 0;
     for (const Polygon& pr : parts) {

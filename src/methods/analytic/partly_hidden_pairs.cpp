@@ -112,14 +112,14 @@ std::vector<char> PartlyHiddenPairs::classify(RowRange tasks) const {
     std::vector<char> out;
     for (const PairOutput& o : outputs) {
         const std::uint64_t counts[7] = {
-            o.hidden.size(), o.visible.size(),      o.partial.size(),    o.cand.size(),
+            o.hidden.size(), o.visible.size(),      o.partial.size(),    o.cand.bytes.size(),
             o.node_pairs,    o.visible_patch_pairs, o.hidden_patch_pairs};
         const char* c = reinterpret_cast<const char*>(counts);
         out.insert(out.end(), c, c + sizeof(counts));
         put_array(out, o.hidden);
         put_array(out, o.visible);
         put_array(out, o.partial);
-        put_array(out, o.cand);
+        put_array(out, o.cand.bytes);
     }
     return out;
 }
@@ -138,14 +138,17 @@ void PartlyHiddenPairs::set_classification(const char* bytes, std::size_t size) 
         r.array(o.hidden, counts[0]);
         r.array(o.visible, counts[1]);
         r.array(o.partial, counts[2]);
-        r.array(o.cand, counts[3]);
+        r.array(o.cand.bytes, counts[3]);
         o.node_pairs = static_cast<std::size_t>(counts[4]);
         o.visible_patch_pairs = static_cast<std::size_t>(counts[5]);
         o.hidden_patch_pairs = static_cast<std::size_t>(counts[6]);
-        for (const PartialPair& p : o.partial)
-            if (p.cand_first > o.cand.size() ||
-                static_cast<std::size_t>(p.cand_count) > o.cand.size() - p.cand_first)
-                throw Error("analytic: a classification with candidates out of range");
+        std::vector<int> ids;
+        for (const PartialPair& p : o.partial) {
+            bool ok = p.cand_count >= 0 && o.cand.decode(p.cand_first, p.cand_count, ids);
+            for (std::size_t k = 0; k < ids.size() && ok; ++k)
+                ok = static_cast<std::size_t>(ids[k]) < m.S.blockers.size();
+            if (!ok) throw Error("analytic: a classification with candidates out of range");
+        }
     }
     if (!r.done()) throw Error("analytic: a classification of more tasks than the scene has");
     m.S.outputs = std::move(outputs);
