@@ -27,7 +27,6 @@
 #include "formfactor/scene/scene.h"
 #include "methods/analytic/classification.h"
 #include "methods/analytic/obstructed_internal.h"
-#include "methods/analytic/point_kernel.h"
 
 namespace formfactor::detail {
 
@@ -206,10 +205,11 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
     {
         const Vec3 xc = centroid(ps), ns = normal(ps);
         for (const Polygon& pr : parts) {
-            const detail::PointResult c = detail::evaluate_point(
-                detail::Receiver(pr), xc, ns, S.blockers, pair_cand, pp.cand_count, S.eps, true);
+            double unobstructed_at = 0.0;
+            const double hidden_at = detail::point_hidden(xc, ns, pr, S.blockers, pair_cand,
+                                                          pp.cand_count, S.eps, &unobstructed_at);
             ++st.points;
-            seen_at_centre += std::max(0.0, c.unobstructed - c.hidden);
+            seen_at_centre += unobstructed_at - hidden_at;
         }
     }
     bool bounded = seen_at_centre <= kUmbraTry * kUmbraShare * tol && bounded_by({ps});
