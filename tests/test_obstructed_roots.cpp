@@ -18,6 +18,7 @@
 #include "formfactor/scene/scene.h"
 #include "methods/analytic/classification.h"
 #include "methods/analytic/obstructed_internal.h"
+#include "methods/analytic/partly_hidden_pairs.h"
 #include "methods/analytic/sender_cells.h"
 #include "methods/analytic/shadow_clip.h"
 #include "support/closed_rooms.h"
@@ -879,4 +880,18 @@ TEST_CASE("candidate lists: each pair's pieces decode as they were stored, and a
     cut.bytes.pop_back();
     CHECK_FALSE(cut.decode(first.back(), 3, got));
     CHECK_FALSE(stored.decode(first.back(), 4, got));
+}
+
+TEST_CASE("partly hidden pass order: every stride-th pair from 0, then from 1, each pair once") {
+    for (std::size_t count : {0, 1, 5, 255, 256, 257, 1000, 16385, 70001, 300007}) {
+        const std::size_t stride = detail::sample_stride(count);
+        std::vector<std::size_t> listed;
+        for (std::size_t r = 0; r < stride; ++r)
+            for (std::size_t k = r; k < count; k += stride) listed.push_back(k);
+        REQUIRE(listed.size() == count);
+        std::size_t wrong = 0;
+        for (std::size_t j = 0; j < count; ++j)
+            if (detail::strided_pair(j, count, stride) != listed[j]) ++wrong;
+        CHECK_MESSAGE(wrong == 0, "count " << count << ", stride " << stride);
+    }
 }

@@ -66,16 +66,13 @@ void partly_hidden_pass(std::size_t count, const MethodContext& ctx, double tol,
                         const Body& body) {
     const MethodOptions& options = ctx.options;
     const std::size_t stride = sample_stride(count);
-    std::vector<std::size_t> order;
-    order.reserve(count);
-    for (std::size_t r = 0; r < stride; ++r)
-        for (std::size_t k = r; k < count; k += stride) order.push_back(k);
+    auto order = [&](std::size_t j) { return detail::strided_pair(j, count, stride); };
     const std::size_t sampled = (count + stride - 1) / stride;
     announce_phase("analytic partly hidden pairs");
     Progress progress("analytic (obstructed)", count, ctx.progress);
     const auto t0 = Clock::now();
     parallel_for(sampled, options.threads, [&](std::size_t j) {
-        body(order[j]);
+        body(order(j));
         progress.advance();
     });
     const double sample_seconds = std::chrono::duration<double>(Clock::now() - t0).count();
@@ -96,7 +93,7 @@ void partly_hidden_pass(std::size_t count, const MethodContext& ctx, double tol,
         ctx.progress->note(text);
     }
     parallel_for(count - sampled, options.threads, [&](std::size_t j) {
-        body(order[sampled + j]);
+        body(order(sampled + j));
         progress.advance();
     });
     progress.finish();
@@ -252,12 +249,11 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
         partial_pairs += o.partial.size();
     }
     {
-        // Before the pair lists exist: a column, its upper and lower value and (at most) two
-        // row entries per pair that sees anything, ~36 bytes, and the list of the partly
-        // hidden ones (40 bytes each); a closed room of 10⁵ patches with a box would want
-        // ~10¹⁰ pairs.
+        // Before the pair lists exist: a column, its value, a byte and (at most) two row
+        // entries per pair that sees anything, ~37 bytes, and a reference to each partly
+        // hidden one (8 bytes); a closed room of 10⁵ patches with a box would want ~10¹⁰ pairs.
         const double pairs = double(vis) + double(partial_pairs);
-        const double need = 36.0 * pairs + 40.0 * double(partial_pairs);
+        const double need = 37.0 * pairs + 8.0 * double(partial_pairs);
         const double available = available_memory();
         if (available > 0.0 && need > available)
             throw ResourceError(fmt::format(
@@ -279,25 +275,44 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
                 if (touches(a, c)) cols[a].push_back(static_cast<std::int32_t>(c));
             });
     }
-    std::vector<PartialPair> partial;
-    std::vector<std::size_t> cand_task, index;  // index: the pair's place in the whole list
-    std::size_t listed = 0;
-    for (std::size_t k = 0; k < S.outputs.size(); ++k)
-        for (const PartialPair& p : S.outputs[k].partial) {
-            const auto i = static_cast<std::size_t>(p.i), j = static_cast<std::size_t>(p.j);
-            if (!touches(i, j)) {
-                ++listed;
-                continue;
-            }
-            index.push_back(listed++);
-            partial.push_back(p);
-            cand_task.push_back(k);
+    // The partly hidden pairs that touch the rows, as (task, place in its list): every pair of
+    // every task when the rows are all of them (one process), else a list of references (8
+    // bytes a pair; a copy of each pair with its places took 40).
+    const std::size_t tasks = S.outputs.size();
+    std::vector<std::size_t> task_first(tasks + 1, 0);  // the first pair of each task
+    for (std::size_t t = 0; t < tasks; ++t)
+        task_first[t + 1] = task_first[t] + S.outputs[t].partial.size();
+    const bool every_pair = rows.begin == 0 && rows.end >= n;
+    struct PairRef {
+        std::uint32_t task, at;
+    };
+    std::vector<PairRef> refs;
+    for (std::size_t t = 0; t < tasks; ++t) {
+        const std::vector<PartialPair>& list = S.outputs[t].partial;
+        FF_ASSERT(list.size() <= UINT32_MAX && t <= UINT32_MAX);
+        for (std::size_t k = 0; k < list.size(); ++k) {
+            const auto i = static_cast<std::size_t>(list[k].i);
+            const auto j = static_cast<std::size_t>(list[k].j);
+            if (!touches(i, j)) continue;
+            if (!every_pair)
+                refs.push_back({static_cast<std::uint32_t>(t), static_cast<std::uint32_t>(k)});
             cols[std::min(i, j)].push_back(static_cast<std::int32_t>(std::max(i, j)));
         }
-    parallel_for(n, options.threads,
-                 [&](std::size_t a) { std::sort(cols[a].begin(), cols[a].end()); });
-    // Their exact unobstructed values U_ac (the dense matrix's, bit for bit), then the lower
-    // entries by reciprocity.
+    }
+    const std::size_t partial_count = every_pair ? task_first[tasks] : refs.size();
+    // Pair k of the pass: its task and its place in the task's list.
+    auto pair_ref = [&](std::size_t k) -> PairRef {
+        if (!every_pair) return refs[k];
+        const auto t = static_cast<std::size_t>(
+            std::upper_bound(task_first.begin(), task_first.end(), k) - task_first.begin() - 1);
+        return {static_cast<std::uint32_t>(t), static_cast<std::uint32_t>(k - task_first[t])};
+    };
+    // Sorted, and no room beyond their size (their growth leaves up to as much again).
+    parallel_for(n, options.threads, [&](std::size_t a) {
+        std::sort(cols[a].begin(), cols[a].end());
+        cols[a].shrink_to_fit();
+    });
+    // Their exact unobstructed values U_ac (the dense matrix's, bit for bit).
     std::vector<const Polygon*> polys(n);
     for (std::size_t p = 0; p < n; ++p) polys[p] = &scene.patches[p].polygon;
     std::vector<std::vector<double>> upper;
@@ -308,18 +323,28 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
                                    upper, ff.areas, given ? given->table.get() : nullptr);
     unobs_progress.finish();
     const std::vector<double>& areas = ff.areas;
-    std::vector<std::vector<double>> lower(n);
-    parallel_for(n, options.threads, [&](std::size_t a) {
-        lower[a].resize(cols[a].size());
-        for (std::size_t k = 0; k < cols[a].size(); ++k)
-            lower[a][k] = detail::reciprocal_entry(upper[a][k], areas[a],
-                                                   areas[static_cast<std::size_t>(cols[a][k])]);
-    });
+    // One value a pair: U_ac or, once integrated, the partly hidden pair's F_sr; `lower_held`
+    // marks the slots whose value is the lower entry F_ca (s = c). The other entry of a slot is
+    // its reciprocal (reciprocal_entry(), as PartialValue::back: bit for bit the dense matrix's).
+    std::vector<std::vector<std::uint8_t>> lower_held(n);
+    parallel_for(n, options.threads,
+                 [&](std::size_t a) { lower_held[a].assign(cols[a].size(), 0); });
     auto slot = [&](std::size_t a, std::size_t c) {
         const auto at =
             std::lower_bound(cols[a].begin(), cols[a].end(), static_cast<std::int32_t>(c));
         FF_ASSERT(at != cols[a].end() && *at == static_cast<std::int32_t>(c));
         return static_cast<std::size_t>(at - cols[a].begin());
+    };
+    // F_ac (a < c: the upper entry) and F_ca of slot k of row a.
+    auto upper_entry = [&](std::size_t a, std::size_t k) {
+        const double v = upper[a][k];
+        if (!lower_held[a][k]) return v;
+        return detail::reciprocal_entry(v, areas[static_cast<std::size_t>(cols[a][k])], areas[a]);
+    };
+    auto lower_entry = [&](std::size_t a, std::size_t k) {
+        const double v = upper[a][k];
+        if (lower_held[a][k]) return v;
+        return detail::reciprocal_entry(v, areas[a], areas[static_cast<std::size_t>(cols[a][k])]);
     };
     // The partly hidden pairs: the unobstructed value less the integrated hidden part, as the
     // dense pass computes it, written into the pair's slot as it comes (each unordered pair is
@@ -328,60 +353,71 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
     ThreadStats stats;
     auto store = [&](const PartialValue& v) {
         if (!v.integrated) return;
-        if (v.s < v.r) {
-            const std::size_t k = slot(v.s, v.r);
-            upper[v.s][k] = v.f;
-            lower[v.s][k] = v.back;
-        } else {
-            const std::size_t k = slot(v.r, v.s);
-            upper[v.r][k] = v.back;
-            lower[v.r][k] = v.f;
-        }
+        const std::size_t a = std::min(v.s, v.r), c = std::max(v.s, v.r);
+        const std::size_t k = slot(a, c);
+        upper[a][k] = v.f;
+        lower_held[a][k] = v.s > v.r ? 1 : 0;
     };
     Fields& obs = report.details["obstructions"];
     if (given) {
-        parallel_for(partial.size(), options.threads,
-                     [&](std::size_t k) { store(given->value(index[k])); });
+        parallel_for(partial_count, options.threads, [&](std::size_t k) {
+            const PairRef p = pair_ref(k);
+            store(given->value(task_first[p.task] + p.at));
+        });
     } else {
-        partly_hidden_pass(partial.size(), ctx, tol, obs, [&](std::size_t k) {
-            const PartialValue v =
-                integrate_partial(scene, S, partial[k], S.outputs[cand_task[k]].cand, tol,
-                                  [&](std::size_t s, std::size_t r) {
-                                      return s < r ? upper[s][slot(s, r)] : lower[r][slot(r, s)];
-                                  });
+        partly_hidden_pass(partial_count, ctx, tol, obs, [&](std::size_t k) {
+            const PairRef p = pair_ref(k);
+            const PairOutput& o = S.outputs[p.task];
+            const PartialValue v = integrate_partial(
+                scene, S, o.partial[p.at], o.cand, tol, [&](std::size_t s, std::size_t r) {
+                    return s < r ? upper_entry(s, slot(s, r)) : lower_entry(r, slot(r, s));
+                });
             add_pair(stats.local(), v.stats);
             store(v);
         });
     }
     // The classification's lists (the candidates of every partly hidden pair) are done with
     // before the rows are built.
-    const std::size_t partial_count = partial.size();
-    std::vector<PartialPair>().swap(partial);
-    std::vector<std::size_t>().swap(cand_task);
-    std::vector<std::size_t>().swap(index);
+    std::vector<PairRef>().swap(refs);
     if (!given) std::vector<PairOutput>().swap(own.outputs);
     const auto t_done = Clock::now();
     // The rows: entries F_ic (c > i) from row i's pairs, F_ia (a < i) from the pairs (a, i),
-    // columns ascending, zeros left out.
+    // columns ascending, zeros left out. Each row's room counted first; the pairs of patch a are
+    // freed once its entries are out, so that the lists and the rows do not both peak.
     announce_phase("analytic rows");
+    std::vector<std::size_t> row_size(rows.size(), 0);
     for (std::size_t a = 0; a < n; ++a) {
         cancel.throw_if_requested();
         for (std::size_t k = 0; k < cols[a].size(); ++k) {
             const auto c = static_cast<std::size_t>(cols[a][k]);
-            if (!rows.contains(c) || !(lower[a][k] > 0.0)) continue;
-            const std::size_t row = c - rows.begin;
-            out.indices[row].push_back(static_cast<std::int32_t>(a));
-            out.values[row].push_back(lower[a][k]);
+            if (rows.contains(c) && lower_entry(a, k) > 0.0) ++row_size[c - rows.begin];
+            if (rows.contains(a) && upper_entry(a, k) > 0.0) ++row_size[a - rows.begin];
         }
     }
-    parallel_for(rows.size(), options.threads, [&](std::size_t row) {
-        const std::size_t i = rows.begin + row;
-        for (std::size_t k = 0; k < cols[i].size(); ++k) {
-            if (!(upper[i][k] > 0.0)) continue;
-            out.indices[row].push_back(cols[i][k]);
-            out.values[row].push_back(upper[i][k]);
+    for (std::size_t row = 0; row < rows.size(); ++row) {
+        out.indices[row].reserve(row_size[row]);
+        out.values[row].reserve(row_size[row]);
+    }
+    for (std::size_t a = 0; a < n; ++a) {
+        cancel.throw_if_requested();
+        // Row a's entries below its diagonal came from the patches before it; now its own.
+        for (std::size_t k = 0; k < cols[a].size(); ++k) {
+            const double u = upper_entry(a, k);
+            if (!rows.contains(a) || !(u > 0.0)) continue;
+            out.indices[a - rows.begin].push_back(cols[a][k]);
+            out.values[a - rows.begin].push_back(u);
         }
-    });
+        for (std::size_t k = 0; k < cols[a].size(); ++k) {
+            const auto c = static_cast<std::size_t>(cols[a][k]);
+            const double l = lower_entry(a, k);
+            if (!rows.contains(c) || !(l > 0.0)) continue;
+            out.indices[c - rows.begin].push_back(static_cast<std::int32_t>(a));
+            out.values[c - rows.begin].push_back(l);
+        }
+        std::vector<std::int32_t>().swap(cols[a]);
+        std::vector<double>().swap(upper[a]);
+        std::vector<std::uint8_t>().swap(lower_held[a]);
+    }
 
     report.pairs = PairClasses{ust.zero + ust.exact + ust.far, ust.zero, ust.exact, ust.far};
     Fields& details = report.details;

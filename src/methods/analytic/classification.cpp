@@ -193,7 +193,8 @@ class Classifier {
         const std::size_t pairs =
             static_cast<std::size_t>(A.count) * static_cast<std::size_t>(B.count);
         if (cls == ShaftClass::kHidden) {
-            out.hidden.push_back({ta, a, tb, b});
+            // The sparse rows leave hidden pairs out (their entries are 0): only counted.
+            if (!record_visible_) out.hidden.push_back({ta, a, tb, b});
             out.hidden_patch_pairs += pairs;
             return;
         }
@@ -216,7 +217,12 @@ class Classifier {
             if (!out.partial.empty() && last_out_ == &out && last_kept_ == kept_) {
                 p.cand_first = out.partial.back().cand_first;
             } else {
-                p.cand_first = out.cand.append(kept_);
+                const std::size_t at = out.cand.append(kept_);
+                if (at > UINT32_MAX)
+                    throw ResourceError(
+                        "analytic classification: the candidate lists of one pair of planes "
+                        "exceed 4 GB; use a Monte-Carlo method (mc-hemisphere) for this scene");
+                p.cand_first = static_cast<std::uint32_t>(at);
                 last_kept_ = kept_;
                 last_out_ = &out;
             }

@@ -44,9 +44,10 @@ struct ClusterTree {
 
 struct PartialPair {
     int i = 0, j = 0;
-    std::size_t cand_first = 0;  // its list's first byte in CandidateLists::bytes
-    int cand_count = 0;          // how many pieces the list holds
+    std::uint32_t cand_first = 0;  // its list's first byte in CandidateLists::bytes
+    int cand_count = 0;            // how many pieces the list holds
 };
+static_assert(sizeof(PartialPair) == 16);
 
 // The candidate pieces of the partly hidden pairs of one classification task, each pair's list
 // as LEB128 varints of the zigzagged differences between consecutive piece indices, in the
@@ -67,7 +68,7 @@ struct NodePair {
 
 // What one surface pair's classification produced.
 struct PairOutput {
-    std::vector<NodePair> hidden;
+    std::vector<NodePair> hidden;   // only for the dense pass (the sparse rows leave them out)
     std::vector<NodePair> visible;  // only when the classifier records them (sparse rows)
     std::vector<PartialPair> partial;
     CandidateLists cand;
@@ -95,7 +96,7 @@ struct Obstructions {
 /// Groups the scene's patches and obstruction-only surfaces by plane, builds their cluster trees
 /// and the blocker pieces, and classifies every pair of groups (in parallel; announces the
 /// phases "analytic setup" and "analytic classification"). record_visible: keep the visible
-/// node pairs too (the sparse rows need them).
+/// node pairs instead of the hidden ones (the sparse rows need them, and leave hidden pairs out).
 void prepare_obstructions(const MethodContext& ctx, bool record_visible, Obstructions& S);
 
 /// prepare_obstructions() in parts, for a classification shared out over processes: the groups,

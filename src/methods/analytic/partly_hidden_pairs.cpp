@@ -166,9 +166,8 @@ void PartlyHiddenPairs::Impl::list_pairs() {
     // two surfaces); a part of every stride-th pair is a sample of the whole list.
     const std::size_t count = m.partial.size();
     const std::size_t stride = sample_stride(count);
-    m.order.reserve(count);
-    for (std::size_t r = 0; r < stride; ++r)
-        for (std::size_t k = r; k < count; k += stride) m.order.push_back(k);
+    m.order.resize(count);
+    for (std::size_t j = 0; j < count; ++j) m.order[j] = detail::strided_pair(j, count, stride);
 }
 
 PartlyHiddenPairs::~PartlyHiddenPairs() = default;

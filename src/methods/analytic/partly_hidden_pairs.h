@@ -33,6 +33,15 @@ inline std::size_t sample_stride(std::size_t count) {
     return std::max<std::size_t>(1, count / wanted);
 }
 
+// The pair at position j of that order over `count` pairs: every stride-th from 0, then from 1,
+// and so on (computed, not listed: a list takes 8 bytes a pair).
+inline std::size_t strided_pair(std::size_t j, std::size_t count, std::size_t stride) {
+    const std::size_t g = count / stride, m = count % stride;  // m runs of g + 1, then runs of g
+    if (j < m * (g + 1)) return j / (g + 1) + (j % (g + 1)) * stride;
+    const std::size_t rest = j - m * (g + 1);
+    return m + rest / g + (rest % g) * stride;
+}
+
 }  // namespace detail
 
 struct PartlyHiddenPairs::Impl {
