@@ -385,14 +385,26 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
     // columns ascending, zeros left out. Each row's room counted first; the pairs of patch a are
     // freed once its entries are out, so that the lists and the rows do not both peak.
     announce_phase("analytic rows");
+    // emit(row, column, value) for the nonzero entries of patch a's pairs in the rows: row a's
+    // own (F_ac, c > a, ascending), then F_ca into the later rows c (they come after the
+    // entries of the patches before a, so every row's columns ascend).
+    auto each_entry = [&](std::size_t a, const auto& emit) {
+        if (rows.contains(a))
+            for (std::size_t k = 0; k < cols[a].size(); ++k) {
+                const double u = upper_entry(a, k);
+                if (u > 0.0) emit(a - rows.begin, cols[a][k], u);
+            }
+        for (std::size_t k = 0; k < cols[a].size(); ++k) {
+            const auto c = static_cast<std::size_t>(cols[a][k]);
+            if (!rows.contains(c)) continue;
+            const double l = lower_entry(a, k);
+            if (l > 0.0) emit(c - rows.begin, static_cast<std::int32_t>(a), l);
+        }
+    };
     std::vector<std::size_t> row_size(rows.size(), 0);
     for (std::size_t a = 0; a < n; ++a) {
         cancel.throw_if_requested();
-        for (std::size_t k = 0; k < cols[a].size(); ++k) {
-            const auto c = static_cast<std::size_t>(cols[a][k]);
-            if (rows.contains(c) && lower_entry(a, k) > 0.0) ++row_size[c - rows.begin];
-            if (rows.contains(a) && upper_entry(a, k) > 0.0) ++row_size[a - rows.begin];
-        }
+        each_entry(a, [&](std::size_t row, std::int32_t, double) { ++row_size[row]; });
     }
     for (std::size_t row = 0; row < rows.size(); ++row) {
         out.indices[row].reserve(row_size[row]);
@@ -400,20 +412,10 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
     }
     for (std::size_t a = 0; a < n; ++a) {
         cancel.throw_if_requested();
-        // Row a's entries below its diagonal came from the patches before it; now its own.
-        for (std::size_t k = 0; k < cols[a].size(); ++k) {
-            const double u = upper_entry(a, k);
-            if (!rows.contains(a) || !(u > 0.0)) continue;
-            out.indices[a - rows.begin].push_back(cols[a][k]);
-            out.values[a - rows.begin].push_back(u);
-        }
-        for (std::size_t k = 0; k < cols[a].size(); ++k) {
-            const auto c = static_cast<std::size_t>(cols[a][k]);
-            const double l = lower_entry(a, k);
-            if (!rows.contains(c) || !(l > 0.0)) continue;
-            out.indices[c - rows.begin].push_back(static_cast<std::int32_t>(a));
-            out.values[c - rows.begin].push_back(l);
-        }
+        each_entry(a, [&](std::size_t row, std::int32_t col, double v) {
+            out.indices[row].push_back(col);
+            out.values[row].push_back(v);
+        });
         std::vector<std::int32_t>().swap(cols[a]);
         std::vector<double>().swap(upper[a]);
         std::vector<std::uint8_t>().swap(lower_held[a]);
