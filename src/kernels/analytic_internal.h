@@ -2,6 +2,8 @@
 // Internals of the analytic method shared by its source files (not public API).
 
 #include <array>
+#include <cstddef>
+#include <cstdint>
 #include <vector>
 
 #include "formfactor/core/error.h"
@@ -33,6 +35,33 @@ struct RuleView {
     const double* w;
     int count;
 };
+
+/// Points of polygon rules appended one after another (structure of arrays).
+struct RulePoints {
+    std::vector<double> x, y, z, w;
+    void clear() {
+        x.clear();
+        y.clear();
+        z.clear();
+        w.clear();
+    }
+    std::size_t size() const { return x.size(); }
+    RuleView view(std::size_t first, std::size_t count) const {
+        return {x.data() + first, y.data() + first, z.data() + first, w.data() + first,
+                static_cast<int>(count)};
+    }
+};
+
+/// How polygon_rule() lays its points: nothing (fewer than 3 vertices), the collapsed square on
+/// a triangle, the tensor rule on a parallelogram, or the triangles of triangulate().
+enum class RuleShape : std::uint8_t { kEmpty, kTriangle, kParallelogram, kTriangles };
+RuleShape rule_shape(const Polygon& p);
+
+/// Appends polygon_rule(p, order)'s points and weights to `out`, bit for bit, without building
+/// it: shape = rule_shape(p) and, for kTriangles, tris = triangulate(p) flattened (tri_count
+/// triangles of 3 vertex indices), both computed once per polygon by the caller.
+void append_rule(const Polygon& p, RuleShape shape, const int* tris, std::size_t tri_count,
+                 int order, RulePoints& out);
 
 /// Owning structure-of-arrays copy of a PolygonRule.
 struct RuleSoA {
@@ -75,8 +104,15 @@ inline int gauss_order_for_fast(double pref, double q, double target, int max_or
 class FarFieldBatch {
   public:
     void reset();
-    /// Queues receiver j (rule rj, unit normal nj, centroid cj) for the row rule of `order`.
-    void add(int order, std::size_t j, const RuleView& rj, const Vec3& nj, const Vec3& cj);
+    /// Queues receiver j (unit normal nj, centroid cj) for the row rule of `order`; fill(points)
+    /// appends j's rule to the batch's RulePoints.
+    template <class Fill>
+    void add(int order, std::size_t j, const Vec3& nj, const Vec3& cj, const Fill& fill) {
+        RulePoints& pts = points_[order];
+        const std::size_t first = pts.size();
+        fill(pts);
+        queued_[order].push_back({j, first, pts.size() - first, nj, cj});
+    }
     /// Computes every queued pair: row_rule(order) gives the row patch's rule, ni its normal,
     /// ci its centroid, inv_area 1/A_i; emit(j, F_ij) receives each result, in queue order.
     template <class RowRule, class Emit>
@@ -85,16 +121,17 @@ class FarFieldBatch {
 
   private:
     struct Item {
-        std::size_t j;
-        RuleView rule;
+        std::size_t j, first, count;  // the rule: points [first, first + count) of its order
         Vec3 n, c;
     };
     std::vector<Item> queued_[kMaxGaussOrder + 1];
+    RulePoints points_[kMaxGaussOrder + 1];
     // Flat point data of one tile of receivers.
     std::vector<double> x_, y_, z_, nx_, ny_, nz_, aw_, acc_;
     std::vector<int> ends_;
     void flush(const RuleView& ri, const Vec3& ni, double inv_area, std::size_t first,
-               std::size_t last, const std::vector<Item>& items, std::vector<double>& results);
+               std::size_t last, const std::vector<Item>& items, const RulePoints& points,
+               std::vector<double>& results);
     std::vector<double> results_;
 };
 
@@ -129,9 +166,9 @@ void FarFieldBatch::run(const RowRule& row_rule, const Vec3& ni, const Vec3& ci,
         std::size_t first = 0;
         int points = 0;
         for (std::size_t k = 0; k < items.size(); ++k) {
-            points += items[k].rule.count;
+            points += static_cast<int>(items[k].count);
             if (points >= kTilePoints || k + 1 == items.size()) {
-                flush(ri, ni, inv_area, first, k + 1, items, results_);
+                flush(ri, ni, inv_area, first, k + 1, items, points_[order], results_);
                 first = k + 1;
                 points = 0;
             }

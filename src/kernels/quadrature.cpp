@@ -74,60 +74,114 @@ const GaussRule& gauss_jacobi01(int n) {
 
 namespace {
 
-void triangle_rule(const Vec3& A, const Vec3& B, const Vec3& C, int n, PolygonRule& out) {
-    // Collapsed (Duffy) square: x = A + ξ(B − A) + ξη(C − B), dA = 2|T| ξ dξ dη; Gauss–Jacobi
-    // with weight ξ in ξ keeps the rule exact for polynomials of degree 2n − 1.
+// The points of polygon_rule() on triangle ABC, emit(x, w) each: the collapsed (Duffy) square
+// x = A + ξ(B − A) + ξη(C − B), dA = 2|T| ξ dξ dη; Gauss–Jacobi with weight ξ in ξ keeps the
+// rule exact for polynomials of degree 2n − 1.
+template <class Emit>
+void triangle_points(const Vec3& A, const Vec3& B, const Vec3& C, int n, const Emit& emit) {
     const GaussRule& gj = gauss_jacobi01(n);
     const GaussRule& g = gauss_legendre01(n);
-    const double two_area = (B - A).cross(C - B).norm();
+    const Vec3 ab = B - A, bc = C - B;
+    const double two_area = ab.cross(bc).norm();
     for (int i = 0; i < n; ++i) {
         const double xi = gj.x[static_cast<std::size_t>(i)];
+        const Vec3 along = A + xi * ab;
+        const double wi = two_area * gj.w[static_cast<std::size_t>(i)];
         for (int j = 0; j < n; ++j) {
             const double eta = g.x[static_cast<std::size_t>(j)];
-            out.points.push_back(A + xi * (B - A) + xi * eta * (C - B));
-            out.weights.push_back(two_area * gj.w[static_cast<std::size_t>(i)] *
-                                  g.w[static_cast<std::size_t>(j)]);
+            emit(along + xi * eta * bc, wi * g.w[static_cast<std::size_t>(j)]);
         }
     }
 }
 
+// ... on a parallelogram: the affine map of the unit square, constant Jacobian, so the tensor
+// rule is exact for degree 2n − 1 (other quads are split into triangles, whose bilinear
+// Jacobian would cost a degree). The bilinear form of the map, so that a quad within rounding
+// of a parallelogram keeps its own corners.
+template <class Emit>
+void parallelogram_points(const Polygon& p, int n, const Emit& emit) {
+    const GaussRule& g = gauss_legendre01(n);
+    const Vec3 e01 = p[1] - p[0], e32 = p[2] - p[3], e03 = p[3] - p[0], e12 = p[2] - p[1];
+    for (int i = 0; i < n; ++i) {
+        const double s = g.x[static_cast<std::size_t>(i)];
+        const double wi = g.w[static_cast<std::size_t>(i)];
+        const Vec3 dt = (1 - s) * e03 + s * e12;
+        for (int j = 0; j < n; ++j) {
+            const double t = g.x[static_cast<std::size_t>(j)];
+            const Vec3 x =
+                (1 - s) * (1 - t) * p[0] + s * (1 - t) * p[1] + s * t * p[2] + (1 - s) * t * p[3];
+            const Vec3 ds = (1 - t) * e01 + t * e32;
+            emit(x, ds.cross(dt).norm() * wi * g.w[static_cast<std::size_t>(j)]);
+        }
+    }
+}
+
+template <class Emit>
+void rule_points(const Polygon& p, RuleShape shape, const int* tris, std::size_t tri_count,
+                 int order, const Emit& emit) {
+    const int n = std::clamp(order, 1, kMaxGaussOrder);
+    switch (shape) {
+        case RuleShape::kEmpty:
+            return;
+        case RuleShape::kTriangle:
+            triangle_points(p[0], p[1], p[2], n, emit);
+            return;
+        case RuleShape::kParallelogram:
+            parallelogram_points(p, n, emit);
+            return;
+        case RuleShape::kTriangles:
+            for (std::size_t t = 0; t < tri_count; ++t)
+                triangle_points(p[static_cast<std::size_t>(tris[3 * t])],
+                                p[static_cast<std::size_t>(tris[3 * t + 1])],
+                                p[static_cast<std::size_t>(tris[3 * t + 2])], n, emit);
+            return;
+    }
+}
+
 }  // namespace
+
+RuleShape rule_shape(const Polygon& p) {
+    if (p.size() < 3) return RuleShape::kEmpty;
+    if (p.size() == 3) return RuleShape::kTriangle;
+    if (p.size() == 4 && convexity(p) == Convexity::strictly_convex &&
+        (p[0] + p[2] - p[1] - p[3]).norm() <= 1e-12 * diameter(p))
+        return RuleShape::kParallelogram;
+    return RuleShape::kTriangles;
+}
+
+void append_rule(const Polygon& p, RuleShape shape, const int* tris, std::size_t tri_count,
+                 int order, RulePoints& out) {
+    const auto n = static_cast<std::size_t>(std::clamp(order, 1, kMaxGaussOrder));
+    const std::size_t first = out.size();
+    const std::size_t count =
+        shape == RuleShape::kEmpty ? 0 : (shape == RuleShape::kTriangles ? tri_count : 1) * n * n;
+    for (std::vector<double>* a : {&out.x, &out.y, &out.z, &out.w}) a->resize(first + count);
+    double *x = out.x.data() + first, *y = out.y.data() + first, *z = out.z.data() + first,
+           *w = out.w.data() + first;
+    std::size_t k = 0;
+    rule_points(p, shape, tris, tri_count, order, [&](const Vec3& q, double wq) {
+        x[k] = q.x();
+        y[k] = q.y();
+        z[k] = q.z();
+        w[k] = wq;
+        ++k;
+    });
+    FF_ASSERT(k == count);
+}
 
 }  // namespace detail
 
 PolygonRule polygon_rule(const Polygon& p, int order) {
     using namespace detail;
     PolygonRule out;
-    const int n = std::clamp(order, 1, kMaxGaussOrder);
-    if (p.size() < 3) return out;
-    if (p.size() == 3) {
-        triangle_rule(p[0], p[1], p[2], n, out);
-        return out;
-    }
-    if (p.size() == 4 && convexity(p) == Convexity::strictly_convex &&
-        (p[0] + p[2] - p[1] - p[3]).norm() <= 1e-12 * diameter(p)) {
-        // A parallelogram: affine map of the unit square, constant Jacobian, so the tensor rule
-        // is exact for degree 2n − 1 (other quads are split into triangles, whose bilinear
-        // Jacobian would cost a degree).
-        const GaussRule& g = gauss_legendre01(n);
-        for (int i = 0; i < n; ++i) {
-            const double s = g.x[static_cast<std::size_t>(i)];
-            for (int j = 0; j < n; ++j) {
-                const double t = g.x[static_cast<std::size_t>(j)];
-                const Vec3 x = (1 - s) * (1 - t) * p[0] + s * (1 - t) * p[1] + s * t * p[2] +
-                               (1 - s) * t * p[3];
-                const Vec3 ds = (1 - t) * (p[1] - p[0]) + t * (p[2] - p[3]);
-                const Vec3 dt = (1 - s) * (p[3] - p[0]) + s * (p[2] - p[1]);
-                out.points.push_back(x);
-                out.weights.push_back(ds.cross(dt).norm() * g.w[static_cast<std::size_t>(i)] *
-                                      g.w[static_cast<std::size_t>(j)]);
-            }
-        }
-        return out;
-    }
-    for (const auto& t : triangulate(p))
-        triangle_rule(p[static_cast<std::size_t>(t[0])], p[static_cast<std::size_t>(t[1])],
-                      p[static_cast<std::size_t>(t[2])], n, out);
+    const RuleShape shape = rule_shape(p);
+    std::vector<int> flat;
+    if (shape == RuleShape::kTriangles)
+        for (const auto& t : triangulate(p)) flat.insert(flat.end(), t.begin(), t.end());
+    rule_points(p, shape, flat.data(), flat.size() / 3, order, [&](const Vec3& x, double w) {
+        out.points.push_back(x);
+        out.weights.push_back(w);
+    });
     return out;
 }
 
@@ -227,16 +281,12 @@ void far_field_accumulate(const RuleView& ri, const double* __restrict x,
 
 void FarFieldBatch::reset() {
     for (auto& q : queued_) q.clear();
-}
-
-void FarFieldBatch::add(int order, std::size_t j, const RuleView& rj, const Vec3& nj,
-                        const Vec3& cj) {
-    queued_[order].push_back({j, rj, nj, cj});
+    for (auto& p : points_) p.clear();
 }
 
 void FarFieldBatch::flush(const RuleView& ri_abs, const Vec3& ni, double inv_area,
                           std::size_t first, std::size_t last, const std::vector<Item>& items,
-                          std::vector<double>& results) {
+                          const RulePoints& points, std::vector<double>& results) {
     // The row rule relative to its own centroid... the caller passes absolute points; we shift
     // everything to the first row point's frame instead (any origin on the row's plane works).
     const double ox = ri_abs.x[0], oy = ri_abs.y[0], oz = ri_abs.z[0];
@@ -254,23 +304,24 @@ void FarFieldBatch::flush(const RuleView& ri_abs, const Vec3& ni, double inv_are
     }
     const RuleView ri{rx, ry, rz, rw, ri_abs.count};
     int total = 0;
-    for (std::size_t k = first; k < last; ++k) total += items[k].rule.count;
+    for (std::size_t k = first; k < last; ++k) total += static_cast<int>(items[k].count);
     const auto sz = static_cast<std::size_t>(total);
     for (auto* v : {&x_, &y_, &z_, &nx_, &ny_, &nz_, &aw_, &acc_})
         if (v->size() < sz) v->resize(sz);
     int p = 0;
     for (std::size_t k = first; k < last; ++k) {
         const Item& it = items[k];
+        const RuleView rule = points.view(it.first, it.count);
         // β = n_j·(x − y) in the kernel; α = n_i·(y − o) here (o on the row's plane).
-        for (int m = 0; m < it.rule.count; ++m, ++p) {
-            const double yx = it.rule.x[m] - ox, yy = it.rule.y[m] - oy, yz = it.rule.z[m] - oz;
+        for (int m = 0; m < rule.count; ++m, ++p) {
+            const double yx = rule.x[m] - ox, yy = rule.y[m] - oy, yz = rule.z[m] - oz;
             x_[p] = yx;
             y_[p] = yy;
             z_[p] = yz;
             nx_[p] = it.n.x();
             ny_[p] = it.n.y();
             nz_[p] = it.n.z();
-            aw_[p] = it.rule.w[m] * (ni.x() * yx + ni.y() * yy + ni.z() * yz);
+            aw_[p] = rule.w[m] * (ni.x() * yx + ni.y() * yy + ni.z() * yz);
             acc_[p] = 0.0;
         }
     }
@@ -279,7 +330,7 @@ void FarFieldBatch::flush(const RuleView& ri_abs, const Vec3& ni, double inv_are
     p = 0;
     for (std::size_t k = first; k < last; ++k) {
         double sum = 0.0;
-        for (int m = 0; m < items[k].rule.count; ++m, ++p) sum += aw_[p] * acc_[p];
+        for (std::size_t m = 0; m < items[k].count; ++m, ++p) sum += aw_[p] * acc_[p];
         results[k] = sum * kInvPi * inv_area;
     }
 }

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <memory>
 #include <optional>
@@ -20,20 +21,51 @@
 
 namespace formfactor::detail {
 
-/// Per-patch data of the far-field path, flat.
+// The far-field rules of the orders up to this one are stored (30 points a triangle, ~1 kB),
+// the higher ones computed when a pair asks for them: every order stored took ~6.5 kB a
+// triangle (70 MB at 10⁴ patches), and computing the low orders, which most pairs take, costs
+// more than their kernel sums (room n = 24: 6 % of the time with every order computed).
+constexpr int kStoredOrders = 4;
+
+/// Per-patch data of the far-field path, flat: the geometry, how each patch's quadrature rules
+/// lay their points (rule_shape()), and its rules of the low orders.
 struct PatchTable {
     std::vector<Vec3> normal, centroid;
     std::vector<double> area, radius, plane_d;
-    // Quadrature rules: for patch p and order n (1..kMaxFarFieldOrder), points
-    // [offset[p*K+n-1], offset[p*K+n-1] + count[p*K+n-1]) of x, y, z, w.
-    std::vector<std::size_t> offset;
-    std::vector<int> count;
-    std::vector<double> x, y, z, w;
+    std::vector<RuleShape> shape;
+    // Triangles of the patches laid as kTriangles: patch p's are tris[tri_first[p] ..
+    // tri_first[p + 1]) (3 vertex indices each; empty ranges for the other shapes).
+    std::vector<std::uint32_t> tri_first;
+    std::vector<int> tris;
+    // Patch p's rules of orders 1..kStoredOrders, one after another from points[first[p]].
+    std::vector<std::size_t> first;
+    RulePoints points;
 
-    RuleView rule(std::size_t p, int n) const {
-        const std::size_t k = p * kMaxFarFieldOrder + static_cast<std::size_t>(n - 1);
-        const std::size_t o = offset[k];
-        return {x.data() + o, y.data() + o, z.data() + o, w.data() + o, count[k]};
+    std::size_t triangles(std::size_t p) const { return tri_first[p + 1] - tri_first[p]; }
+    /// The number of points of patch p's rule of order n.
+    std::size_t count(std::size_t p, int n) const {
+        const auto nn = static_cast<std::size_t>(n) * static_cast<std::size_t>(n);
+        switch (shape[p]) {
+            case RuleShape::kEmpty:
+                return 0;
+            case RuleShape::kTriangles:
+                return triangles(p) * nn;
+            default:
+                return nn;
+        }
+    }
+    /// Patch p's rule of order n (polygon_rule(), bit for bit): stored, or computed into
+    /// `scratch` (cleared first).
+    RuleView rule(const Polygon& poly, std::size_t p, int n, RulePoints& scratch) const {
+        if (n <= kStoredOrders) {
+            std::size_t at = first[p];
+            for (int o = 1; o < n; ++o) at += count(p, o);
+            return points.view(at, count(p, n));
+        }
+        scratch.clear();
+        append_rule(poly, shape[p], tris.data() + 3 * std::size_t{tri_first[p]}, triangles(p), n,
+                    scratch);
+        return scratch.view(0, scratch.size());
     }
 };
 
@@ -47,52 +79,49 @@ PatchTable build_table(const std::vector<const Polygon*>& polys, int threads) {
     t.area.resize(n);
     t.radius.resize(n);
     t.plane_d.resize(n);
-    // The rules are built in chunks of patches and copied into the flat arrays chunk by chunk:
-    // the rules of every patch at once (all orders, ~6.5 kB per quad) would double the table's
-    // peak memory (51 MB more at 7,776 patches).
-    constexpr std::size_t kChunk = 1024;
-    const std::size_t orders = static_cast<std::size_t>(kMaxFarFieldOrder);
-    t.offset.resize(n * orders);
-    t.count.resize(n * orders);
-    std::vector<PolygonRule> rules;
-    std::size_t total = 0;
-    for (std::size_t first = 0; first < n; first += kChunk) {
-        const std::size_t last = std::min(n, first + kChunk);
-        rules.assign((last - first) * orders, PolygonRule{});
-        parallel_for(last - first, threads, [&](std::size_t q) {
-            const std::size_t p = first + q;
-            const Polygon& poly = *polys[p];
-            t.normal[p] = normal(poly);
-            t.centroid[p] = centroid(poly);
-            t.area[p] = area(poly);
-            t.plane_d[p] = t.normal[p].dot(t.centroid[p]);
-            double r = 0.0;
-            for (const Vec3& v : poly.vertices) r = std::max(r, (v - t.centroid[p]).norm());
-            t.radius[p] = r;
-            for (int o = 1; o <= kMaxFarFieldOrder; ++o)
-                rules[q * orders + static_cast<std::size_t>(o - 1)] = polygon_rule(poly, o);
-        });
-        std::size_t chunk_points = 0;
-        for (const PolygonRule& rule : rules) chunk_points += rule.points.size();
-        if (first == 0) {
-            // Room for every patch at the first chunk's rate (+5 %): no doubling on growth.
-            const double estimate = 1.05 * double(chunk_points) * double(n) / double(last);
-            for (std::vector<double>* a : {&t.x, &t.y, &t.z, &t.w})
-                a->reserve(static_cast<std::size_t>(estimate));
-        }
-        for (std::size_t k = 0; k < rules.size(); ++k) {
-            const std::size_t slot = first * orders + k;
-            t.offset[slot] = total;
-            t.count[slot] = static_cast<int>(rules[k].points.size());
-            for (std::size_t m = 0; m < rules[k].points.size(); ++m) {
-                t.x.push_back(rules[k].points[m].x());
-                t.y.push_back(rules[k].points[m].y());
-                t.z.push_back(rules[k].points[m].z());
-                t.w.push_back(rules[k].weights[m]);
-            }
-            total += rules[k].points.size();
-        }
+    t.shape.resize(n);
+    parallel_for(n, threads, [&](std::size_t p) {
+        const Polygon& poly = *polys[p];
+        t.normal[p] = normal(poly);
+        t.centroid[p] = centroid(poly);
+        t.area[p] = area(poly);
+        t.plane_d[p] = t.normal[p].dot(t.centroid[p]);
+        double r = 0.0;
+        for (const Vec3& v : poly.vertices) r = std::max(r, (v - t.centroid[p]).norm());
+        t.radius[p] = r;
+        t.shape[p] = rule_shape(poly);
+    });
+    t.tri_first.assign(n + 1, 0);
+    for (std::size_t p = 0; p < n; ++p) {
+        if (t.shape[p] == RuleShape::kTriangles)
+            for (const auto& tri : triangulate(*polys[p]))
+                t.tris.insert(t.tris.end(), tri.begin(), tri.end());
+        if (t.tris.size() / 3 > UINT32_MAX)
+            throw ResourceError("analytic: more than 2^32 triangles in the patches' rules");
+        t.tri_first[p + 1] = static_cast<std::uint32_t>(t.tris.size() / 3);
     }
+    t.first.resize(n + 1);
+    t.first[0] = 0;
+    for (std::size_t p = 0; p < n; ++p) {
+        std::size_t c = 0;
+        for (int o = 1; o <= kStoredOrders; ++o) c += t.count(p, o);
+        t.first[p + 1] = t.first[p] + c;
+    }
+    for (std::vector<double>* a : {&t.points.x, &t.points.y, &t.points.z, &t.points.w})
+        a->resize(t.first[n]);
+    // Each patch's rules into their place (append_rule() appends: through a scratch buffer).
+    parallel_for(n, threads, [&](std::size_t p) {
+        thread_local RulePoints scratch;
+        scratch.clear();
+        for (int o = 1; o <= kStoredOrders; ++o)
+            append_rule(*polys[p], t.shape[p], t.tris.data() + 3 * std::size_t{t.tri_first[p]},
+                        t.triangles(p), o, scratch);
+        FF_ASSERT(scratch.size() == t.first[p + 1] - t.first[p]);
+        std::copy(scratch.x.begin(), scratch.x.end(), t.points.x.begin() + t.first[p]);
+        std::copy(scratch.y.begin(), scratch.y.end(), t.points.y.begin() + t.first[p]);
+        std::copy(scratch.z.begin(), scratch.z.end(), t.points.z.begin() + t.first[p]);
+        std::copy(scratch.w.begin(), scratch.w.end(), t.points.w.begin() + t.first[p]);
+    });
     return t;
 }
 
@@ -196,10 +225,16 @@ void row_pairs(const PatchTable& t, const std::vector<const Polygon*>& polys, do
                                        : gauss_order_for_fast(pref, rj / (d - ri), 0.5 * tol,
                                                               kMaxFarFieldOrder);
                 if (oi > 0 && oj > 0) {
-                    batch.add(oi, j, t.rule(j, oj), nj, cj);
+                    batch.add(oi, j, nj, cj, [&](RulePoints& out) {
+                        thread_local RulePoints scratch;
+                        const RuleView r = t.rule(*polys[j], j, oj, scratch);
+                        out.x.insert(out.x.end(), r.x, r.x + r.count);
+                        out.y.insert(out.y.end(), r.y, r.y + r.count);
+                        out.z.insert(out.z.end(), r.z, r.z + r.count);
+                        out.w.insert(out.w.end(), r.w, r.w + r.count);
+                    });
                     ++st.far;
-                    st.points += static_cast<std::size_t>(t.rule(i, oi).count) *
-                                 static_cast<std::size_t>(t.rule(j, oj).count);
+                    st.points += t.count(i, oi) * t.count(j, oj);
                     ++st.order_hist[static_cast<std::size_t>(std::max(oi, oj))];
                     return;
                 }
@@ -208,8 +243,10 @@ void row_pairs(const PatchTable& t, const std::vector<const Polygon*>& polys, do
         emit(j, std::max(0.0, polygon_to_polygon(*polys[i], *polys[j])));
         ++st.exact;
     });
-    batch.run([&](int order) { return t.rule(i, order); }, ni, ci, 1.0 / t.area[i],
-              [&](std::size_t j, double fij) { emit(j, std::max(0.0, fij)); });
+    // The row's own rule, once per order it is asked for.
+    thread_local RulePoints row_rule;
+    batch.run([&](int order) { return t.rule(*polys[i], i, order, row_rule); }, ni, ci,
+              1.0 / t.area[i], [&](std::size_t j, double fij) { emit(j, std::max(0.0, fij)); });
 }
 
 Bounds3 polygons_box(const std::vector<const Polygon*>& polys) {

@@ -16,10 +16,10 @@
 
 namespace formfactor::detail {
 
-/// The patches' normals, centroids, areas, radii and far-field quadrature rules (every order)
-/// that the functions below use: built by each call, or once by make_patch_table() for calls
-/// on the same polygons (the blocks of rows and parts of pairs of one scene). Tens of MB for
-/// 10^4 patches.
+/// The patches' normals, centroids, areas, radii and far-field quadrature rules (the low
+/// orders stored, the higher ones computed when asked for) that the functions below use: built
+/// by each call, or once by make_patch_table() for calls on the same polygons (the blocks of
+/// rows and parts of pairs of one scene). About 1 kB a triangle.
 struct PatchTable;
 std::shared_ptr<const PatchTable> make_patch_table(const std::vector<const Polygon*>& polys,
                                                    int threads);
