@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numeric>
 #include <random>
 #include <string>
 #include <vector>
@@ -880,6 +881,53 @@ TEST_CASE("candidate lists: each pair's pieces decode as they were stored, and a
     cut.bytes.pop_back();
     CHECK_FALSE(cut.decode(first.back(), 3, got));
     CHECK_FALSE(stored.decode(first.back(), 4, got));
+}
+
+TEST_CASE("candidate lists: subsets of a shared anchor decode to themselves, in its order") {
+    // An anchor's list (a node pair's pieces) and the pairs below it, each keeping some of them
+    // in the anchor's order: every subset decodes to itself, and a record asked for another
+    // count, a mask cut short or an offset before the bytes fails.
+    std::mt19937 rng(11);
+    detail::CandidateLists stored;
+    std::vector<int> noise = {5, 3, 9};
+    stored.append(noise);  // records before the anchor: offsets are relative
+    for (int anchor_size : {0, 1, 7, 8, 9, 64, 300}) {
+        std::vector<int> anchor;
+        int at = static_cast<int>(rng() % 1000);
+        for (int k = 0; k < anchor_size; ++k) {
+            at = std::max(0, at + static_cast<int>(rng() % 40) - 20);
+            anchor.push_back(at);  // repeated ids too: a subset is picked by position
+        }
+        const std::size_t a = stored.add_anchor(anchor.data(), anchor.size());
+        std::vector<std::vector<int>> subsets;
+        std::vector<std::size_t> first;
+        for (int s = 0; s < 6; ++s) {
+            std::vector<int> kept;
+            for (int id : anchor)
+                if (s == 0 || (s > 1 && rng() % 3 != 0)) kept.push_back(id);
+            if (s == 1) kept = anchor;
+            if (s == 5) kept.clear();
+            subsets.push_back(kept);
+            first.push_back(stored.add_subset(a, anchor.data(), anchor.size(), kept));
+        }
+        std::vector<int> got;
+        for (std::size_t s = 0; s < subsets.size(); ++s) {
+            REQUIRE(stored.decode(first[s], static_cast<int>(subsets[s].size()), got));
+            CHECK(got == subsets[s]);
+            CHECK_FALSE(stored.decode(first[s], static_cast<int>(subsets[s].size()) + 1, got));
+        }
+    }
+    // The last record's mask cut short.
+    std::vector<int> anchor(20);
+    std::iota(anchor.begin(), anchor.end(), 100);
+    const std::size_t a = stored.add_anchor(anchor.data(), anchor.size());
+    const std::size_t last = stored.add_subset(a, anchor.data(), anchor.size(), anchor);
+    std::vector<int> got;
+    REQUIRE(stored.decode(last, 20, got));
+    detail::CandidateLists cut = stored;
+    cut.bytes.pop_back();
+    CHECK_FALSE(cut.decode(last, 20, got));
+    CHECK_FALSE(stored.decode(stored.bytes.size() + 3, 0, got));
 }
 
 TEST_CASE("partly hidden pass order: every stride-th pair from 0, then from 1, each pair once") {
