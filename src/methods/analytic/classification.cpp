@@ -455,17 +455,19 @@ bool CandidateLists::decode(std::size_t first, int count, std::vector<int>& ids)
     if (!get_varint(bytes, anchor, m) || m > bytes.size()) return false;
     const std::size_t mask = at;
     if ((m + 7) / 8 > bytes.size() - mask) return false;
+    auto kept = [&](std::size_t k) { return (bytes[mask + k / 8] >> (k % 8)) & 1u; };
     std::int64_t prev = 0;
-    for (std::size_t k = 0; k < m; ++k) {
+    std::size_t k = 0;
+    // The anchor's ids up to the pair's last one (its mask holds no bit beyond).
+    for (; k < m && ids.size() < static_cast<std::size_t>(count); ++k) {
         std::uint64_t z = 0;
         if (!get_varint(bytes, anchor, z)) return false;
         prev += static_cast<std::int64_t>(z >> 1) ^ -static_cast<std::int64_t>(z & 1);
         if (prev < 0 || prev > std::numeric_limits<int>::max()) return false;
-        if (bytes[mask + k / 8] & (1u << (k % 8))) {
-            if (ids.size() == static_cast<std::size_t>(count)) return false;
-            ids.push_back(static_cast<int>(prev));
-        }
+        if (kept(k)) ids.push_back(static_cast<int>(prev));
     }
+    for (; k < m; ++k)
+        if (kept(k)) return false;
     return ids.size() == static_cast<std::size_t>(count);
 }
 
