@@ -873,20 +873,20 @@ TEST_CASE("candidate lists: each pair's pieces decode as they were stored, and a
     CHECK(stored.bytes.size() < 2 * ints);  // mostly one byte a piece
     std::vector<int> got;
     for (std::size_t l = 0; l < lists.size(); ++l) {
-        REQUIRE(stored.decode(first[l], static_cast<int>(lists[l].size()), got));
+        REQUIRE(stored.decode(first[l], got));
         CHECK(got == lists[l]);
     }
-    // The last list cut short, and a count beyond the bytes.
+    // The last list cut short, and an offset that is no pair record.
     detail::CandidateLists cut = stored;
     cut.bytes.pop_back();
-    CHECK_FALSE(cut.decode(first.back(), 3, got));
-    CHECK_FALSE(stored.decode(first.back(), 4, got));
+    CHECK_FALSE(cut.decode(first.back(), got));
+    CHECK_FALSE(stored.decode(0, got));  // an anchor's bytes are no pair record
 }
 
 TEST_CASE("candidate lists: subsets of a shared anchor decode to themselves, in its order") {
     // An anchor's list (a node pair's pieces) and the pairs below it, each keeping some of them
-    // in the anchor's order: every subset decodes to itself, and a record asked for another
-    // count, a mask cut short or an offset before the bytes fails.
+    // in the anchor's order: every subset decodes to itself, and a mask cut short or an offset
+    // past the bytes fails.
     std::mt19937 rng(11);
     detail::CandidateLists stored;
     std::vector<int> noise = {5, 3, 9};
@@ -912,9 +912,8 @@ TEST_CASE("candidate lists: subsets of a shared anchor decode to themselves, in 
         }
         std::vector<int> got;
         for (std::size_t s = 0; s < subsets.size(); ++s) {
-            REQUIRE(stored.decode(first[s], static_cast<int>(subsets[s].size()), got));
+            REQUIRE(stored.decode(first[s], got));
             CHECK(got == subsets[s]);
-            CHECK_FALSE(stored.decode(first[s], static_cast<int>(subsets[s].size()) + 1, got));
         }
     }
     // The last record's mask cut short.
@@ -923,11 +922,11 @@ TEST_CASE("candidate lists: subsets of a shared anchor decode to themselves, in 
     const std::size_t a = stored.add_anchor(anchor.data(), anchor.size());
     const std::size_t last = stored.add_subset(a, anchor.data(), anchor.size(), anchor);
     std::vector<int> got;
-    REQUIRE(stored.decode(last, 20, got));
+    REQUIRE(stored.decode(last, got));
     detail::CandidateLists cut = stored;
     cut.bytes.pop_back();
-    CHECK_FALSE(cut.decode(last, 20, got));
-    CHECK_FALSE(stored.decode(stored.bytes.size() + 3, 0, got));
+    CHECK_FALSE(cut.decode(last, got));
+    CHECK_FALSE(stored.decode(stored.bytes.size() + 3, got));
 }
 
 TEST_CASE("partly hidden pass order: every stride-th pair from 0, then from 1, each pair once") {

@@ -224,7 +224,6 @@ class Classifier {
             PartialPair p;
             p.i = TA.order[static_cast<std::size_t>(A.first)];
             p.j = TB.order[static_cast<std::size_t>(B.first)];
-            p.cand_count = static_cast<int>(kept_.size());
             // The pairs of one node pair often keep the same pieces: the list of the pair
             // before is shared when it is the same.
             if (!out.partial.empty() && last_out_ == &out && last_kept_ == kept_) {
@@ -445,8 +444,7 @@ std::size_t CandidateLists::append(const std::vector<int>& ids) {
     return add_subset(anchor, ids.data(), ids.size(), ids);
 }
 
-bool CandidateLists::decode(std::size_t first, int count, std::vector<int>& ids) const {
-    if (count < 0) return false;
+bool CandidateLists::decode(std::size_t first, std::vector<int>& ids) const {
     ids.clear();
     std::size_t at = first;
     std::uint64_t back = 0, m = 0;
@@ -456,19 +454,18 @@ bool CandidateLists::decode(std::size_t first, int count, std::vector<int>& ids)
     const std::size_t mask = at;
     if ((m + 7) / 8 > bytes.size() - mask) return false;
     auto kept = [&](std::size_t k) { return (bytes[mask + k / 8] >> (k % 8)) & 1u; };
+    // The anchor's ids up to the pair's last one (the mask holds no bit beyond it).
+    std::size_t last = m;
+    while (last > 0 && !kept(last - 1)) --last;
     std::int64_t prev = 0;
-    std::size_t k = 0;
-    // The anchor's ids up to the pair's last one (its mask holds no bit beyond).
-    for (; k < m && ids.size() < static_cast<std::size_t>(count); ++k) {
+    for (std::size_t k = 0; k < last; ++k) {
         std::uint64_t z = 0;
         if (!get_varint(bytes, anchor, z)) return false;
         prev += static_cast<std::int64_t>(z >> 1) ^ -static_cast<std::int64_t>(z & 1);
         if (prev < 0 || prev > std::numeric_limits<int>::max()) return false;
         if (kept(k)) ids.push_back(static_cast<int>(prev));
     }
-    for (; k < m; ++k)
-        if (kept(k)) return false;
-    return ids.size() == static_cast<std::size_t>(count);
+    return true;
 }
 
 void classify_task_list(const Obstructions& S, const std::size_t* tasks, std::size_t count,

@@ -44,10 +44,9 @@ struct ClusterTree {
 
 struct PartialPair {
     int i = 0, j = 0;
-    std::uint32_t cand_first = 0;  // its list's first byte in CandidateLists::bytes
-    int cand_count = 0;            // how many pieces the list holds
+    std::uint32_t cand_first = 0;  // its list's record in CandidateLists::bytes
 };
-static_assert(sizeof(PartialPair) == 16);
+static_assert(sizeof(PartialPair) == 12);
 
 // The candidate pieces of the partly hidden pairs of one classification task. A pair's list is
 // what its shaft keeps of the list of a node pair above it (its anchor: the first node pair of
@@ -68,9 +67,9 @@ struct CandidateLists {
                            const std::vector<int>& kept);
     /// A list that is its own anchor; returns the offset of its pair record.
     std::size_t append(const std::vector<int>& ids);
-    /// The `count` ids of the pair record at byte `first`, into `ids` (resized); false when the
-    /// bytes end first, the record is malformed or holds another count, or an id is negative.
-    bool decode(std::size_t first, int count, std::vector<int>& ids) const;
+    /// The ids of the pair record at byte `first`, into `ids`; false when the bytes end first,
+    /// the record is malformed or an id is negative.
+    bool decode(std::size_t first, std::vector<int>& ids) const;
 };
 
 struct NodePair {

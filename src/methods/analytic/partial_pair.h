@@ -144,9 +144,10 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
     if (!(unobs > 0.0)) return v;
     // The pair's candidate pieces, decoded (the lists of a task are stored as varints).
     thread_local std::vector<int> ids;
-    if (!lists.decode(pp.cand_first, pp.cand_count, ids))
+    if (!lists.decode(pp.cand_first, ids))
         throw Error("analytic: the candidate pieces of a partly hidden pair are out of range");
     const int* pair_cand = ids.data();
+    const int cand_count = static_cast<int>(ids.size());
     PairStats& st = v.stats;
     // The stream of uniform() that places the pair's value inside its umbra bound.
     const std::uint64_t seed =
@@ -168,7 +169,7 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
         // the small pairs of a row do not all err the same way (the midpoint would).
         double hidden = 0.0;
         for (const Polygon& pr : parts)
-            hidden += detail::hidden_estimate(ps, pr, S.blockers, pair_cand, pp.cand_count, S.eps,
+            hidden += detail::hidden_estimate(ps, pr, S.blockers, pair_cand, cand_count, S.eps,
                                               st.points);
         const double lo = std::max(0.0, unobs - tol), hi = std::min(unobs, tol);
         st.bracketed = true;
@@ -187,7 +188,7 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
             const double w = area(sp) / a_s;
             for (const Polygon& pr : parts) {
                 const detail::VisibleBound b = detail::visible_bound(
-                    sp, pr, S.blockers, pair_cand, pp.cand_count, S.eps,
+                    sp, pr, S.blockers, pair_cand, cand_count, S.eps,
                     (kUmbraShare * tol - bound) / w,
                     seed + 7 * static_cast<std::uint64_t>(&sp - senders.data()));
                 st.points += b.points;
@@ -207,7 +208,7 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
         for (const Polygon& pr : parts) {
             double unobstructed_at = 0.0;
             const double hidden_at = detail::point_hidden(xc, ns, pr, S.blockers, pair_cand,
-                                                          pp.cand_count, S.eps, &unobstructed_at);
+                                                          cand_count, S.eps, &unobstructed_at);
             ++st.points;
             seen_at_centre += unobstructed_at - hidden_at;
         }
@@ -227,7 +228,7 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
     std::vector<std::vector<Polygon>> cut_s, cut_r;
     std::size_t pieces_s = 0;
     for (const Polygon& pr : parts) {
-        cut_s.push_back(detail::event_pieces(ps, pr, S.blockers, pair_cand, pp.cand_count, S.eps));
+        cut_s.push_back(detail::event_pieces(ps, pr, S.blockers, pair_cand, cand_count, S.eps));
         pieces_s += cut_s.back().size();
     }
     const Polygon& pr_whole = scene.patches[r].polygon;
@@ -237,7 +238,7 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
     if (pieces_s >= kSideMinPieces && parts.size() == 1 && a_r <= kSideAreaRatio * a_s &&
         BlockerSet::convex_parts(ps).size() == 1) {
         cut_r.push_back(
-            detail::event_pieces(pr_whole, ps, S.blockers, pair_cand, pp.cand_count, S.eps));
+            detail::event_pieces(pr_whole, ps, S.blockers, pair_cand, cand_count, S.eps));
         over_r = cut_r.back().size() < pieces_s;
     }
     const Polygon& sender = over_r ? pr_whole : ps;
@@ -249,7 +250,7 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
     int level = 0;
     for (std::size_t k = 0; k < receivers.size(); ++k) {
         const detail::HiddenIntegral h =
-            detail::hidden_integral(sender, receivers[k], S.blockers, pair_cand, pp.cand_count,
+            detail::hidden_integral(sender, receivers[k], S.blockers, pair_cand, cand_count,
                                     tol / to_sr / static_cast<double>(receivers.size()), S.eps,
                                     &cuts[k], stream_key(seed, k, 0));
         hidden_sum += h.hidden * to_sr;

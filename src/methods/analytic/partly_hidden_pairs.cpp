@@ -144,7 +144,7 @@ void PartlyHiddenPairs::set_classification(const char* bytes, std::size_t size) 
         o.hidden_patch_pairs = static_cast<std::size_t>(counts[6]);
         std::vector<int> ids;
         for (const PartialPair& p : o.partial) {
-            bool ok = p.cand_count >= 0 && o.cand.decode(p.cand_first, p.cand_count, ids);
+            bool ok = o.cand.decode(p.cand_first, ids);
             for (std::size_t k = 0; k < ids.size() && ok; ++k)
                 ok = static_cast<std::size_t>(ids[k]) < m.S.blockers.size();
             if (!ok) throw Error("analytic: a classification with candidates out of range");
