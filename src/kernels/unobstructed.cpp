@@ -54,17 +54,31 @@ struct PatchTable {
                 return nn;
         }
     }
-    /// Patch p's rule of order n (polygon_rule(), bit for bit): stored, or computed into
-    /// `scratch` (cleared first).
-    RuleView rule(const Polygon& poly, std::size_t p, int n, RulePoints& scratch) const {
-        if (n <= kStoredOrders) {
-            std::size_t at = first[p];
-            for (int o = 1; o < n; ++o) at += count(p, o);
-            return points.view(at, count(p, n));
+    /// Patch p's stored rule of order n ≤ kStoredOrders.
+    RuleView stored(std::size_t p, int n) const {
+        std::size_t at = first[p];
+        for (int o = 1; o < n; ++o) at += count(p, o);
+        return points.view(at, count(p, n));
+    }
+    /// Appends patch p's rule of order n (polygon_rule(), bit for bit) to `out`: copied when
+    /// stored, else computed there.
+    void append(const Polygon& poly, std::size_t p, int n, RulePoints& out) const {
+        if (n > kStoredOrders) {
+            append_rule(poly, shape[p], tris.data() + 3 * std::size_t{tri_first[p]}, triangles(p),
+                        n, out);
+            return;
         }
+        const RuleView r = stored(p, n);
+        out.x.insert(out.x.end(), r.x, r.x + r.count);
+        out.y.insert(out.y.end(), r.y, r.y + r.count);
+        out.z.insert(out.z.end(), r.z, r.z + r.count);
+        out.w.insert(out.w.end(), r.w, r.w + r.count);
+    }
+    /// Patch p's rule of order n: stored, or computed into `scratch` (cleared first).
+    RuleView rule(const Polygon& poly, std::size_t p, int n, RulePoints& scratch) const {
+        if (n <= kStoredOrders) return stored(p, n);
         scratch.clear();
-        append_rule(poly, shape[p], tris.data() + 3 * std::size_t{tri_first[p]}, triangles(p), n,
-                    scratch);
+        append(poly, p, n, scratch);
         return scratch.view(0, scratch.size());
     }
 };
@@ -225,14 +239,8 @@ void row_pairs(const PatchTable& t, const std::vector<const Polygon*>& polys, do
                                        : gauss_order_for_fast(pref, rj / (d - ri), 0.5 * tol,
                                                               kMaxFarFieldOrder);
                 if (oi > 0 && oj > 0) {
-                    batch.add(oi, j, nj, cj, [&](RulePoints& out) {
-                        thread_local RulePoints scratch;
-                        const RuleView r = t.rule(*polys[j], j, oj, scratch);
-                        out.x.insert(out.x.end(), r.x, r.x + r.count);
-                        out.y.insert(out.y.end(), r.y, r.y + r.count);
-                        out.z.insert(out.z.end(), r.z, r.z + r.count);
-                        out.w.insert(out.w.end(), r.w, r.w + r.count);
-                    });
+                    batch.add(oi, j, nj, cj,
+                              [&](RulePoints& out) { t.append(*polys[j], j, oj, out); });
                     ++st.far;
                     st.points += t.count(i, oi) * t.count(j, oj);
                     ++st.order_hist[static_cast<std::size_t>(std::max(oi, oj))];
