@@ -10,8 +10,11 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <numeric>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -61,15 +64,19 @@ std::string duration_text(double s) {
     return fmt::format("{:.1f} h", s / 3600.0);
 }
 
+// The pass over `count` pairs whose estimate speaks for `expected` pairs (more than count when
+// they are the first block of a classification done in blocks, see sparse_obstructed_rows();
+// `later_seconds`: the time the later blocks' classification will take besides), its progress
+// counted on `progress`.
 template <class Body>
-void partly_hidden_pass(std::size_t count, const MethodContext& ctx, double tol, Fields& o,
-                        const Body& body) {
+void sampled_pass(std::size_t count, std::size_t expected, double later_seconds,
+                  const MethodContext& ctx, double tol, Fields& o, Progress& progress,
+                  const Body& body) {
     const MethodOptions& options = ctx.options;
     const std::size_t stride = sample_stride(count);
     auto order = [&](std::size_t j) { return detail::strided_pair(j, count, stride); };
     const std::size_t sampled = (count + stride - 1) / stride;
     announce_phase("analytic partly hidden pairs");
-    Progress progress("analytic (obstructed)", count, ctx.progress);
     const auto t0 = Clock::now();
     parallel_for(sampled, options.threads, [&](std::size_t j) {
         body(order(j));
@@ -77,17 +84,21 @@ void partly_hidden_pass(std::size_t count, const MethodContext& ctx, double tol,
     });
     const double sample_seconds = std::chrono::duration<double>(Clock::now() - t0).count();
     const double estimate =
-        sampled > 0 ? sample_seconds * static_cast<double>(count) / static_cast<double>(sampled)
+        sampled > 0 ? sample_seconds * static_cast<double>(expected) / static_cast<double>(sampled)
                     : 0.0;
     o["sampled_pairs"] = sampled;
     o["estimated_seconds_partly_hidden"] = estimate;
-    if (ctx.progress && estimate > kNoteSeconds) {
+    if (ctx.progress && estimate + later_seconds > kNoteSeconds) {
         const int threads = effective_threads(options.threads);
         std::string text = fmt::format(
-            "analytic: {} partly hidden pairs, about {} on {} thread{} (from {} of them). "
+            "analytic: {}{} partly hidden pairs, about {}{} on {} thread{} (from {} of them). "
             "Less: a looser `tolerance` (now {:g}), `method` mc-hemisphere with `samples` 100000 "
             "(standard error <= 1.6e-3 per entry)",
-            count, duration_text(estimate), threads, threads == 1 ? "" : "s", sampled, tol);
+            expected > count ? "about " : "", expected, duration_text(estimate),
+            later_seconds > 0.0
+                ? fmt::format(" (and {} more of classification)", duration_text(later_seconds))
+                : std::string(),
+            threads, threads == 1 ? "" : "s", sampled, tol);
         if (ctx.scene.patches.size() >= 20000 && !ctx.sparse_rows)
             text += ", `output` F.h5 (sparse: only the entries that are not 0)";
         ctx.progress->note(text);
@@ -96,6 +107,13 @@ void partly_hidden_pass(std::size_t count, const MethodContext& ctx, double tol,
         body(order(sampled + j));
         progress.advance();
     });
+}
+
+template <class Body>
+void partly_hidden_pass(std::size_t count, const MethodContext& ctx, double tol, Fields& o,
+                        const Body& body) {
+    Progress progress("analytic (obstructed)", count, ctx.progress);
+    sampled_pass(count, count, 0.0, ctx, tol, o, progress, body);
     progress.finish();
 }
 
@@ -215,6 +233,24 @@ void AnalyticMethod::apply_obstructions(const MethodContext& ctx, FormFactors& o
     o["seconds_partly_hidden"] = seconds(t_classified, t_done);
 }
 
+// The sparse rows classify the tasks (pairs of plane groups) in blocks and integrate each
+// block's partly hidden pairs before the next block is classified, so that the pairs' candidate
+// lists are never all held at once: the 9,946-triangle urban array holds 3.13 M such pairs,
+// 12 bytes and a list of ~15 bytes each. Block b holds the tasks at b, b + K, b + 2K, ... of the
+// classification order (largest first), so that each block is a sample of the whole: the first
+// one's time, scaled, is the estimate before the rest runs. K: one block per kTasksPerBlock tasks,
+// at most kMaxBlocks (a small scene is one block).
+constexpr std::size_t kTasksPerBlock = 64;
+constexpr std::size_t kMaxBlocks = 16;
+
+static void add_stats(detail::UnobstructedStats& total, const detail::UnobstructedStats& s) {
+    total.zero += s.zero;
+    total.exact += s.exact;
+    total.far += s.far;
+    total.points += s.points;
+    for (std::size_t k = 0; k < s.order_hist.size(); ++k) total.order_hist[k] += s.order_hist[k];
+}
+
 void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double visible_tolerance,
                                             MethodResult& result) {
     const Scene& scene = ctx.scene;
@@ -228,159 +264,294 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
     ff.first_row = rows.begin;
     ff.F = DenseMatrix::Zero(0, static_cast<Eigen::Index>(n));
     MethodReport& report = result.report;
+    const CancellationFlag& cancel = current_cancellation();
 
     const PartlyHiddenPairs::Impl* given = given_pairs(ctx, true);
     Obstructions own;
-    if (!given) prepare_obstructions(ctx, true, own);
+    if (!given) prepare_blockers(ctx, own);
     const Obstructions& S = given ? given->S : own;
-    const auto t_classified = Clock::now();
     const std::vector<ClusterTree>& trees = S.trees;
     auto touches = [&](std::size_t i, std::size_t j) {
         return rows.contains(i) || rows.contains(j);
     };
-    // The unordered pairs (a < c) that touch the rows, by their first patch: every patch pair
-    // of the visible node pairs, and the partly hidden ones. The others are 0: facing away,
-    // fully hidden, or in one plane group (coplanar, one-sided: they do not see each other).
-    std::size_t node_pairs = 0, vis = 0, hid = 0, partial_pairs = 0;
-    for (const PairOutput& o : S.outputs) {
-        node_pairs += o.node_pairs;
-        vis += o.visible_patch_pairs;
-        hid += o.hidden_patch_pairs;
-        partial_pairs += o.partial.size();
+    std::vector<const Polygon*> polys(n);
+    for (std::size_t p = 0; p < n; ++p) polys[p] = &scene.patches[p].polygon;
+    // The patches' table of the unobstructed values, built once for every block and the rows.
+    std::shared_ptr<const detail::PatchTable> own_table;
+    const detail::PatchTable* table = given ? given->table.get() : nullptr;
+    if (!table) {
+        own_table = detail::make_patch_table(polys, options.threads);
+        table = own_table.get();
     }
-    {
-        // Before the pair lists exist: a column, its value, a byte and (at most) two row
-        // entries per pair that sees anything, ~37 bytes, and a reference to each partly
-        // hidden one (8 bytes); a closed room of 10⁵ patches with a box would want ~10¹⁰ pairs.
-        const double pairs = double(vis) + double(partial_pairs);
-        const double need = 37.0 * pairs + 8.0 * double(partial_pairs);
-        const double available = available_memory();
-        if (available > 0.0 && need > available)
-            throw ResourceError(fmt::format(
-                "analytic sparse rows: {} pairs see each other ({} of them partly hidden), "
-                "which needs about {} for the pair lists; {} is available. Use `storage` "
-                "hierarchical for a closed scene, a Monte-Carlo method (mc-hemisphere) for a "
-                "large open one, or a coarser subdivision",
-                pairs, partial_pairs, format_bytes(need), format_bytes(available)));
+    std::vector<double> areas;
+
+    // The tasks in blocks (given pairs: their classification is done, one block).
+    const std::size_t tasks = given ? S.outputs.size() : detail::classification_tasks(S);
+    const std::size_t blocks =
+        given ? 1 : std::clamp<std::size_t>(tasks / kTasksPerBlock, 1, kMaxBlocks);
+    std::vector<std::size_t> order(tasks);
+    if (blocks > 1) {
+        order = detail::tasks_by_size(S);
+    } else {
+        std::iota(order.begin(), order.end(), std::size_t{0});
     }
-    std::vector<std::vector<std::int32_t>> cols(n);
-    // One thread over every visible pair of a city (10⁸ of them): a signal must not wait.
-    const CancellationFlag& cancel = current_cancellation();
-    announce_phase("analytic pair lists");
-    for (const PairOutput& o : S.outputs) {
+    // Given pairs: the place of each task's first pair in their list.
+    std::vector<std::size_t> task_first;
+    if (given) {
+        task_first.assign(tasks + 1, 0);
+        for (std::size_t t = 0; t < tasks; ++t)
+            task_first[t + 1] = task_first[t] + S.outputs[t].partial.size();
+    }
+
+    // What the blocks leave: the visible node pairs, and the partly hidden pairs whose value is
+    // above 0 (a pair that ends at 0 needs no slot: its entries are left out), each with its
+    // value F_sr as the slot's (bit 31 of `c`: the value is the lower entry F_ca, s = c).
+    struct Valued {
+        std::uint32_t a, c;
+        double f;
+    };
+    static_assert(sizeof(Valued) == 16);
+    constexpr std::uint32_t kLower = 1u << 31;
+    std::vector<std::vector<NodePair>> visible_of(blocks);
+    std::vector<std::vector<Valued>> valued_of(blocks);
+    std::size_t node_pairs = 0, vis = 0, hid = 0, partial_pairs = 0, partial_count = 0;
+    detail::UnobstructedStats ust;
+    ThreadStats stats;
+    Fields& obs = report.details["obstructions"];
+    double seconds_classification = 0.0, seconds_pass = 0.0;
+    std::optional<Progress> progress;
+    std::size_t expected = 0;  // the pairs the progress counts: blocks × the first block's
+
+    for (std::size_t b = 0; b < blocks; ++b) {
         cancel.throw_if_requested();
-        for (const NodePair& np : o.visible)
+        std::vector<std::size_t> list;
+        // Rounds of `blocks` tasks, the block's place in each round alternating from either
+        // end, so that no block takes the largest task of every round.
+        for (std::size_t round = 0; round * blocks < tasks; ++round) {
+            const std::size_t q = round * blocks + (round % 2 == 0 ? b : blocks - 1 - b);
+            if (q < tasks) list.push_back(order[q]);
+        }
+        std::vector<PairOutput> fresh;
+        const auto t_class = Clock::now();
+        if (!given) {
+            announce_phase("analytic classification");
+            fresh.resize(list.size());
+            detail::classify_task_list(S, list.data(), list.size(), true, options.threads,
+                                       fresh.data());
+        }
+        const double block_class = seconds(t_class, Clock::now());
+        seconds_classification += block_class;
+        auto output = [&](std::size_t q) -> const PairOutput& {
+            return given ? S.outputs[list[q]] : fresh[q];
+        };
+        // The block's partly hidden pairs that touch the rows, as (task, place in its list).
+        struct PairRef {
+            std::uint32_t q, at;
+        };
+        std::vector<PairRef> refs;
+        std::vector<std::vector<std::int32_t>> cols(n);
+        for (std::size_t q = 0; q < list.size(); ++q) {
+            const PairOutput& o = output(q);
+            node_pairs += o.node_pairs;
+            vis += o.visible_patch_pairs;
+            hid += o.hidden_patch_pairs;
+            partial_pairs += o.partial.size();
+            visible_of[b].insert(visible_of[b].end(), o.visible.begin(), o.visible.end());
+            FF_ASSERT(o.partial.size() <= UINT32_MAX && q <= UINT32_MAX);
+            for (std::size_t k = 0; k < o.partial.size(); ++k) {
+                const auto i = static_cast<std::size_t>(o.partial[k].i);
+                const auto j = static_cast<std::size_t>(o.partial[k].j);
+                if (!touches(i, j)) continue;
+                refs.push_back({static_cast<std::uint32_t>(q), static_cast<std::uint32_t>(k)});
+                cols[std::min(i, j)].push_back(static_cast<std::int32_t>(std::max(i, j)));
+            }
+        }
+        visible_of[b].shrink_to_fit();
+        if (b == 0) {
+            // Before the pair lists exist: a column, its value, a byte and (at most) two row
+            // entries per pair that sees anything, ~37 bytes, and 16 bytes for the value of each
+            // partly hidden one; a closed room of 10⁵ patches with a box would want ~10¹⁰
+            // pairs. From the first block, a sample of the tasks.
+            const double scale = static_cast<double>(tasks) / static_cast<double>(list.size());
+            const double pairs = scale * (double(vis) + double(partial_pairs));
+            const double need = 37.0 * pairs + 16.0 * scale * double(partial_pairs);
+            const double available = available_memory();
+            if (available > 0.0 && need > available)
+                throw ResourceError(fmt::format(
+                    "analytic sparse rows: {}{:.0f} pairs see each other ({:.0f} of them partly "
+                    "hidden), which needs about {} for the pair lists; {} is available. Use "
+                    "`storage` hierarchical for a closed scene, a Monte-Carlo method "
+                    "(mc-hemisphere) for a large open one, or a coarser subdivision",
+                    blocks > 1 ? "about " : "", pairs, scale * double(partial_pairs),
+                    format_bytes(need), format_bytes(available)));
+            expected = blocks * refs.size();
+            if (!given) progress.emplace("analytic (obstructed)", expected, ctx.progress);
+        }
+        partial_count += refs.size();
+        // Their exact unobstructed values U_ac (bit for bit the rows' below).
+        parallel_for(n, options.threads,
+                     [&](std::size_t a) { std::sort(cols[a].begin(), cols[a].end()); });
+        std::vector<std::vector<double>> upper;
+        const detail::UnobstructedStats bu = detail::unobstructed_pairs(
+            polys, visible_tolerance, options.threads, nullptr, cols, upper, areas, table);
+        add_stats(ust, bu);
+        auto unobstructed = [&](std::size_t s, std::size_t r) {
+            const std::size_t a = std::min(s, r), c = std::max(s, r);
+            const auto at =
+                std::lower_bound(cols[a].begin(), cols[a].end(), static_cast<std::int32_t>(c));
+            FF_ASSERT(at != cols[a].end() && *at == static_cast<std::int32_t>(c));
+            const double u = upper[a][static_cast<std::size_t>(at - cols[a].begin())];
+            return s < r ? u : detail::reciprocal_entry(u, areas[r], areas[s]);
+        };
+        // The pairs' values as they come (f = 0: nothing to keep); those above 0 are kept.
+        std::vector<Valued> values(refs.size(), Valued{0, 0, 0.0});
+        const auto t_pass = Clock::now();
+        // Progress: each block counts as the first block's share of `expected`.
+        std::atomic<std::size_t> done{0};
+        const std::size_t share = expected / blocks, here = refs.size();
+        auto advance = [&]() {
+            const std::size_t k = ++done;
+            if (here == 0 || !progress) return;
+            progress->advance(k * share / here - (k - 1) * share / here);
+        };
+        auto body = [&](std::size_t k) {
+            const PairRef p = refs[k];
+            const PairOutput& o = output(p.q);
+            PartialValue v;
+            if (given) {
+                v = given->value(task_first[list[p.q]] + p.at);
+            } else {
+                v = integrate_partial(scene, S, o.partial[p.at], o.cand, tol, unobstructed);
+                add_pair(stats.local(), v.stats);
+            }
+            if (!v.integrated || !(v.f > 0.0)) return;
+            values[k] = {static_cast<std::uint32_t>(std::min(v.s, v.r)),
+                         static_cast<std::uint32_t>(std::max(v.s, v.r)) | (v.s > v.r ? kLower : 0u),
+                         v.f};
+        };
+        if (given) {
+            parallel_for(refs.size(), options.threads, [&](std::size_t k) {
+                body(k);
+                advance();
+            });
+        } else if (b == 0) {
+            // The first block's pass starts with a sample of its pairs, the estimate of the
+            // whole pass (and of the later blocks' classification).
+            sampled_pass(refs.size(), expected, block_class * double(blocks - 1), ctx, tol, obs,
+                         *progress, body);
+        } else {
+            announce_phase("analytic partly hidden pairs");
+            parallel_for(refs.size(), options.threads, [&](std::size_t k) {
+                body(k);
+                advance();
+            });
+        }
+        seconds_pass += seconds(t_pass, Clock::now());
+        std::vector<Valued>& kept = valued_of[b];
+        kept.reserve(static_cast<std::size_t>(std::count_if(
+            values.begin(), values.end(), [](const Valued& v) { return v.f > 0.0; })));
+        for (const Valued& v : values)
+            if (v.f > 0.0) kept.push_back(v);
+    }
+    if (given) partial_count = given->partial.size();
+    if (progress) progress->finish();
+    if (!given) own.seconds_classification = seconds_classification;
+    obs["seconds_partly_hidden"] = seconds_pass;
+
+    // The pairs that see anything and touch the rows, by their first patch a (a < c): every
+    // patch pair of the visible node pairs, then the kept partly hidden ones merged in. The
+    // others are 0: facing away, fully hidden, in one plane group (coplanar, one-sided), or
+    // partly hidden pairs that ended at 0.
+    std::vector<std::vector<std::int32_t>> cols(n);
+    announce_phase("analytic pair lists");
+    for (std::vector<NodePair>& list : visible_of) {
+        cancel.throw_if_requested();
+        for (const NodePair& np : list)
             for_each_patch_pair(trees, np, [&](std::size_t i, std::size_t j) {
                 const std::size_t a = std::min(i, j), c = std::max(i, j);
                 if (touches(a, c)) cols[a].push_back(static_cast<std::int32_t>(c));
             });
+        std::vector<NodePair>().swap(list);
     }
-    // The partly hidden pairs that touch the rows, as (task, place in its list): every pair of
-    // every task when the rows are all of them (one process), else a list of references (8
-    // bytes a pair; a copy of each pair with its places took 40).
-    const std::size_t tasks = S.outputs.size();
-    std::vector<std::size_t> task_first(tasks + 1, 0);  // the first pair of each task
-    for (std::size_t t = 0; t < tasks; ++t)
-        task_first[t + 1] = task_first[t] + S.outputs[t].partial.size();
-    const bool every_pair = rows.begin == 0 && rows.end >= n;
-    struct PairRef {
-        std::uint32_t task, at;
-    };
-    std::vector<PairRef> refs;
-    for (std::size_t t = 0; t < tasks; ++t) {
-        const std::vector<PartialPair>& list = S.outputs[t].partial;
-        FF_ASSERT(list.size() <= UINT32_MAX && t <= UINT32_MAX);
-        for (std::size_t k = 0; k < list.size(); ++k) {
-            const auto i = static_cast<std::size_t>(list[k].i);
-            const auto j = static_cast<std::size_t>(list[k].j);
-            if (!touches(i, j)) continue;
-            if (!every_pair)
-                refs.push_back({static_cast<std::uint32_t>(t), static_cast<std::uint32_t>(k)});
-            cols[std::min(i, j)].push_back(static_cast<std::int32_t>(std::max(i, j)));
-        }
-    }
-    const std::size_t partial_count = every_pair ? task_first[tasks] : refs.size();
-    // Pair k of the pass: its task and its place in the task's list.
-    auto pair_ref = [&](std::size_t k) -> PairRef {
-        if (!every_pair) return refs[k];
-        const auto t = static_cast<std::size_t>(
-            std::upper_bound(task_first.begin(), task_first.end(), k) - task_first.begin() - 1);
-        return {static_cast<std::uint32_t>(t), static_cast<std::uint32_t>(k - task_first[t])};
-    };
     // Sorted, and no room beyond their size (their growth leaves up to as much again).
     parallel_for(n, options.threads, [&](std::size_t a) {
         std::sort(cols[a].begin(), cols[a].end());
         cols[a].shrink_to_fit();
     });
     // Their exact unobstructed values U_ac (the dense matrix's, bit for bit).
-    std::vector<const Polygon*> polys(n);
-    for (std::size_t p = 0; p < n; ++p) polys[p] = &scene.patches[p].polygon;
     std::vector<std::vector<double>> upper;
     announce_phase("analytic visible pairs");
     Progress unobs_progress("analytic (visible pairs)", n, ctx.progress);
-    const detail::UnobstructedStats ust =
-        detail::unobstructed_pairs(polys, visible_tolerance, options.threads, &unobs_progress, cols,
-                                   upper, ff.areas, given ? given->table.get() : nullptr);
+    const detail::UnobstructedStats vu = detail::unobstructed_pairs(
+        polys, visible_tolerance, options.threads, &unobs_progress, cols, upper, ff.areas, table);
     unobs_progress.finish();
-    const std::vector<double>& areas = ff.areas;
-    // One value a pair: U_ac or, once integrated, the partly hidden pair's F_sr; `lower_held`
-    // marks the slots whose value is the lower entry F_ca (s = c). The other entry of a slot is
-    // its reciprocal (reciprocal_entry(), as PartialValue::back: bit for bit the dense matrix's).
+    add_stats(ust, vu);
+    const std::vector<double>& pa = ff.areas;
+    // One value a pair: U_ac or a partly hidden pair's F_sr; `lower_held` marks the slots whose
+    // value is the lower entry F_ca (s = c). The other entry of a slot is its reciprocal
+    // (reciprocal_entry(), as PartialValue::back: bit for bit the dense matrix's).
     std::vector<std::vector<std::uint8_t>> lower_held(n);
-    parallel_for(n, options.threads,
-                 [&](std::size_t a) { lower_held[a].assign(cols[a].size(), 0); });
-    auto slot = [&](std::size_t a, std::size_t c) {
-        const auto at =
-            std::lower_bound(cols[a].begin(), cols[a].end(), static_cast<std::int32_t>(c));
-        FF_ASSERT(at != cols[a].end() && *at == static_cast<std::int32_t>(c));
-        return static_cast<std::size_t>(at - cols[a].begin());
-    };
+    {
+        // The kept partly hidden pairs by row, merged into the visible ones' columns.
+        std::vector<std::size_t> row_first(n + 1, 0);
+        for (const auto& kept : valued_of)
+            for (const Valued& v : kept) ++row_first[v.a + 1];
+        for (std::size_t a = 0; a < n; ++a) row_first[a + 1] += row_first[a];
+        std::vector<Valued> by_row(row_first[n]);
+        {
+            std::vector<std::size_t> at(row_first.begin(), row_first.end() - 1);
+            for (auto& kept : valued_of) {
+                for (const Valued& v : kept) by_row[at[v.a]++] = v;
+                std::vector<Valued>().swap(kept);
+            }
+        }
+        parallel_for(n, options.threads, [&](std::size_t a) {
+            const auto first = by_row.begin() + static_cast<std::ptrdiff_t>(row_first[a]);
+            const auto last = by_row.begin() + static_cast<std::ptrdiff_t>(row_first[a + 1]);
+            std::sort(first, last, [](const Valued& x, const Valued& y) {
+                return (x.c & ~kLower) < (y.c & ~kLower);
+            });
+            const std::size_t m = cols[a].size() + static_cast<std::size_t>(last - first);
+            std::vector<std::int32_t> c2;
+            std::vector<double> u2;
+            std::vector<std::uint8_t> l2;
+            c2.reserve(m);
+            u2.reserve(m);
+            l2.reserve(m);
+            std::size_t k = 0;
+            for (auto it = first; it != last; ++it) {
+                const auto c = static_cast<std::int32_t>(it->c & ~kLower);
+                for (; k < cols[a].size() && cols[a][k] < c; ++k) {
+                    c2.push_back(cols[a][k]);
+                    u2.push_back(upper[a][k]);
+                    l2.push_back(0);
+                }
+                FF_ASSERT(k == cols[a].size() || cols[a][k] != c);
+                c2.push_back(c);
+                u2.push_back(it->f);
+                l2.push_back((it->c & kLower) != 0 ? 1 : 0);
+            }
+            for (; k < cols[a].size(); ++k) {
+                c2.push_back(cols[a][k]);
+                u2.push_back(upper[a][k]);
+                l2.push_back(0);
+            }
+            cols[a].swap(c2);
+            upper[a].swap(u2);
+            lower_held[a].swap(l2);
+        });
+    }
     // F_ac (a < c: the upper entry) and F_ca of slot k of row a.
     auto upper_entry = [&](std::size_t a, std::size_t k) {
         const double v = upper[a][k];
         if (!lower_held[a][k]) return v;
-        return detail::reciprocal_entry(v, areas[static_cast<std::size_t>(cols[a][k])], areas[a]);
+        return detail::reciprocal_entry(v, pa[static_cast<std::size_t>(cols[a][k])], pa[a]);
     };
     auto lower_entry = [&](std::size_t a, std::size_t k) {
         const double v = upper[a][k];
         if (lower_held[a][k]) return v;
-        return detail::reciprocal_entry(v, areas[a], areas[static_cast<std::size_t>(cols[a][k])]);
+        return detail::reciprocal_entry(v, pa[a], pa[static_cast<std::size_t>(cols[a][k])]);
     };
-    // The partly hidden pairs: the unobstructed value less the integrated hidden part, as the
-    // dense pass computes it, written into the pair's slot as it comes (each unordered pair is
-    // listed once, so no two threads write the same slot; a list of the values would hold ~100
-    // bytes per pair, more than the pairs' lists, at the peak).
-    ThreadStats stats;
-    auto store = [&](const PartialValue& v) {
-        if (!v.integrated) return;
-        const std::size_t a = std::min(v.s, v.r), c = std::max(v.s, v.r);
-        const std::size_t k = slot(a, c);
-        upper[a][k] = v.f;
-        lower_held[a][k] = v.s > v.r ? 1 : 0;
-    };
-    Fields& obs = report.details["obstructions"];
-    if (given) {
-        parallel_for(partial_count, options.threads, [&](std::size_t k) {
-            const PairRef p = pair_ref(k);
-            store(given->value(task_first[p.task] + p.at));
-        });
-    } else {
-        partly_hidden_pass(partial_count, ctx, tol, obs, [&](std::size_t k) {
-            const PairRef p = pair_ref(k);
-            const PairOutput& o = S.outputs[p.task];
-            const PartialValue v = integrate_partial(
-                scene, S, o.partial[p.at], o.cand, tol, [&](std::size_t s, std::size_t r) {
-                    return s < r ? upper_entry(s, slot(s, r)) : lower_entry(r, slot(r, s));
-                });
-            add_pair(stats.local(), v.stats);
-            store(v);
-        });
-    }
-    // The classification's lists (the candidates of every partly hidden pair) are done with
-    // before the rows are built.
-    std::vector<PairRef>().swap(refs);
-    if (!given) std::vector<PairOutput>().swap(own.outputs);
-    const auto t_done = Clock::now();
     // The rows: entries F_ic (c > i) from row i's pairs, F_ia (a < i) from the pairs (a, i),
     // columns ascending, zeros left out. Each row's room counted first; the pairs of patch a are
     // freed once its entries are out, so that the lists and the rows do not both peak.
@@ -429,11 +600,11 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
     details["sparse_rows"] = true;
     details["far_field_kernel_evaluations"] = ust.points;
     details["unobstructed_pairs_computed"] = ust.zero + ust.exact + ust.far;
+    // (A reference into details does not outlive an insertion into it.)
     Fields& o = details["obstructions"];
     report_obstructions(S, given ? given->values.stats : combined(stats), node_pairs, vis, hid,
-                        given ? given->partial.size() : partial_count, tol,
-                        effective_threads(options.threads), o);
-    o["seconds_partly_hidden"] = seconds(t_classified, t_done);
+                        partial_count, tol, effective_threads(options.threads), o);
+    o["classification_blocks"] = blocks;
     report.error_bound_per_entry =
         std::max(std::max(visible_tolerance, 1e-12), o["max_error_estimate"].real());
     details["exact_path_error"] = 1e-12;

@@ -497,6 +497,19 @@ void classify_tasks(const Obstructions& S, RowRange tasks, bool record_visible, 
     classify_task_list(S, list.data(), list.size(), record_visible, threads, out);
 }
 
+std::vector<std::size_t> tasks_by_size(const Obstructions& S) {
+    const std::vector<std::array<int, 2>> groups = task_groups(S);
+    auto pairs = [&](std::size_t k) {
+        return std::size_t(S.trees[static_cast<std::size_t>(groups[k][0])].nodes[0].count) *
+               std::size_t(S.trees[static_cast<std::size_t>(groups[k][1])].nodes[0].count);
+    };
+    std::vector<std::size_t> order(groups.size());
+    std::iota(order.begin(), order.end(), std::size_t{0});
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::size_t a, std::size_t b) { return pairs(a) > pairs(b); });
+    return order;
+}
+
 std::vector<std::size_t> classification_order(const Obstructions& S) {
     const std::vector<std::array<int, 2>> groups = task_groups(S);
     std::vector<double> cost(groups.size(), 0.0);

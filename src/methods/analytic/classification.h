@@ -121,6 +121,9 @@ void classify_tasks(const Obstructions& S, RowRange tasks, bool record_visible, 
 /// levels of each one's classification (node pairs of down to 1/256 of its patch pairs): a
 /// classification shared out task by task in this order ends with small tasks.
 std::vector<std::size_t> classification_order(const Obstructions& S);
+/// The tasks by their patch pairs, the largest first (ties in task order): a rough order of
+/// their cost, at no cost.
+std::vector<std::size_t> tasks_by_size(const Obstructions& S);
 /// The outputs of tasks[0, count) (task indices) into out[0, count), as classify_tasks().
 void classify_task_list(const Obstructions& S, const std::size_t* tasks, std::size_t count,
                         bool record_visible, int threads, PairOutput* out);
