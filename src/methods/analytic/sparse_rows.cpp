@@ -75,12 +75,16 @@ static_assert(sizeof(Valued) == 16);
 constexpr std::uint32_t kLower = 1u << 31;
 
 // Row a's kept partly hidden pairs [first, last) merged into its visible pairs' columns `cols`
-// (ascending) and values `upper`; `lower` gets which slots hold the lower entry.
+// (ascending) and values `upper`; `lower` gets which slots hold the lower entry. Visible pairs
+// whose value is 0 are left out, as the rows leave out their entries (on the 9,946-triangle
+// urban array, 2.0 M of the 5.7 M pairs computed: a patch behind the other's plane).
 void merge_row(std::vector<std::int32_t>& cols, std::vector<double>& upper,
                std::vector<std::uint8_t>& lower, Valued* first, Valued* last) {
     std::sort(first, last,
               [](const Valued& x, const Valued& y) { return (x.c & ~kLower) < (y.c & ~kLower); });
-    const std::size_t m = cols.size() + static_cast<std::size_t>(last - first);
+    const auto seen = static_cast<std::size_t>(
+        std::count_if(upper.begin(), upper.end(), [](double u) { return u > 0.0; }));
+    const std::size_t m = seen + static_cast<std::size_t>(last - first);
     std::vector<std::int32_t> c2;
     std::vector<double> u2;
     std::vector<std::uint8_t> l2;
@@ -90,6 +94,7 @@ void merge_row(std::vector<std::int32_t>& cols, std::vector<double>& upper,
     std::size_t k = 0;
     auto visible_up_to = [&](std::int64_t c) {
         for (; k < cols.size() && cols[k] < c; ++k) {
+            if (!(upper[k] > 0.0)) continue;
             c2.push_back(cols[k]);
             u2.push_back(upper[k]);
             l2.push_back(0);
