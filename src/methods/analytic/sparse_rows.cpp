@@ -343,6 +343,9 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
     const detail::UnobstructedStats vu = detail::unobstructed_pairs(
         polys, visible_tolerance, options.threads, &unobs_progress, cols, upper, ff.areas, table);
     unobs_progress.finish();
+    // The table's last use: not held beside the rows (10 MB on a 9,946-triangle urban array).
+    table = nullptr;
+    own_table.reset();
     add_stats(ust, vu);
     const std::vector<double>& pa = ff.areas;
     // One value a pair: U_ac or a partly hidden pair's F_sr; `lower_held` marks the slots whose
@@ -368,56 +371,67 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
                       by_row.data() + row_first[a + 1]);
         });
     }
-    // F_ac (a < c: the upper entry) and F_ca of slot k of row a.
-    auto upper_entry = [&](std::size_t a, std::size_t k) {
-        const double v = upper[a][k];
-        if (!lower_held[a][k]) return v;
-        return detail::reciprocal_entry(v, pa[static_cast<std::size_t>(cols[a][k])], pa[a]);
-    };
-    auto lower_entry = [&](std::size_t a, std::size_t k) {
-        const double v = upper[a][k];
-        if (lower_held[a][k]) return v;
-        return detail::reciprocal_entry(v, pa[a], pa[static_cast<std::size_t>(cols[a][k])]);
-    };
     // The rows: entries F_ic (c > i) from row i's pairs, F_ia (a < i) from the pairs (a, i),
-    // columns ascending, zeros left out. Each row's room counted first; the pairs of patch a are
-    // freed once its entries are out, so that the lists and the rows do not both peak.
+    // columns ascending, zeros left out. The pairs of a row in the range move into the row's own
+    // arrays, after room for its entries below the diagonal (pairs (a, i), a < i), so that the
+    // pair lists and the rows are not both held: 12 bytes an entry and 1 a pair (lower_held)
+    // instead of 13 more for each pair beside the rows.
     announce_phase("analytic rows");
-    // emit(row, column, value) for the nonzero entries of patch a's pairs in the rows: row a's
-    // own (F_ac, c > a, ascending), then F_ca into the later rows c (they come after the
-    // entries of the patches before a, so every row's columns ascend).
-    auto each_entry = [&](std::size_t a, const auto& emit) {
-        if (rows.contains(a))
-            for (std::size_t k = 0; k < cols[a].size(); ++k) {
-                const double u = upper_entry(a, k);
-                if (u > 0.0) emit(a - rows.begin, cols[a][k], u);
-            }
-        for (std::size_t k = 0; k < cols[a].size(); ++k) {
-            const auto c = static_cast<std::size_t>(cols[a][k]);
-            if (!rows.contains(c)) continue;
-            const double l = lower_entry(a, k);
-            if (l > 0.0) emit(c - rows.begin, static_cast<std::int32_t>(a), l);
-        }
-    };
-    std::vector<std::size_t> row_size(rows.size(), 0);
-    for (std::size_t a = 0; a < n; ++a) {
-        cancel.throw_if_requested();
-        each_entry(a, [&](std::size_t row, std::int32_t, double) { ++row_size[row]; });
-    }
-    for (std::size_t row = 0; row < rows.size(); ++row) {
-        out.indices[row].reserve(row_size[row]);
-        out.values[row].reserve(row_size[row]);
-    }
-    for (std::size_t a = 0; a < n; ++a) {
-        cancel.throw_if_requested();
-        each_entry(a, [&](std::size_t row, std::int32_t col, double v) {
-            out.indices[row].push_back(col);
-            out.values[row].push_back(v);
-        });
+    std::vector<std::size_t> below(rows.size(), 0);
+    for (std::size_t a = 0; a < n; ++a)
+        for (const std::int32_t c : cols[a])
+            if (rows.contains(static_cast<std::size_t>(c)))
+                ++below[static_cast<std::size_t>(c) - rows.begin];
+    parallel_for(rows.size(), options.threads, [&](std::size_t row) {
+        const std::size_t a = rows.begin + row, m = below[row] + cols[a].size();
+        out.indices[row].resize(m);
+        out.values[row].resize(m);
+        std::copy(cols[a].begin(), cols[a].end(), out.indices[row].begin() + below[row]);
+        std::copy(upper[a].begin(), upper[a].end(), out.values[row].begin() + below[row]);
         std::vector<std::int32_t>().swap(cols[a]);
         std::vector<double>().swap(upper[a]);
+    });
+    // Patch a's pairs in increasing a: F_ca into row c at its next place below the diagonal
+    // (the patches before a have filled theirs: the columns ascend), and F_ac in place of the
+    // value held. The value held is F_ac, or F_ca where lower_held says so; the other entry is
+    // its reciprocal (reciprocal_entry(), as PartialValue::back: bit for bit the dense
+    // matrix's).
+    std::vector<std::size_t> filled(rows.size(), 0);
+    for (std::size_t a = 0; a < n; ++a) {
+        if (a % 1024 == 0) cancel.throw_if_requested();
+        const bool in_range = rows.contains(a);
+        const std::int32_t* c_of =
+            in_range ? out.indices[a - rows.begin].data() + below[a - rows.begin] : cols[a].data();
+        double* v_of =
+            in_range ? out.values[a - rows.begin].data() + below[a - rows.begin] : upper[a].data();
+        const std::vector<std::uint8_t>& held = lower_held[a];
+        for (std::size_t k = 0; k < held.size(); ++k) {
+            const auto c = static_cast<std::size_t>(c_of[k]);
+            const double v = v_of[k];
+            if (rows.contains(c)) {
+                const std::size_t row = c - rows.begin, at = filled[row]++;
+                out.indices[row][at] = static_cast<std::int32_t>(a);
+                out.values[row][at] = held[k] ? v : detail::reciprocal_entry(v, pa[a], pa[c]);
+            }
+            if (held[k]) v_of[k] = detail::reciprocal_entry(v, pa[c], pa[a]);
+        }
         std::vector<std::uint8_t>().swap(lower_held[a]);
+        std::vector<std::int32_t>().swap(cols[a]);
+        std::vector<double>().swap(upper[a]);
     }
+    // Entries that came out 0 (a reciprocal below the smallest double) are left out.
+    parallel_for(rows.size(), options.threads, [&](std::size_t row) {
+        std::vector<std::int32_t>& idx = out.indices[row];
+        std::vector<double>& val = out.values[row];
+        std::size_t kept = 0;
+        for (std::size_t k = 0; k < val.size(); ++k)
+            if (val[k] > 0.0) {
+                idx[kept] = idx[k];
+                val[kept++] = val[k];
+            }
+        idx.resize(kept);
+        val.resize(kept);
+    });
 
     report.pairs = PairClasses{ust.zero + ust.exact + ust.far, ust.zero, ust.exact, ust.far};
     Fields& details = report.details;
