@@ -282,7 +282,7 @@ void SparseAssembly::add(std::size_t first_row, const FormFactors& block) {
         throw Error(fmt::format("sparse rows: a block from row {} where row {} was due", first_row,
                                 builder_->rows()));
     builder_->append(block, threads_);
-    joined(nullptr);
+    joined(-1.0);
 }
 
 void SparseAssembly::add(SparseRows rows, const std::vector<double>& areas) {
@@ -298,24 +298,24 @@ void SparseAssembly::join_waiting() {
     while (builder_ && !waiting_.empty() && waiting_.begin()->first == builder_->rows()) {
         auto node = waiting_.extract(waiting_.begin());
         if (lower_) complete_rows(node.mapped());
-        builder_->append(node.mapped(), threads_);
-        joined(&node.mapped());
+        // The entries a row, for the projection (the rows are released as they are appended).
+        double entries = 0;
+        for (const auto& row : node.mapped().values) entries += double(row.size());
+        const double row_entries = entries / double(std::max<std::size_t>(node.mapped().size(), 1));
+        builder_->append(std::move(node.mapped()), threads_);
+        joined(row_entries);
     }
 }
 
 // The CSR so far, extrapolated to every row: stop now when it will not fit.
-void SparseAssembly::joined(const SparseRows* emitted) {
+void SparseAssembly::joined(double row_entries) {
     ++joined_blocks_;
     SparseRunNeeds projected = needs_;
     projected.nonzeros =
         double(builder_->current().nonzeros()) * double(needs_.patches) /
             double(std::max<std::size_t>(builder_->rows(), 1)) +
         lower_entries_;  // an entry waiting for its row: as many bytes as in the CSR
-    if (emitted) {
-        double entries = 0;
-        for (const auto& row : emitted->values) entries += double(row.size());
-        projected.row_entries = entries / double(std::max<std::size_t>(emitted->size(), 1));
-    }
+    if (row_entries >= 0.0) projected.row_entries = row_entries;
     const double total = estimate_sparse_memory(projected).total();
     projected_bytes_ = std::max(projected_bytes_, total);
     check_sparse_memory(projected, available_, kSparseAdvice);

@@ -52,7 +52,8 @@ class SparseAssembly {
 
   private:
     void start(const std::vector<double>& areas, bool standard_errors);
-    void joined(const SparseRows* emitted);
+    // row_entries: the entries a row of the block of emitted rows joined, −1 for dense rows.
+    void joined(double row_entries);
     void join_waiting();
     void complete_rows(SparseRows& rows);
 

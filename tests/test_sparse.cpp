@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "formfactor/core/error.h"
@@ -171,6 +172,49 @@ TEST_CASE("sparse: to_sparse and the builder check their input") {
     CHECK_THROWS_AS(b3.append(bad), Error);
     SparseBuilder b4(3, ff.areas, 0.0, true);  // standard errors asked for, none emitted
     CHECK_THROWS_AS(b4.append(rows), Error);
+}
+
+TEST_CASE("sparse: rows taken by the builder make the matrix of rows copied, and are released") {
+    // 100 rows of pseudo-random entries, some at or below the threshold, appended as two blocks:
+    // copied, and taken (released in chunks of rows as they join).
+    const std::size_t n = 100;
+    std::vector<double> areas(n);
+    for (std::size_t i = 0; i < n; ++i) areas[i] = 1.0 + 0.01 * double(i);
+    auto make_rows = [&](std::size_t first, std::size_t count) {
+        SparseRows rows;
+        rows.reset(first, count, true);
+        for (std::size_t r = 0; r < count; ++r)
+            for (std::size_t j = 0; j < n; ++j) {
+                const std::size_t h = ((first + r) * 7919 + j * 104729) % 1000;
+                if (h % 3 != 0) continue;
+                rows.indices[r].push_back(static_cast<std::int32_t>(j));
+                rows.values[r].push_back(1e-3 * double(h % 17));  // 0 up to 0.016
+                rows.standard_error[r].push_back(1e-5 * double(h % 5));
+            }
+        return rows;
+    };
+    SparseBuilder copied(n, areas, 4.5e-3, true), taken(n, areas, 4.5e-3, true);
+    for (const auto& [first, count] : {std::pair<std::size_t, std::size_t>{0, 40}, {40, 60}}) {
+        const SparseRows rows = make_rows(first, count);
+        copied.append(rows);
+        SparseRows moved = rows;
+        taken.append(std::move(moved));
+        CHECK(std::all_of(moved.values.begin(), moved.values.end(),
+                          [](const std::vector<double>& v) { return v.empty(); }));
+    }
+    const SparseFormFactors A = copied.finish(), B = taken.finish();
+    CHECK(A.nonzeros() > 0);
+    CHECK(B.indptr == A.indptr);
+    CHECK(B.indices == A.indices);
+    CHECK(B.values == A.values);
+    CHECK(*B.standard_error == *A.standard_error);
+    CHECK(B.dropped == A.dropped);
+    CHECK(B.computed_row_sums == A.computed_row_sums);
+    // A row out of order in a later chunk is found there too.
+    SparseRows bad = make_rows(0, n);
+    std::swap(bad.indices[90][0], bad.indices[90][1]);
+    SparseBuilder b(n, areas, 0.0, true);
+    CHECK_THROWS_AS(b.append(std::move(bad)), Error);
 }
 
 TEST_CASE(

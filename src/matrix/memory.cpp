@@ -1,6 +1,9 @@
 #include "formfactor/matrix/memory.h"
 
 #include <fmt/format.h>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 #include <sys/resource.h>
 #include <unistd.h>
 
@@ -206,6 +209,12 @@ double peak_memory_bytes() {
     struct rusage ru {};
     if (getrusage(RUSAGE_SELF, &ru) != 0) return 0.0;
     return static_cast<double>(ru.ru_maxrss) * 1024.0;  // kilobytes on Linux
+}
+
+void release_free_memory() {
+#if defined(__GLIBC__)
+    malloc_trim(0);
+#endif
 }
 
 std::string format_bytes(double bytes) {

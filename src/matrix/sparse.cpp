@@ -9,6 +9,7 @@
 
 #include "formfactor/core/error.h"
 #include "formfactor/core/parallel.h"
+#include "formfactor/matrix/memory.h"
 
 namespace formfactor {
 
@@ -149,20 +150,18 @@ void SparseRows::reset(std::size_t first, std::size_t rows, bool standard_errors
     standard_error.assign(standard_errors ? rows : 0, {});
 }
 
-void SparseBuilder::append(const SparseRows& block, int threads) {
-    const std::size_t m = block.size(), n = m_.n, first = rows();
-    if (block.first_row != first || first + m > n)
-        throw Error("SparseBuilder: blocks must come in row order");
-    const bool se = m_.standard_error.has_value();
-    if (se && !block.has_standard_errors())
-        throw Error("SparseBuilder: the block has no standard errors");
-    const double t = m_.threshold;
+namespace {
+
+// Rows [r0, r1) of `block` appended to `out` (the threshold t; standard errors when se).
+void append_sparse_rows(SparseFormFactors& out, const SparseRows& block, std::size_t r0,
+                        std::size_t r1, int threads, double t, bool se) {
+    const std::size_t n = out.n;
     append_rows(
-        m_, m, threads,
+        out, r1 - r0, threads,
         [&](std::size_t r, std::size_t& c, double& s, double& d) {
-            const std::vector<double>& v = block.values[r];
-            const std::vector<std::int32_t>& idx = block.indices[r];
-            if (idx.size() != v.size() || (se && block.standard_error[r].size() != v.size()))
+            const std::vector<double>& v = block.values[r0 + r];
+            const std::vector<std::int32_t>& idx = block.indices[r0 + r];
+            if (idx.size() != v.size() || (se && block.standard_error[r0 + r].size() != v.size()))
                 throw Error("SparseBuilder: a row's arrays differ in length");
             c = 0;
             s = d = 0.0;
@@ -178,15 +177,56 @@ void SparseBuilder::append(const SparseRows& block, int threads) {
             }
         },
         [&](std::size_t r, std::size_t k) {
-            const std::vector<double>& v = block.values[r];
+            const std::vector<double>& v = block.values[r0 + r];
             for (std::size_t e = 0; e < v.size(); ++e) {
                 if (!(v[e] > t)) continue;
-                m_.values[k] = v[e];
-                m_.indices[k] = block.indices[r][e];
-                if (se) (*m_.standard_error)[k] = block.standard_error[r][e];
+                out.values[k] = v[e];
+                out.indices[k] = block.indices[r0 + r][e];
+                if (se) (*out.standard_error)[k] = block.standard_error[r0 + r][e];
                 ++k;
             }
         });
+}
+
+// The rows of `block` checked for appending to `m` rows of a matrix of n: true with standard
+// errors.
+bool check_block(const SparseFormFactors& m, std::size_t rows, const SparseRows& block) {
+    if (block.first_row != rows || rows + block.size() > m.n)
+        throw Error("SparseBuilder: blocks must come in row order");
+    const bool se = m.standard_error.has_value();
+    if (se && !block.has_standard_errors())
+        throw Error("SparseBuilder: the block has no standard errors");
+    return se;
+}
+
+}  // namespace
+
+void SparseBuilder::append(const SparseRows& block, int threads) {
+    const bool se = check_block(m_, rows(), block);
+    append_sparse_rows(m_, block, 0, block.size(), threads, m_.threshold, se);
+}
+
+void SparseBuilder::append(SparseRows&& block, int threads) {
+    const bool se = check_block(m_, rows(), block);
+    const std::size_t m = block.size();
+    // Room for every stored entry at once (pages the rows do not reach until they are written).
+    std::size_t stored = 0;
+    for (std::size_t r = 0; r < m; ++r)
+        for (const double v : block.values[r]) stored += v > m_.threshold ? 1 : 0;
+    if (m_.values.capacity() < m_.values.size() + stored) reserve(m_.values.size() + stored);
+    // In chunks of rows, each chunk's rows released once it is in the matrix.
+    constexpr std::size_t kChunks = 16;
+    const std::size_t chunk = std::max<std::size_t>(1, (m + kChunks - 1) / kChunks);
+    for (std::size_t r0 = 0; r0 < m; r0 += chunk) {
+        const std::size_t r1 = std::min(m, r0 + chunk);
+        append_sparse_rows(m_, block, r0, r1, threads, m_.threshold, se);
+        for (std::size_t r = r0; r < r1; ++r) {
+            std::vector<std::int32_t>().swap(block.indices[r]);
+            std::vector<double>().swap(block.values[r]);
+            if (se) std::vector<double>().swap(block.standard_error[r]);
+        }
+        release_free_memory();
+    }
 }
 
 SparseFormFactors SparseBuilder::finish() {

@@ -98,6 +98,11 @@ void check_sparse_memory(const SparseRunNeeds& needs, double available, const st
 /// Peak resident memory of this process so far (getrusage ru_maxrss), in bytes; 0 when unknown.
 double peak_memory_bytes();
 
+/// Gives the pages of freed heap memory back to the system (glibc's malloc_trim; nothing
+/// elsewhere), so that the resident size follows what is held after many small arrays are freed
+/// (a method's rows as they join the CSR).
+void release_free_memory();
+
 /// A whole number with thousands separators: "135,000".
 std::string format_count(double x);
 

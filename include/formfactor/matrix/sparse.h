@@ -84,6 +84,9 @@ class SparseBuilder {
     /// The same for rows a method emitted sparse (rows.first_row must follow the rows appended
     /// so far); only their entries are touched, never N per row.
     void append(const SparseRows& rows, int threads = 0);
+    /// The same, taking the rows: each is released once it is in the matrix, so that the rows
+    /// and the matrix are not both held (rows are left empty).
+    void append(SparseRows&& rows, int threads = 0);
     /// Reserves room for `nonzeros` stored entries (avoids the copies of growing arrays).
     void reserve(std::size_t nonzeros);
     /// Rows appended so far.
