@@ -12,6 +12,7 @@
 #include <limits>
 #include <new>
 #include <optional>
+#include <utility>
 
 #include "formfactor/core/cancel.h"
 #include "formfactor/core/error.h"
@@ -54,7 +55,7 @@ KeptBlock keep_sparse(SparseRows rows, std::size_t n, double threshold, int thre
     // The builder's first rows: the block's, counted from 0 (columns stay global).
     SparseBuilder builder(n, std::vector<double>(n, 0.0), threshold, false);
     rows.first_row = 0;
-    builder.append(rows, threads);
+    builder.append(std::move(rows), threads);
     const SparseFormFactors& m = builder.current();
     b.indptr = m.indptr;
     b.indices = m.indices;
