@@ -264,6 +264,23 @@ Bounds3 polygons_box(const std::vector<const Polygon*>& polys) {
     return box;
 }
 
+}  // namespace
+
+double facing_eps(const std::vector<const Polygon*>& polys) {
+    const Bounds3 box = polygons_box(polys);
+    return box.empty() ? 0.0 : 1e-12 * box.diagonal().norm();
+}
+
+bool faces_away(const PatchTable& t, const std::vector<const Polygon*>& polys, std::size_t i,
+                std::size_t j, double eps) {
+    return side_of(t.normal[i], t.plane_d[i], t.centroid[j], t.radius[j], *polys[j], eps) ==
+               Side::kBehind ||
+           side_of(t.normal[j], t.plane_d[j], t.centroid[i], t.radius[i], *polys[i], eps) ==
+               Side::kBehind;
+}
+
+namespace {
+
 RowStats sum_stats(const std::vector<RowStats>& stats) {
     RowStats total;
     for (const RowStats& s : stats) {
@@ -295,8 +312,7 @@ UnobstructedStats whole_matrix(const std::vector<const Polygon*>& polys, double 
     std::optional<PatchTable> own;
     const PatchTable& t = table_for(polys, threads, table, own);
     areas = t.area;
-    const Bounds3 box = polygons_box(polys);
-    const double eps = box.empty() ? 0.0 : 1e-12 * box.diagonal().norm();
+    const double eps = facing_eps(polys);
 
     std::vector<RowStats> stats(n);
     double* F = out_F.data();
@@ -323,8 +339,7 @@ UnobstructedStats row_block(const std::vector<const Polygon*>& polys, double tol
     out.F = DenseMatrix::Zero(static_cast<Eigen::Index>(m), static_cast<Eigen::Index>(n));
     out.left =
         DenseMatrix::Zero(static_cast<Eigen::Index>(left_rows), static_cast<Eigen::Index>(m));
-    const Bounds3 box = polygons_box(polys);
-    const double eps = box.empty() ? 0.0 : 1e-12 * box.diagonal().norm();
+    const double eps = facing_eps(polys);
 
     // Rows before the block compute their pairs with the block's patches (into `left`; not
     // with upper_only), the block's rows their pairs with every later patch (into F's upper
@@ -381,8 +396,7 @@ UnobstructedStats unobstructed_pairs(const std::vector<const Polygon*>& polys, d
     std::optional<PatchTable> own;
     const PatchTable& t = table_for(polys, threads, table, own);
     areas = t.area;
-    const Bounds3 box = polygons_box(polys);
-    const double eps = box.empty() ? 0.0 : 1e-12 * box.diagonal().norm();
+    const double eps = facing_eps(polys);
     values.assign(n, {});
     std::vector<RowStats> stats(n);
     parallel_for(n, threads, [&](std::size_t i) {

@@ -24,6 +24,15 @@ struct PatchTable;
 std::shared_ptr<const PatchTable> make_patch_table(const std::vector<const Polygon*>& polys,
                                                    int threads);
 
+/// The tolerance of the facing test below for these polygons: 1e-12 of their box's diagonal
+/// (vertices that close to a plane count as on it).
+double facing_eps(const std::vector<const Polygon*>& polys);
+/// Whether the pair (i, j) faces away: one patch behind the other's plane or in it (t: the
+/// polygons' table, eps: facing_eps(polys)). Every path here gives such a pair U_ij = 0 by this
+/// test, before any kernel, so a caller may leave the pair out and still hold the same values.
+bool faces_away(const PatchTable& t, const std::vector<const Polygon*>& polys, std::size_t i,
+                std::size_t j, double eps);
+
 /// Counts of the unobstructed entry points: pairs (j > i) facing away (zero), by the far-field
 /// rule (far) and by the contour integral (exact); kernel evaluations of the far-field rule and
 /// pairs per far-field order.

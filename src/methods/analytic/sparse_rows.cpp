@@ -76,8 +76,8 @@ constexpr std::uint32_t kLower = 1u << 31;
 
 // Row a's kept partly hidden pairs [first, last) merged into its visible pairs' columns `cols`
 // (ascending) and values `upper`; `lower` gets which slots hold the lower entry. Visible pairs
-// whose value is 0 are left out, as the rows leave out their entries (on the 9,946-triangle
-// urban array, 2.0 M of the 5.7 M pairs computed: a patch behind the other's plane).
+// whose value is 0 are left out, as the rows leave out their entries (pairs facing away are
+// left out of the lists before; a pair that straddles a plane may still come out 0).
 void merge_row(std::vector<std::int32_t>& cols, std::vector<double>& upper,
                std::vector<std::uint8_t>& lower, Valued* first, Valued* last) {
     std::sort(first, last,
@@ -320,16 +320,33 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
     // patch pair of the visible node pairs, then the kept partly hidden ones merged in. The
     // others are 0: facing away, fully hidden, in one plane group (coplanar, one-sided), or
     // partly hidden pairs that ended at 0.
+    // The freed pages back to the system (the classification's last block: on the
+    // 9,946-triangle urban array the pair lists' phase starts 19 MB below the pass's peak); so
+    // too after the kept values are merged and after the rows are made.
+    release_free_memory();
+    // Pairs facing away (a patch behind the other's plane: ground triangles and the walls
+    // behind them) are left out here, by the test that gives them U = 0 below: on the
+    // 9,946-triangle urban array 1.97 M of the 5.73 M pairs the rows consider, whose columns and
+    // values were the peak's last 25 MB. They count among the pairs found zero.
     std::vector<std::vector<std::int32_t>> cols(n);
+    std::size_t faced_away = 0;
     announce_phase("analytic pair lists");
-    for (std::vector<NodePair>& list : visible_of) {
-        cancel.throw_if_requested();
-        for (const NodePair& np : list)
-            for_each_patch_pair(trees, np, [&](std::size_t i, std::size_t j) {
-                const std::size_t a = std::min(i, j), c = std::max(i, j);
-                if (touches(a, c)) cols[a].push_back(static_cast<std::int32_t>(c));
-            });
-        std::vector<NodePair>().swap(list);
+    {
+        const double eps_facing = detail::facing_eps(polys);
+        for (std::vector<NodePair>& list : visible_of) {
+            cancel.throw_if_requested();
+            for (const NodePair& np : list)
+                for_each_patch_pair(trees, np, [&](std::size_t i, std::size_t j) {
+                    const std::size_t a = std::min(i, j), c = std::max(i, j);
+                    if (!touches(a, c)) return;
+                    if (detail::faces_away(*table, polys, a, c, eps_facing)) {
+                        ++faced_away;
+                        return;
+                    }
+                    cols[a].push_back(static_cast<std::int32_t>(c));
+                });
+            std::vector<NodePair>().swap(list);
+        }
     }
     // Sorted, and no room beyond their size (their growth leaves up to as much again).
     parallel_for(n, options.threads, [&](std::size_t a) {
@@ -347,6 +364,7 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
     table = nullptr;
     own_table.reset();
     add_stats(ust, vu);
+    ust.zero += faced_away;
     const std::vector<double>& pa = ff.areas;
     // One value a pair: U_ac or a partly hidden pair's F_sr; `lower_held` marks the slots whose
     // value is the lower entry F_ca (s = c). The other entry of a slot is its reciprocal
@@ -371,6 +389,7 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
                       by_row.data() + row_first[a + 1]);
         });
     }
+    release_free_memory();  // the kept values by row and the pair lists they were merged into
     // The rows: entries F_ic (c > i) from row i's pairs, F_ia (a < i) from the pairs (a, i),
     // columns ascending, zeros left out. The pairs of a row in the range move into the row's own
     // arrays, after room for its entries below the diagonal (pairs (a, i), a < i), so that the
@@ -419,6 +438,7 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
         std::vector<std::int32_t>().swap(cols[a]);
         std::vector<double>().swap(upper[a]);
     }
+    release_free_memory();  // the pair lists, moved into the rows
     // Entries that came out 0 (a reciprocal below the smallest double) are left out.
     parallel_for(rows.size(), options.threads, [&](std::size_t row) {
         std::vector<std::int32_t>& idx = out.indices[row];
