@@ -35,6 +35,14 @@ void Shaft::build(const Vec3* a, int na, const Vec3& normal_a, const Vec3* b, in
     for (int k = 0; k < nb; ++k) cb_ += b[k];
     ca_ /= na;
     cb_ /= nb;
+    // The hull's edges between a and b, each once: two side faces share each such edge, and
+    // seen from b's side it is the same vertices' difference negated (bit for bit), so that the
+    // separating axes of piece_outside() are not tried twice.
+    auto add_link = [&](const Vec3& d) {
+        for (int l = 0; l < links_; ++l)
+            if (link_[l] == d || link_[l] == -d) return;
+        link_[links_++] = d;
+    };
     // Side faces of the hull: through an edge of one polygon and a vertex of the other, with
     // every vertex of both on one side.
     auto sides_of = [&](const Vec3* p, int np, const Vec3& own, const Vec3& pc, const Vec3* q,
@@ -85,8 +93,8 @@ void Shaft::build(const Vec3* a, int na, const Vec3& normal_a, const Vec3* b, in
                             off = -off;
                         }
                         side_[sides_++] = Plane{m, off};
-                        link_[links_++] = q[best] - e0;
-                        link_[links_++] = q[best] - p[k + 1 == np ? 0 : k + 1];
+                        add_link(q[best] - e0);
+                        add_link(q[best] - p[k + 1 == np ? 0 : k + 1]);
                     }
                     continue;
                 }
@@ -112,8 +120,8 @@ void Shaft::build(const Vec3* a, int na, const Vec3& normal_a, const Vec3* b, in
                 }
                 if (hi <= eps || lo >= -eps) {
                     side_[sides_++] = hi <= eps ? Plane{m, off} : Plane{-m, -off};
-                    link_[links_++] = q[w] - e0;
-                    link_[links_++] = q[w] - p[k + 1 == np ? 0 : k + 1];
+                    add_link(q[w] - e0);
+                    add_link(q[w] - p[k + 1 == np ? 0 : k + 1]);
                     break;
                 }
             }
@@ -207,6 +215,58 @@ bool Shaft::piece_outside(const Vec3* p, int count, const Plane& pl, bool exact)
                 if (!(inward[k].dot(z - p[k]) > edge_margin[k])) return false;
             return true;
         };
+        // The segments from the points x[0, m) (signed distances sx to the piece's plane)
+        // through c to the plane `to` of the polygon tv[0, tn), when they end in that polygon
+        // (by the margin from its edges) and cross the piece well inside.
+        auto through = [&](const Vec3& c, const Vec3* x, const double* sx, int m, const Plane& to,
+                           const Vec3* tv, int tn) {
+            for (int i = 0; i < m; ++i) {
+                const Vec3 d = c - x[i];
+                const double den = to.n.dot(d);
+                if (!(std::abs(den) > 0.0)) continue;
+                const double t = -to.signed_distance(x[i]) / den;
+                if (!(t > 1.0) || !std::isfinite(t)) continue;
+                const Vec3 y = x[i] + t * d;
+                bool in = true;
+                for (int k = 0; k < tn && in; ++k) {
+                    const Vec3 e = tv[k + 1 == tn ? 0 : k + 1] - tv[k];
+                    in = to.n.dot(e.cross(y - tv[k])) > margin * e.norm();
+                }
+                if (in && crosses(x[i], sx[i], y, pl.signed_distance(y))) return true;
+            }
+            return false;
+        };
+        auto meets_through_centre = [&](const Vec3* xa, const double* sxa, int ma, const Vec3* xb,
+                                        const double* sxb, int mb) {
+            // The piece's centre first, when it is well inside the shaft's planes.
+            {
+                Vec3 c = Vec3::Zero();
+                for (int k = 0; k < count; ++k) c += p[k];
+                c /= count;
+                bool in = pa_.signed_distance(c) > margin && pb_.signed_distance(c) > margin;
+                for (int sd = 0; sd < sides_ && in; ++sd)
+                    in = side_[sd].signed_distance(c) < -margin;
+                if (in && (through(c, xa, sxa, ma, pb_, b_, nb_) ||
+                           through(c, xb, sxb, mb, pa_, a_, na_)))
+                    return true;
+            }
+            Poly3 q[2];
+            int cur = 0;
+            q[0].n = count;
+            for (int k = 0; k < count; ++k) q[0].v[static_cast<std::size_t>(k)] = p[k];
+            // Keeps n·y − off ≥ 0 (a plane that keeps every vertex leaves the polygon as it is).
+            auto keep = [&](const Vec3& n, double off) {
+                if (clip3_cut(q[cur].v.data(), q[cur].n, n, off, q[cur ^ 1])) cur ^= 1;
+                return q[cur].n >= 3;
+            };
+            bool ok = keep(pa_.n, pa_.d + margin) && keep(pb_.n, pb_.d + margin);
+            for (int sd = 0; sd < sides_ && ok; ++sd) ok = keep(-side_[sd].n, margin - side_[sd].d);
+            if (!ok) return false;
+            Vec3 c = Vec3::Zero();
+            for (int k = 0; k < q[cur].n; ++k) c += q[cur].v[static_cast<std::size_t>(k)];
+            c /= q[cur].n;
+            return through(c, xa, sxa, ma, pb_, b_, nb_) || through(c, xb, sxb, mb, pa_, a_, na_);
+        };
         if (ne == count && na_ <= kMaxPieceVertices && nb_ <= kMaxPieceVertices) {
             if (crosses(ca_, pl.signed_distance(ca_), cb_, pl.signed_distance(cb_))) return false;
             // Points of each polygon: its centre, vertices and edges' midpoints.
@@ -226,6 +286,15 @@ bool Shaft::piece_outside(const Vec3* p, int count, const Plane& pl, bool exact)
             for (int i = 0; i < ma; ++i)
                 for (int j = (i == 0 ? 1 : 0); j < mb; ++j)
                     if (crosses(pa[i], sa[i], pb[j], sb[j])) return false;
+            // A piece that meets the hull only in part of it (a corner of the shaft) is missed by
+            // those segments and left to the separating axes below, which then try every axis.
+            // Before them, a point c well inside both the piece and the shaft's planes (the
+            // centre of the piece clipped by them, each moved in by the margin), and the
+            // segments through c from the points of one polygon to the other's plane: one that
+            // ends in the other polygon and crosses the piece well inside settles it too. On the
+            // 9,946-triangle urban array 36.6 M of the 242 M exact tests ended at the axes with
+            // the piece meeting the shaft, at ~2,800 cycles each; 33.4 M of them end here.
+            if (meets_through_centre(pa, sa, ma, pb, sb, mb)) return false;
         }
     }
     // Separating axis theorem for the remaining axes: an edge of the piece crossed with an edge
