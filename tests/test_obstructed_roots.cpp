@@ -942,3 +942,56 @@ TEST_CASE("partly hidden pass order: every stride-th pair from 0, then from 1, e
         CHECK_MESSAGE(wrong == 0, "count " << count << ", stride " << stride);
     }
 }
+
+TEST_CASE("obstructed roots: a plane with every patch on one side is never a candidate") {
+    // city-2: a ground under buildings. The ground's plane group has every patch on its front
+    // side, and so has the tallest roof's on its back: such planes can block nothing between two
+    // patches, and their pieces are left out of every query. For every pair of patches of
+    // different planes, the exact shaft test against all pieces (those too) keeps none of them
+    // and classifies the pair as without them.
+    const Scene scene = load_scene("city-2");
+    MethodOptions opt;
+    detail::Obstructions S;
+    detail::prepare_blockers(MethodContext{scene, opt, nullptr, nullptr, {}}, S);
+    const detail::BlockerSet& B = S.blockers;
+    CHECK(S.one_sided_groups >= 1);
+    std::vector<int> all(B.size()), active;
+    std::iota(all.begin(), all.end(), 0);
+    std::size_t inert = 0;
+    for (int k : all) {
+        if (B.piece(k).inert) {
+            ++inert;
+        } else {
+            active.push_back(k);
+        }
+    }
+    REQUIRE(inert > 0);
+    REQUIRE(!active.empty());
+    std::vector<int> kept_all, kept_active;
+    std::size_t partial = 0;
+    const std::size_t n = scene.patches.size();
+    for (std::size_t i = 0; i < n; ++i)
+        for (std::size_t j = i + 1; j < n; ++j) {
+            const Polygon& a = scene.patches[i].polygon;
+            const Polygon& b = scene.patches[j].polygon;
+            const Vec3 na = normal(a), nb = normal(b);
+            if (na.dot(nb) > 1.0 - 1e-9 && std::abs(na.dot(a[0] - b[0])) < 1e-9) continue;
+            detail::Shaft sh;
+            sh.build(a.vertices.data(), static_cast<int>(a.size()), na, b.vertices.data(),
+                     static_cast<int>(b.size()), nb, S.eps);
+            if (sh.facing_away()) continue;
+            const auto c_all =
+                detail::classify_shaft(sh, B, all.data(), static_cast<int>(all.size()), kept_all);
+            const auto c_active = detail::classify_shaft(
+                sh, B, active.data(), static_cast<int>(active.size()), kept_active);
+            CHECK(c_all == c_active);
+            CHECK(kept_all == kept_active);
+            for (int k : kept_all) CHECK_FALSE(B.piece(k).inert);
+            if (c_all == detail::ShaftClass::kPartial) ++partial;
+            // The query never finds an inert piece.
+            std::vector<int> found;
+            B.query(sh, -1, -1, found);
+            for (int k : found) CHECK_FALSE(B.piece(k).inert);
+        }
+    CHECK(partial > 0);
+}

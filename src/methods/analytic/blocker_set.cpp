@@ -54,8 +54,12 @@ void BlockerSet::add(const Polygon& p, int surface) {
     }
 }
 
-void BlockerSet::build() {
+void BlockerSet::build(const std::vector<char>& inert) {
     constexpr int kLeafSize = 4;
+    for (Piece& pc : pieces_) {
+        const auto s = static_cast<std::size_t>(pc.surface);
+        pc.inert = s < inert.size() && inert[s] != 0;
+    }
     const auto box_of = [&](int k) -> const Bounds3& {
         return pieces_[static_cast<std::size_t>(k)].box;
     };

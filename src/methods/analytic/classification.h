@@ -98,6 +98,7 @@ struct Obstructions {
     std::vector<ClusterTree> trees, otrees;  // patches' and obstruction-only plane groups
     BlockerSet blockers;
     std::size_t merged_pieces = 0;
+    std::size_t one_sided_groups = 0;  // plane groups with every patch on one side: no blockers
     double eps = 0;
     std::vector<PairOutput> outputs;  // one per unordered pair of plane groups
     double seconds_setup = 0, seconds_classification = 0;

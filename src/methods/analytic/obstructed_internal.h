@@ -31,6 +31,9 @@ class BlockerSet {
         /// from a point x that crosses the solid also crosses a piece with x in front, so the
         /// pieces with x behind (or in) their plane can be skipped for x.
         bool cull_back = false;
+        /// Of a surface that can block nothing (every patch on one side of its plane): query()
+        /// leaves it out (kept in the tree, so that the others come in the same order).
+        bool inert = false;
         /// The convex solid (closed, or open along one planar loop of edges) of the piece, −1
         /// for none: unless cull_back, a point may skip its back faces only where culls_at()
         /// says so (see mark_closed_solids()).
@@ -42,8 +45,9 @@ class BlockerSet {
     /// The convex pieces add() makes of p: p itself when convex (≤ kMaxPieceVertices vertices),
     /// else its triangles.
     static std::vector<Polygon> convex_parts(const Polygon& p);
-    /// Builds the hierarchy; call once after the last add().
-    void build();
+    /// Builds the hierarchy; call once after the last add(). The pieces of the surfaces s with
+    /// `inert[s]` set are never found by query() (Piece::inert).
+    void build(const std::vector<char>& inert = {});
     /// Finds the closed solids (connected pieces whose every edge is matched by the reversed
     /// edge of another piece, positive signed volume) and sets Piece::cull_back on their pieces,
     /// unless the bounding box of one of `patches` (with the surface id it belongs to) not on

@@ -63,6 +63,7 @@ void report_obstructions(const Obstructions& S, const PartialStats& total, std::
     o["plane_groups"] = S.trees.size();
     o["obstruction_plane_groups"] = S.otrees.size();
     o["merged_blocker_pieces"] = S.merged_pieces;
+    o["one_sided_plane_groups"] = S.one_sided_groups;
     o["node_pairs_tested"] = node_pairs;
     o["patch_pairs_visible"] = visible;
     o["patch_pairs_hidden"] = hidden;

@@ -384,8 +384,8 @@ void BlockerSet::query(const Shaft& shaft, int skip_a, int skip_b, std::vector<i
         if (nd.left < 0) {
             for (int k = nd.first; k < nd.first + nd.count; ++k) {
                 const int p = tree_.order[static_cast<std::size_t>(k)];
-                const int s = pieces_[static_cast<std::size_t>(p)].surface;
-                if (s == skip_a || s == skip_b) continue;
+                const Piece& pc = pieces_[static_cast<std::size_t>(p)];
+                if (pc.surface == skip_a || pc.surface == skip_b || pc.inert) continue;
                 out.push_back(p);
             }
         } else if (top + 2 <= 128) {
