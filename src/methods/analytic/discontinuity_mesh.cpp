@@ -162,7 +162,7 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
     // The polygons whose vertices and edges make events.
     thread_local std::vector<Poly3> polys;
     // Per polygon: a bit per edge that cannot be a kink (an edge between two faces of a closed
-    // solid that both face the whole sender: inside the union of the shadows).
+    // solid that both cover their shadows, below: inside the union of the shadows).
     thread_local std::vector<std::uint64_t> inner;
     thread_local std::vector<Plane> plane_of;  // per polygon: its plane
     // Per polygon: its convex solid when every point of the sender is outside it (culls it),
@@ -210,6 +210,25 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
             if (!(pc.plane.signed_distance(v) > 0.0)) return false;
         return true;
     };
+    // The pieces of this pair that cover their own shadow's part of the union: faces of a
+    // closed solid, whole (neither plane cuts them), strictly between the sender's plane and
+    // the receiver's (a piece in the receiver's plane casts no shadow: point_kernel.cpp) and
+    // facing the whole sender. An edge between two of them is inner; across an edge to a face
+    // that is not one of them (clipped away behind the receiver's plane, or not a candidate: its
+    // shadow misses the receiver) the edge's shadow can bound the hidden part, and its events
+    // are kept. Not for a solid open along a loop (a building on the ground): with its inner
+    // edges left out, a pair of walls across a street of such buildings (the urban array's, the
+    // ground apart) was integrated 7.6e-7 too low at --tolerance 1e-9, by rules that agreed.
+    thread_local std::vector<std::uint32_t> cover_stamp;
+    thread_local std::uint32_t cover_epoch = 0;
+    if (cover_stamp.size() < blockers.size()) cover_stamp.assign(blockers.size(), 0);
+    if (++cover_epoch == 0) {
+        std::fill(cover_stamp.begin(), cover_stamp.end(), 0);
+        cover_epoch = 1;
+    }
+    thread_local std::vector<int> poly_piece;  // per polygon: its piece when it covers, else −1
+    poly_piece.clear();
+    if (have_receiver) poly_piece.push_back(-1);
     for (int c = 0; c < n; ++c) {
         const auto& pc = blockers.piece(cand[c]);
         const Vec3* pv = blockers.vertices(cand[c]);
@@ -223,25 +242,40 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
         clip3(a, ns, ds, b);
         clip3(b, rc.n, rc.d, a);
         if (a.n < 3) continue;
-        std::uint64_t mask = 0, smooth_mask = 0;
+        std::uint64_t smooth_mask = 0;
         bool whole = a.n == pc.count && pc.count <= 64;
         for (int k = 0; k < pc.count && whole; ++k)
             whole = a.v[static_cast<std::size_t>(k)] == pv[k];
+        bool covers = false;
         if (whole) {
-            const bool facing = faces_sender(cand[c]);
+            covers = (pc.solid < 0 || !blockers.solid_open(pc.solid)) && faces_sender(cand[c]);
+            for (int k = 0; k < pc.count && covers; ++k)
+                covers = rc.n.dot(pv[k]) - rc.d > eps && ns.dot(pv[k]) - ds > 0.0;
             for (int k = 0; k < pc.count; ++k) {
                 const int nb = blockers.neighbor(cand[c], k);
                 if (nb < 0) continue;
-                if (facing && faces_sender(nb)) mask |= std::uint64_t{1} << k;
                 if (pc.plane.n.dot(blockers.piece(nb).plane.n) >= kSmoothEdgeCos)
                     smooth_mask |= std::uint64_t{1} << k;
             }
         }
+        if (covers) cover_stamp[static_cast<std::size_t>(cand[c])] = cover_epoch;
+        poly_piece.push_back(covers ? cand[c] : -1);
         polys.push_back(a);
-        inner.push_back(mask);
+        inner.push_back(0);  // set below, once every covering piece is known
         smooth.push_back(smooth_mask);
         plane_of.push_back(pc.plane);
         solid_of.push_back(pc.solid >= 0 && culls_sender(cand[c]) ? pc.solid : -1);
+    }
+    for (std::size_t x = 0; x < polys.size(); ++x) {
+        const int k = poly_piece[x];
+        if (k < 0) continue;
+        std::uint64_t mask = 0;
+        for (int e = 0; e < blockers.piece(k).count; ++e) {
+            const int nb = blockers.neighbor(k, e);
+            if (nb >= 0 && cover_stamp[static_cast<std::size_t>(nb)] == cover_epoch)
+                mask |= std::uint64_t{1} << e;
+        }
+        inner[x] = mask;
     }
     if (polys.size() < 2) return convex_s;
     Vec3 su, sv;

@@ -80,6 +80,8 @@ class BlockerSet {
     /// through a planar opening, so one of the faces blocks it, and those that only graze the
     /// solid are of measure zero.
     bool solid_hides(int solid, const Vec3* a, int na, const Vec3* b, int nb) const;
+    /// True when convex solid `solid` is open along a planar loop of edges (no face there).
+    bool solid_open(int solid) const { return solids_[static_cast<std::size_t>(solid)].open; }
     /// The number of convex solids (the range of Piece::solid).
     int solid_count() const { return static_cast<int>(solids_.size()); }
     /// culls_at() for every point of the convex polygon v[0..n) (checked on its vertices, one
