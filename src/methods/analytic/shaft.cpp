@@ -238,17 +238,22 @@ bool Shaft::piece_outside(const Vec3* p, int count, const Plane& pl, bool exact)
         };
         auto meets_through_centre = [&](const Vec3* xa, const double* sxa, int ma, const Vec3* xb,
                                         const double* sxb, int mb) {
+            auto from_either = [&](const Vec3& c) {
+                return through(c, xa, sxa, ma, pb_, b_, nb_) ||
+                       through(c, xb, sxb, mb, pa_, a_, na_);
+            };
+            auto centre = [](const Vec3* v, int nv) {
+                Vec3 c = Vec3::Zero();
+                for (int k = 0; k < nv; ++k) c += v[k];
+                return Vec3(c / nv);
+            };
             // The piece's centre first, when it is well inside the shaft's planes.
             {
-                Vec3 c = Vec3::Zero();
-                for (int k = 0; k < count; ++k) c += p[k];
-                c /= count;
+                const Vec3 c = centre(p, count);
                 bool in = pa_.signed_distance(c) > margin && pb_.signed_distance(c) > margin;
                 for (int sd = 0; sd < sides_ && in; ++sd)
                     in = side_[sd].signed_distance(c) < -margin;
-                if (in && (through(c, xa, sxa, ma, pb_, b_, nb_) ||
-                           through(c, xb, sxb, mb, pa_, a_, na_)))
-                    return true;
+                if (in && from_either(c)) return true;
             }
             Poly3 q[2];
             int cur = 0;
@@ -261,11 +266,7 @@ bool Shaft::piece_outside(const Vec3* p, int count, const Plane& pl, bool exact)
             };
             bool ok = keep(pa_.n, pa_.d + margin) && keep(pb_.n, pb_.d + margin);
             for (int sd = 0; sd < sides_ && ok; ++sd) ok = keep(-side_[sd].n, margin - side_[sd].d);
-            if (!ok) return false;
-            Vec3 c = Vec3::Zero();
-            for (int k = 0; k < q[cur].n; ++k) c += q[cur].v[static_cast<std::size_t>(k)];
-            c /= q[cur].n;
-            return through(c, xa, sxa, ma, pb_, b_, nb_) || through(c, xb, sxb, mb, pa_, a_, na_);
+            return ok && from_either(centre(q[cur].v.data(), q[cur].n));
         };
         if (ne == count && na_ <= kMaxPieceVertices && nb_ <= kMaxPieceVertices) {
             if (crosses(ca_, pl.signed_distance(ca_), cb_, pl.signed_distance(cb_))) return false;

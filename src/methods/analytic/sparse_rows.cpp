@@ -148,6 +148,12 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
         own_table = detail::make_patch_table(polys, options.threads);
         table = own_table.get();
     }
+    // Pairs facing away (a patch behind the other's plane) are 0 by the test every unobstructed
+    // path applies first: neither the estimate nor the pair lists below hold them.
+    const double eps_facing = detail::facing_eps(polys);
+    auto faces_away = [&](std::size_t a, std::size_t c) {
+        return detail::faces_away(*table, polys, a, c, eps_facing);
+    };
     std::vector<double> areas;
 
     // The tasks in blocks (given pairs: their classification is done, one block).
@@ -233,12 +239,10 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
             // away (never held, see the pair lists below) are not counted: in an open city they
             // are a third of them.
             std::size_t vis_facing = 0;
-            const double eps_facing = detail::facing_eps(polys);
             for (const NodePair& np : visible_of[b])
                 for_each_patch_pair(trees, np, [&](std::size_t i, std::size_t j) {
                     const std::size_t a = std::min(i, j), c = std::max(i, j);
-                    if (touches(a, c) && !detail::faces_away(*table, polys, a, c, eps_facing))
-                        ++vis_facing;
+                    if (touches(a, c) && !faces_away(a, c)) ++vis_facing;
                 });
             const double scale = static_cast<double>(tasks) / static_cast<double>(list.size());
             const double pairs = scale * (double(vis_facing) + double(refs.size()));
@@ -342,14 +346,13 @@ void AnalyticMethod::sparse_obstructed_rows(const MethodContext& ctx, double vis
     std::size_t faced_away = 0;
     announce_phase("analytic pair lists");
     {
-        const double eps_facing = detail::facing_eps(polys);
         for (std::vector<NodePair>& list : visible_of) {
             cancel.throw_if_requested();
             for (const NodePair& np : list)
                 for_each_patch_pair(trees, np, [&](std::size_t i, std::size_t j) {
                     const std::size_t a = std::min(i, j), c = std::max(i, j);
                     if (!touches(a, c)) return;
-                    if (detail::faces_away(*table, polys, a, c, eps_facing)) {
+                    if (faces_away(a, c)) {
                         ++faced_away;
                         return;
                     }
