@@ -126,6 +126,25 @@ bool shadow_region(const Poly3& r, const Vec3& w, const Vec3& ns, double ds, con
     return true;
 }
 
+// True when the point q lies within tol of the plane through p with normal m (not
+// normalised).
+bool in_plane(const Vec3& m, const Vec3& p, const Vec3& q, double tol) {
+    return std::abs(m.dot(q - p)) <= tol * m.norm();
+}
+
+// True when the plane through p with normal m (not normalised) meets the polygon r or comes
+// within tol of it.
+bool plane_meets(const Vec3& m, const Vec3& p, const Poly3& r, double tol) {
+    const double mt = tol * m.norm();
+    bool pos = false, neg = false;
+    for (int k = 0; k < r.n; ++k) {
+        const double d = m.dot(r.v[static_cast<std::size_t>(k)] - p);
+        pos = pos || d >= -mt;
+        neg = neg || d <= mt;
+    }
+    return pos && neg;
+}
+
 // True when the point w of the plane of the convex polygon r (normal n, counter-clockwise)
 // lies in r or within tol of it.
 bool on_polygon(const Poly3& r, const Vec3& n, const Vec3& w, double tol) {
@@ -335,6 +354,7 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
         for (int w = 0; w < polys[x].n; ++w) {
             // A vertex between two inner edges is inside the union too.
             const int wprev = w == 0 ? polys[x].n - 1 : w - 1;
+            const int wnext = w + 1 == polys[x].n ? 0 : w + 1;
             if ((inner[x] >> w & 1) && (inner[x] >> wprev & 1)) continue;
             // A smooth vertex (both its edges here smooth, a finely faceted curved solid): where
             // its shadow crosses an edge's, the shadow's boundary turns there by at most the
@@ -374,9 +394,9 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
                 // Nearly coplanar (jittered models) counts as coplanar.
                 const bool only_seen = filter && !filter_off &&
                                        std::abs(plane_of[y].signed_distance(pw)) > tol_coplanar;
-                if (only_seen && on_plane) continue;  // a vertex in r's plane, off r
-                // Kept only where w's shadow falls on r, and it falls nowhere on r.
-                if (only_seen && !seen_some) continue;
+                // A vertex in r's plane off r, or a vertex whose shadow falls nowhere on r:
+                // only its events along an edge of its own (below) can make a kink.
+                const bool edges_only = only_seen && (on_plane || !seen_some);
                 if (solid_of[x] >= 0 && solid_of[x] == solid_of[y] &&
                     std::abs(plane_of[y].signed_distance(pw)) > tol_coplanar)
                     continue;  // two faces of one convex solid, no face-plane event
@@ -388,6 +408,23 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
                     const double la = m.dot(su), lb = m.dot(sv);
                     const double len = std::hypot(la, lb);
                     if (!(len > 1e-12 * m.norm()) || !(len > 0.0)) continue;
+                    // An edge of w's polygon at w in the event's plane (parallel to e, as the
+                    // vertical edges of walls and of a wall receiver are): its shadow and e's
+                    // (or e) lie on one line at the event, and they overlap along a segment, not
+                    // at w's shadow; where that segment crosses r, the hidden part's area has a
+                    // kink of the first derivative even when w's shadow, and the other end's,
+                    // fall off r. The shadow filter does not hold for it.
+                    // Nearly parallel (jittered models) counts as parallel. Only if the event's
+                    // plane meets r, where that segment lies.
+                    const bool along_edge =
+                        only_seen &&
+                        (in_plane(m, pw, polys[x].v[static_cast<std::size_t>(wnext)],
+                                  tol_coplanar) ||
+                         in_plane(m, pw, polys[x].v[static_cast<std::size_t>(wprev)],
+                                  tol_coplanar)) &&
+                        plane_meets(m, pw, polys[0], tol_r);
+                    if (edges_only && !along_edge) continue;
+                    const bool filtered = only_seen && !along_edge;
                     Line l{la / len, lb / len, m.dot(e0 - o) / len, true, {}, {}};
                     bool pos = false, neg = false;
                     for (const Vec2& p : s2) {
@@ -407,11 +444,11 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
                         l.p0 = Vec2(su.dot(x0), sv.dot(x0));
                         l.p1 = Vec2(su.dot(x1), sv.dot(x1));
                         if (!segment_meets(l, s2, tol)) continue;
-                        if (only_seen && !(seen_some && segment_near(l.p0, l.p1, seen, tol)))
+                        if (filtered && !(seen_some && segment_near(l.p0, l.p1, seen, tol)))
                             continue;
                     } else {
                         l.bounded = false;
-                        if (only_seen && !(seen_some && line_near(l, seen, tol))) continue;
+                        if (filtered && !(seen_some && line_near(l, seen, tol))) continue;
                     }
                     add_event(l);
                 }
