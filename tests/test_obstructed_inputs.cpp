@@ -406,6 +406,33 @@ TEST_CASE(
 }
 
 TEST_CASE(
+    "obstructed inputs: a pair with more event lines than the piece budget held at 256 holds "
+    "the tolerance") {
+    // tests/data/repro/walls_many_events.vs3: two walls across the urban array 7 x 7 with 577
+    // wall and roof triangles of the buildings between as obstructions. Their event lines cut
+    // the sender into more than 256 pieces; the lines left once that budget was spent were not
+    // cut, the rules agreed across their kinks, and F(wall 1 -> wall 2) was 9.1e-7 too low at
+    // --tolerance 1e-8.
+    const Scene scene = load_scene(std::string(FF_TEST_DATA_DIR) + "/repro/walls_many_events.vs3");
+    REQUIRE(scene.patches.size() == 2);
+    auto at = [&](double tol) {
+        MethodOptions o;
+        o.obstructed_tolerance = tol;
+        o.tolerance = std::min(tol, 1e-10);
+        nlohmann::json d;
+        return run_method(*make_method("analytic"), scene, o, d).F;
+    };
+    const DenseMatrix ref = at(1e-11);
+    CHECK(ref(0, 1) > 1e-5);
+    for (double tol : {1e-6, 1e-8}) {
+        const DenseMatrix F = at(tol);
+        INFO("tolerance " << tol);
+        CHECK(std::abs(F(0, 1) - ref(0, 1)) <= tol + 1e-11);
+        CHECK(std::abs(F(1, 0) - ref(1, 0)) <= tol + 1e-11);
+    }
+}
+
+TEST_CASE(
     "obstructed inputs: walls across a street of buildings on the ground hold the tolerance") {
     // tests/data/repro/walls_across_buildings.vs3: two facing walls of the urban array 7 × 7
     // (patches) and the buildings between and beside them (obstructions), each an open box (no
