@@ -9,6 +9,7 @@
 #include <limits>
 #include <numeric>
 #include <random>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -139,6 +140,65 @@ TEST_CASE(
     box.extend(Vec3(0, 6.096, 0));
     box.extend(Vec3(6.096, 6.096, 3.048));
     CHECK_FALSE(sh.box_outside(box));
+}
+
+TEST_CASE(
+    "obstructed roots: a box standing on a ground that shares its footprint's edges is an open "
+    "convex solid when the ground can block nothing") {
+    // The ground: the 3 x 3 cells of [0, 3]^2 but the middle one (surfaces 0-7, facing up); on
+    // the middle one a unit box without its bottom (surfaces 8-12, facing out), whose bottom
+    // edges are the cells' edges reversed. With the ground in the edge matching, ground and box
+    // are one open component, not convex; with the ground inert (every patch above its plane)
+    // the box alone is a convex solid open along its footprint.
+    auto build = [](bool ground_inert) {
+        BlockerSet bs;
+        int id = 0;
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j) {
+                if (i == 1 && j == 1) continue;
+                bs.add(poly({Vec3(i, j, 0), Vec3(i + 1, j, 0), Vec3(i + 1, j + 1, 0),
+                             Vec3(i, j + 1, 0)}),
+                       id++);
+            }
+        Vec3 c[8];
+        for (int k = 0; k < 8; ++k) c[k] = Vec3(k & 1 ? 2 : 1, k & 2 ? 2 : 1, k & 4 ? 1 : 0);
+        const int f[5][4] = {{4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+        for (const auto& face : f)
+            bs.add(poly({c[face[0]], c[face[1]], c[face[2]], c[face[3]]}), id++);
+        std::vector<char> inert(static_cast<std::size_t>(id), 0);
+        for (int k = 0; k < 8; ++k) inert[static_cast<std::size_t>(k)] = ground_inert ? 1 : 0;
+        bs.build(inert);
+        bs.mark_closed_solids({}, 1e-9);
+        return bs;
+    };
+    for (bool ground_inert : {false, true}) {
+        const BlockerSet bs = build(ground_inert);
+        CAPTURE(ground_inert);
+        int box_pieces = 0;
+        std::set<int> solids;
+        for (std::size_t k = 0; k < bs.size(); ++k) {
+            const auto& pc = bs.piece(static_cast<int>(k));
+            CHECK_FALSE(pc.cull_back);
+            if (pc.surface < 8) {
+                CHECK(pc.solid == -1);
+                continue;
+            }
+            ++box_pieces;
+            solids.insert(pc.solid);
+        }
+        CHECK(box_pieces == 5);
+        REQUIRE(solids.size() == 1);
+        const int so = *solids.begin();
+        if (!ground_inert) {
+            CHECK(so == -1);
+            continue;
+        }
+        REQUIRE(so >= 0);
+        CHECK(bs.solid_open(so));
+        // A point beside the box, above the ground, culls its back faces; one below does not.
+        CHECK(bs.culls_at(so, Vec3(2.5, 1.5, 0.5)));
+        CHECK_FALSE(bs.culls_at(so, Vec3(2.5, 1.5, -0.5)));
+    }
 }
 
 TEST_CASE(

@@ -80,6 +80,7 @@ void BlockerSet::mark_closed_solids(const std::vector<std::pair<Bounds3, int>>& 
     for (std::size_t p = 0; p < np; ++p) {
         if (p % 1024 == 0) cancel.throw_if_requested();
         const Piece& pc = pieces_[p];
+        if (pc.inert) continue;  // blocks nothing: the ground under buildings
         for (int k = 0; k < pc.count; ++k) {
             const auto a = key(verts_[static_cast<std::size_t>(pc.first + k)]);
             const auto b = key(verts_[static_cast<std::size_t>(pc.first + (k + 1) % pc.count)]);

@@ -58,7 +58,9 @@ class BlockerSet {
     /// The convex solids among the rest get Piece::solid instead, for culling point by point
     /// (culls_at()): closed ones that touch other patches, and connected pieces whose unmatched
     /// edges form one planar loop (an open box standing on a floor, a building on the ground),
-    /// convex when closed by that loop.
+    /// convex when closed by that loop. Inert pieces (Piece::inert) join no solid and match no
+    /// edge: a building on a triangulated ground that shares its footprint's edges is open along
+    /// that footprint, not one component with the ground. Call after build().
     void mark_closed_solids(const std::vector<std::pair<Bounds3, int>>& patches, double tol);
 
     /// True when, for the point x, the pieces of convex solid `solid` that x is behind (or in
