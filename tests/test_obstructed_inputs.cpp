@@ -371,6 +371,31 @@ TEST_CASE("obstructed inputs: room n = 16 with the box as O records - fully hidd
     check_room_obstruction_hidden_pairs(16);
 }
 
+// Checks a repro file of two patches (the rest obstructions): at each tolerance in `tols` both
+// entries lie within it of the entries at 1e-11, and so does the bound reported; the larger
+// entry at 1e-11 exceeds `min_entry` (the pair is not trivially hidden).
+static void check_pair_holds_tolerances(const std::string& file, std::initializer_list<double> tols,
+                                        double min_entry) {
+    const Scene scene = load_scene(std::string(FF_TEST_DATA_DIR) + "/repro/" + file);
+    REQUIRE(scene.patches.size() == 2);
+    auto at = [&](double tol, nlohmann::json& details) {
+        MethodOptions o;
+        o.obstructed_tolerance = tol;
+        o.tolerance = std::min(tol, 1e-10);
+        return run_method(*make_method("analytic"), scene, o, details).F;
+    };
+    nlohmann::json d;
+    const DenseMatrix ref = at(1e-11, d);
+    CHECK(std::max(ref(0, 1), ref(1, 0)) > min_entry);
+    for (double tol : tols) {
+        const DenseMatrix F = at(tol, d);
+        INFO(file << " at tolerance " << tol);
+        CHECK(std::abs(F(0, 1) - ref(0, 1)) <= tol + 1e-11);
+        CHECK(std::abs(F(1, 0) - ref(1, 0)) <= tol + 1e-11);
+        CHECK(d["obstructions"]["max_error_estimate"].get<double>() <= tol);
+    }
+}
+
 TEST_CASE(
     "obstructed inputs: a blocker edge parallel to a receiver edge keeps its event where neither "
     "end's shadow falls on the receiver") {
@@ -381,28 +406,7 @@ TEST_CASE(
     // though the shadows of both its ends fall below and above the receiver. The event filter
     // (a vertex's events only where its shadow falls on the receiver) dropped it, and
     // F(wall 1 -> wall 2) at --tolerance 1e-6 was 7.2e-6 too low, by rules that agreed.
-    const Scene scene =
-        load_scene(std::string(FF_TEST_DATA_DIR) + "/repro/walls_parallel_edges.vs3");
-    REQUIRE(scene.patches.size() == 2);
-    auto at = [&](double tol, nlohmann::json* details = nullptr) {
-        MethodOptions o;
-        o.obstructed_tolerance = tol;
-        o.tolerance = std::min(tol, 1e-10);
-        nlohmann::json d;
-        const FormFactors F = run_method(*make_method("analytic"), scene, o, d);
-        if (details) *details = d;
-        return F.F;
-    };
-    const DenseMatrix ref = at(1e-11);
-    CHECK(ref(0, 1) > 1e-4);
-    for (double tol : {1e-6, 1e-8}) {
-        nlohmann::json d;
-        const DenseMatrix F = at(tol, &d);
-        INFO("tolerance " << tol);
-        CHECK(std::abs(F(0, 1) - ref(0, 1)) <= tol + 1e-11);
-        CHECK(std::abs(F(1, 0) - ref(1, 0)) <= tol + 1e-11);
-        CHECK(d["obstructions"]["max_error_estimate"].get<double>() <= tol);
-    }
+    check_pair_holds_tolerances("walls_parallel_edges.vs3", {1e-6, 1e-8}, 1e-4);
 }
 
 TEST_CASE(
@@ -413,23 +417,7 @@ TEST_CASE(
     // the sender into more than 256 pieces; the lines left once that budget was spent were not
     // cut, the rules agreed across their kinks, and F(wall 1 -> wall 2) was 9.1e-7 too low at
     // --tolerance 1e-8.
-    const Scene scene = load_scene(std::string(FF_TEST_DATA_DIR) + "/repro/walls_many_events.vs3");
-    REQUIRE(scene.patches.size() == 2);
-    auto at = [&](double tol) {
-        MethodOptions o;
-        o.obstructed_tolerance = tol;
-        o.tolerance = std::min(tol, 1e-10);
-        nlohmann::json d;
-        return run_method(*make_method("analytic"), scene, o, d).F;
-    };
-    const DenseMatrix ref = at(1e-11);
-    CHECK(ref(0, 1) > 1e-5);
-    for (double tol : {1e-6, 1e-8}) {
-        const DenseMatrix F = at(tol);
-        INFO("tolerance " << tol);
-        CHECK(std::abs(F(0, 1) - ref(0, 1)) <= tol + 1e-11);
-        CHECK(std::abs(F(1, 0) - ref(1, 0)) <= tol + 1e-11);
-    }
+    check_pair_holds_tolerances("walls_many_events.vs3", {1e-6, 1e-8}, 1e-5);
 }
 
 TEST_CASE(
@@ -441,26 +429,5 @@ TEST_CASE(
     // 7.6e-7 too low at --tolerance 1e-9 (the rules agreed on smooth-looking pieces); the
     // entries at 1e-8 and 1e-9 must lie within their tolerance of the entries at 1e-11, and the
     // bound reported must hold too.
-    const Scene scene =
-        load_scene(std::string(FF_TEST_DATA_DIR) + "/repro/walls_across_buildings.vs3");
-    REQUIRE(scene.patches.size() == 2);
-    auto at = [&](double tol, nlohmann::json* details = nullptr) {
-        MethodOptions o;
-        o.obstructed_tolerance = tol;
-        o.tolerance = std::min(tol, 1e-10);
-        nlohmann::json d;
-        const FormFactors F = run_method(*make_method("analytic"), scene, o, d);
-        if (details) *details = d;
-        return F.F;
-    };
-    const DenseMatrix ref = at(1e-11);
-    CHECK(ref(1, 0) > 1e-4);
-    for (double tol : {1e-8, 1e-9}) {
-        nlohmann::json d;
-        const DenseMatrix F = at(tol, &d);
-        INFO("tolerance " << tol);
-        CHECK(std::abs(F(1, 0) - ref(1, 0)) <= tol + 1e-11);
-        CHECK(std::abs(F(0, 1) - ref(0, 1)) <= tol + 1e-11);
-        CHECK(d["obstructions"]["max_error_estimate"].get<double>() <= tol);
-    }
+    check_pair_holds_tolerances("walls_across_buildings.vs3", {1e-8, 1e-9}, 1e-4);
 }
