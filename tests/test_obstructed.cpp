@@ -500,3 +500,35 @@ TEST_CASE("obstructed: the closed room n = 32 sums its rows to 1 within the tole
     MESSAGE("largest |row sum − 1| at tolerance 1e-4: " << worst);
     CHECK(worst <= 1e-4);
 }
+
+TEST_CASE(
+    "obstructed: the report counts the partly hidden pairs whose event cut spent its piece "
+    "budget") {
+    // Two facing unit squares 2 apart with a 6 × 6 grid of small squares between them at
+    // heights between 0.6 and 1.4 (obstructions): their event lines cut the sender into more
+    // than the budget's 1,024 pieces, and the lines left then are not cut. The report says how
+    // many pairs that happened to; the two plates with one blocker cut into a few pieces, none.
+    std::vector<Polygon> blockers;
+    for (int i = 0; i < 6; ++i)
+        for (int j = 0; j < 6; ++j) {
+            const double x = 0.05 + 0.16 * i, y = 0.05 + 0.16 * j;
+            const double z = 0.6 + 0.8 * std::fmod(0.37 * (i * 6 + j), 1.0);
+            blockers.push_back(testing::quad(Vec3(x, y, z), Vec3(x + 0.09, y, z),
+                                             Vec3(x + 0.09, y + 0.09, z), Vec3(x, y + 0.09, z)));
+        }
+    const Polygon sender =
+        testing::quad(Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0));
+    const Polygon receiver =
+        testing::quad(Vec3(0, 1, 2), Vec3(1, 1, 2), Vec3(1, 0, 2), Vec3(0, 0, 2));
+    MethodOptions o;
+    o.obstructed_tolerance = 1e-4;
+    nlohmann::json d;
+    run_method(*make_method("analytic"), testing::scene_of({sender, receiver}, blockers), o, d);
+    CHECK(d["obstructions"]["patch_pairs_partly_hidden"].get<std::size_t>() == 1);
+    CHECK(d["obstructions"]["partly_hidden_pairs_cut_budget_spent"].get<std::size_t>() == 1);
+    nlohmann::json one;
+    run_method(*make_method("analytic"), testing::scene_of({sender, receiver}, {blockers[14]}), o,
+               one);
+    CHECK(one["obstructions"]["patch_pairs_partly_hidden"].get<std::size_t>() == 1);
+    CHECK(one["obstructions"]["partly_hidden_pairs_cut_budget_spent"].get<std::size_t>() == 0);
+}

@@ -174,8 +174,9 @@ bool on_polygon(const Poly3& r, const Vec3& n, const Vec3& w, double tol) {
 constexpr double kSmoothEdgeCos = 0.8660254037844386;
 
 std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Receiver& rc,
-                                     const BlockerSet& blockers, const int* cand, int n,
-                                     double eps) {
+                                     const BlockerSet& blockers, const int* cand, int n, double eps,
+                                     std::size_t max_pieces, bool* budget_spent) {
+    if (budget_spent) *budget_spent = false;
     std::vector<Polygon> convex_s = BlockerSet::convex_parts(s);
     const double ds = ns.dot(s[0]);
     // The polygons whose vertices and edges make events.
@@ -538,7 +539,8 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
     thread_local std::vector<Vec2> scratch2;
     for (const Line& l : lines) {
         nxt.clear();
-        for (const Poly2& q : cur) {
+        for (std::size_t at = 0; at < cur.size(); ++at) {
+            const Poly2& q = cur[at];
             bool pos = false, neg = false;
             for (int k = 0; k < q.n; ++k) {
                 const double d = l.a * q.x[static_cast<std::size_t>(k)] +
@@ -555,7 +557,12 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
                                     q.y[static_cast<std::size_t>(k)]);
                 hit = segment_meets(l, qv, tol);
             }
-            if (!hit || cur.size() + nxt.size() >= kMaxPieces) {
+            // The pieces so far: those this line has passed and those it has yet to reach.
+            if (hit && nxt.size() + (cur.size() - at) >= kMaxPieces) {
+                if (budget_spent) *budget_spent = true;
+                hit = false;
+            }
+            if (!hit) {
                 append2(nxt, q);
                 continue;
             }
@@ -567,6 +574,7 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
             if (right.n >= 3) append2(nxt, right);
         }
         std::swap(cur, nxt);
+        if (cur.size() >= max_pieces) return {};
     }
     std::vector<Polygon> out;
     for (const Poly2& q : cur) {

@@ -77,8 +77,10 @@ double hidden_estimate(const Polygon& s, const Polygon& r, const BlockerSet& blo
 }
 
 std::vector<Polygon> event_pieces(const Polygon& s, const Polygon& r, const BlockerSet& blockers,
-                                  const int* cand, int n, double eps) {
-    return split_by_events(s, normal(s), Receiver(r), blockers, cand, n, eps);
+                                  const int* cand, int n, double eps, std::size_t max_pieces,
+                                  bool* budget_spent) {
+    return split_by_events(s, normal(s), Receiver(r), blockers, cand, n, eps, max_pieces,
+                           budget_spent);
 }
 
 HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const BlockerSet& blockers,

@@ -6,6 +6,7 @@
 // docs/analytic.md, "Obstructed scenes".
 
 #include <algorithm>
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -247,9 +248,12 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
                                const std::vector<Polygon>* cut = nullptr, std::uint64_t seed = 0);
 
 /// split_by_events() of the sender s towards the receiver r (convex polygons): what
-/// hidden_integral(s, r, ...) integrates over, for its `cut`.
+/// hidden_integral(s, r, ...) integrates over, for its `cut`; empty when it would have
+/// max_pieces pieces or more. budget_spent, when given: whether split_by_events() left event
+/// lines uncut once its piece budget was spent.
 std::vector<Polygon> event_pieces(const Polygon& s, const Polygon& r, const BlockerSet& blockers,
-                                  const int* cand, int n, double eps);
+                                  const int* cand, int n, double eps,
+                                  std::size_t max_pieces = SIZE_MAX, bool* budget_spent = nullptr);
 
 /// A bound on what the sender s sees of r past the candidate pieces (1/A_s ∫_s F(x → visible
 /// part of r) dA_x ≤ bound): F from s to r less the umbrae of the occluders, the points of r
@@ -279,10 +283,14 @@ struct Receiver;  // shadow_clip.h
 
 /// The sender s (unit normal ns) cut into convex pieces along the lines where
 /// F(x → part of rc hidden by the candidate pieces) has kinks (discontinuity meshing); the
-/// convex parts of s when nothing cuts it.
+/// convex parts of s when nothing cuts it; empty when the cut would have max_pieces pieces or
+/// more (the caller has a cut with fewer). budget_spent, when given: set when the cut reached
+/// its piece budget (1,024; 4,096 graded towards near contact) with event lines left uncut,
+/// across whose kinks the rules may then agree.
 std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Receiver& rc,
-                                     const BlockerSet& blockers, const int* cand, int n,
-                                     double eps);
+                                     const BlockerSet& blockers, const int* cand, int n, double eps,
+                                     std::size_t max_pieces = SIZE_MAX,
+                                     bool* budget_spent = nullptr);
 
 /// F from a point x (unit normal n) to the part of the convex polygon r hidden by the pieces:
 /// Lambert's formula on the union of the pieces' central projections (shadows) from x onto r's

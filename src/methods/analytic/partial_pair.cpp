@@ -78,6 +78,7 @@ void report_obstructions(const Obstructions& S, const PartialStats& total, std::
     o["capped_pairs"] = total.capped;
     o["partly_hidden_pairs_bracketed"] = total.bracketed;
     o["partly_hidden_pairs_settled_by_umbrae"] = total.settled_by_umbrae;
+    o["partly_hidden_pairs_cut_budget_spent"] = total.cut_budget_spent;
     o["tolerance"] = tol;
     o["max_error_estimate"] = total.max_error;
     o["threads"] = threads;
@@ -99,6 +100,7 @@ void PartlyHiddenStats::add(const PartlyHiddenStats& o) {
     changed += o.changed;
     bracketed += o.bracketed;
     settled_by_umbrae += o.settled_by_umbrae;
+    cut_budget_spent += o.cut_budget_spent;
 }
 
 }  // namespace formfactor

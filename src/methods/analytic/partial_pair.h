@@ -39,7 +39,8 @@ struct PairStats {
     double error = 0;
     std::size_t points = 0, cells = 0, closed_forms = 0, proven_hidden = 0, cells_bracketed = 0;
     int level = 0, capped = 0;
-    bool integrated = false, changed = false, bracketed = false, settled_by_umbrae = false;
+    bool integrated = false, changed = false, bracketed = false, settled_by_umbrae = false,
+         budget_spent = false;
 };
 
 // The same summed over pairs (per thread, then over threads: sums, maxima and counts, the same
@@ -55,6 +56,7 @@ inline void add_pair(PartialStats& total, const PairStats& p) {
     total.capped += static_cast<std::size_t>(p.capped);
     total.bracketed += p.bracketed ? 1 : 0;
     total.settled_by_umbrae += p.settled_by_umbrae ? 1 : 0;
+    total.cut_budget_spent += p.budget_spent ? 1 : 0;
     if (!p.integrated) return;
     total.changed += p.changed ? 1 : 0;
     total.max_error = std::max(total.max_error, p.error);
@@ -227,9 +229,13 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
     // within tol.
     std::vector<std::vector<Polygon>> cut_s, cut_r;
     std::size_t pieces_s = 0;
+    bool spent_s = false, spent_r = false;
     for (const Polygon& pr : parts) {
-        cut_s.push_back(detail::event_pieces(ps, pr, S.blockers, pair_cand, cand_count, S.eps));
+        bool spent = false;
+        cut_s.push_back(detail::event_pieces(ps, pr, S.blockers, pair_cand, cand_count, S.eps,
+                                             SIZE_MAX, &spent));
         pieces_s += cut_s.back().size();
+        spent_s = spent_s || spent;
     }
     const Polygon& pr_whole = scene.patches[r].polygon;
     bool over_r = false;
@@ -237,10 +243,12 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
     // of a non-convex surface, an L-shaped floor, stays the sender.)
     if (pieces_s >= kSideMinPieces && parts.size() == 1 && a_r <= kSideAreaRatio * a_s &&
         BlockerSet::convex_parts(ps).size() == 1) {
-        cut_r.push_back(
-            detail::event_pieces(pr_whole, ps, S.blockers, pair_cand, cand_count, S.eps));
-        over_r = cut_r.back().size() < pieces_s;
+        // (The cut of r stops, empty, once it has as many pieces as s's.)
+        cut_r.push_back(detail::event_pieces(pr_whole, ps, S.blockers, pair_cand, cand_count, S.eps,
+                                             pieces_s, &spent_r));
+        over_r = !cut_r.back().empty();
     }
+    st.budget_spent = over_r ? spent_r : spent_s;
     const Polygon& sender = over_r ? pr_whole : ps;
     const std::vector<Polygon>& receivers = over_r ? std::vector<Polygon>{ps} : parts;
     const std::vector<std::vector<Polygon>>& cuts = over_r ? cut_r : cut_s;
