@@ -51,6 +51,31 @@ std::vector<Polygon> quarters(const Polygon& p) {
     return out;
 }
 
+int unoccluded_candidates(const BlockerSet& blockers, const Polygon& s, const int* cand, int n,
+                          std::vector<int>& out) {
+    out.assign(cand, cand + n);
+    thread_local std::vector<int> solids;
+    solids.clear();
+    for (int c = 0; c < n; ++c) {
+        const int so = blockers.piece(cand[c]).solid;
+        if (so >= 0 && std::find(solids.begin(), solids.end(), so) == solids.end())
+            solids.push_back(so);
+    }
+    if (solids.empty() || n < 2) return n;
+    out.clear();
+    const int ns = static_cast<int>(s.size());
+    for (int c = 0; c < n; ++c) {
+        const auto& pc = blockers.piece(cand[c]);
+        const Vec3* pv = blockers.vertices(cand[c]);
+        bool hidden = false;
+        for (std::size_t k = 0; k < solids.size() && !hidden; ++k)
+            hidden = solids[k] != pc.solid &&
+                     blockers.solid_hides(solids[k], s.vertices.data(), ns, pv, pc.count);
+        if (!hidden) out.push_back(cand[c]);
+    }
+    return static_cast<int>(out.size());
+}
+
 // details["obstructions"] (docs/analytic.md): the blockers, the pair classes, the integration.
 void report_obstructions(const Obstructions& S, const PartialStats& total, std::size_t node_pairs,
                          std::size_t visible, std::size_t hidden, std::size_t partial, double tol,
@@ -79,6 +104,7 @@ void report_obstructions(const Obstructions& S, const PartialStats& total, std::
     o["partly_hidden_pairs_bracketed"] = total.bracketed;
     o["partly_hidden_pairs_settled_by_umbrae"] = total.settled_by_umbrae;
     o["partly_hidden_pairs_cut_budget_spent"] = total.cut_budget_spent;
+    o["occluded_candidates"] = total.occluded_candidates;
     o["tolerance"] = tol;
     o["max_error_estimate"] = total.max_error;
     o["threads"] = threads;
@@ -101,6 +127,7 @@ void PartlyHiddenStats::add(const PartlyHiddenStats& o) {
     bracketed += o.bracketed;
     settled_by_umbrae += o.settled_by_umbrae;
     cut_budget_spent += o.cut_budget_spent;
+    occluded_candidates += o.occluded_candidates;
 }
 
 }  // namespace formfactor

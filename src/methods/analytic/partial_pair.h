@@ -37,7 +37,8 @@ double checked_tolerance(const MethodOptions& options);
 // What the integration of one partly hidden pair did (small: room n = 32 has 800k such pairs).
 struct PairStats {
     double error = 0;
-    std::size_t points = 0, cells = 0, closed_forms = 0, proven_hidden = 0, cells_bracketed = 0;
+    std::size_t points = 0, cells = 0, closed_forms = 0, proven_hidden = 0, cells_bracketed = 0,
+                occluded = 0;
     int level = 0, capped = 0;
     bool integrated = false, changed = false, bracketed = false, settled_by_umbrae = false,
          budget_spent = false;
@@ -57,6 +58,7 @@ inline void add_pair(PartialStats& total, const PairStats& p) {
     total.bracketed += p.bracketed ? 1 : 0;
     total.settled_by_umbrae += p.settled_by_umbrae ? 1 : 0;
     total.cut_budget_spent += p.budget_spent ? 1 : 0;
+    total.occluded_candidates += p.occluded;
     if (!p.integrated) return;
     total.changed += p.changed ? 1 : 0;
     total.max_error = std::max(total.max_error, p.error);
@@ -78,6 +80,20 @@ PartialStats combined(ThreadStats& per_thread);
 // The sender cut into four: a triangle at its edges' midpoints, a quad at its edges' midpoints
 // and its centre (the other polygons whole).
 std::vector<Polygon> quarters(const Polygon& p);
+
+// The candidates cand[0, n) of a pair with sender s that no convex solid of another candidate
+// hides from all of s (BlockerSet::solid_hides()), in their order, into `out`; their number.
+// Every segment from s to a piece left out meets such a solid A, so a segment from s to the
+// receiver through it meets A first, and the piece's shadow from any point of s lies in A's:
+// the union of the shadows, the integrand, is the same without it, and its event lines cut
+// nothing that matters (the buildings behind the first ones an urban wall sees across the
+// array). The faces of A that those segments enter by meet the pair's shaft, so they are
+// candidates; if one is left out too, a solid nearer the sender hides it, and so on: each step
+// is nearer the sender, and the chain ends at a piece that stays. Only the sender's side:
+// with the receiver's too, two buildings in a row between two walls, each hiding the other
+// from one of the walls, would both be left out of the union.
+int unoccluded_candidates(const BlockerSet& blockers, const Polygon& s, const int* cand, int n,
+                          std::vector<int>& out);
 
 // A partly hidden pair whose unobstructed value is at most this share of the tolerance is
 // placed inside its bracket [0, unobstructed] without integration (see integrate_partial()).
@@ -149,7 +165,7 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
     if (!lists.decode(pp.cand_first, ids))
         throw Error("analytic: the candidate pieces of a partly hidden pair are out of range");
     const int* pair_cand = ids.data();
-    const int cand_count = static_cast<int>(ids.size());
+    int cand_count = static_cast<int>(ids.size());
     PairStats& st = v.stats;
     // The stream of uniform() that places the pair's value inside its umbra bound.
     const std::uint64_t seed =
@@ -227,6 +243,13 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
     // most kSideAreaRatio times as large as s, and s's cut has kSideMinPieces pieces or more; its
     // hidden part H_rs = H_sr a_s / a_r is then integrated to tol a_s / a_r, so that F_sr stays
     // within tol.
+    // The candidates that a convex solid among them hides from the whole sender are left out
+    // of the cut and the integration: the union of the shadows is the same without them.
+    thread_local std::vector<int> seen_cand;
+    st.occluded = static_cast<std::size_t>(
+        cand_count - unoccluded_candidates(S.blockers, ps, pair_cand, cand_count, seen_cand));
+    pair_cand = seen_cand.data();
+    cand_count = static_cast<int>(seen_cand.size());
     std::vector<std::vector<Polygon>> cut_s, cut_r;
     std::size_t pieces_s = 0;
     bool spent_s = false, spent_r = false;
