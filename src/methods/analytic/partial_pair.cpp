@@ -51,8 +51,8 @@ std::vector<Polygon> quarters(const Polygon& p) {
     return out;
 }
 
-int unoccluded_candidates(const BlockerSet& blockers, const Polygon& s, const int* cand, int n,
-                          std::vector<int>& out) {
+int unoccluded_candidates(const BlockerSet& blockers, const Polygon& s, const Polygon& r,
+                          const int* cand, int n, std::vector<int>& out) {
     out.assign(cand, cand + n);
     thread_local std::vector<int> solids;
     solids.clear();
@@ -62,17 +62,53 @@ int unoccluded_candidates(const BlockerSet& blockers, const Polygon& s, const in
             solids.push_back(so);
     }
     if (solids.empty() || n < 2) return n;
-    out.clear();
+    // Per solid of the list: a piece of it left out (0/1), and whether it hides a piece left
+    // out from r's side (then none of its pieces may go).
+    thread_local std::vector<char> lost, hider;
+    lost.assign(solids.size(), 0);
+    hider.assign(solids.size(), 0);
+    auto index_of = [&](int so) {
+        return so < 0
+                   ? -1
+                   : static_cast<int>(std::find(solids.begin(), solids.end(), so) - solids.begin());
+    };
+    thread_local std::vector<char> hidden;
+    hidden.assign(static_cast<std::size_t>(n), 0);
+    // From s: every piece that a solid of another piece hides (the chains end, each step
+    // nearer s).
     const int ns = static_cast<int>(s.size());
     for (int c = 0; c < n; ++c) {
         const auto& pc = blockers.piece(cand[c]);
         const Vec3* pv = blockers.vertices(cand[c]);
-        bool hidden = false;
-        for (std::size_t k = 0; k < solids.size() && !hidden; ++k)
-            hidden = solids[k] != pc.solid &&
-                     blockers.solid_hides(solids[k], s.vertices.data(), ns, pv, pc.count);
-        if (!hidden) out.push_back(cand[c]);
+        for (std::size_t k = 0; k < solids.size(); ++k)
+            if (solids[k] != pc.solid &&
+                blockers.solid_hides(solids[k], s.vertices.data(), ns, pv, pc.count)) {
+                hidden[static_cast<std::size_t>(c)] = 1;
+                if (const int own = index_of(pc.solid); own >= 0)
+                    lost[static_cast<std::size_t>(own)] = 1;
+                break;
+            }
     }
+    // From r: a piece that a solid hides which keeps all its pieces, which it then must.
+    const int nr = static_cast<int>(r.size());
+    for (int c = 0; c < n; ++c) {
+        if (hidden[static_cast<std::size_t>(c)]) continue;
+        const auto& pc = blockers.piece(cand[c]);
+        const int own = index_of(pc.solid);
+        if (own >= 0 && hider[static_cast<std::size_t>(own)]) continue;
+        const Vec3* pv = blockers.vertices(cand[c]);
+        for (std::size_t k = 0; k < solids.size(); ++k)
+            if (solids[k] != pc.solid && !lost[k] &&
+                blockers.solid_hides(solids[k], r.vertices.data(), nr, pv, pc.count)) {
+                hidden[static_cast<std::size_t>(c)] = 1;
+                hider[k] = 1;
+                if (own >= 0) lost[static_cast<std::size_t>(own)] = 1;
+                break;
+            }
+    }
+    out.clear();
+    for (int c = 0; c < n; ++c)
+        if (!hidden[static_cast<std::size_t>(c)]) out.push_back(cand[c]);
     return static_cast<int>(out.size());
 }
 

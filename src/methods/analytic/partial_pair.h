@@ -81,19 +81,20 @@ PartialStats combined(ThreadStats& per_thread);
 // and its centre (the other polygons whole).
 std::vector<Polygon> quarters(const Polygon& p);
 
-// The candidates cand[0, n) of a pair with sender s that no convex solid of another candidate
-// hides from all of s (BlockerSet::solid_hides()), in their order, into `out`; their number.
-// Every segment from s to a piece left out meets such a solid A, so a segment from s to the
-// receiver through it meets A first, and the piece's shadow from any point of s lies in A's:
-// the union of the shadows, the integrand, is the same without it, and its event lines cut
-// nothing that matters (the buildings behind the first ones an urban wall sees across the
-// array). The faces of A that those segments enter by meet the pair's shaft, so they are
-// candidates; if one is left out too, a solid nearer the sender hides it, and so on: each step
-// is nearer the sender, and the chain ends at a piece that stays. Only the sender's side:
-// with the receiver's too, two buildings in a row between two walls, each hiding the other
-// from one of the walls, would both be left out of the union.
-int unoccluded_candidates(const BlockerSet& blockers, const Polygon& s, const int* cand, int n,
-                          std::vector<int>& out);
+// The candidates cand[0, n) of a pair (sender s, receiver r) that no convex solid of another
+// candidate hides (BlockerSet::solid_hides()), in their order, into `out`; their number. First
+// those a solid hides from all of s: every segment from s to such a piece meets the solid A, so
+// a segment from s to r through it meets A first, and the piece's shadow from any point of s
+// lies in A's; the union of the shadows, the integrand, is the same without it, and its event
+// lines cut nothing that matters (the buildings behind the first ones a wall sees across an
+// urban array). The faces of A that those segments enter by meet the pair's shaft, so they are
+// candidates; if one is left out too, a solid nearer s hides it, and so on: each step is nearer
+// s, and the chain ends at a piece that stays. Then those hidden from all of r by a solid none
+// of whose pieces is left out, which then keeps them all: a chain from s's side ends there too.
+// Hiders from r that lose pieces would not do: two buildings in a row between two walls each
+// hide the other from one of the walls, and both would be left out of the union.
+int unoccluded_candidates(const BlockerSet& blockers, const Polygon& s, const Polygon& r,
+                          const int* cand, int n, std::vector<int>& out);
 
 // A partly hidden pair whose unobstructed value is at most this share of the tolerance is
 // placed inside its bracket [0, unobstructed] without integration (see integrate_partial()).
@@ -247,7 +248,8 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
     // of the cut and the integration: the union of the shadows is the same without them.
     thread_local std::vector<int> seen_cand;
     st.occluded = static_cast<std::size_t>(
-        cand_count - unoccluded_candidates(S.blockers, ps, pair_cand, cand_count, seen_cand));
+        cand_count - unoccluded_candidates(S.blockers, ps, scene.patches[r].polygon, pair_cand,
+                                           cand_count, seen_cand));
     pair_cand = seen_cand.data();
     cand_count = static_cast<int>(seen_cand.size());
     std::vector<std::vector<Polygon>> cut_s, cut_r;
