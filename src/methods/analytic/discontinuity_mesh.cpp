@@ -407,8 +407,17 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
                     const Vec3& e1 = q.v[static_cast<std::size_t>(e + 1 == q.n ? 0 : e + 1)];
                     const Vec3 m = (e1 - e0).cross(pw - e0);
                     const double la = m.dot(su), lb = m.dot(sv);
-                    const double len = std::hypot(la, lb);
+                    const double len = std::sqrt(la * la + lb * lb);
                     if (!(len > 1e-12 * m.norm()) || !(len > 0.0)) continue;
+                    // The line must cross the sender (the cheapest test first).
+                    Line l{la / len, lb / len, m.dot(e0 - o) / len, true, {}, {}};
+                    bool pos = false, neg = false;
+                    for (const Vec2& p : s2) {
+                        const double d = l.a * p.x() + l.b * p.y() - l.c;
+                        pos = pos || d > tol;
+                        neg = neg || d < -tol;
+                    }
+                    if (!(pos && neg)) continue;
                     // An edge of w's polygon at w in the event's plane (parallel to e, as the
                     // vertical edges of walls and of a wall receiver are): its shadow and e's
                     // (or e) lie on one line at the event, and they overlap along a segment, not
@@ -426,14 +435,6 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
                         plane_meets(m, pw, polys[0], tol_r);
                     if (edges_only && !along_edge) continue;
                     const bool filtered = only_seen && !along_edge;
-                    Line l{la / len, lb / len, m.dot(e0 - o) / len, true, {}, {}};
-                    bool pos = false, neg = false;
-                    for (const Vec2& p : s2) {
-                        const double d = l.a * p.x() + l.b * p.y() - l.c;
-                        pos = pos || d > tol;
-                        neg = neg || d < -tol;
-                    }
-                    if (!(pos && neg)) continue;
                     // The event happens only on the projection of the edge through the vertex
                     // onto the sender's plane: x, w and a point of e collinear.
                     const double h0 = ns.dot(e0) - ds, h1 = ns.dot(e1) - ds;
