@@ -29,7 +29,7 @@ struct PartlyHiddenStats {
     std::size_t points = 0, cells = 0, closed_forms = 0, proven_hidden = 0, capped = 0, changed = 0,
                 bracketed = 0, settled_by_umbrae = 0, cells_bracketed = 0,
                 cut_budget_spent = 0,  ///< pairs whose event cut left lines uncut (its budget)
-        occluded_candidates = 0;       ///< candidates a solid hides from the whole sender
+        occluded_candidates = 0;       ///< candidates a solid hides (unoccluded_candidates)
     void add(const PartlyHiddenStats& o);
 };
 

@@ -239,19 +239,20 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
         st.settled_by_umbrae = true;
         return placed(std::clamp(seen, 0.0, bound), bound);
     }
-    // The side to integrate over: the one the event lines cut into fewer pieces, since the
-    // cells, and so the work, follow the pieces. Over r only when both patches are convex, r at
-    // most kSideAreaRatio times as large as s, and s's cut has kSideMinPieces pieces or more; its
-    // hidden part H_rs = H_sr a_s / a_r is then integrated to tol a_s / a_r, so that F_sr stays
-    // within tol.
-    // The candidates that a convex solid among them hides from the whole sender are left out
-    // of the cut and the integration: the union of the shadows is the same without them.
+    // The candidates that a convex solid among them hides from the whole of either patch
+    // (unoccluded_candidates()) are left out of the cut and the integration: the union of the
+    // shadows is the same without them.
     thread_local std::vector<int> seen_cand;
     st.occluded = static_cast<std::size_t>(
         cand_count - unoccluded_candidates(S.blockers, ps, scene.patches[r].polygon, pair_cand,
                                            cand_count, seen_cand));
     pair_cand = seen_cand.data();
     cand_count = static_cast<int>(seen_cand.size());
+    // The side to integrate over: the one the event lines cut into fewer pieces, since the
+    // cells, and so the work, follow the pieces. Over r only when both patches are convex, r at
+    // most kSideAreaRatio times as large as s, and s's cut has kSideMinPieces pieces or more; its
+    // hidden part H_rs = H_sr a_s / a_r is then integrated to tol a_s / a_r, so that F_sr stays
+    // within tol.
     std::vector<std::vector<Polygon>> cut_s, cut_r;
     std::size_t pieces_s = 0;
     bool spent_s = false, spent_r = false;
