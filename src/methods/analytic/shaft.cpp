@@ -399,6 +399,11 @@ void BlockerSet::query(const Shaft& shaft, int skip_a, int skip_b, std::vector<i
 ShaftClass classify_shaft(const Shaft& shaft, const BlockerSet& blockers, const int* cand, int n,
                           std::vector<int>& kept, bool exact) {
     kept.clear();
+    // One convex solid (a building standing on the ground, a box) may hide the whole shaft
+    // though none of its faces alone does: tried as soon as one of its faces is kept, so that a
+    // hidden shaft ends there rather than after every candidate. The last few solids tried are
+    // remembered: the pieces of one solid come in runs.
+    int tried[4] = {-1, -1, -1, -1};
     for (int c = 0; c < n; ++c) {
         const int k = cand[c];
         const auto& pc = blockers.piece(k);
@@ -409,14 +414,7 @@ ShaftClass classify_shaft(const Shaft& shaft, const BlockerSet& blockers, const 
             return ShaftClass::kHidden;
         }
         kept.push_back(k);
-    }
-    if (kept.empty()) return ShaftClass::kVisible;
-    // One convex solid (a building standing on the ground, a box) that hides the whole shaft
-    // though none of its faces alone does. The last few solids tried are remembered: the
-    // pieces of one solid come in runs.
-    int tried[4] = {-1, -1, -1, -1};
-    for (int k : kept) {
-        const int so = blockers.piece(k).solid;
+        const int so = pc.solid;
         if (so < 0 || std::find(std::begin(tried), std::end(tried), so) != std::end(tried))
             continue;
         std::rotate(std::begin(tried), std::begin(tried) + 3, std::end(tried));
@@ -426,7 +424,7 @@ ShaftClass classify_shaft(const Shaft& shaft, const BlockerSet& blockers, const 
             return ShaftClass::kHidden;
         }
     }
-    return ShaftClass::kPartial;
+    return kept.empty() ? ShaftClass::kVisible : ShaftClass::kPartial;
 }
 
 }  // namespace formfactor::detail
