@@ -424,7 +424,24 @@ PointResult evaluate_point(const Receiver& rc, const Vec3& x, const Vec3& nx,
     // piece need be projected. Most points of a cell between buildings see nothing of the
     // receiver, each from behind some building, though no one building hides the whole cell.
     {
+        // The solid that hid the last point this thread evaluated first, when it is among the
+        // candidates: the points of a cell come one after another, and where one is behind a
+        // building so are its neighbours (the answer is the same whichever solid gives it).
+        thread_local int last_hider = -1;
         int tried[4] = {-1, -1, -1, -1};
+        if (last_hider >= 0) {
+            bool among = false;
+            for (int c = 0; c < count && !among; ++c)
+                among = blockers.piece(cand[c]).solid == last_hider;
+            if (among) {
+                tried[0] = last_hider;
+                if (blockers.solid_hides(last_hider, &x, 1, rp.v.data(), rp.n)) {
+                    res.hidden = want_unobstructed ? res.unobstructed : lambert2(whole, xl, nl);
+                    res.all_hidden = true;
+                    return res;
+                }
+            }
+        }
         for (int c = 0; c < count; ++c) {
             const int so = blockers.piece(cand[c]).solid;
             if (so < 0 || std::find(std::begin(tried), std::end(tried), so) != std::end(tried))
@@ -432,6 +449,7 @@ PointResult evaluate_point(const Receiver& rc, const Vec3& x, const Vec3& nx,
             std::rotate(std::begin(tried), std::begin(tried) + 3, std::end(tried));
             tried[0] = so;
             if (blockers.solid_hides(so, &x, 1, rp.v.data(), rp.n)) {
+                last_hider = so;
                 res.hidden = want_unobstructed ? res.unobstructed : lambert2(whole, xl, nl);
                 res.all_hidden = true;
                 return res;
