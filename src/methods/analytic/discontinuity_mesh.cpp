@@ -372,9 +372,10 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
             if (!(hw > 0.0)) continue;
             // The sender's vertices seen from w: an event plane through w has them all on one
             // side (closed) unless its line crosses the sender.
+            // (A sender of more than kCap vertices goes without it.)
+            const bool sign_test = s.size() <= static_cast<std::size_t>(kCap);
             std::array<Vec3, kCap> from_w;
-            const std::size_t s_count = std::min<std::size_t>(s.size(), kCap);
-            for (std::size_t k = 0; k < s_count; ++k) from_w[k] = s[k] - pw;
+            for (std::size_t k = 0; sign_test && k < s.size(); ++k) from_w[k] = s[k] - pw;
             // The event of a blocker vertex w and an edge e happens where, seen from x, w's
             // shadow crosses e's shadow (or e, when e is the receiver's): the crossing point is
             // w's shadow, so F(x → hidden part of r) has a kink there only if w's shadow falls
@@ -416,9 +417,9 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
                     // sign of m · (vertex − w) rejects them before the line's normalisation. The
                     // test below asks for vertices more than tol from the line on either side,
                     // so it rejects every line this one does.
-                    if (s_count == s.size()) {
+                    if (sign_test) {
                         bool above = false, below = false;
-                        for (std::size_t k = 0; k < s_count; ++k) {
+                        for (std::size_t k = 0; k < s.size(); ++k) {
                             const double sd = m.dot(from_w[k]);
                             above = above || sd > 0.0;
                             below = below || sd < 0.0;

@@ -429,31 +429,28 @@ PointResult evaluate_point(const Receiver& rc, const Vec3& x, const Vec3& nx,
         // building so are its neighbours (the answer is the same whichever solid gives it).
         thread_local int last_hider = -1;
         int tried[4] = {-1, -1, -1, -1};
+        int hider = -1;
+        auto try_solid = [&](int so) {
+            std::rotate(std::begin(tried), std::begin(tried) + 3, std::end(tried));
+            tried[0] = so;
+            if (blockers.solid_hides(so, &x, 1, rp.v.data(), rp.n)) hider = so;
+        };
         if (last_hider >= 0) {
             bool among = false;
             for (int c = 0; c < count && !among; ++c)
                 among = blockers.piece(cand[c]).solid == last_hider;
-            if (among) {
-                tried[0] = last_hider;
-                if (blockers.solid_hides(last_hider, &x, 1, rp.v.data(), rp.n)) {
-                    res.hidden = want_unobstructed ? res.unobstructed : lambert2(whole, xl, nl);
-                    res.all_hidden = true;
-                    return res;
-                }
-            }
+            if (among) try_solid(last_hider);
         }
-        for (int c = 0; c < count; ++c) {
+        for (int c = 0; c < count && hider < 0; ++c) {
             const int so = blockers.piece(cand[c]).solid;
-            if (so < 0 || std::find(std::begin(tried), std::end(tried), so) != std::end(tried))
-                continue;
-            std::rotate(std::begin(tried), std::begin(tried) + 3, std::end(tried));
-            tried[0] = so;
-            if (blockers.solid_hides(so, &x, 1, rp.v.data(), rp.n)) {
-                last_hider = so;
-                res.hidden = want_unobstructed ? res.unobstructed : lambert2(whole, xl, nl);
-                res.all_hidden = true;
-                return res;
-            }
+            if (so >= 0 && std::find(std::begin(tried), std::end(tried), so) == std::end(tried))
+                try_solid(so);
+        }
+        if (hider >= 0) {
+            last_hider = hider;
+            res.hidden = want_unobstructed ? res.unobstructed : lambert2(whole, xl, nl);
+            res.all_hidden = true;
+            return res;
         }
     }
     thread_local std::vector<Poly2> shadows, frags, next;
