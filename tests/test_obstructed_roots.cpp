@@ -202,6 +202,26 @@ TEST_CASE(
 }
 
 TEST_CASE(
+    "obstructed roots: an event segment inside a piece cuts it though the piece has an edge of "
+    "rounding length") {
+    // A piece of the urban array 7 x 7's ground triangle (patch 230, towards the wall 812),
+    // left by two event lines through its corner (1, 0): that corner came out twice, 2e-16
+    // apart, so the piece has an edge of no direction. Its half-plane, at a random angle
+    // through the corner, rejected the edge-edge-edge event's chord lying inside the piece.
+    const std::vector<Vec2> piece = {Vec2(0, 0), Vec2(0.99999999999999989, 0),
+                                     Vec2(0.99999999999999978, 1.8619006149354556e-16),
+                                     Vec2(0.66666666666666663, 0.66666666666666663)};
+    const Vec2 p0(0.91700165298740977, 0.1563588937697063);
+    const Vec2 p1(0.83400330863076633, 0.30404867214564746);
+    const double tol = 1.41421e-9;
+    CHECK(segment_crosses(p0, p1, piece, tol));
+    // The same chord moved past the piece's long edge is outside it.
+    CHECK_FALSE(segment_crosses(p0 + Vec2(0.2, 0.1), p1 + Vec2(0.2, 0.1), piece, tol));
+    // And one along the bottom edge, below it, too.
+    CHECK_FALSE(segment_crosses(Vec2(0.2, -1e-3), Vec2(0.8, -1e-3), piece, tol));
+}
+
+TEST_CASE(
     "obstructed roots: the error estimate bounds the error where two low-order rules "
     "agree by chance") {
     // Floor patch to a wall patch past a box given as 2x2 pieces per face (a cell on which the

@@ -33,11 +33,17 @@ bool clip_segment(const Vec2& p0, const Vec2& p1, int n, At at, double inset, do
     t0 = 0.0;
     t1 = 1.0;
     const Vec2 d = p1 - p0;
+    double size = 0.0;
+    for (int k = 1; k < n; ++k) size = std::max(size, (at(k) - at(0)).cwiseAbs().maxCoeff());
+    const double min_edge = 1e-12 * size;
     for (int k = 0; k < n; ++k) {
         const Vec2 v0 = at(k);
         const Vec2 e = at(k + 1 == n ? 0 : k + 1) - v0;
         const double el = e.norm();
-        if (!(el > 0.0)) continue;
+        // An edge of rounding's length (a cut through a vertex leaves two vertices 1e-16 of
+        // the polygon's size apart) has no direction: its half-plane, at a random angle through
+        // the vertex, would cut the polygon in two. Left out, the polygon grows by as little.
+        if (!(el > min_edge)) continue;
         // Inside: cross(e, p − v0) ≥ inset·|e|.
         const double f0 = e.x() * (p0.y() - v0.y()) - e.y() * (p0.x() - v0.x()) - inset * el;
         const double fd = e.x() * d.y() - e.y() * d.x();
@@ -58,11 +64,19 @@ bool clip_segment(const Vec2& p0, const Vec2& p1, int n, At at, double inset, do
 // True when the segment of l meets the interior of the convex counter-clockwise polygon q (by
 // more than tol).
 bool segment_meets(const Line& l, const std::vector<Vec2>& q, double tol) {
+    return segment_crosses(l.p0, l.p1, q, tol);
+}
+
+}  // namespace
+
+bool segment_crosses(const Vec2& p0, const Vec2& p1, const std::vector<Vec2>& q, double tol) {
     double t0, t1;
     const auto at = [&](int k) { return q[static_cast<std::size_t>(k)]; };
-    return clip_segment(l.p0, l.p1, static_cast<int>(q.size()), at, tol, t0, t1) &&
-           (t1 - t0) * (l.p1 - l.p0).norm() > tol;
+    return clip_segment(p0, p1, static_cast<int>(q.size()), at, tol, t0, t1) &&
+           (t1 - t0) * (p1 - p0).norm() > tol;
 }
+
+namespace {
 
 // True when the segment p0 p1 comes within tol of the convex counter-clockwise polygon q.
 bool segment_near(const Vec2& p0, const Vec2& p1, const Poly2& q, double tol) {

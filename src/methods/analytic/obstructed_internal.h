@@ -292,6 +292,10 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
                                      std::size_t max_pieces = SIZE_MAX,
                                      bool* budget_spent = nullptr);
 
+/// True when the segment p0 p1 meets the interior of the convex counter-clockwise polygon q
+/// (by more than tol): split_by_events()'s test of a bounded event line against a piece.
+bool segment_crosses(const Vec2& p0, const Vec2& p1, const std::vector<Vec2>& q, double tol);
+
 /// F from a point x (unit normal n) to the part of the convex polygon r hidden by the pieces:
 /// Lambert's formula on the union of the pieces' central projections (shadows) from x onto r's
 /// plane, clipped to the pyramid from x over r. unobstructed, when not null, receives F(x → r).
