@@ -207,7 +207,7 @@ TEST_CASE(
     // A piece of the urban array 7 x 7's ground triangle (patch 230, towards the wall 812),
     // left by two event lines through its corner (1, 0): that corner came out twice, 2e-16
     // apart, so the piece has an edge of no direction. Its half-plane, at a random angle
-    // through the corner, rejected the edge-edge-edge event's chord lying inside the piece.
+    // through the corner, rejected this segment lying inside the piece.
     const std::vector<Vec2> piece = {Vec2(0, 0), Vec2(0.99999999999999989, 0),
                                      Vec2(0.99999999999999978, 1.8619006149354556e-16),
                                      Vec2(0.66666666666666663, 0.66666666666666663)};

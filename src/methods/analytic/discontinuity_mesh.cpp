@@ -61,12 +61,6 @@ bool clip_segment(const Vec2& p0, const Vec2& p1, int n, At at, double inset, do
     return true;
 }
 
-// True when the segment of l meets the interior of the convex counter-clockwise polygon q (by
-// more than tol).
-bool segment_meets(const Line& l, const std::vector<Vec2>& q, double tol) {
-    return segment_crosses(l.p0, l.p1, q, tol);
-}
-
 }  // namespace
 
 bool segment_crosses(const Vec2& p0, const Vec2& p1, const std::vector<Vec2>& q, double tol) {
@@ -479,7 +473,7 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
                         l.bounded = true;
                         l.p0 = Vec2(su.dot(x0), sv.dot(x0));
                         l.p1 = Vec2(su.dot(x1), sv.dot(x1));
-                        if (!segment_meets(l, s2, tol)) continue;
+                        if (!segment_crosses(l.p0, l.p1, s2, tol)) continue;
                         if (filtered && !(seen_some && segment_near(l.p0, l.p1, seen, tol)))
                             continue;
                     } else {
@@ -513,7 +507,7 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
         l.p0 = p0 - ext * t + (c - nn.dot(p0)) * nn;
         l.p1 = p1 + ext * t + (c - nn.dot(p1)) * nn;
         if ((l.p1 - l.p0).dot(t) < 0.0) std::swap(l.p0, l.p1);
-        if (!segment_meets(l, s2, tol)) return;
+        if (!segment_crosses(l.p0, l.p1, s2, tol)) return;
         for (const Line& m : lines) {
             if (std::abs(l.a * m.b - l.b * m.a) > 1e-3) continue;
             const double dot = l.a * m.a + l.b * m.b;
@@ -590,7 +584,7 @@ std::vector<Polygon> split_by_events(const Polygon& s, const Vec3& ns, const Rec
                 for (int k = 0; k < q.n; ++k)
                     qv.emplace_back(q.x[static_cast<std::size_t>(k)],
                                     q.y[static_cast<std::size_t>(k)]);
-                hit = segment_meets(l, qv, tol);
+                hit = segment_crosses(l.p0, l.p1, qv, tol);
             }
             // The pieces so far: those this line has passed and those it has yet to reach.
             if (hit && nxt.size() + (cur.size() - at) >= kMaxPieces) {
