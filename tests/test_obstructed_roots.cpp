@@ -719,6 +719,91 @@ TEST_CASE("obstructed roots: the umbra bound of a cell is never below what the c
     CHECK(bounded >= 5);
 }
 
+TEST_CASE("obstructed roots: outside its seeing part, a sender sees nothing of the receiver") {
+    // A ground triangle and a wall across a street of boxes: the umbrae that the boxes cast on
+    // the ground with the wall as the light leave seeing_part(); every point of the triangle
+    // outside those parts sees nothing of the wall, and the parts lie inside the triangle.
+    std::mt19937 rng(29);
+    std::uniform_real_distribution<double> u01(0.0, 1.0);
+    int tried = 0, some_umbra = 0, all_hidden = 0, dark_points = 0;
+    for (int trial = 0; trial < 40; ++trial) {
+        BlockerSet bs;
+        const std::vector<int> cand = street_of_boxes(bs, 1 + trial % 3, rng);
+        const int n = static_cast<int>(cand.size());
+        const double sx = 2.0 + u01(rng), sy = u01(rng), wz = 0.5 * u01(rng);
+        const Polygon s = poly({Vec3(sx, sy, 0), Vec3(sx + 0.7, sy, 0), Vec3(sx, sy + 0.7, 0)});
+        const Polygon r =
+            poly({Vec3(-5, 0, wz), Vec3(-5, 1, wz), Vec3(-5, 1, wz + 1), Vec3(-5, 0, wz + 1)});
+        std::vector<Polygon> seeing;
+        if (!seeing_part(s, r, bs, cand.data(), n, 1e-12, seeing)) continue;
+        ++tried;
+        double a = 0.0;
+        for (const Polygon& p : seeing) {
+            a += area(p);
+            CHECK(normal(p).z() > 0.0);
+            for (const Vec3& v : p.vertices)
+                CHECK((v.x() >= sx - 1e-12 && v.y() >= sy - 1e-12 &&
+                       v.x() + v.y() <= sx + sy + 0.7 + 1e-12));
+        }
+        CHECK(a <= area(s) * (1.0 + 1e-12));
+        if (a < (1.0 - 1e-9) * area(s)) ++some_umbra;
+        if (seeing.empty()) ++all_hidden;
+        // Points of s on a grid, those outside every part by more than 1e-9: nothing seen.
+        auto inside = [](const Polygon& p, const Vec3& x) {
+            for (std::size_t k = 0; k < p.size(); ++k) {
+                const Vec3& a0 = p[k];
+                const Vec3& a1 = p[(k + 1) % p.size()];
+                const Vec3 e = a1 - a0, d = x - a0;
+                if (e.x() * d.y() - e.y() * d.x() < -1e-9 * e.norm()) return false;
+            }
+            return true;
+        };
+        for (int i = 0; i < 12; ++i)
+            for (int j = 0; i + j < 12; ++j) {
+                const Vec3 x(sx + 0.7 * (i + 0.3) / 12.0, sy + 0.7 * (j + 0.3) / 12.0, 0.0);
+                if (std::any_of(seeing.begin(), seeing.end(),
+                                [&](const Polygon& p) { return inside(p, x); }))
+                    continue;
+                double unobstructed = 0.0;
+                const double hidden =
+                    point_hidden(x, Vec3(0, 0, 1), r, bs, cand.data(), n, 1e-12, &unobstructed);
+                CHECK(unobstructed - hidden <= 1e-12 * unobstructed + 1e-15);
+                ++dark_points;
+            }
+    }
+    // The test did something: umbrae that leave part of the sender, and whole senders in them.
+    CHECK(tried >= 20);
+    CHECK(some_umbra >= 10);
+    CHECK(all_hidden >= 2);
+    CHECK(dark_points >= 500);
+}
+
+TEST_CASE("obstructed roots: a pair integrated over its seeing part agrees with its integral") {
+    // The same street: F over the parts of the sender that may see the wall (seen_integral(),
+    // at 1e-6) against the whole sender's integral at 1e-10, within the error it reports.
+    std::mt19937 rng(31);
+    std::uniform_real_distribution<double> u01(0.0, 1.0);
+    int compared = 0;
+    for (int trial = 0; trial < 30; ++trial) {
+        BlockerSet bs;
+        const std::vector<int> cand = street_of_boxes(bs, 1 + trial % 3, rng);
+        const int n = static_cast<int>(cand.size());
+        const double sx = 2.0 + u01(rng), sy = u01(rng), wz = 0.5 * u01(rng);
+        const Polygon s = poly({Vec3(sx, sy, 0), Vec3(sx + 0.7, sy, 0), Vec3(sx, sy + 0.7, 0)});
+        const Polygon r =
+            poly({Vec3(-5, 0, wz), Vec3(-5, 1, wz), Vec3(-5, 1, wz + 1), Vec3(-5, 0, wz + 1)});
+        const double tol = 1e-6;
+        const SeenIntegral seen = seen_integral(s, r, bs, cand.data(), n, tol, 1e-12, 1.0);
+        if (!seen.ok) continue;
+        ++compared;
+        const HiddenIntegral h = hidden_integral(s, r, bs, cand.data(), n, 1e-10, 1e-12);
+        const double exact = polygon_to_polygon(s, r) - h.hidden;
+        CHECK(seen.error <= tol * (1.0 + 1e-9));
+        CHECK(std::abs(seen.value - exact) <= seen.error + h.error + 1e-12);
+    }
+    CHECK(compared >= 15);
+}
+
 TEST_CASE("obstructed roots: the point factor bound of a cell is never below F from its points") {
     // Cells (convex quads in the plane z = 0) and receivers of every orientation, near and far:
     // F(x → r) at points spread over the cell stays below point_factor_bound().

@@ -28,8 +28,9 @@ struct PartlyHiddenStats {
     double max_error = 0;
     std::size_t points = 0, cells = 0, closed_forms = 0, proven_hidden = 0, capped = 0, changed = 0,
                 bracketed = 0, settled_by_umbrae = 0, cells_bracketed = 0,
-                cut_budget_spent = 0,  ///< pairs whose event cut left lines uncut (its budget)
-        occluded_candidates = 0;       ///< candidates a solid hides (unoccluded_candidates)
+                cut_budget_spent = 0,      ///< pairs whose event cut left lines uncut (its budget)
+        occluded_candidates = 0,           ///< candidates a solid hides (unoccluded_candidates)
+        integrated_over_seeing_parts = 0;  ///< pairs integrated where the sender sees r only
     void add(const PartlyHiddenStats& o);
 };
 

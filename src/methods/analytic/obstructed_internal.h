@@ -272,6 +272,30 @@ VisibleBound visible_bound(const Polygon& s, const Polygon& r, const BlockerSet&
                            const int* cand, int n, double eps, double give_up,
                            std::uint64_t seed = 0);
 
+/// The part of the sender s that may see some of r: s less the umbrae that the occluders cast on
+/// s's plane with r as the light, the points x from which one convex solid or piece hides all of
+/// r (cell_umbra()'s test with the two patches' roles swapped: the intersection of its shadows
+/// from r's corners). Nothing of r is seen from the rest of s. Convex polygons, counter-clockwise
+/// about s's normal, into `out`; false (out empty) when no occluder has an umbra on s.
+bool seeing_part(const Polygon& s, const Polygon& r, const BlockerSet& blockers, const int* cand,
+                 int n, double eps, std::vector<Polygon>& out);
+
+/// F(s → r) over the parts of s that may see r (seeing_part()), each part's unobstructed closed
+/// form less its hidden part (hidden_integral(), cut along its own event lines, the candidates
+/// its shaft keeps), to `target` in all: `ok` false, nothing done, when no occluder has an umbra
+/// on s or those parts exceed `share` of s's area (seen_integral.cpp).
+struct SeenIntegral {
+    bool ok = false;
+    double value = 0, error = 0;
+    std::size_t points = 0, cells = 0, closed_forms = 0, proven_hidden = 0, bracketed = 0,
+                parts = 0;
+    int max_level = 0;
+    bool capped = false;
+};
+SeenIntegral seen_integral(const Polygon& s, const Polygon& r, const BlockerSet& blockers,
+                           const int* cand, int n, double target, double eps, double share,
+                           std::uint64_t seed = 0);
+
 /// A low-order estimate of hidden_integral()'s value (three points per triangle of s's fan, a
 /// rule of degree 2), without an error estimate: for a pair whose bracket 0 ≤ hidden ≤ F(s → r)
 /// is already inside its tolerance, to place the value inside the bracket. `points` counts the

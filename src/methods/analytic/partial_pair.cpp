@@ -141,6 +141,7 @@ void report_obstructions(const Obstructions& S, const PartialStats& total, std::
     o["partly_hidden_pairs_settled_by_umbrae"] = total.settled_by_umbrae;
     o["partly_hidden_pairs_cut_budget_spent"] = total.cut_budget_spent;
     o["occluded_candidates"] = total.occluded_candidates;
+    o["partly_hidden_pairs_over_seeing_parts"] = total.integrated_over_seeing_parts;
     o["tolerance"] = tol;
     o["max_error_estimate"] = total.max_error;
     o["threads"] = threads;
@@ -164,6 +165,7 @@ void PartlyHiddenStats::add(const PartlyHiddenStats& o) {
     settled_by_umbrae += o.settled_by_umbrae;
     cut_budget_spent += o.cut_budget_spent;
     occluded_candidates += o.occluded_candidates;
+    integrated_over_seeing_parts += o.integrated_over_seeing_parts;
 }
 
 }  // namespace formfactor

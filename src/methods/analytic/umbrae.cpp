@@ -3,7 +3,9 @@
 // the cell's corners. A cell whose umbrae cover the receiver sees none of it, and what they
 // leave bounds what a cell (cell_umbra()) or a sender (visible_bound()) sees: the conservative
 // visibility
-// bounds of Lischinski, Smits & Greenberg (1994), here from exact shadow polygons. See
+// bounds of Lischinski, Smits & Greenberg (1994), here from exact shadow polygons. With the roles
+// swapped, the umbrae that the occluders cast on the sender's plane with the receiver as the
+// light leave the part of the sender that may see the receiver (seeing_part()). See
 // docs/analytic.md, "Pairs settled by their umbrae".
 
 #include <algorithm>
@@ -207,6 +209,28 @@ VisibleBound visible_bound(const Polygon& s, const Polygon& r, const BlockerSet&
                                              seed, out.points);
     out.estimate = std::clamp(seen / area_s, 0.0, out.bound);
     return out;
+}
+
+bool seeing_part(const Polygon& s, const Polygon& r, const BlockerSet& blockers, const int* cand,
+                 int n, double eps, std::vector<Polygon>& out) {
+    out.clear();
+    const int nr = static_cast<int>(r.size());
+    if (nr < 3 || nr > 4 || s.size() > static_cast<std::size_t>(kCap)) return false;
+    // r's corners as the cell, s as the receiver of the shadows.
+    const Receiver onto(s);
+    thread_local std::vector<Poly2> frags;
+    if (!umbra_remainder(onto, r.vertices.data(), nr, normal(r), blockers, cand, n, eps, frags))
+        return false;
+    const Vec3 ns = normal(s);
+    for (const Poly2& f : frags) {
+        Polygon p;
+        for (int k = 0; k < f.n; ++k)
+            p.vertices.push_back(onto.o + f.x[static_cast<std::size_t>(k)] * onto.u +
+                                 f.y[static_cast<std::size_t>(k)] * onto.v);
+        if (normal(p).dot(ns) < 0.0) std::reverse(p.vertices.begin(), p.vertices.end());
+        out.push_back(std::move(p));
+    }
+    return true;
 }
 
 double seen_at_drawn_points(const Receiver& rc, const SenderMap& m, double u0, double u1, double v0,
