@@ -44,6 +44,17 @@ struct PairStats {
          budget_spent = false, seeing_parts = false;
 };
 
+// What an integration (HiddenIntegral, SeenIntegral) did, added to its pair's statistics.
+template <class Integration>
+void add_integration(PairStats& st, const Integration& h) {
+    st.points += h.points;
+    st.cells += h.cells;
+    st.closed_forms += h.closed_forms;
+    st.proven_hidden += h.proven_hidden;
+    st.cells_bracketed += h.bracketed;
+    if (h.capped) ++st.capped;
+}
+
 // The same summed over pairs (per thread, then over threads: sums, maxima and counts, the same
 // whatever the order).
 using PartialStats = PartlyHiddenStats;
@@ -272,12 +283,7 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
             detail::seen_integral(ps, parts[0], S.blockers, pair_cand, cand_count, tol, S.eps,
                                   kSeeingShare, stream_key(seed, 0, 3));
         if (h.ok) {
-            st.points += h.points;
-            st.cells += h.cells;
-            st.closed_forms += h.closed_forms;
-            st.proven_hidden += h.proven_hidden;
-            st.cells_bracketed += h.bracketed;
-            if (h.capped) ++st.capped;
+            add_integration(st, h);
             st.seeing_parts = true;
             st.error = h.error;
             st.level = h.max_level;
@@ -329,12 +335,7 @@ PartialValue integrate_partial(const Scene& scene, const Obstructions& S, const 
         hidden_sum += h.hidden * to_sr;
         err += h.error * to_sr;
         level = std::max(level, h.max_level);
-        st.points += h.points;
-        st.cells += h.cells;
-        st.closed_forms += h.closed_forms;
-        st.proven_hidden += h.proven_hidden;
-        st.cells_bracketed += h.bracketed;
-        if (h.capped) ++st.capped;
+        add_integration(st, h);
     }
     v.f = std::clamp(unobs - hidden_sum, 0.0, unobs);
     st.changed = v.f != unobs;
