@@ -8,7 +8,8 @@
 // n = 8 at tolerance 1e-6 with the same at 1e-9 (max |ΔF| over all entries). BM_Curved: the
 // room with a faceted sphere and cylinder (curved geometry, every facet a surface).
 //
-// View3D 3.2 on the same scenes (single-threaded, eps 1e-4): ~9 s (n = 16), ~215 s (n = 32).
+// The same scenes against View3D 3.2, side by side in one run: bench/view3d_compare.py
+// (figures in docs/benchmarks.md).
 
 #include <benchmark/benchmark.h>
 #include <sys/resource.h>

@@ -632,23 +632,37 @@ std::vector<int> street_of_boxes(BlockerSet& bs, int boxes, std::mt19937& rng) {
     return cand;
 }
 
+// A ground triangle (sender, legs 0.7 at a random place past the boxes) and a unit wall facing
+// it across a street of 1 to 3 boxes at x = -5, at a random height: the pair of the umbra tests.
+struct StreetPair {
+    BlockerSet bs;
+    std::vector<int> cand;
+    Polygon s, r;
+    int n() const { return static_cast<int>(cand.size()); }
+};
+
+void street_pair(StreetPair& p, int boxes, std::mt19937& rng) {
+    std::uniform_real_distribution<double> u01(0.0, 1.0);
+    p.cand = street_of_boxes(p.bs, boxes, rng);
+    const double sx = 2.0 + u01(rng), sy = u01(rng), wz = 0.5 * u01(rng);
+    p.s = poly({Vec3(sx, sy, 0), Vec3(sx + 0.7, sy, 0), Vec3(sx, sy + 0.7, 0)});
+    p.r = poly({Vec3(-5, 0, wz), Vec3(-5, 1, wz), Vec3(-5, 1, wz + 1), Vec3(-5, 0, wz + 1)});
+}
+
 }  // namespace
 
 TEST_CASE("obstructed roots: the umbra bound is never below what the sender sees") {
     // A ground triangle and a wall facing it across a street of boxes of random heights (a few
     // sit low enough to let light over them): the sender's corners' umbrae bound what it sees.
     std::mt19937 rng(7);
-    std::uniform_real_distribution<double> u01(0.0, 1.0);
     int settled = 0, hidden_whole = 0, partial = 0;
     for (int trial = 0; trial < 60; ++trial) {
-        BlockerSet bs;
-        const std::vector<int> cand = street_of_boxes(bs, 1 + trial % 3, rng);
-        const int n = static_cast<int>(cand.size());
-        const double sx = 2.0 + u01(rng), sy = u01(rng);
-        const Polygon s = poly({Vec3(sx, sy, 0), Vec3(sx + 0.7, sy, 0), Vec3(sx, sy + 0.7, 0)});
-        const double wz = 0.5 * u01(rng);
-        const Polygon r =
-            poly({Vec3(-5, 0, wz), Vec3(-5, 1, wz), Vec3(-5, 1, wz + 1), Vec3(-5, 0, wz + 1)});
+        StreetPair street;
+        street_pair(street, 1 + trial % 3, rng);
+        const BlockerSet& bs = street.bs;
+        const std::vector<int>& cand = street.cand;
+        const int n = street.n();
+        const Polygon &s = street.s, &r = street.r;
         const VisibleBound vb = visible_bound(s, r, bs, cand.data(), n, 1e-12, INFINITY);
         if (!vb.ok) continue;
         const HiddenIntegral h = hidden_integral(s, r, bs, cand.data(), n, 1e-10, 1e-12);
@@ -675,16 +689,14 @@ TEST_CASE("obstructed roots: the umbra bound of a cell is never below what the c
     // cell sees of the wall (its unobstructed part less a tight integration of its hidden part)
     // stays below cell_umbra()'s bound, and a cell it calls hidden sees nothing.
     std::mt19937 rng(13);
-    std::uniform_real_distribution<double> u01(0.0, 1.0);
     int hidden = 0, bounded = 0;
     for (int trial = 0; trial < 40; ++trial) {
-        BlockerSet bs;
-        const std::vector<int> cand = street_of_boxes(bs, 1 + trial % 3, rng);
-        const int n = static_cast<int>(cand.size());
-        const double sx = 2.0 + u01(rng), sy = u01(rng), wz = 0.5 * u01(rng);
-        const Polygon s = poly({Vec3(sx, sy, 0), Vec3(sx + 0.7, sy, 0), Vec3(sx, sy + 0.7, 0)});
-        const Polygon r =
-            poly({Vec3(-5, 0, wz), Vec3(-5, 1, wz), Vec3(-5, 1, wz + 1), Vec3(-5, 0, wz + 1)});
+        StreetPair street;
+        street_pair(street, 1 + trial % 3, rng);
+        const BlockerSet& bs = street.bs;
+        const std::vector<int>& cand = street.cand;
+        const int n = street.n();
+        const Polygon &s = street.s, &r = street.r;
         const Receiver rc(r);
         SenderMap m;
         m.p0 = s[0];
@@ -724,16 +736,15 @@ TEST_CASE("obstructed roots: outside its seeing part, a sender sees nothing of t
     // the ground with the wall as the light leave seeing_part(); every point of the triangle
     // outside those parts sees nothing of the wall, and the parts lie inside the triangle.
     std::mt19937 rng(29);
-    std::uniform_real_distribution<double> u01(0.0, 1.0);
     int tried = 0, some_umbra = 0, all_hidden = 0, dark_points = 0;
     for (int trial = 0; trial < 40; ++trial) {
-        BlockerSet bs;
-        const std::vector<int> cand = street_of_boxes(bs, 1 + trial % 3, rng);
-        const int n = static_cast<int>(cand.size());
-        const double sx = 2.0 + u01(rng), sy = u01(rng), wz = 0.5 * u01(rng);
-        const Polygon s = poly({Vec3(sx, sy, 0), Vec3(sx + 0.7, sy, 0), Vec3(sx, sy + 0.7, 0)});
-        const Polygon r =
-            poly({Vec3(-5, 0, wz), Vec3(-5, 1, wz), Vec3(-5, 1, wz + 1), Vec3(-5, 0, wz + 1)});
+        StreetPair street;
+        street_pair(street, 1 + trial % 3, rng);
+        const BlockerSet& bs = street.bs;
+        const std::vector<int>& cand = street.cand;
+        const int n = street.n();
+        const Polygon &s = street.s, &r = street.r;
+        const double sx = s[0].x(), sy = s[0].y();
         std::vector<Polygon> seeing;
         if (!seeing_part(s, r, bs, cand.data(), n, 1e-12, seeing)) continue;
         ++tried;
@@ -782,16 +793,14 @@ TEST_CASE("obstructed roots: a pair integrated over its seeing part agrees with 
     // The same street: F over the parts of the sender that may see the wall (seen_integral(),
     // at 1e-6) against the whole sender's integral at 1e-10, within the error it reports.
     std::mt19937 rng(31);
-    std::uniform_real_distribution<double> u01(0.0, 1.0);
     int compared = 0;
     for (int trial = 0; trial < 30; ++trial) {
-        BlockerSet bs;
-        const std::vector<int> cand = street_of_boxes(bs, 1 + trial % 3, rng);
-        const int n = static_cast<int>(cand.size());
-        const double sx = 2.0 + u01(rng), sy = u01(rng), wz = 0.5 * u01(rng);
-        const Polygon s = poly({Vec3(sx, sy, 0), Vec3(sx + 0.7, sy, 0), Vec3(sx, sy + 0.7, 0)});
-        const Polygon r =
-            poly({Vec3(-5, 0, wz), Vec3(-5, 1, wz), Vec3(-5, 1, wz + 1), Vec3(-5, 0, wz + 1)});
+        StreetPair street;
+        street_pair(street, 1 + trial % 3, rng);
+        const BlockerSet& bs = street.bs;
+        const std::vector<int>& cand = street.cand;
+        const int n = street.n();
+        const Polygon &s = street.s, &r = street.r;
         const double tol = 1e-6;
         const SeenIntegral seen = seen_integral(s, r, bs, cand.data(), n, tol, 1e-12, 1.0);
         if (!seen.ok) continue;
