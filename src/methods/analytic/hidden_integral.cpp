@@ -151,7 +151,9 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
     const CellRules rules;
     thread_local std::vector<int> kept;
     thread_local std::vector<int> cell_cand;
-    thread_local std::vector<int> facing;  // the candidates that some point of a cell faces
+    thread_local std::vector<int> facing;        // the candidates that some point of a cell faces
+    thread_local std::vector<int> put_off_cand;  // the candidates of cells whose order 4 waits
+    put_off_cand.clear();
     const double inv_area = 1.0 / area_s;
 
     // bracket_ok: the cell may be settled by its bracket (not when the heap returns it for
@@ -391,6 +393,18 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
         if (any_hidden && any_visible && kAgreement * e23 <= target * frac) {
             c.value = q3 * scale;
             c.error = kAgreement * e23;
+        } else if (bracket_ok && any_visible && shadow_at_order2 && kAgreement * e23 <= target) {
+            // Orders 2 and 3 agree, though not within the cell's share of the target: order
+            // 3's value with kAgreement × their difference as its estimate, as above, while the
+            // pair's total allows it; order 4 (16 points) only when the heap returns the cell.
+            c.value = q3 * scale;
+            c.error = kAgreement * e23;
+            c.q2 = q2;
+            c.q3 = q3;
+            c.cand_at = static_cast<int>(put_off_cand.size());
+            c.cand_n = static_cast<int>(cell_cand.size());
+            put_off_cand.insert(put_off_cand.end(), cell_cand.begin(), cell_cand.end());
+            return;
         } else if (e23 > target) {
             // The cell alone exceeds the pair's target: it will be split whatever order 4
             // says, and its estimate is at least this difference.
@@ -462,7 +476,27 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
         }
     };
 
+    // A cell whose order 4 was put off: order 4 on it now, with the candidates of its shaft.
+    auto order4 = [&](Cell& c) {
+        const SenderMap& m = maps[static_cast<std::size_t>(c.map)];
+        const double du = c.u1 - c.u0, dv = c.v1 - c.v0;
+        const double scale = du * dv * inv_area;
+        double q4 = 0.0;
+        for (std::size_t i = 0; i < kHighOrder; ++i)
+            for (std::size_t j = 0; j < kHighOrder; ++j) {
+                const double u = c.u0 + du * rules.g4.x[i], v = c.v0 + dv * rules.g4.x[j];
+                const PointResult pr =
+                    evaluate_point(rc, m.at(u, v), ns, blockers, put_off_cand.data() + c.cand_at,
+                                   c.cand_n, eps, false);
+                ++out.points;
+                q4 += rules.g4.w[i] * rules.g4.w[j] * m.jacobian(u, v) * pr.hidden;
+            }
+        c.value = q4 * scale;
+        c.error = std::max(std::abs(q4 - c.q3), std::abs(c.q3 - c.q2)) * scale;
+        c.cand_at = -1;
+    };
     auto worse = [](const Cell& a, const Cell& b) { return a.error < b.error; };
+    std::size_t put_off = 0;  // cells in the heap whose order 4 waits
     thread_local std::vector<Cell> heap;
     heap.clear();
     double total_error = 0.0;
@@ -470,6 +504,7 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
         Cell c;
         c.map = static_cast<int>(k);
         process(c, true);
+        if (c.cand_at >= 0) ++put_off;
         total_error += c.error;
         heap.push_back(c);
     }
@@ -484,11 +519,34 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
         heap.pop_back();
         if (c.level >= kMaxLevel || heap.size() + done.size() + 4 > kMaxCells) {
             out.capped = true;
+            if (c.cand_at >= 0) --put_off;
             done.push_back(c);
             if (heap.size() + done.size() + 4 > kMaxCells) break;
             continue;
         }
+        if (c.cand_at < 0 && !c.bracketed && put_off > 0) {
+            // Before any cell is split, the cells whose order 4 waits take it, the largest
+            // estimate first: 16 points each, where a split costs four cells.
+            std::size_t at = heap.size();
+            for (std::size_t k = 0; k < heap.size(); ++k)
+                if (heap[k].cand_at >= 0 && (at == heap.size() || heap[at].error < heap[k].error))
+                    at = k;
+            if (at < heap.size()) {
+                std::swap(c, heap[at]);
+                std::make_heap(heap.begin(), heap.end(), worse);
+            } else {
+                put_off = 0;
+            }
+        }
         total_error -= c.error;
+        if (c.cand_at >= 0) {
+            order4(c);
+            --put_off;
+            total_error += c.error;
+            heap.push_back(c);
+            std::push_heap(heap.begin(), heap.end(), worse);
+            continue;
+        }
         if (c.bracketed) {
             // Its bracket is the largest error left: integrate it, on the same cell.
             process(c, false);
@@ -509,6 +567,7 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
                 ch.v1 = vs[j + 1];
                 ch.level = c.level + 1;
                 process(ch, true);
+                if (ch.cand_at >= 0) ++put_off;
                 total_error += ch.error;
                 heap.push_back(ch);
                 std::push_heap(heap.begin(), heap.end(), worse);

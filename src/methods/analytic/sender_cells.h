@@ -54,6 +54,10 @@ struct Cell {
     int level = 0;
     double value = 0, error = 0;
     bool bracketed = false;  // value and error from the cell's bracket; not integrated yet
+    // Order 4 put off (hidden_integral()): orders 2 and 3 (unscaled), and the cell's candidates
+    // at [cand_at, cand_at + cand_n) of the integration's list; cand_at < 0 when not put off.
+    double q2 = 0, q3 = 0;
+    int cand_at = -1, cand_n = 0;
 };
 
 /// A lower bound on the distance between the planar convex polygons a[0, na) and b[0, nb)
