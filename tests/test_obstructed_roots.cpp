@@ -659,10 +659,8 @@ TEST_CASE("obstructed roots: the umbra bound is never below what the sender sees
     for (int trial = 0; trial < 60; ++trial) {
         StreetPair street;
         street_pair(street, 1 + trial % 3, rng);
-        const BlockerSet& bs = street.bs;
-        const std::vector<int>& cand = street.cand;
+        const auto& [bs, cand, s, r] = street;
         const int n = street.n();
-        const Polygon &s = street.s, &r = street.r;
         const VisibleBound vb = visible_bound(s, r, bs, cand.data(), n, 1e-12, INFINITY);
         if (!vb.ok) continue;
         const HiddenIntegral h = hidden_integral(s, r, bs, cand.data(), n, 1e-10, 1e-12);
@@ -693,10 +691,8 @@ TEST_CASE("obstructed roots: the umbra bound of a cell is never below what the c
     for (int trial = 0; trial < 40; ++trial) {
         StreetPair street;
         street_pair(street, 1 + trial % 3, rng);
-        const BlockerSet& bs = street.bs;
-        const std::vector<int>& cand = street.cand;
+        const auto& [bs, cand, s, r] = street;
         const int n = street.n();
-        const Polygon &s = street.s, &r = street.r;
         const Receiver rc(r);
         SenderMap m;
         m.p0 = s[0];
@@ -740,10 +736,8 @@ TEST_CASE("obstructed roots: outside its seeing part, a sender sees nothing of t
     for (int trial = 0; trial < 40; ++trial) {
         StreetPair street;
         street_pair(street, 1 + trial % 3, rng);
-        const BlockerSet& bs = street.bs;
-        const std::vector<int>& cand = street.cand;
+        const auto& [bs, cand, s, r] = street;
         const int n = street.n();
-        const Polygon &s = street.s, &r = street.r;
         const double sx = s[0].x(), sy = s[0].y();
         std::vector<Polygon> seeing;
         if (!seeing_part(s, r, bs, cand.data(), n, 1e-12, seeing)) continue;
@@ -797,10 +791,8 @@ TEST_CASE("obstructed roots: a pair integrated over its seeing part agrees with 
     for (int trial = 0; trial < 30; ++trial) {
         StreetPair street;
         street_pair(street, 1 + trial % 3, rng);
-        const BlockerSet& bs = street.bs;
-        const std::vector<int>& cand = street.cand;
+        const auto& [bs, cand, s, r] = street;
         const int n = street.n();
-        const Polygon &s = street.s, &r = street.r;
         const double tol = 1e-6;
         const SeenIntegral seen = seen_integral(s, r, bs, cand.data(), n, tol, 1e-12, 1.0);
         if (!seen.ok) continue;
