@@ -397,6 +397,8 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
             // Orders 2 and 3 agree, though not within the cell's share of the target: order
             // 3's value with kAgreement × their difference as its estimate, as above, while the
             // pair's total allows it; order 4 (16 points) only when the heap returns the cell.
+            // Not on a cell the heap returned for integration (bracket_ok false): that one is
+            // integrated in full now.
             c.value = q3 * scale;
             c.error = kAgreement * e23;
             c.q2 = q2;
@@ -496,7 +498,6 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
         c.cand_at = -1;
     };
     auto worse = [](const Cell& a, const Cell& b) { return a.error < b.error; };
-    std::size_t put_off = 0;  // cells in the heap whose order 4 waits
     thread_local std::vector<Cell> heap;
     heap.clear();
     double total_error = 0.0;
@@ -504,7 +505,6 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
         Cell c;
         c.map = static_cast<int>(k);
         process(c, true);
-        if (c.cand_at >= 0) ++put_off;
         total_error += c.error;
         heap.push_back(c);
     }
@@ -519,12 +519,11 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
         heap.pop_back();
         if (c.level >= kMaxLevel || heap.size() + done.size() + 4 > kMaxCells) {
             out.capped = true;
-            if (c.cand_at >= 0) --put_off;
             done.push_back(c);
             if (heap.size() + done.size() + 4 > kMaxCells) break;
             continue;
         }
-        if (c.cand_at < 0 && !c.bracketed && put_off > 0) {
+        if (c.cand_at < 0 && !c.bracketed) {
             // Before any cell is split, the cells whose order 4 waits take it, the largest
             // estimate first: 16 points each, where a split costs four cells.
             std::size_t at = heap.size();
@@ -534,14 +533,11 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
             if (at < heap.size()) {
                 std::swap(c, heap[at]);
                 std::make_heap(heap.begin(), heap.end(), worse);
-            } else {
-                put_off = 0;
             }
         }
         total_error -= c.error;
         if (c.cand_at >= 0) {
             order4(c);
-            --put_off;
             total_error += c.error;
             heap.push_back(c);
             std::push_heap(heap.begin(), heap.end(), worse);
@@ -567,7 +563,6 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
                 ch.v1 = vs[j + 1];
                 ch.level = c.level + 1;
                 process(ch, true);
-                if (ch.cand_at >= 0) ++put_off;
                 total_error += ch.error;
                 heap.push_back(ch);
                 std::push_heap(heap.begin(), heap.end(), worse);
