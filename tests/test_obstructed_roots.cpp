@@ -5,6 +5,7 @@
 #include <doctest/doctest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <numeric>
@@ -487,6 +488,138 @@ TEST_CASE("obstructed roots: an open box hides what every corner-to-vertex segme
     // A polygon that reaches into the box is not outside it.
     const Vec3 inside[3] = {Vec3(0.5, 0.5, 0.5), Vec3(3, 0.4, 0), Vec3(3, 0.6, 0)};
     CHECK_FALSE(bs.solid_hides(s, inside, 3, low_wall, 4));
+}
+
+TEST_CASE("obstructed roots: a building placed against a shaft as a whole agrees with its faces") {
+    // An open box (a building on the ground) and random pairs of facing triangles around it:
+    // placed outside the shaft by its box or corners, every face is outside too; strictly
+    // inside a side plane, it hides nothing; a and b in front of one of its faces, no segment
+    // between them enters it; and the classification by whole solids keeps every face kept one
+    // by one (unless none can block), hidden exactly when they are. Along the axes (its box is
+    // its hull) and turned about the vertical (placed by its corners).
+    for (const double angle : {0.0, 0.5}) {
+        CAPTURE(angle);
+        const Eigen::Matrix3d turn = Eigen::AngleAxisd(angle, Vec3::UnitZ()).toRotationMatrix();
+        BlockerSet all, bs;
+        int id = 0;
+        add_box(all, Vec3(0, 0, 0), Vec3(1, 2, 1.5), 1, id);
+        for (int k = 1; k < 6; ++k) {
+            Polygon p;
+            for (int m = 0; m < all.piece(k).count; ++m)
+                p.vertices.push_back(turn * all.vertices(k)[m]);
+            bs.add(p, k);
+        }
+        bs.build();
+        bs.mark_closed_solids({}, 1e-9);
+        const int so = bs.piece(0).solid;
+        REQUIRE(so >= 0);
+        const std::vector<Vec3>& corners = bs.solid_corners(so);
+        REQUIRE(corners.size() == 8);
+        CHECK(bs.solid_box_is_hull(so) == (angle == 0.0));
+        std::mt19937_64 rng(7);
+        std::uniform_real_distribution<double> u(-3.0, 4.0);
+        // Half the pairs small triangles on either side of the building, low enough that it may
+        // hide them from each other.
+        std::uniform_real_distribution<double> w(-0.3, 0.3);
+        auto triangle = [&](int side) {
+            if (side == 0)
+                return std::array<Vec3, 3>{Vec3(u(rng), u(rng), u(rng) * 0.6 + 1.0),
+                                           Vec3(u(rng), u(rng), u(rng) * 0.6 + 1.0),
+                                           Vec3(u(rng), u(rng), u(rng) * 0.6 + 1.0)};
+            const Vec3 c(side < 0 ? -1.5 + w(rng) : 2.5 + w(rng), 1.0 + 2 * w(rng), 0.6 + w(rng));
+            return std::array<Vec3, 3>{c + Vec3(w(rng), w(rng), w(rng)),
+                                       c + Vec3(w(rng), w(rng), w(rng)),
+                                       c + Vec3(w(rng), w(rng), w(rng))};
+        };
+        std::vector<int> all_pieces(bs.size());
+        std::iota(all_pieces.begin(), all_pieces.end(), 0);
+        int outside = 0, inside_side = 0, meets = 0, hidden = 0, separated_by_face = 0;
+        for (int trial = 0; trial < 4000; ++trial) {
+            const bool across = trial % 2 == 1;
+            std::array<Vec3, 3> a = triangle(across ? -1 : 0), b = triangle(across ? 1 : 0);
+            for (Vec3& v : a) v = turn * v;
+            for (Vec3& v : b) v = turn * v;
+            Vec3 na = (a[1] - a[0]).cross(a[2] - a[0]);
+            Vec3 nb = (b[1] - b[0]).cross(b[2] - b[0]);
+            if (!(na.norm() > 1e-3 && nb.norm() > 1e-3)) continue;
+            na.normalize();
+            nb.normalize();
+            // Facing each other: each in front of the other's plane (at their centroids).
+            const Vec3 ca = (a[0] + a[1] + a[2]) / 3.0, cb = (b[0] + b[1] + b[2]) / 3.0;
+            if (na.dot(cb - ca) < 0.0) {
+                std::swap(a[1], a[2]);
+                na = -na;
+            }
+            if (nb.dot(ca - cb) < 0.0) {
+                std::swap(b[1], b[2]);
+                nb = -nb;
+            }
+            Shaft sh;
+            sh.build(a.data(), 3, na, b.data(), 3, nb, 1e-11);
+            if (sh.facing_away()) continue;
+            const int rel_box = sh.box_relation(bs.solid_box(so));
+            const int rel = sh.points_relation(corners.data(), static_cast<int>(corners.size()));
+            CHECK(rel_box <= 1);
+            if (rel_box < 0) CHECK(rel < 0);  // the box holds the corners
+            const bool hides = bs.solid_hides(so, a.data(), 3, b.data(), 3);
+            if (rel < 0) {
+                ++outside;
+                for (std::size_t k = 0; k < bs.size(); ++k) {
+                    const int kk = static_cast<int>(k);
+                    CHECK(sh.piece_outside(bs.vertices(kk), bs.piece(kk).count, bs.piece(kk).plane,
+                                           true));
+                }
+            } else if (rel == 0) {
+                ++inside_side;
+                CHECK_FALSE(hides);
+            } else {
+                ++meets;
+            }
+            hidden += hides ? 1 : 0;
+            for (const Plane& f : bs.solid_faces(so)) {
+                if (!sh.in_front_of(f)) continue;
+                ++separated_by_face;
+                CHECK_FALSE(hides);
+                // Segments between random points of a and b stay out of the box's interior.
+                for (int m = 0; m < 20; ++m) {
+                    auto point = [&](const std::array<Vec3, 3>& t) {
+                        double x = std::abs(u(rng)), y = std::abs(u(rng)), z = std::abs(u(rng));
+                        const double sum = x + y + z;
+                        return (x * t[0] + y * t[1] + z * t[2]) / sum;
+                    };
+                    const Vec3 p = point(a), q = point(b);
+                    for (int t = 1; t < 50; ++t) {
+                        const Vec3 y = turn.transpose() * (p + (t / 50.0) * (q - p));
+                        const bool in = y.x() > 1e-9 && y.x() < 1 - 1e-9 && y.y() > 1e-9 &&
+                                        y.y() < 2 - 1e-9 && y.z() > 1e-9 && y.z() < 1.5 - 1e-9;
+                        CHECK_FALSE(in);
+                    }
+                }
+            }
+            std::vector<int> by_piece, by_solid;
+            const ShaftClass c_piece =
+                classify_shaft(sh, bs, all_pieces.data(), static_cast<int>(all_pieces.size()),
+                               by_piece, false, false);
+            const ShaftClass c_solid =
+                classify_shaft(sh, bs, all_pieces.data(), static_cast<int>(all_pieces.size()),
+                               by_solid, false, true);
+            CHECK((c_piece == ShaftClass::kHidden) == (c_solid == ShaftClass::kHidden));
+            // A face kept one by one is kept whole, unless a and b are in front of one of the
+            // solid's faces (then none of it can block).
+            bool cannot_block = false;
+            for (const Plane& f : bs.solid_faces(so))
+                cannot_block = cannot_block || sh.in_front_of(f);
+            for (int k : by_piece)
+                CHECK((cannot_block ||
+                       std::find(by_solid.begin(), by_solid.end(), k) != by_solid.end()));
+        }
+        // Every case was met often enough to mean something.
+        CHECK(outside > 200);
+        CHECK(inside_side > 20);
+        CHECK(meets > 200);
+        CHECK(hidden > 20);
+        CHECK(separated_by_face > 50);
+    }
 }
 
 TEST_CASE("obstructed roots: an open box on a floor hides as much as rays find") {

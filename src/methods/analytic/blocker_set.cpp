@@ -129,6 +129,7 @@ void BlockerSet::mark_closed_solids(const std::vector<std::pair<Bounds3, int>>& 
     // sphere of a few thousand triangles is one solid, whose front faces then need no shadow
     // subtraction among themselves (evaluate_point()).
     constexpr std::size_t kMaxSolidPieces = 4096;
+    constexpr std::size_t kSmallSolidPieces = 16;
     using Key = std::array<long long, 3>;
     auto add_convex_solid = [&](const std::vector<int>& ps) {
         std::map<Key, std::pair<Key, Vec3>> next;  // unmatched edge: start → (end, start point)
@@ -192,10 +193,30 @@ void BlockerSet::mark_closed_solids(const std::vector<std::pair<Bounds3, int>>& 
         std::size_t nv = 0;
         for (int p : ps) {
             const Piece& pc = pieces_[static_cast<std::size_t>(p)];
-            for (int k = 0; k < pc.count; ++k, ++nv)
+            for (int k = 0; k < pc.count; ++k, ++nv) {
                 so.centre += verts_[static_cast<std::size_t>(pc.first + k)];
+                so.box.extend(verts_[static_cast<std::size_t>(pc.first + k)]);
+            }
         }
         so.centre /= static_cast<double>(nv);
+        // A small solid's corners (each once), for the shafts' tests of the whole solid.
+        if (ps.size() <= kSmallSolidPieces) {
+            std::map<Key, Vec3> corners;
+            for (int p : ps) {
+                const Piece& pc = pieces_[static_cast<std::size_t>(p)];
+                for (int k = 0; k < pc.count; ++k) {
+                    const Vec3& v = verts_[static_cast<std::size_t>(pc.first + k)];
+                    corners.emplace(key(v), v);
+                }
+            }
+            for (const auto& [kk, v] : corners) so.corners.push_back(v);
+            // Every corner a corner of the box (a building along the axes): the box is the hull.
+            so.box_is_hull = true;
+            for (const Vec3& v : so.corners)
+                for (int d = 0; d < 3; ++d)
+                    so.box_is_hull =
+                        so.box_is_hull && (v[d] == so.box.lo[d] || v[d] == so.box.hi[d]);
+        }
         for (int p : ps) {
             const Piece& pc = pieces_[static_cast<std::size_t>(p)];
             for (int k = 0; k < pc.count; ++k)

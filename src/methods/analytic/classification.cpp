@@ -199,10 +199,14 @@ class Classifier {
                  static_cast<int>(B.hull.size()), TB.normal, eps_);
         if (sh.facing_away()) return;
         // The exact (edge-edge) separation test only for patch pairs: above them a false
-        // "partly hidden" costs one more level of recursion, below it an integration.
+        // "partly hidden" costs one more level of recursion, below it an integration. Above
+        // them, too, the pieces of a convex solid that meets the shaft are kept without a test
+        // each (by_solid): their list only seeds the children's, which test them again. On the
+        // urban array of 3,026 triangles that takes the classification from 6.2 to 3.9 s, for
+        // 0.1% more node pairs and the same lists at the patch pairs.
         const bool leaves = A.count == 1 && B.count == 1;
-        const ShaftClass cls = detail::classify_shaft(sh, blockers_, pool_.data() + first,
-                                                      static_cast<int>(count), kept_, leaves);
+        const ShaftClass cls = detail::classify_shaft(
+            sh, blockers_, pool_.data() + first, static_cast<int>(count), kept_, leaves, !leaves);
         const std::size_t pairs =
             static_cast<std::size_t>(A.count) * static_cast<std::size_t>(B.count);
         if (cls == ShaftClass::kHidden) {

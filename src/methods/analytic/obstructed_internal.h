@@ -85,6 +85,24 @@ class BlockerSet {
     bool solid_hides(int solid, const Vec3* a, int na, const Vec3* b, int nb) const;
     /// True when convex solid `solid` is open along a planar loop of edges (no face there).
     bool solid_open(int solid) const { return solids_[static_cast<std::size_t>(solid)].open; }
+    /// The bounding box of convex solid `solid`'s vertices.
+    const Bounds3& solid_box(int solid) const {
+        return solids_[static_cast<std::size_t>(solid)].box;
+    }
+    /// The vertices of convex solid `solid`, each once, when it has few pieces (up to 16: a
+    /// box, a building, triangulated or not); else empty.
+    const std::vector<Vec3>& solid_corners(int solid) const {
+        return solids_[static_cast<std::size_t>(solid)].corners;
+    }
+    /// True when every corner of convex solid `solid` is a corner of its box (then the box is
+    /// its hull).
+    bool solid_box_is_hull(int solid) const {
+        return solids_[static_cast<std::size_t>(solid)].box_is_hull;
+    }
+    /// The face planes of convex solid `solid` (outward).
+    const std::vector<Plane>& solid_faces(int solid) const {
+        return solids_[static_cast<std::size_t>(solid)].faces;
+    }
     /// The number of convex solids (the range of Piece::solid).
     int solid_count() const { return static_cast<int>(solids_.size()); }
     /// culls_at() for every point of the convex polygon v[0..n) (checked on its vertices, one
@@ -134,6 +152,9 @@ class BlockerSet {
         // (and the opening's) at least r_in from it (see solid_hides()).
         Vec3 centre = Vec3::Zero();
         double r_out = 0, r_in = 0;
+        Bounds3 box;                // of its vertices
+        std::vector<Vec3> corners;  // its vertices, each once, when it has few pieces (a box)
+        bool box_is_hull = false;   // every corner is a corner of `box` (a box along the axes)
     };
     std::vector<Solid> solids_;
     BoxTree tree_;  // over the pieces' boxes
@@ -150,6 +171,16 @@ class Shaft {
                const Vec3& normal_b, double eps);
     /// True when nothing in the box can meet the shaft.
     bool box_outside(const Bounds3& box) const;
+    /// −1 when nothing in the box can meet the shaft (box_outside()); 0 when the box may meet it
+    /// but lies strictly inside one of its side planes, so that nothing in the box can hide the
+    /// segments on that side face (a convex solid in it hides no shaft: solid_hides() would
+    /// find a vertex segment on that face that misses it); else 1.
+    int box_relation(const Bounds3& box) const;
+    /// box_relation() for the convex hull of the points p[0..n).
+    int points_relation(const Vec3* p, int n) const;
+    /// True when a and b are both on or in front of the plane (within eps): no segment between
+    /// them enters the half-space behind it.
+    bool in_front_of(const Plane& pl) const;
     /// True when the convex polygon p (count vertices, plane pl) cannot block a segment of the
     /// shaft: a separating plane among the shaft's planes and p's own plane, and when `exact`,
     /// also among the edge-edge axes (then the test is exact: false means p meets the hull).
@@ -183,9 +214,11 @@ enum class ShaftClass : std::uint8_t { kVisible, kHidden, kPartial };
 /// Classifies the pair behind `shaft` against the candidate pieces cand[0..n): kHidden when one
 /// piece, or the convex solid of some of them (BlockerSet::solid_hides()), hides every
 /// segment, kVisible when none can block, else kPartial with `kept` = the pieces that may block
-/// (a subset of cand, in order).
+/// (a subset of cand, in order). by_solid: a small convex solid is placed as a whole; when it
+/// may block, all its pieces are kept untested (more than the pieces that meet the shaft: for
+/// the node pairs above patch pairs, whose lists only seed their children's).
 ShaftClass classify_shaft(const Shaft& shaft, const BlockerSet& blockers, const int* cand, int n,
-                          std::vector<int>& kept, bool exact = true);
+                          std::vector<int>& kept, bool exact = true, bool by_solid = false);
 
 /// Convex hull of the planar points (counter-clockwise about the unit normal n), collinear
 /// points dropped.

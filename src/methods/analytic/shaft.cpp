@@ -141,25 +141,62 @@ void Shaft::build(const Vec3* a, int na, const Vec3& normal_a, const Vec3* b, in
     sides_ = kept;
 }
 
-bool Shaft::box_outside(const Bounds3& box) const {
-    const Vec3 c = 0.5 * (box.lo + box.hi), e = 0.5 * (box.hi - box.lo);
-    auto range = [&](const Plane& p, double& lo, double& hi) {
-        const double s = p.signed_distance(c);
-        const double r =
-            std::abs(p.n.x()) * e.x() + std::abs(p.n.y()) * e.y() + std::abs(p.n.z()) * e.z();
-        lo = s - r;
-        hi = s + r;
-    };
+namespace {
+
+// Where a convex set lies against a shaft, from its signed-distance range [lo, hi] to a plane
+// (range(plane, lo, hi)): see Shaft::box_relation().
+template <class Range>
+int shaft_relation(const Plane& pa, const Plane& pb, const Plane* side, int sides, double eps,
+                   Range range) {
     double lo, hi;
-    range(pa_, lo, hi);
-    if (hi <= eps_) return true;
-    range(pb_, lo, hi);
-    if (hi <= eps_) return true;
-    for (int k = 0; k < sides_; ++k) {
-        range(side_[k], lo, hi);
-        if (lo >= -eps_) return true;
+    range(pa, lo, hi);
+    if (hi <= eps) return -1;
+    range(pb, lo, hi);
+    if (hi <= eps) return -1;
+    int rel = 1;
+    for (int k = 0; k < sides; ++k) {
+        range(side[k], lo, hi);
+        if (lo >= -eps) return -1;
+        if (hi < -eps) rel = 0;
     }
-    return false;
+    return rel;
+}
+
+}  // namespace
+
+bool Shaft::box_outside(const Bounds3& box) const { return box_relation(box) < 0; }
+
+int Shaft::box_relation(const Bounds3& box) const {
+    const Vec3 c = 0.5 * (box.lo + box.hi), e = 0.5 * (box.hi - box.lo);
+    return shaft_relation(
+        pa_, pb_, side_, sides_, eps_, [&](const Plane& p, double& lo, double& hi) {
+            const double s = p.signed_distance(c);
+            const double r =
+                std::abs(p.n.x()) * e.x() + std::abs(p.n.y()) * e.y() + std::abs(p.n.z()) * e.z();
+            lo = s - r;
+            hi = s + r;
+        });
+}
+
+int Shaft::points_relation(const Vec3* p, int n) const {
+    return shaft_relation(pa_, pb_, side_, sides_, eps_,
+                          [&](const Plane& pl, double& lo, double& hi) {
+                              lo = 1e300;
+                              hi = -1e300;
+                              for (int k = 0; k < n; ++k) {
+                                  const double s = pl.signed_distance(p[k]);
+                                  lo = std::min(lo, s);
+                                  hi = std::max(hi, s);
+                              }
+                          });
+}
+
+bool Shaft::in_front_of(const Plane& pl) const {
+    for (int k = 0; k < na_; ++k)
+        if (pl.signed_distance(a_[k]) < -eps_) return false;
+    for (int k = 0; k < nb_; ++k)
+        if (pl.signed_distance(b_[k]) < -eps_) return false;
+    return true;
 }
 
 bool Shaft::piece_outside(const Vec3* p, int count, const Plane& pl, bool exact) const {
@@ -397,16 +434,51 @@ void BlockerSet::query(const Shaft& shaft, int skip_a, int skip_b, std::vector<i
 }
 
 ShaftClass classify_shaft(const Shaft& shaft, const BlockerSet& blockers, const int* cand, int n,
-                          std::vector<int>& kept, bool exact) {
+                          std::vector<int>& kept, bool exact, bool by_solid) {
     kept.clear();
     // One convex solid (a building standing on the ground, a box) may hide the whole shaft
     // though none of its faces alone does: tried as soon as one of its faces is kept, so that a
     // hidden shaft ends there rather than after every candidate. The last few solids tried are
     // remembered: the pieces of one solid come in runs.
     int tried[4] = {-1, -1, -1, -1};
+    // Each solid is first placed against the shaft as a whole (Shaft::box_relation()), once per
+    // run of its pieces: outside, its pieces are skipped untested (they are outside by the same
+    // planes, which piece_outside() tries first); strictly inside a side plane, it cannot hide
+    // the shaft (solid_hides() is not tried). by_solid: a small solid (a box, a building:
+    // BlockerSet::solid_corners()) is placed by its corners, and is outside, too, when a and b
+    // are in front of one of its faces; one that meets the shaft and does not hide it keeps its
+    // pieces untested.
+    int solid_at = -1, solid_rel = 1;
+    bool whole_solid = false;
     for (int c = 0; c < n; ++c) {
         const int k = cand[c];
         const auto& pc = blockers.piece(k);
+        const int so = pc.solid;
+        if (so >= 0) {
+            if (so != solid_at) {
+                solid_at = so;
+                solid_rel = shaft.box_relation(blockers.solid_box(so));
+                const std::vector<Vec3>& corners = blockers.solid_corners(so);
+                whole_solid = by_solid && !corners.empty();
+                if (whole_solid && solid_rel >= 0 && !blockers.solid_box_is_hull(so)) {
+                    solid_rel =
+                        shaft.points_relation(corners.data(), static_cast<int>(corners.size()));
+                    for (const Plane& f : blockers.solid_faces(so))
+                        if (solid_rel >= 0 && shaft.in_front_of(f)) solid_rel = -1;
+                }
+                if (solid_rel == 1 && whole_solid &&
+                    blockers.solid_hides(so, shaft.a(), shaft.a_count(), shaft.b(),
+                                         shaft.b_count())) {
+                    kept.clear();
+                    return ShaftClass::kHidden;
+                }
+            }
+            if (solid_rel < 0) continue;
+            if (whole_solid) {
+                kept.push_back(k);
+                continue;
+            }
+        }
         const Vec3* v = blockers.vertices(k);
         if (shaft.piece_outside(v, pc.count, pc.plane, exact)) continue;
         if (shaft.piece_hides(v, pc.count, pc.plane)) {
@@ -414,8 +486,8 @@ ShaftClass classify_shaft(const Shaft& shaft, const BlockerSet& blockers, const 
             return ShaftClass::kHidden;
         }
         kept.push_back(k);
-        const int so = pc.solid;
-        if (so < 0 || std::find(std::begin(tried), std::end(tried), so) != std::end(tried))
+        if (so < 0 || solid_rel == 0 ||
+            std::find(std::begin(tried), std::end(tried), so) != std::end(tried))
             continue;
         std::rotate(std::begin(tried), std::begin(tried) + 3, std::end(tried));
         tried[0] = so;
