@@ -2,8 +2,9 @@
 // (Walton's adaptive method, NISTIR 6925): the sender cut along its event lines
 // (discontinuity_mesh.cpp), each piece mapped from the unit square and integrated cell by cell by
 // tensor Gauss rules of the exact point kernel (point_kernel.cpp), the cells with the largest
-// error estimates split until their sum is within the target; with the public functions of
-// formfactor/methods/obstructed.h. See docs/analytic.md, "Obstructed scenes".
+// error estimates split until their sum is within the target. The public functions of
+// formfactor/methods/obstructed.h that use it: obstructed_polygons.cpp. See docs/analytic.md,
+// "Obstructed scenes".
 
 #include <algorithm>
 #include <array>
@@ -12,22 +13,19 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
-#include <numeric>
 #include <queue>
 #include <vector>
 
 #include "formfactor/core/error.h"
 #include "formfactor/core/random.h"
 #include "formfactor/kernels/analytic.h"
-#include "formfactor/methods/obstructed.h"
 #include "kernels/analytic_internal.h"
 #include "methods/analytic/obstructed_internal.h"
 #include "methods/analytic/point_kernel.h"
 #include "methods/analytic/sender_cells.h"
 #include "methods/analytic/shadow_clip.h"
 
-namespace formfactor {
-namespace detail {
+namespace formfactor::detail {
 
 namespace {
 
@@ -174,12 +172,9 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
         // The cell's share of the target: its part of the sender's area (the 2 × 2 rule
         // integrates the bilinear and the collapsed map's Jacobians exactly), so that the cells
         // that end by agreement of orders 2 and 3 never add up to more than the target.
-        double frac = 0.0;
-        for (std::size_t i = 0; i < kLowOrder; ++i)
-            for (std::size_t j = 0; j < kLowOrder; ++j)
-                frac += rules.g2.w[i] * rules.g2.w[j] *
-                        m.jacobian(c.u0 + du * rules.g2.x[i], c.v0 + dv * rules.g2.x[j]);
-        frac *= scale;
+        const auto one = [](double, double) { return 1.0; };
+        const double frac =
+            tensor_rule(m, c.u0, c.u1, c.v0, c.v1, rules.g2, kLowOrder, one) * scale;
         // The cell's bracket: its hidden part lies between 0 and its unobstructed part, at most
         // frac × (a bound on F(x → r) over the cell). Where that is a small share of the target,
         // a value inside it from the cell's midpoint, its error the larger distance to the
@@ -232,6 +227,10 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
         const ShaftClass cls = classify_shaft(sh, blockers, facing.data(),
                                               static_cast<int>(facing.size()), kept, false);
         if (cls == ShaftClass::kVisible) return;
+        // F(x → r) at the point (u, v) of the cell, past nothing.
+        auto unobstructed = [&](double u, double v) {
+            return evaluate_point(rc, m.at(u, v), ns, blockers, nullptr, 0, eps, true).unobstructed;
+        };
         // Hidden: the cell's whole unobstructed part. F(x → r) is smooth on the cell: orders 2
         // and 3 of it agreeing kAgreement times better than the cell's share of the target (as
         // for a partly hidden cell below) give its integral for 13 evaluations of Lambert's
@@ -240,21 +239,12 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
         // A cell that sees nothing of the receiver: its whole unobstructed part.
         auto whole_cell = [&]() {
             ++out.closed_forms;
-            double q2 = 0.0, q3 = 0.0;
-            auto unobstructed_rule = [&](const GaussRule& g, int order, double& q) {
-                for (int i = 0; i < order; ++i)
-                    for (int j = 0; j < order; ++j) {
-                        const double u = c.u0 + du * g.x[static_cast<std::size_t>(i)];
-                        const double v = c.v0 + dv * g.x[static_cast<std::size_t>(j)];
-                        const double w = g.w[static_cast<std::size_t>(i)] *
-                                         g.w[static_cast<std::size_t>(j)] * m.jacobian(u, v);
-                        q += w * evaluate_point(rc, m.at(u, v), ns, blockers, nullptr, 0, eps, true)
-                                     .unobstructed;
-                        ++out.points;
-                    }
+            auto counted = [&](double u, double v) {
+                ++out.points;
+                return unobstructed(u, v);
             };
-            unobstructed_rule(rules.g2, kLowOrder, q2);
-            unobstructed_rule(rules.g3, kMidOrder, q3);
+            const double q2 = tensor_rule(m, c.u0, c.u1, c.v0, c.v1, rules.g2, kLowOrder, counted);
+            const double q3 = tensor_rule(m, c.u0, c.u1, c.v0, c.v1, rules.g3, kMidOrder, counted);
             const double e23 = std::abs(q3 - q2) * scale;
             if (kAgreement * e23 <= target * frac) {
                 c.value = q3 * scale;
@@ -278,7 +268,7 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
             for (int k : kept)
                 if ((blockers.piece(k).plane.signed_distance(mid) > 0.0) == (pass == 0))
                     cell_cand.push_back(k);
-        double q2 = 0.0, q3 = 0.0, u3 = 0.0;
+        double q2 = 0.0, q3 = 0.0;
         bool any_hidden = false, any_visible = false;
         auto f = [&](double u, double v) {
             ++out.points;
@@ -292,21 +282,19 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
         double q4 = 0.0;
         // first: the rule's first point, centre: its middle one (order 3's), when the caller has
         // them already.
-        auto rule = [&](const GaussRule& g, int order, double& q,
-                        const PointResult* first = nullptr, const PointResult* centre = nullptr) {
-            for (int i = 0; i < order; ++i)
-                for (int j = 0; j < order; ++j) {
-                    const double u = c.u0 + du * g.x[static_cast<std::size_t>(i)];
-                    const double v = c.v0 + dv * g.x[static_cast<std::size_t>(j)];
-                    const PointResult pr = i == 0 && j == 0 && first    ? *first
-                                           : i == 1 && j == 1 && centre ? *centre
-                                                                        : f(u, v);
-                    const double val = pr.hidden;
-                    any_hidden = any_hidden || pr.hidden > 0.0;
-                    any_visible = any_visible || !pr.all_hidden;
-                    q += g.w[static_cast<std::size_t>(i)] * g.w[static_cast<std::size_t>(j)] *
-                         m.jacobian(u, v) * val;
-                }
+        auto rule = [&](const GaussRule& g, int order, const PointResult* first = nullptr,
+                        const PointResult* centre = nullptr) {
+            // The k-th point of the rule: (0, 0) at k = 0, (1, 1) at k = order + 1.
+            int k = 0;
+            return tensor_rule(m, c.u0, c.u1, c.v0, c.v1, g, order, [&](double u, double v) {
+                const int at = k++;
+                const PointResult pr = at == 0 && first            ? *first
+                                       : at == order + 1 && centre ? *centre
+                                                                   : f(u, v);
+                any_hidden = any_hidden || pr.hidden > 0.0;
+                any_visible = any_visible || !pr.all_hidden;
+                return pr.hidden;
+            });
         };
         // Order 2's first point first: where it sees nothing of the receiver, the umbrae of the
         // candidates may cover the receiver from the whole cell (no gap of light between their
@@ -344,7 +332,7 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
                 return;
             }
         }
-        rule(rules.g2, kLowOrder, q2, &first);
+        q2 = rule(rules.g2, kLowOrder, &first);
         const bool shadow_at_order2 = any_hidden;
         if (any_hidden && !any_visible) {
             // Orders 2 and 4 first where order 2's points see nothing of the receiver (in the
@@ -353,13 +341,13 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
             // is F(x → r), smooth, and order 3 is not needed; the 16 points of order 4 are the
             // ones that find a gap of light between two shadows (13 points of orders 2 and 3
             // were seen to miss such gaps).
-            rule(rules.g4, kHighOrder, q4);
+            q4 = rule(rules.g4, kHighOrder);
             if (!any_visible) {
                 c.value = q4 * scale;
                 c.error = std::abs(q4 - q2) * scale;
                 return;
             }
-            rule(rules.g3, kMidOrder, q3);
+            q3 = rule(rules.g3, kMidOrder);
             c.value = q4 * scale;
             c.error = std::max(std::abs(q4 - q3), std::abs(q3 - q2)) * scale;
             return;
@@ -383,7 +371,7 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
                 return;
             }
         }
-        rule(rules.g3, kMidOrder, q3, nullptr, with_centre ? &centre : nullptr);
+        q3 = rule(rules.g3, kMidOrder, nullptr, with_centre ? &centre : nullptr);
         // Orders 2 and 3 agreeing kAgreement times better than the cell's share of the target:
         // order 3 is taken with kAgreement × their difference as its error, without order 4's
         // 16 points. Where the target is loose (--tolerance 1e-4) most smooth pieces end here.
@@ -413,7 +401,7 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
             c.value = q3 * scale;
             c.error = std::abs(q3 - q2) * scale;
         } else {
-            rule(rules.g4, kHighOrder, q4);
+            q4 = rule(rules.g4, kHighOrder);
             c.value = q4 * scale;
             c.error = std::max(std::abs(q4 - q3), std::abs(q3 - q2)) * scale;
         }
@@ -458,20 +446,11 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
             }
             if (meets && share > 0.0) {
                 // What the cell sees of the receiver: a bound on what a shadow can hide.
-                for (std::size_t i = 0; i < kMidOrder; ++i)
-                    for (std::size_t j = 0; j < kMidOrder; ++j) {
-                        const double u = c.u0 + du * rules.g3.x[i], v = c.v0 + dv * rules.g3.x[j];
-                        const PointResult pr =
-                            evaluate_point(rc, m.at(u, v), ns, blockers, nullptr, 0, eps, true);
-                        u3 += rules.g3.w[i] * rules.g3.w[j] * m.jacobian(u, v) * pr.unobstructed;
-                    }
-                double cell_area = 0.0;
-                if (share < 1.0)
-                    for (std::size_t i = 0; i < kMidOrder; ++i)
-                        for (std::size_t j = 0; j < kMidOrder; ++j)
-                            cell_area +=
-                                rules.g3.w[i] * rules.g3.w[j] *
-                                m.jacobian(c.u0 + du * rules.g3.x[i], c.v0 + dv * rules.g3.x[j]);
+                const double u3 =
+                    tensor_rule(m, c.u0, c.u1, c.v0, c.v1, rules.g3, kMidOrder, unobstructed);
+                const double cell_area =
+                    share < 1.0 ? tensor_rule(m, c.u0, c.u1, c.v0, c.v1, rules.g3, kMidOrder, one)
+                                : 0.0;
                 c.error = std::max(
                     c.error, share < 1.0 ? std::min(u3, share * cell_area) * scale : u3 * scale);
             }
@@ -481,18 +460,14 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
     // A cell whose order 4 was put off: order 4 on it now, with the candidates of its shaft.
     auto order4 = [&](Cell& c) {
         const SenderMap& m = maps[static_cast<std::size_t>(c.map)];
-        const double du = c.u1 - c.u0, dv = c.v1 - c.v0;
-        const double scale = du * dv * inv_area;
-        double q4 = 0.0;
-        for (std::size_t i = 0; i < kHighOrder; ++i)
-            for (std::size_t j = 0; j < kHighOrder; ++j) {
-                const double u = c.u0 + du * rules.g4.x[i], v = c.v0 + dv * rules.g4.x[j];
-                const PointResult pr =
-                    evaluate_point(rc, m.at(u, v), ns, blockers, put_off_cand.data() + c.cand_at,
-                                   c.cand_n, eps, false);
+        const double scale = (c.u1 - c.u0) * (c.v1 - c.v0) * inv_area;
+        const double q4 =
+            tensor_rule(m, c.u0, c.u1, c.v0, c.v1, rules.g4, kHighOrder, [&](double u, double v) {
                 ++out.points;
-                q4 += rules.g4.w[i] * rules.g4.w[j] * m.jacobian(u, v) * pr.hidden;
-            }
+                return evaluate_point(rc, m.at(u, v), ns, blockers, put_off_cand.data() + c.cand_at,
+                                      c.cand_n, eps, false)
+                    .hidden;
+            });
         c.value = q4 * scale;
         c.error = std::max(std::abs(q4 - c.q3), std::abs(c.q3 - c.q2)) * scale;
         c.cand_at = -1;
@@ -585,69 +560,4 @@ HiddenIntegral hidden_integral(const Polygon& s, const Polygon& r, const Blocker
     return out;
 }
 
-}  // namespace detail
-
-// ----------------------------------------------------------------------------------------------
-// Public functions
-
-namespace {
-
-detail::BlockerSet make_blockers(const std::vector<Polygon>& blockers) {
-    detail::BlockerSet set;
-    for (std::size_t k = 0; k < blockers.size(); ++k) set.add(blockers[k], static_cast<int>(k));
-    set.build();
-    return set;
-}
-
-double pair_eps(const Polygon& a, const Polygon& b, const std::vector<Polygon>& blockers) {
-    Bounds3 box;
-    for (const Vec3& v : a.vertices) box.extend(v);
-    for (const Vec3& v : b.vertices) box.extend(v);
-    for (const Polygon& p : blockers)
-        for (const Vec3& v : p.vertices) box.extend(v);
-    return 1e-11 * box.diagonal().norm();
-}
-
-}  // namespace
-
-double point_to_polygon_obstructed(const Vec3& x, const Vec3& n, const Polygon& receiver,
-                                   const std::vector<Polygon>& blockers) {
-    const detail::BlockerSet set = make_blockers(blockers);
-    std::vector<int> all(set.size());
-    std::iota(all.begin(), all.end(), 0);
-    const double eps = pair_eps(receiver, receiver, blockers);
-    double total = 0.0;
-    for (const Polygon& r : detail::BlockerSet::convex_parts(receiver)) {
-        double unobs = 0.0;
-        const double hidden = detail::point_hidden(x, n, r, set, all.data(),
-                                                   static_cast<int>(all.size()), eps, &unobs);
-        total += std::max(0.0, unobs - hidden);
-    }
-    return total;
-}
-
-ObstructedFormFactor polygon_to_polygon_obstructed(const Polygon& a, const Polygon& b,
-                                                   const std::vector<Polygon>& blockers,
-                                                   double tolerance) {
-    ObstructedFormFactor out;
-    out.unobstructed = polygon_to_polygon(a, b);
-    out.value = out.unobstructed;
-    if (!(out.unobstructed > 0.0) || blockers.empty()) return out;
-    const detail::BlockerSet set = make_blockers(blockers);
-    const double eps = pair_eps(a, b, blockers);
-    std::vector<int> all(set.size());
-    std::iota(all.begin(), all.end(), 0);
-    double hidden = 0.0;
-    for (const Polygon& r : detail::BlockerSet::convex_parts(b)) {
-        const detail::HiddenIntegral h = detail::hidden_integral(
-            a, r, set, all.data(), static_cast<int>(all.size()), tolerance, eps);
-        hidden += h.hidden;
-        out.error_estimate += h.error;
-        out.max_level = std::max(out.max_level, h.max_level);
-        out.cells += h.cells;
-    }
-    out.value = std::clamp(out.unobstructed - hidden, 0.0, out.unobstructed);
-    return out;
-}
-
-}  // namespace formfactor
+}  // namespace formfactor::detail

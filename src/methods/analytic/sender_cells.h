@@ -48,6 +48,26 @@ struct SenderMap {
     }
 };
 
+/// The tensor Gauss rule g × g of the given order (g's point count) over the cell [u0, u1] ×
+/// [v0, v1] of the map m: Σ_i Σ_j w_i w_j J(u_i, v_j) f(u_i, v_j), u_i = u0 + (u1 − u0) x_i and
+/// v_j likewise; unscaled (times du dv over the sender's area: the cell's part of (1/A_s) ∫ f
+/// dA). The points come i outer, j inner, and are summed in that order: the k-th call of f is
+/// point (k / order, k % order). The order is an argument so that a constant one unrolls.
+template <class F>
+double tensor_rule(const SenderMap& m, double u0, double u1, double v0, double v1,
+                   const GaussRule& g, int order, F&& f) {
+    const auto n = static_cast<std::size_t>(order);
+    const double du = u1 - u0, dv = v1 - v0;
+    double q = 0.0;
+    for (std::size_t i = 0; i < n; ++i)
+        for (std::size_t j = 0; j < n; ++j) {
+            const double u = u0 + du * g.x[i], v = v0 + dv * g.x[j];
+            const double val = f(u, v);
+            q += g.w[i] * g.w[j] * m.jacobian(u, v) * val;
+        }
+    return q;
+}
+
 struct Cell {
     int map = 0;
     double u0 = 0, u1 = 1, v0 = 0, v1 = 1;

@@ -131,26 +131,21 @@ bool umbra_remainder(const Receiver& rc, const Vec3* poly, int np, const Vec3& n
 
 // 1/A ∫ F(x → frags) dA_x over the cell [u0, u1] × [v0, v1] of the map m, by the tensor Gauss
 // rule g of the given order (x in the sender's plane, normal ns; frags in the receiver's plane
-// coordinates, in front of that plane): the smooth integrand of the umbra bounds. Scaled by
-// `scale` (the cell's share of the unit square over the sender's area).
+// coordinates, in front of that plane): the smooth integrand of the umbra bounds. Scaled by `scale`
+// (the cell's share of the unit square over the sender's area).
 double fragments_rule(const SenderMap& m, double u0, double u1, double v0, double v1,
                       const GaussRule& g, int order, const Receiver& rc, const Vec3& ns,
                       const std::vector<Poly2>& frags, double scale) {
     const Vec3 nl(ns.dot(rc.u), ns.dot(rc.v), ns.dot(rc.n));
-    double q = 0.0;
-    for (int i = 0; i < order; ++i)
-        for (int j = 0; j < order; ++j) {
-            const double u = u0 + (u1 - u0) * g.x[static_cast<std::size_t>(i)];
-            const double v = v0 + (v1 - v0) * g.x[static_cast<std::size_t>(j)];
-            const Vec3 x = m.at(u, v);
-            const Vec3 xr = x - rc.o;
-            const Vec3 xl(rc.u.dot(xr), rc.v.dot(xr), rc.n.dot(x) - rc.d);
-            if (!(xl.z() > 0.0)) continue;
-            double f = 0.0;
+    const double q = tensor_rule(m, u0, u1, v0, v1, g, order, [&](double u, double v) {
+        const Vec3 x = m.at(u, v);
+        const Vec3 xr = x - rc.o;
+        const Vec3 xl(rc.u.dot(xr), rc.v.dot(xr), rc.n.dot(x) - rc.d);
+        double f = 0.0;  // 0 behind the receiver's plane
+        if (xl.z() > 0.0)
             for (const Poly2& p : frags) f += lambert2(p, xl, nl);
-            q += g.w[static_cast<std::size_t>(i)] * g.w[static_cast<std::size_t>(j)] *
-                 m.jacobian(u, v) * f;
-        }
+        return f;
+    });
     return q * scale;
 }
 
