@@ -199,17 +199,20 @@ void BlockerSet::mark_closed_solids(const std::vector<std::pair<Bounds3, int>>& 
             }
         }
         so.centre /= static_cast<double>(nv);
-        // A small solid's corners (each once), for the shafts' tests of the whole solid.
+        // A small solid's corners, for the shafts' tests of the whole solid: its pieces'
+        // vertices, each bit-equal one once (not merged within tol: every vertex must be among
+        // them for "all corners outside a plane" to hold for every piece).
         if (ps.size() <= kSmallSolidPieces) {
-            std::map<Key, Vec3> corners;
             for (int p : ps) {
                 const Piece& pc = pieces_[static_cast<std::size_t>(p)];
-                for (int k = 0; k < pc.count; ++k) {
-                    const Vec3& v = verts_[static_cast<std::size_t>(pc.first + k)];
-                    corners.emplace(key(v), v);
-                }
+                for (int k = 0; k < pc.count; ++k)
+                    so.corners.push_back(verts_[static_cast<std::size_t>(pc.first + k)]);
             }
-            for (const auto& [kk, v] : corners) so.corners.push_back(v);
+            const auto less = [](const Vec3& a, const Vec3& b) {
+                return std::lexicographical_compare(a.data(), a.data() + 3, b.data(), b.data() + 3);
+            };
+            std::sort(so.corners.begin(), so.corners.end(), less);
+            so.corners.erase(std::unique(so.corners.begin(), so.corners.end()), so.corners.end());
             // Every corner a corner of the box (a building along the axes): the box is the hull.
             so.box_is_hull = true;
             for (const Vec3& v : so.corners)
